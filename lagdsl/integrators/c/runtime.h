@@ -1,0 +1,83 @@
+/* lagdsl C runtime: precision, libm function table, status codes, run options.
+ *
+ * This fragment is pasted at the top of every generated C file (after the system #includes
+ * <math.h>, <float.h>, <stdio.h>, <stdlib.h>, <string.h>), so it has no #include of its own
+ * except the optional <quadmath.h>.  Every floating-point type and libm call in generated code
+ * and in the bundled integrators goes through the names below, so that one macro switches the
+ * whole program between double (default), long double (-DLAG_LONG_DOUBLE) and __float128
+ * (-DLAG_FLOAT128, links -lquadmath): the extended-precision reference runs of `lagc bench`.
+ */
+#if defined(LAG_FLOAT128)
+#include <quadmath.h>
+typedef __float128 real;
+#define LAG_FN(name) name##q
+#define LAG_LIT(x) x##Q
+#define REAL_EPSILON FLT128_EPSILON
+#define REAL_MAX FLT128_MAX
+#define REAL_MIN FLT128_MIN
+#define REAL_DIG 34
+#elif defined(LAG_LONG_DOUBLE)
+typedef long double real;
+#define LAG_FN(name) name##l
+#define LAG_LIT(x) x##L
+#define REAL_EPSILON LDBL_EPSILON
+#define REAL_MAX LDBL_MAX
+#define REAL_MIN LDBL_MIN
+#define REAL_DIG 21
+#else
+typedef double real;
+#define LAG_FN(name) name
+#define LAG_LIT(x) x
+#define REAL_EPSILON DBL_EPSILON
+#define REAL_MAX DBL_MAX
+#define REAL_MIN DBL_MIN
+#define REAL_DIG 17
+#endif
+
+/* The libm function table: r_sqrt is sqrt, sqrtl or sqrtq. */
+#define r_sqrt LAG_FN(sqrt)
+#define r_fabs LAG_FN(fabs)
+#define r_pow LAG_FN(pow)
+#define r_exp LAG_FN(exp)
+#define r_log LAG_FN(log)
+#define r_sin LAG_FN(sin)
+#define r_cos LAG_FN(cos)
+#define r_tan LAG_FN(tan)
+#define r_asin LAG_FN(asin)
+#define r_acos LAG_FN(acos)
+#define r_atan LAG_FN(atan)
+#define r_atan2 LAG_FN(atan2)
+#define r_sinh LAG_FN(sinh)
+#define r_cosh LAG_FN(cosh)
+#define r_tanh LAG_FN(tanh)
+#define r_fmin LAG_FN(fmin)
+#define r_fmax LAG_FN(fmax)
+#define r_floor LAG_FN(floor)
+
+static int r_isfinite(real x) { return x - x == x - x; } /* false for inf and nan in every precision */
+
+/* Status codes shared by the model functions, the integrators and the driver. */
+enum lag_status {
+    LAG_OK = 0,
+    LAG_ERR_SINGULAR = 1,      /* mass matrix (or augmented matrix) not invertible at this state */
+    LAG_ERR_NONFINITE = 2,     /* a NaN or infinity appeared in the state or a derivative */
+    LAG_ERR_STEP_TOO_SMALL = 3,/* the adaptive step size fell below the resolution of t */
+    LAG_ERR_MAX_STEPS = 4,     /* more steps than lag_options.max_steps */
+    LAG_ERR_NO_CONVERGENCE = 5,/* Newton or fixed-point iteration failed even after step reductions */
+    LAG_ERR_PROJECTION = 6     /* projection onto the constraint manifold did not converge */
+};
+
+/* What the driver asks of an integrator; unused fields are ignored by each method. */
+typedef struct lag_options {
+    real rtol, atol;   /* adaptive methods: error tolerance per component, |e_i| <= atol + rtol*|y_i| */
+    real step;         /* fixed-step methods (rk4, gauss): the step; adaptive: initial step, 0 = automatic */
+    real max_step;     /* adaptive: largest step, 0 = no limit */
+    int stages;        /* gauss: number of stages s (order 2s) */
+    long max_steps;    /* give up after this many attempted steps, 0 = no limit */
+} lag_options;
+
+/* Work counters every integrator keeps up to date (the run summary prints them). */
+typedef struct lag_stats {
+    long accepted, rejected;
+    long rhs_evals, jac_evals, lu_decomps, newton_iters;
+} lag_stats;
