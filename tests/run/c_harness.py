@@ -1,0 +1,49 @@
+"""Compile and run a small C program made of the bundled runtime, one integrator and a test model.
+
+The integrator tests write a test model (LAG_NQ, LAG_NY, struct lag_system, lag_rhs, ...) and a
+`main` that drives the stepper, in C, and use this helper to assemble the single translation unit
+exactly as the code generator does: runtime.h, linalg.c, model, integrator, main.
+"""
+from __future__ import annotations
+
+import shutil
+import subprocess
+from pathlib import Path
+
+C_SOURCES = Path(__file__).resolve().parents[2] / "lagdsl" / "integrators" / "c"
+STRICT_FLAGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic"]
+SYSTEM_HEADERS = "#include <math.h>\n#include <float.h>\n#include <stdio.h>\n#include <stdlib.h>\n#include <string.h>\n"
+
+
+def find_cc() -> str | None:
+    for name in ("cc", "gcc", "clang"):
+        if shutil.which(name):
+            return name
+    return None
+
+
+def assemble(model_c: str, integrator: str, main_c: str) -> str:
+    parts = [
+        SYSTEM_HEADERS,
+        (C_SOURCES / "runtime.h").read_text(),
+        (C_SOURCES / "linalg.c").read_text(),
+        model_c,
+        (C_SOURCES / f"{integrator}.c").read_text(),
+        main_c,
+    ]
+    return "\n".join(parts)
+
+
+def build_and_run(tmp_path: Path, model_c: str, integrator: str, main_c: str,
+                  args: list[str] = (), extra_flags: list[str] = ()) -> str:
+    """Compile with the strict flags (warnings are errors) and return the program's stdout."""
+    cc = find_cc()
+    if cc is None:
+        import pytest
+        pytest.skip("no C compiler")
+    src = tmp_path / f"{integrator}_test.c"
+    exe = tmp_path / f"{integrator}_test"
+    src.write_text(assemble(model_c, integrator, main_c))
+    subprocess.run([cc, *STRICT_FLAGS, *extra_flags, str(src), "-o", str(exe), "-lm"],
+                   check=True, capture_output=True, text=True)
+    return subprocess.run([str(exe), *args], check=True, capture_output=True, text=True).stdout
