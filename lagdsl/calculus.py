@@ -1,0 +1,181 @@
+"""Differentiation through named intermediates (forward-mode, by the chain rule).
+
+Expressions refer to intermediates, symbols s with definitions s = e(base symbols, earlier
+intermediates). The derivative of an expression E with respect to a base symbol x is
+
+    dE/dx = ∂E/∂x + Σ_s ∂E/∂s · ds/dx,
+
+and ds/dx is itself kept as a new intermediate ("∂s/∂x") unless it is tiny, so every
+intermediate and each of its derivatives is computed once and shared. A directional
+derivative Σ_x (dE/dx) r_x along given rates r (the time derivative along (q', 1) is
+`der`) is built the same way. This keeps expressions the size the user wrote them: the
+derivation cost grows with the physics instead of with the expanded formula (see
+shared/notes/derivation-scaling.md).
+
+The Differentiator is a memo table, not shared state: one is made per pass and its
+definitions are read out with `definitions()`.
+"""
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+
+import sympy
+
+INLINE_SIZE = 6   # derivatives with at most this many tree nodes are inlined, not named
+
+
+def tree_size(expr: sympy.Basic, limit: int = 1 << 30) -> int:
+    """Number of nodes of the expression tree, counting no further than `limit`."""
+    count = 0
+    stack = [expr]
+    while stack and count <= limit:
+        node = stack.pop()
+        count += 1
+        stack.extend(node.args)
+    return count
+
+
+class Differentiator:
+    """Chain-rule derivatives through an ordered set of intermediate definitions.
+
+    `base` are the independent symbols (coordinates, velocities, time); symbols that are
+    neither base nor intermediates (parameters) are constants.
+    """
+
+    def __init__(self, definitions: Iterable[tuple[sympy.Symbol, sympy.Expr]],
+                 base: Iterable[sympy.Symbol]):
+        self.base = set(base)
+        self._definitions: dict[sympy.Symbol, sympy.Expr] = {}
+        self._depends: dict[sympy.Symbol, frozenset] = {}
+        self._memo: dict[tuple, sympy.Expr] = {}
+        self._gradients: dict[sympy.Expr, dict[sympy.Symbol, sympy.Expr]] = {}
+        for symbol, expr in definitions:
+            self.define(symbol, expr)
+
+    # -- the table of intermediates ----------------------------------------------------------
+    def add_base(self, *symbols: sympy.Symbol) -> None:
+        """Declare more independent symbols (before any intermediate uses them)."""
+        self.base.update(symbols)
+
+    def define(self, symbol: sympy.Symbol, expr: sympy.Expr) -> sympy.Symbol:
+        self._definitions[symbol] = expr
+        self._depends[symbol] = self.dependencies(expr)
+        return symbol
+
+    def is_intermediate(self, symbol: sympy.Basic) -> bool:
+        return symbol in self._definitions
+
+    def definition(self, symbol: sympy.Symbol) -> sympy.Expr:
+        return self._definitions[symbol]
+
+    def definitions(self) -> tuple[tuple[sympy.Symbol, sympy.Expr], ...]:
+        """All intermediates, each after the ones it uses."""
+        return tuple(self._definitions.items())
+
+    def dependencies(self, expr: sympy.Basic) -> frozenset:
+        """The base symbols `expr` depends on, directly or through intermediates."""
+        found = set()
+        for symbol in expr.free_symbols:
+            if symbol in self.base:
+                found.add(symbol)
+            elif symbol in self._depends:
+                found |= self._depends[symbol]
+        return frozenset(found)
+
+    # -- derivatives -------------------------------------------------------------------------
+    def partial(self, expr: sympy.Expr, variable: sympy.Symbol) -> sympy.Expr:
+        """d expr / d variable, for a base symbol `variable`, through all intermediates."""
+        return self.directional(expr, ("∂", variable), {variable: sympy.S.One})
+
+    def directional(self, expr: sympy.Expr, direction: tuple,
+                    rates: Mapping[sympy.Symbol, sympy.Expr]) -> sympy.Expr:
+        """Σ_x (d expr/dx) · rates[x]; `direction` names the rates for the memo table."""
+        if not (self.dependencies(expr) & rates.keys()):
+            return sympy.S.Zero
+        terms = []
+        for symbol, slope in self.gradient(expr).items():
+            if symbol in rates:
+                terms.append(slope * rates[symbol])
+            elif symbol in self._definitions and self._depends[symbol] & rates.keys():
+                terms.append(slope * self._derivative_of(symbol, direction, rates))
+        return sympy.Add(*terms)
+
+    def gradient(self, expr: sympy.Expr) -> dict[sympy.Symbol, sympy.Expr]:
+        """Explicit partial derivatives of `expr` w.r.t. each of its free symbols (cached).
+
+        Every direction needs the same ∂e/∂s of a definition e, so they are computed once;
+        a sum is split term by term, so a long sum costs one pass, not one per symbol.
+        """
+        if expr not in self._gradients:
+            slopes: dict[sympy.Symbol, sympy.Expr] = {}
+            if expr.is_Add:
+                for term in expr.args:
+                    for symbol, slope in self.gradient(term).items():
+                        slopes[symbol] = slopes.get(symbol, sympy.S.Zero) + slope
+            else:
+                for symbol in expr.free_symbols:
+                    slopes[symbol] = expr.diff(symbol)
+            self._gradients[expr] = {s: slopes[s] for s in sorted(slopes, key=sympy.default_sort_key)
+                                     if slopes[s] != 0}
+        return self._gradients[expr]
+
+    def _derivative_of(self, symbol: sympy.Symbol, direction: tuple,
+                       rates: Mapping[sympy.Symbol, sympy.Expr]) -> sympy.Expr:
+        key = (symbol, direction)
+        if key not in self._memo:
+            derivative = self.directional(self._definitions[symbol], direction, rates)
+            if tree_size(derivative, INLINE_SIZE) > INLINE_SIZE:
+                derivative = self.define(self._name(symbol, direction), derivative)
+            self._memo[key] = derivative
+        return self._memo[key]
+
+    @staticmethod
+    def _name(symbol: sympy.Symbol, direction: tuple) -> sympy.Symbol:
+        kind, *about = direction
+        if kind == "der":
+            return sympy.Symbol(f"der({symbol.name})", real=True)
+        if kind == "∂":
+            return sympy.Symbol(f"∂{symbol.name}/∂{about[0].name}", real=True)
+        return sympy.Symbol(f"{kind}({symbol.name})", real=True)
+
+    # -- evaluation helpers ------------------------------------------------------------------
+    def inline(self, expr: sympy.Expr) -> sympy.Expr:
+        """`expr` with every intermediate replaced by its definition (for display and tests)."""
+        cache: dict[sympy.Symbol, sympy.Expr] = {}
+
+        def expand(symbol):
+            if symbol not in cache:
+                definition = self._definitions[symbol]
+                cache[symbol] = definition.xreplace(
+                    {s: expand(s) for s in definition.free_symbols if s in self._definitions})
+            return cache[symbol]
+
+        return expr.xreplace({s: expand(s) for s in expr.free_symbols if s in self._definitions})
+
+    def needed(self, exprs: Iterable[sympy.Basic]) -> tuple[tuple[sympy.Symbol, sympy.Expr], ...]:
+        """The definitions that `exprs` use, directly or indirectly, in dependency order."""
+        wanted: set[sympy.Symbol] = set()
+        stack = [s for e in exprs for s in e.free_symbols if s in self._definitions]
+        while stack:
+            symbol = stack.pop()
+            if symbol not in wanted:
+                wanted.add(symbol)
+                stack.extend(s for s in self._definitions[symbol].free_symbols
+                             if s in self._definitions)
+        return tuple((s, e) for s, e in self._definitions.items() if s in wanted)
+
+
+def time_rates(coordinates: Iterable[sympy.Symbol], velocities: Iterable[sympy.Symbol],
+               time: sympy.Symbol) -> dict[sympy.Symbol, sympy.Expr]:
+    """Rates of the time derivative at zero acceleration: q -> q', t -> 1.
+
+    For an expression of (q, t) this is its total time derivative (`der`); for one that also
+    depends on q' it is the total derivative without the q'' terms, which is what the
+    Euler-Lagrange forcing and the constraint acceleration rows need.
+    """
+    rates: dict[sympy.Symbol, sympy.Expr] = dict(zip(coordinates, velocities))
+    rates[time] = sympy.S.One
+    return rates
+
+
+TIME_DIRECTION = ("der",)

@@ -1,0 +1,91 @@
+"""The three kinds of failure, kept apart.
+
+- `LagError`: the model is wrong. It carries one or more located diagnostics and is rendered
+  as `file:line:column: error: message`, the source line and a caret. The command line prints
+  it and exits 1, never with a traceback.
+- `SimulationError`: the numbers failed (singular mass matrix, step-size collapse, NaN). It
+  names the time, the state and a remedy, and keeps the results computed so far.
+- `InternalError`: a bug in lagdsl. It keeps its traceback and asks to be reported.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from .source import Span
+
+
+@dataclass(frozen=True)
+class Diagnostic:
+    message: str
+    span: Span | None
+
+    def render(self) -> str:
+        if self.span is None:
+            return f"error: {self.message}"
+        span = self.span
+        line = span.source.line(span.line)
+        width = max(1, min(span.end - span.start, len(line) - span.column + 1))
+        caret = " " * (span.column - 1) + "^" + "~" * (width - 1)
+        return f"{span.source.name}:{span.line}:{span.column}: error: {self.message}\n{line}\n{caret}"
+
+
+class LagError(Exception):
+    """One or more errors in a model, each with its location."""
+
+    def __init__(self, message: str, span: Span | None = None):
+        self.diagnostics: tuple[Diagnostic, ...] = (Diagnostic(message, span),)
+        super().__init__(message)
+
+    @classmethod
+    def combine(cls, errors: list["LagError"]) -> "LagError":
+        combined = cls(errors[0].diagnostics[0].message, errors[0].diagnostics[0].span)
+        combined.diagnostics = tuple(d for e in errors for d in e.diagnostics)
+        return combined
+
+    def render(self) -> str:
+        return "\n".join(d.render() for d in self.diagnostics)
+
+    def __str__(self) -> str:
+        return self.render()
+
+
+class ErrorCollector:
+    """Gathers independent errors so that one run reports all of them."""
+
+    def __init__(self) -> None:
+        self.errors: list[LagError] = []
+
+    def attempt(self, action, *args, **kwargs) -> Any:
+        """Run `action`; on a LagError remember it and return None."""
+        try:
+            return action(*args, **kwargs)
+        except LagError as error:
+            self.errors.append(error)
+            return None
+
+    def raise_if_any(self) -> None:
+        if self.errors:
+            raise LagError.combine(self.errors)
+
+
+class SimulationError(Exception):
+    """The integration failed; `partial` holds what was computed before the failure."""
+
+    def __init__(self, message: str, time: float, state: dict[str, float], remedy: str,
+                 partial: Any = None):
+        self.message, self.time, self.state, self.remedy = message, time, state, remedy
+        self.partial = partial
+        super().__init__(self.render())
+
+    def render(self) -> str:
+        state = ", ".join(f"{name} = {value:.17g}" for name, value in self.state.items())
+        return (f"simulation failed at t = {self.time:.17g}: {self.message}\n"
+                f"  state: {state}\n  remedy: {self.remedy}")
+
+
+class InternalError(Exception):
+    """A bug in lagdsl, not in the model."""
+
+    def __init__(self, message: str):
+        super().__init__(f"internal error in lagdsl, please report: {message}")

@@ -1,0 +1,312 @@
+"""The expression language: parse-tree nodes -> sympy, node by node (never from text).
+
+Values are scalars (sympy expressions) or 3-vectors (`Vector`). Names resolve through a
+`Scope`; indexed families (`theta[i]`) and `sum(expr, i in a:b)` are unrolled here, with
+index bounds evaluated to integers at compile time. `der(e)` is the total time derivative by
+the chain rule, Σ_k ∂e/∂q_k q'_k + ∂e/∂t, taken through the named intermediates by the
+`Differentiator`; it is defined for expressions of (q, t) only, since L(q, q', t) may not
+depend on accelerations.
+"""
+from __future__ import annotations
+
+import difflib
+from dataclasses import dataclass
+from fractions import Fraction
+
+import lark
+import sympy
+
+from .calculus import TIME_DIRECTION, Differentiator
+from .errors import LagError
+from .source import SourceFile, Span
+
+FUNCTIONS = {
+    "sin": (sympy.sin, 1), "cos": (sympy.cos, 1), "tan": (sympy.tan, 1),
+    "asin": (sympy.asin, 1), "acos": (sympy.acos, 1), "atan": (sympy.atan, 1),
+    "atan2": (sympy.atan2, 2), "sinh": (sympy.sinh, 1), "cosh": (sympy.cosh, 1),
+    "tanh": (sympy.tanh, 1), "exp": (sympy.exp, 1), "log": (sympy.log, 1),
+    "sqrt": (sympy.sqrt, 1), "abs": (sympy.Abs, 1), "sign": (sympy.sign, 1),
+    "min": (sympy.Min, 2), "max": (sympy.Max, 2),
+}
+VECTOR_FUNCTIONS = {"dot": 2, "cross": 2, "norm": 1}
+SPECIAL_FORMS = {"der": 1, "sum": 2}
+BUILTIN_CALLS = {"momentum", "multiplier", "residual"}
+ALL_FUNCTION_NAMES = sorted(set(FUNCTIONS) | set(VECTOR_FUNCTIONS) | set(SPECIAL_FORMS))
+MAX_DOUBLE = sympy.Rational(1.7976931348623157e308)
+
+
+@dataclass(frozen=True)
+class Vector:
+    """A 3-vector {x, y, z} of scalar expressions."""
+
+    components: tuple[sympy.Expr, sympy.Expr, sympy.Expr]
+
+
+@dataclass(frozen=True)
+class Binding:
+    """What a name means: `value` is a scalar or Vector; `family` maps indices to values."""
+
+    kind: str                       # parameter, coordinate, let, output, loop, time, constant, constraint
+    span: Span | None
+    value: object = None
+    family: dict | None = None
+
+
+class Scope:
+    """Names visible at a point of the model, with lookups that suggest close matches."""
+
+    def __init__(self, bindings: dict[str, Binding] | None = None):
+        self.bindings: dict[str, Binding] = dict(bindings or {})
+
+    def child(self, **loops: int) -> "Scope":
+        scope = Scope(self.bindings)
+        for name, value in loops.items():
+            scope.bindings[name] = Binding("loop", None, sympy.Integer(value))
+        return scope
+
+    def lookup(self, name: str, span: Span) -> Binding:
+        if name not in self.bindings:
+            raise LagError(f"undefined name '{name}'{suggest(name, self.bindings)}", span)
+        return self.bindings[name]
+
+
+def suggest(name: str, candidates) -> str:
+    close = difflib.get_close_matches(name, list(candidates), n=1, cutoff=0.6)
+    return f"; did you mean '{close[0]}'?" if close else ""
+
+
+def number_value(text: str, span: Span) -> sympy.Rational:
+    """A decimal literal, exactly: 9.81 is 981/100, so no precision is lost before code."""
+    value = sympy.Rational(Fraction(text))
+    if abs(value) > MAX_DOUBLE:
+        raise LagError(f"the number {text} is not finite in double precision", span)
+    return value
+
+
+class ExpressionBuilder:
+    """Turns expression subtrees into sympy values within a Scope."""
+
+    def __init__(self, source: SourceFile, differentiator: Differentiator,
+                 velocities: dict[sympy.Symbol, sympy.Symbol]):
+        self.source = source
+        self.calculus = differentiator
+        self.velocities = velocities          # q -> q'
+        self.rates = dict(velocities)
+        self.rates[sympy.Symbol("t", real=True)] = sympy.S.One
+        self.exact_parameters: dict[sympy.Symbol, sympy.Expr] = {}   # parameter -> exact value
+        self.structural: set[sympy.Symbol] = set()                    # parameters used as sizes
+
+    def span(self, node) -> Span:
+        if isinstance(node, lark.Token):
+            return Span(self.source, node.line, node.column, node.start_pos, node.end_pos)
+        meta = node.meta
+        return Span(self.source, meta.line, meta.column, meta.start_pos, meta.end_pos)
+
+    # -- entry points ------------------------------------------------------------------------
+    def scalar(self, node, scope: Scope, what: str = "a scalar") -> sympy.Expr:
+        value = self.build(node, scope)
+        if isinstance(value, Vector):
+            raise LagError(f"expected {what}, but this is a 3-vector", self.span(node))
+        return value
+
+    def integer(self, node, scope: Scope, what: str) -> int:
+        """An index or range bound: parameters in it are fixed at compile time (structural)."""
+        value = self.scalar(node, scope)
+        used = value.free_symbols & self.exact_parameters.keys()
+        value = value.xreplace(self.exact_parameters)
+        if not value.is_Integer:
+            raise LagError(f"{what} must be an integer known at compile time "
+                           "(a literal or a parameter with an integer value)", self.span(node))
+        self.structural |= used
+        return int(value)
+
+    # -- the tree walk -------------------------------------------------------------------------
+    def build(self, node, scope: Scope):
+        if isinstance(node, lark.Token):
+            raise LagError(f"unexpected '{node}'", self.span(node))
+        method = getattr(self, f"_{node.data}", None)
+        if method is None:
+            raise LagError("this is not an expression", self.span(node))
+        return method(node, scope)
+
+    def _number(self, node, scope):
+        return number_value(str(node.children[0]), self.span(node))
+
+    def _name(self, node, scope):
+        token = node.children[0]
+        name = str(token)
+        if name == "pi":
+            return sympy.pi
+        if name == "t":
+            return sympy.Symbol("t", real=True)
+        binding = scope.lookup(name, self.span(token))
+        if binding.family is not None:
+            raise LagError(f"'{name}' is an indexed family; write {name}[i]", self.span(token))
+        if binding.kind == "constraint":
+            raise LagError(f"'{name}' is a constraint, not a value; use residual({name}) or multiplier({name}) in a scene's output",
+                           self.span(token))
+        return binding.value
+
+    def _index(self, node, scope):
+        token, _, index_node, _ = node.children
+        binding = scope.lookup(str(token), self.span(token))
+        if binding.family is None:
+            raise LagError(f"'{token}' is not indexed", self.span(token))
+        index = self.integer(index_node, scope, "an index")
+        if index not in binding.family:
+            low, high = min(binding.family), max(binding.family)
+            raise LagError(f"index {index} is out of range for '{token}' ({low}:{high})",
+                           self.span(index_node))
+        return binding.family[index]
+
+    def _braces(self, node, scope):
+        items = [self.scalar(child, scope, "a scalar component") for child in node.children
+                 if not isinstance(child, lark.Token)]
+        if len(items) != 3:
+            raise LagError(f"a vector has 3 components, not {len(items)}", self.span(node))
+        return Vector(tuple(items))
+
+    def _parenthesized(self, node, scope):
+        return self.build(node.children[1], scope)
+
+    def _pos(self, node, scope):
+        return self.build(node.children[1], scope)
+
+    def _neg(self, node, scope):
+        value = self.build(node.children[1], scope)
+        return _map(value, lambda c: -c)
+
+    def _add(self, node, scope):
+        return self._linear(node, scope, 1)
+
+    def _sub(self, node, scope):
+        return self._linear(node, scope, -1)
+
+    def _linear(self, node, scope, sign):
+        left, _, right = node.children
+        a, b = self.build(left, scope), self.build(right, scope)
+        if isinstance(a, Vector) and isinstance(b, Vector):
+            return Vector(tuple(x + sign * y for x, y in zip(a.components, b.components)))
+        if isinstance(a, Vector) or isinstance(b, Vector):
+            raise LagError("cannot add a vector and a scalar", self.span(node))
+        return a + sign * b
+
+    def _mul(self, node, scope):
+        left, _, right = node.children
+        a, b = self.build(left, scope), self.build(right, scope)
+        if isinstance(a, Vector) and isinstance(b, Vector):
+            raise LagError("the product of two vectors is ambiguous; use dot(a, b) or cross(a, b)",
+                           self.span(node))
+        if isinstance(a, Vector):
+            return _map(a, lambda c: c * b)
+        if isinstance(b, Vector):
+            return _map(b, lambda c: a * c)
+        return a * b
+
+    def _div(self, node, scope):
+        left, _, right = node.children
+        a = self.build(left, scope)
+        b = self.scalar(right, scope, "a scalar divisor")
+        if b == 0:
+            raise LagError("division by zero", self.span(right))
+        return _map(a, lambda c: c / b)
+
+    def _pow(self, node, scope):
+        left, _, right = node.children
+        base = self.scalar(left, scope, "a scalar base")
+        exponent = self.scalar(right, scope, "a scalar exponent")
+        if base == 0 and exponent.is_number and exponent.is_negative:
+            raise LagError("division by zero", self.span(node))
+        return base ** exponent
+
+    def _call(self, node, scope):
+        token = node.children[0]
+        name = str(token)
+        arguments = next(([a for a in c.children if isinstance(a, lark.Tree)]
+                          for c in node.children if isinstance(c, lark.Tree) and c.data == "arguments"), [])
+        span = self.span(node)
+        if name in BUILTIN_CALLS:
+            raise LagError(f"{name}(...) is a built-in observable, only allowed in a scene's output list",
+                           span)
+        expected = {**{k: v[1] for k, v in FUNCTIONS.items()}, **VECTOR_FUNCTIONS,
+                    **SPECIAL_FORMS}.get(name)
+        if expected is None:
+            raise LagError(f"unknown function '{name}'{suggest(name, ALL_FUNCTION_NAMES)}",
+                           self.span(token))
+        if len(arguments) != expected:
+            plural = "s" if expected != 1 else ""
+            raise LagError(f"{name}() takes {expected} argument{plural}, got {len(arguments)}", span)
+        if name == "sum":
+            return self._sum(arguments, scope, span)
+        for argument in arguments:
+            if isinstance(argument, lark.Tree) and argument.data == "iteration":
+                raise LagError("an 'i in a:b' range is only allowed as the second argument of sum()",
+                               self.span(argument))
+        if name == "der":
+            return self._der(arguments[0], scope)
+        values = [self.build(a, scope) for a in arguments]
+        if name in VECTOR_FUNCTIONS:
+            return self._vector_function(name, values, arguments)
+        for value, argument in zip(values, arguments):
+            if isinstance(value, Vector):
+                raise LagError(f"{name}() takes scalars, but this is a 3-vector", self.span(argument))
+        return FUNCTIONS[name][0](*values)
+
+    def _vector_function(self, name, values, arguments):
+        for value, argument in zip(values, arguments):
+            if not isinstance(value, Vector):
+                raise LagError(f"{name}() takes 3-vectors, but this is a scalar", self.span(argument))
+        if name == "norm":
+            return sympy.sqrt(sum(c**2 for c in values[0].components))
+        a, b = values[0].components, values[1].components
+        if name == "dot":
+            return sum(x * y for x, y in zip(a, b))
+        return Vector((a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]))
+
+    def _der(self, argument, scope):
+        value = self.build(argument, scope)
+        for component in (value.components if isinstance(value, Vector) else (value,)):
+            if self.calculus.dependencies(component) & set(self.velocities.values()):
+                raise LagError("der() of an expression that depends on velocities would need accelerations; "
+                               "L, T, U and constraints are functions of q, q' and t", self.span(argument))
+        return _map(value, lambda c: self.calculus.directional(c, TIME_DIRECTION, self.rates))
+
+    def _sum(self, arguments, scope, span):
+        body, iteration = arguments
+        if not (isinstance(iteration, lark.Tree) and iteration.data == "iteration"):
+            raise LagError("the second argument of sum() is a range: sum(expr, i in 1:n)",
+                           self.span(iteration) if isinstance(iteration, lark.Tree) else span)
+        variable, low, high = self.iteration(iteration, scope)
+        total = None
+        for index in range(low, high + 1):
+            term = self.build(body, scope.child(**{variable: index}))
+            total = term if total is None else self._sum_terms(total, term, span)
+        return total if total is not None else sympy.S.Zero
+
+    def iteration(self, node, scope) -> tuple[str, int, int]:
+        """`i in a:b` -> ("i", a, b)."""
+        name_token, _, range_node = node.children
+        low_node, _, high_node = range_node.children
+        if str(name_token) in scope.bindings and scope.bindings[str(name_token)].kind != "loop":
+            raise LagError(f"the index '{name_token}' hides the declared name '{name_token}'",
+                           self.span(name_token))
+        low = self.integer(low_node, scope, "a range bound")
+        high = self.integer(high_node, scope, "a range bound")
+        return str(name_token), low, high
+
+    def _sum_terms(self, a, b, span):
+        if isinstance(a, Vector) != isinstance(b, Vector):
+            raise LagError("sum() terms mix vectors and scalars", span)
+        if isinstance(a, Vector):
+            return Vector(tuple(x + y for x, y in zip(a.components, b.components)))
+        return a + b
+
+    def _iteration(self, node, scope):
+        raise LagError("an 'i in a:b' range is only allowed as the second argument of sum()",
+                       self.span(node))
+
+
+def _map(value, function):
+    if isinstance(value, Vector):
+        return Vector(tuple(function(c) for c in value.components))
+    return function(value)

@@ -1,0 +1,199 @@
+"""The intermediate representation: plain immutable data, each node with its source Span.
+
+Expressions are sympy expressions built node by node from the parse tree (never from text).
+Their symbols are: parameters (`Parameter.symbol`), coordinates q and velocities q'
+(`Coordinate.symbol`, `Coordinate.velocity_symbol`), time `TIME`, and named intermediates
+(`Let.symbol`): the user's lets plus the time derivatives `der(x)` that the chain rule created
+for them. Intermediates are defined in `Model.lets` in dependency order, so expressions stay
+as shared and small as the user wrote them.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from fractions import Fraction
+
+import sympy
+
+from .source import Span
+
+TIME = sympy.Symbol("t", real=True)
+INTEGRATORS = ("rk4", "dopri5", "dop853", "radau5", "gauss")
+IMPLICIT_INTEGRATORS = ("radau5",)
+BUILTIN_OBSERVABLES = ("energy", "momentum", "multiplier", "residual")
+
+
+@dataclass(frozen=True)
+class Unit:
+    """A physical unit as written, `[m/s^2]`, and as base factors {m: 1, s: -2}."""
+
+    text: str
+    factors: tuple[tuple[str, Fraction], ...]
+    span: Span
+
+
+@dataclass(frozen=True)
+class Parameter:
+    name: str
+    symbol: sympy.Symbol
+    expression: sympy.Expr      # in earlier parameters' symbols
+    value: float                # the default, with every earlier default substituted
+    unit: Unit | None
+    description: str | None
+    span: Span
+    structural: bool = False    # used in an index range or dimension: fixed at compile time
+
+
+@dataclass(frozen=True)
+class Coordinate:
+    name: str                   # as the user refers to it: "theta1" or "theta[2]"
+    symbol: sympy.Symbol        # q
+    velocity_symbol: sympy.Symbol   # q'
+    start: sympy.Expr           # q(0), in parameters
+    velocity: sympy.Expr        # q'(0), in parameters
+    unit: Unit | None
+    description: str | None
+    span: Span
+
+
+@dataclass(frozen=True)
+class Let:
+    name: str
+    symbol: sympy.Symbol
+    expression: sympy.Expr
+    span: Span
+
+
+@dataclass(frozen=True)
+class Lagrangian:
+    """Either T and U (natural system, L = T - U) or a general L."""
+
+    kinetic: sympy.Expr | None
+    potential: sympy.Expr | None
+    general: sympy.Expr | None
+    span: Span
+
+    @property
+    def expression(self) -> sympy.Expr:
+        if self.general is not None:
+            return self.general
+        return self.kinetic - (self.potential if self.potential is not None else 0)
+
+    @property
+    def is_natural(self) -> bool:
+        return self.general is None
+
+
+@dataclass(frozen=True)
+class Dissipation:
+    expression: sympy.Expr      # Rayleigh function D(q, q', t)
+    span: Span
+
+
+@dataclass(frozen=True)
+class Force:
+    coordinate: str
+    expression: sympy.Expr
+    span: Span
+
+
+@dataclass(frozen=True)
+class Constraint:
+    name: str
+    residual: sympy.Expr        # lhs - rhs, zero on the constraint
+    span: Span
+
+
+@dataclass(frozen=True)
+class Output:
+    name: str
+    expression: sympy.Expr
+    unit: Unit | None
+    description: str | None
+    span: Span
+
+
+@dataclass(frozen=True)
+class TimeGrid:
+    start: float
+    stop: float
+    interval: float
+    span: Span | None
+
+
+@dataclass(frozen=True)
+class IntegratorChoice:
+    name: str
+    options: tuple[tuple[str, float], ...]
+    span: Span | None
+
+    def option(self, key: str, default: float | None = None) -> float | None:
+        return dict(self.options).get(key, default)
+
+
+@dataclass(frozen=True)
+class ParameterOverride:
+    name: str
+    value: float
+    span: Span | None
+
+
+@dataclass(frozen=True)
+class InitialOverride:
+    coordinate: str
+    start: float | None
+    velocity: float | None
+    span: Span | None
+
+
+@dataclass(frozen=True)
+class OutputRequest:
+    """One column of a scene's output: `column` is the text as written (the CSV header).
+
+    `kind` is "expression" (with `expression` set) or a built-in observable, "energy",
+    "momentum", "multiplier" or "residual" (with `target`, a coordinate or constraint name).
+    """
+
+    column: str
+    kind: str
+    expression: sympy.Expr | None
+    target: str | None
+    span: Span | None
+
+
+@dataclass(frozen=True)
+class Scene:
+    name: str
+    description: str | None
+    time: TimeGrid
+    integrator: IntegratorChoice
+    parameter_overrides: tuple[ParameterOverride, ...]
+    initial_overrides: tuple[InitialOverride, ...]
+    outputs: tuple[OutputRequest, ...]
+    span: Span | None
+
+
+@dataclass(frozen=True)
+class Model:
+    name: str
+    description: str | None
+    parameters: tuple[Parameter, ...]
+    coordinates: tuple[Coordinate, ...]
+    lets: tuple[Let, ...]
+    lagrangian: Lagrangian
+    dissipation: Dissipation | None
+    forces: tuple[Force, ...]
+    constraints: tuple[Constraint, ...]
+    outputs: tuple[Output, ...]
+    scenes: tuple[Scene, ...]
+    span: Span
+    source_name: str = field(default="")
+
+    def coordinate(self, name: str) -> Coordinate:
+        return next(c for c in self.coordinates if c.name == name)
+
+    def parameter(self, name: str) -> Parameter:
+        return next(p for p in self.parameters if p.name == name)
+
+    @property
+    def parameter_values(self) -> dict[sympy.Symbol, float]:
+        return {p.symbol: p.value for p in self.parameters}

@@ -1,0 +1,66 @@
+"""Model -> Equations: the Euler-Lagrange equations, constraints and conserved quantities."""
+from __future__ import annotations
+
+import numpy as np
+import sympy
+
+from .. import ir
+from ..calculus import Differentiator
+from ..errors import LagError
+from .constraints import constraint_equations
+from .equations import ConservedQuantity, ConstraintEquation, Equations, lagrange_terms
+from .invariants import conserved_quantities
+from .probe import Probe
+
+__all__ = ["derive_equations", "Equations", "ConstraintEquation", "ConservedQuantity"]
+
+
+def derive_equations(model: ir.Model) -> Equations:
+    """Euler-Lagrange equations in mass-matrix form (see `equations` for the formulas).
+
+    Raises a LagError when the constraints are not holonomic or Pfaffian or are dependent,
+    and when the mass matrix (or the saddle-point matrix with the constraints) is singular
+    at every state.
+    """
+    q = [c.symbol for c in model.coordinates]
+    v = [c.velocity_symbol for c in model.coordinates]
+    calculus = Differentiator(((let.symbol, let.expression) for let in model.lets), (*q, *v, ir.TIME))
+    probe = Probe(calculus, (*q, *v, ir.TIME, *(p.symbol for p in model.parameters)))
+    lagrangian, momenta, mass, gradient, forces, forcing = lagrange_terms(model, calculus)
+    constraints = constraint_equations(model, calculus, probe)
+    _require_regular(model, mass, constraints, probe)
+    energy = sum((vk * pk for vk, pk in zip(v, momenta)), sympy.S.Zero) - lagrangian
+    conserved = conserved_quantities(model, calculus, probe, lagrangian, momenta, gradient,
+                                     constraints, energy)
+    return Equations(model, tuple(q), tuple(v), calculus.definitions(), lagrangian,
+                     tuple(tuple(row) for row in mass), tuple(forcing), tuple(gradient),
+                     tuple(forces), tuple(momenta), energy, constraints, conserved)
+
+
+def _require_regular(model: ir.Model, mass, constraints, probe: Probe) -> None:
+    """The equations determine q'' only if M (or [[M, Aᵀ], [A, 0]]) is invertible."""
+    active = [c for c in constraints if not c.dropped]
+    n, m = len(mass), len(active)
+    rows = [list(row) + [c.jacobian[k] for c in active] for k, row in enumerate(mass)]
+    rows += [list(c.jacobian) + [sympy.S.Zero] * m for c in active]
+    samples = [a for a in probe.matrices(rows) if np.all(np.isfinite(a))]
+    if not samples:
+        return
+    ranks = [np.linalg.matrix_rank(a, tol=1e-10 * max(1.0, np.abs(a).max())) for a in samples]
+    if max(ranks) == n + m:
+        return
+    energy = "kinetic energy" if model.lagrangian.is_natural else "Lagrangian"
+    names = [c.name for c in model.coordinates]
+    absent = [names[k] for k in range(n) if all(entry == 0 for entry in mass[k])]
+    if absent:
+        which = ", ".join(absent)
+        verb = "does" if len(absent) == 1 else "do"
+        message = (f"the mass matrix is singular: the velocity of {which} {verb} not appear in the {energy}, "
+                   f"so {which} has no equation of motion")
+    else:
+        _, _, vt = np.linalg.svd(samples[0])
+        null = vt[-1][:n]
+        involved = ", ".join(names[k] for k in range(n) if abs(null[k]) > 1e-6 * np.abs(null).max())
+        message = (f"the mass matrix is singular at every state: the velocities of {involved} "
+                   f"enter the {energy} only in a fixed combination")
+    raise LagError(message, model.lagrangian.span)

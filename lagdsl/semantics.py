@@ -1,0 +1,526 @@
+"""Tree -> ir.Model: declarations in order, name resolution, reserved words, indexed families.
+
+Parameters, coordinates and lets are declared in source order, each usable after its
+declaration. The energy (T, U or L), dissipation, forces, constraints and outputs are read
+afterwards, with every declared name in scope, and scenes last. Independent errors are
+collected and reported together; a declaration that failed leaves its name "poisoned", so
+later uses of it do not produce follow-on errors.
+"""
+from __future__ import annotations
+
+import lark
+import sympy
+
+from . import ir
+from .calculus import Differentiator
+from .errors import ErrorCollector, LagError
+from .expressions import Binding, ExpressionBuilder, Scope, Vector, number_value, suggest
+from .source import SourceFile, Span
+from .units import parse_unit
+
+RESERVED = {"model", "end", "parameter", "coordinate", "let", "constraint", "force", "dissipation",
+            "output", "scene", "time", "integrator", "set", "t", "T", "U", "L", "der", "pi", "sum", "in"}
+INTEGRATOR_OPTIONS = {
+    "rk4": ("step",), "dopri5": ("rtol", "atol", "max_step"), "dop853": ("rtol", "atol", "max_step"),
+    "radau5": ("rtol", "atol", "max_step"), "gauss": ("stages", "step"),
+}
+DEFAULT_INTEGRATOR = ir.IntegratorChoice("dop853", (("rtol", 1e-8), ("atol", 1e-10)), None)
+DEFAULT_TIME = ir.TimeGrid(0.0, 10.0, 0.01, None)
+
+
+class PoisonedName(LagError):
+    """A use of a name whose declaration already failed: reported once, at the declaration."""
+
+    def __init__(self):
+        super().__init__("poisoned")
+        self.diagnostics = ()
+
+
+def build_model(tree: lark.Tree, source: SourceFile) -> ir.Model:
+    """Tree -> ir.Model; raises one LagError carrying every independent error found."""
+    return _ModelBuilder(source).build(tree.children[0])
+
+
+def tokens(node: lark.Tree, kind: str) -> list[lark.Token]:
+    return [c for c in node.children if isinstance(c, lark.Token) and c.type == kind]
+
+
+def subtree(node: lark.Tree, data: str) -> lark.Tree | None:
+    return next((c for c in node.children if isinstance(c, lark.Tree) and c.data == data), None)
+
+
+def expressions_of(node: lark.Tree) -> list:
+    """The expression children of a statement (everything but tokens and annotations)."""
+    skip = {"unit", "description", "modifiers", "dimension", "let_index", "let_range"}
+    return [c for c in node.children if isinstance(c, lark.Tree) and c.data not in skip]
+
+
+class _ScopeWithPoison(Scope):
+    def lookup(self, name, span):
+        binding = super().lookup(name, span)
+        if binding.kind == "invalid":
+            raise PoisonedName()
+        return binding
+
+    def child(self, **loops):
+        scope = _ScopeWithPoison(self.bindings)
+        scope.bindings.update({k: Binding("loop", None, sympy.Integer(v)) for k, v in loops.items()})
+        return scope
+
+
+class _ModelBuilder:
+    def __init__(self, source: SourceFile):
+        self.source = source
+        self.scope = _ScopeWithPoison()
+        self.calculus = Differentiator((), (ir.TIME,))
+        self.velocity_of: dict[sympy.Symbol, sympy.Symbol] = {}
+        self.expr = ExpressionBuilder(source, self.calculus, self.velocity_of)
+        self.errors = ErrorCollector()
+        self.parameters: list[ir.Parameter] = []
+        self.coordinates: list[ir.Coordinate] = []
+        self.let_spans: dict[sympy.Symbol, Span] = {}
+        self.energy: dict[str, tuple[sympy.Expr, Span]] = {}
+        self.dissipation: ir.Dissipation | None = None
+        self.forces: list[ir.Force] = []
+        self.constraints: list[ir.Constraint] = []
+        self.outputs: list[ir.Output] = []
+        self.scenes: list[ir.Scene] = []
+
+    def span(self, node) -> Span:
+        return self.expr.span(node)
+
+    # -- the model ---------------------------------------------------------------------------
+    def build(self, node: lark.Tree) -> ir.Model:
+        names = tokens(node, "NAME")
+        name, end_name = names[0], names[-1]
+        if str(end_name) != str(name):
+            self.errors.errors.append(LagError(f"'end {end_name}' closes model '{name}'", self.span(end_name)))
+        declarations = [c for c in node.children if isinstance(c, lark.Tree) and c.data != "description"]
+        first_pass = {"parameter": self.parameter, "coordinate": self.coordinate, "let": self.let}
+        later = {"energy": self.energy_statement, "dissipation": self.dissipation_statement,
+                 "force": self.force, "constraint": self.constraint, "output": self.output}
+        for declaration in declarations:
+            if declaration.data in first_pass:
+                self.errors.attempt(first_pass[declaration.data], declaration)
+            elif declaration.data in later:
+                self.declare_later_name(declaration)
+        for declaration in declarations:
+            if declaration.data in later:
+                self.errors.attempt(later[declaration.data], declaration)
+        lagrangian = self.errors.attempt(self.lagrangian, node, name)
+        self.resolve_structural()
+        for declaration in declarations:
+            if declaration.data == "scene":
+                self.errors.attempt(self.scene, declaration)
+        self.errors.raise_if_any()
+        return ir.Model(
+            name=str(name), description=self.description(node),
+            parameters=tuple(self.parameters), coordinates=tuple(self.coordinates),
+            lets=tuple(ir.Let(s.name, s, e, self.let_spans.get(s)) for s, e in self.calculus.definitions()),
+            lagrangian=lagrangian, dissipation=self.dissipation, forces=tuple(self.forces),
+            constraints=tuple(self.constraints), outputs=tuple(self.outputs),
+            scenes=tuple(self.scenes), span=self.span(name), source_name=self.source.name)
+
+    def description(self, node) -> str | None:
+        description = subtree(node, "description")
+        return str(description.children[0])[1:-1] if description is not None else None
+
+    def unit(self, node) -> ir.Unit | None:
+        unit = subtree(node, "unit")
+        return parse_unit(self.span(unit.children[0])) if unit is not None else None
+
+    def declare(self, token: lark.Token, binding: Binding) -> None:
+        name = str(token)
+        if name in RESERVED:
+            raise LagError(f"'{name}' is a reserved word and cannot be used as a name", self.span(token))
+        if name in ir.BUILTIN_OBSERVABLES:
+            raise LagError(f"'{name}' is the name of a built-in observable", self.span(token))
+        existing = self.scope.bindings.get(name)
+        if existing is not None and existing.kind != "invalid":
+            where = f" (at line {existing.span.line})" if existing.span else ""
+            raise LagError(f"'{name}' is already declared{where}", self.span(token))
+        self.scope.bindings[name] = binding
+
+    def poison(self, token: lark.Token) -> None:
+        self.scope.bindings.setdefault(str(token), Binding("invalid", self.span(token)))
+
+    def guarded(self, token, action):
+        """Run a declaration; if it fails, its name stays declared but poisoned."""
+        try:
+            return action()
+        except LagError:
+            self.poison(token)
+            raise
+
+    # -- parameters ----------------------------------------------------------------------------
+    def parameter(self, node):
+        token = tokens(node, "NAME")[0]
+        self.guarded(token, lambda: self._parameter(node, token))
+
+    def _parameter(self, node, token):
+        value_node = expressions_of(node)[0]
+        value = self.expr.scalar(value_node, self.scope, "a scalar value")
+        stray = value.free_symbols - set(self.expr.exact_parameters)
+        if stray:
+            raise LagError("a parameter's value may only use numbers and earlier parameters", self.span(value_node))
+        exact = value.xreplace(self.expr.exact_parameters)
+        number = complex(exact.evalf(20))
+        if number.imag != 0 or not abs(number.real) < float("inf"):
+            raise LagError("the parameter's value is not a finite real number", self.span(value_node))
+        symbol = sympy.Symbol(str(token), real=True)
+        self.declare(token, Binding("parameter", self.span(token), symbol))
+        self.expr.exact_parameters[symbol] = exact
+        self.parameters.append(ir.Parameter(str(token), symbol, value, number.real, self.unit(node),
+                                            self.description(node), self.span(token)))
+
+    def parameter_value(self, node, what: str) -> float:
+        """A number in a scene or modifier: parameters allowed, evaluated at their defaults."""
+        value = self.expr.scalar(node, self.scope, what)
+        if value.free_symbols - set(self.expr.exact_parameters):
+            raise LagError(f"{what} may only use numbers and parameters", self.span(node))
+        result = complex(value.xreplace(self.expr.exact_parameters).evalf(20))
+        if result.imag != 0 or not abs(result.real) < float("inf"):
+            raise LagError(f"{what} is not a finite real number", self.span(node))
+        return result.real
+
+    def resolve_structural(self):
+        self.parameters = [
+            ir.Parameter(p.name, p.symbol, p.expression, p.value, p.unit, p.description, p.span,
+                         structural=p.symbol in self.expr.structural)
+            for p in self.parameters]
+
+    # -- coordinates ---------------------------------------------------------------------------
+    def coordinate(self, node):
+        token = tokens(node, "NAME")[0]
+        self.guarded(token, lambda: self._coordinate(node, token))
+
+    def _coordinate(self, node, token):
+        name = str(token)
+        dimension = subtree(node, "dimension")
+        modifiers = self.modifiers(node, ("start", "velocity"))
+        unit, description = self.unit(node), self.description(node)
+        if dimension is None:
+            start = self.initial_values(modifiers.get("start"), None)
+            velocity = self.initial_values(modifiers.get("velocity"), None)
+            coordinate = self.new_coordinate(name, start, velocity, unit, description, self.span(token))
+            self.declare(token, Binding("coordinate", self.span(token), coordinate.symbol))
+            return
+        size = self.expr.integer(dimension.children[1], self.scope, "the number of coordinates")
+        if size < 1:
+            raise LagError("an indexed coordinate needs at least one member", self.span(dimension))
+        starts = self.initial_values(modifiers.get("start"), size)
+        velocities = self.initial_values(modifiers.get("velocity"), size)
+        family = {}
+        for i in range(1, size + 1):
+            member = self.new_coordinate(f"{name}[{i}]", starts[i - 1], velocities[i - 1], unit,
+                                         description, self.span(token))
+            family[i] = member.symbol
+        self.declare(token, Binding("coordinate", self.span(token), family=family))
+
+    def new_coordinate(self, name, start, velocity, unit, description, span) -> ir.Coordinate:
+        q = sympy.Symbol(name, real=True)
+        v = sympy.Symbol(name + "'", real=True)
+        self.velocity_of[q] = v
+        self.expr.rates[q] = v
+        self.calculus.add_base(q, v)
+        coordinate = ir.Coordinate(name, q, v, start, velocity, unit, description, span)
+        self.coordinates.append(coordinate)
+        return coordinate
+
+    def modifiers(self, node, allowed) -> dict[str, lark.Tree]:
+        found: dict[str, lark.Tree] = {}
+        block = subtree(node, "modifiers")
+        for modifier in (block.children if block is not None else []):
+            if not isinstance(modifier, lark.Tree):
+                continue
+            key = modifier.children[0]
+            if str(key) not in allowed:
+                options = ", ".join(allowed) if allowed else "none"
+                raise LagError(f"unknown option '{key}'{suggest(str(key), allowed)} (allowed: {options})",
+                               self.span(key))
+            if str(key) in found:
+                raise LagError(f"'{key}' is given twice", self.span(key))
+            found[str(key)] = modifier.children[2]
+        return found
+
+    def initial_values(self, node, size: int | None):
+        """start/velocity: a parameter expression, or {a, b, ...} for an indexed family."""
+        if node is None:
+            return sympy.S.Zero if size is None else [sympy.S.Zero] * size
+        if node.data == "braces":
+            items = [c for c in node.children if not isinstance(c, lark.Token)]
+            if size is None:
+                raise LagError("a list of initial values needs an indexed coordinate", self.span(node))
+            if len(items) != size:
+                raise LagError(f"{len(items)} initial values for {size} coordinates", self.span(node))
+            return [self.initial_expression(item) for item in items]
+        value = self.initial_expression(node)
+        return value if size is None else [value] * size
+
+    def initial_expression(self, node) -> sympy.Expr:
+        value = self.expr.scalar(node, self.scope, "an initial value")
+        if value.free_symbols - set(self.expr.exact_parameters):
+            raise LagError("an initial value may only use numbers and parameters", self.span(node))
+        self.parameter_value(node, "an initial value")
+        return value
+
+    # -- lets ------------------------------------------------------------------------------------
+    def let(self, node):
+        token = tokens(node, "NAME")[0]
+        self.guarded(token, lambda: self._let(node, token))
+
+    def _let(self, node, token):
+        name = str(token)
+        index, family_range = subtree(node, "let_index"), subtree(node, "let_range")
+        body = expressions_of(node)[0]
+        if index is None and family_range is None:
+            value = self.expr.build(body, self.scope)
+            self.declare(token, Binding("let", self.span(token), self.intermediate(name, value, token)))
+            return
+        if index is None or family_range is None:
+            raise LagError(f"an indexed let is written 'let {name}[i] = ..., i in 1:n;'", self.span(token))
+        variable = str(index.children[1])
+        range_variable = str(family_range.children[1])
+        if variable != range_variable:
+            raise LagError(f"the index is '{variable}' but the range is over '{range_variable}'",
+                           self.span(family_range.children[1]))
+        iteration = lark.Tree("iteration", family_range.children[1:], family_range.meta)
+        _, low, high = self.expr.iteration(iteration, self.scope)
+        family = {}
+        self.scope.bindings[name] = Binding("let", self.span(token), family={})
+        for i in range(low, high + 1):
+            value = self.expr.build(body, self.scope.child(**{variable: i}))
+            family[i] = self.intermediate(f"{name}[{i}]", value, token)
+            self.scope.bindings[name].family[i] = family[i]
+        del self.scope.bindings[name]
+        self.declare(token, Binding("let", self.span(token), family=family))
+
+    def intermediate(self, name: str, value, token):
+        if isinstance(value, Vector):
+            return Vector(tuple(self.intermediate(f"{name}.{axis}", c, token)
+                                for axis, c in zip("xyz", value.components)))
+        symbol = sympy.Symbol(name, real=True)
+        self.let_spans[symbol] = self.span(token)
+        return self.calculus.define(symbol, value)
+
+    # -- energy, dissipation, forces, constraints, outputs --------------------------------------
+    def declare_later_name(self, node):
+        """Constraints and outputs have names too; declare them up front to catch clashes."""
+        if node.data == "output":
+            token = tokens(node, "NAME")[0]
+            self.errors.attempt(self.declare, token, Binding("invalid", self.span(token)))
+        elif node.data == "constraint" and tokens(node, "NAME") and tokens(node, "COLON"):
+            token = tokens(node, "NAME")[0]
+            self.errors.attempt(self.declare, token, Binding("constraint", self.span(token)))
+
+    def velocity_free(self, value, node, what):
+        if self.calculus.dependencies(value) & set(self.velocity_of.values()):
+            raise LagError(f"{what} must not depend on velocities; write a general L = ... instead",
+                           self.span(node))
+
+    def energy_statement(self, node):
+        kind = str(tokens(node, "ENERGY")[0])
+        body = expressions_of(node)[0]
+        if kind in self.energy:
+            raise LagError(f"{kind} is given twice (first at line {self.energy[kind][1].line})", self.span(node))
+        self.energy[kind] = (None, self.span(node))     # declared, even if its value fails
+        value = self.expr.scalar(body, self.scope, f"a scalar {kind}")
+        if kind == "U":
+            self.velocity_free(value, body, "U")
+        self.energy[kind] = (value, self.span(node))
+
+    def lagrangian(self, node, name_token) -> ir.Lagrangian:
+        e = self.energy
+        if any(value is None for value, _ in e.values()):
+            raise PoisonedName()
+        if "L" in e and ("T" in e or "U" in e):
+            other = "T" if "T" in e else "U"
+            raise LagError(f"give either T and U, or L, not both (L and {other} are given)", e["L"][1])
+        if "L" in e:
+            return ir.Lagrangian(None, None, e["L"][0], e["L"][1])
+        if "T" in e:
+            return ir.Lagrangian(e["T"][0], e["U"][0] if "U" in e else None, None, e["T"][1])
+        if "U" in e:
+            raise LagError("the model gives U but no kinetic energy T", e["U"][1])
+        raise LagError(f"model '{name_token}' has neither a kinetic energy T nor a Lagrangian L",
+                       self.span(name_token))
+
+    def dissipation_statement(self, node):
+        if self.dissipation is not None:
+            raise LagError(f"dissipation is given twice (first at line {self.dissipation.span.line})", self.span(node))
+        body = expressions_of(node)[0]
+        self.dissipation = ir.Dissipation(self.expr.scalar(body, self.scope, "a scalar dissipation function"),
+                                          self.span(node))
+
+    def force(self, node):
+        token = tokens(node, "NAME")[0]
+        parts = expressions_of(node)
+        binding = self.scope.bindings.get(str(token))
+        if binding is None or binding.kind != "coordinate":
+            coordinates = [n for n, b in self.scope.bindings.items() if b.kind == "coordinate"]
+            raise LagError(f"force on '{token}', which is not a coordinate{suggest(str(token), coordinates)}",
+                           self.span(token))
+        if binding.family is not None:
+            if len(parts) != 2:
+                raise LagError(f"'{token}' is indexed; write force {token}[i] = ...", self.span(token))
+            index = self.expr.integer(parts[0], self.scope, "an index")
+            if index not in binding.family:
+                raise LagError(f"index {index} is out of range for '{token}'", self.span(parts[0]))
+            name = f"{token}[{index}]"
+        else:
+            if len(parts) != 1:
+                raise LagError(f"'{token}' is not indexed", self.span(token))
+            name = str(token)
+        value = self.expr.scalar(parts[-1], self.scope, "a scalar force")
+        self.forces.append(ir.Force(name, value, self.span(node)))
+
+    def constraint(self, node):
+        names = tokens(node, "NAME") if tokens(node, "COLON") else []
+        name = str(names[0]) if names else f"constraint{len(self.constraints) + 1}"
+        lhs, rhs = expressions_of(node)[:2]
+        left = self.expr.scalar(lhs, self.scope, "a scalar on the left of the constraint")
+        right = self.expr.scalar(rhs, self.scope, "a scalar on the right of the constraint")
+        self.constraints.append(ir.Constraint(name, left - right, self.span(node)))
+
+    def output(self, node):
+        token = tokens(node, "NAME")[0]
+        body = expressions_of(node)[0]
+        value = self.guarded(token, lambda: self.expr.scalar(body, self.scope, "a scalar output"))
+        self.scope.bindings[str(token)] = Binding("output", self.span(token), value)
+        self.outputs.append(ir.Output(str(token), value, self.unit(node), self.description(node),
+                                      self.span(token)))
+
+    # -- scenes --------------------------------------------------------------------------------
+    def scene(self, node):
+        names = tokens(node, "NAME")
+        name, end_name = names[0], names[-1]
+        if str(end_name) != str(name):
+            raise LagError(f"'end {end_name}' closes scene '{name}'", self.span(end_name))
+        if any(s.name == str(name) for s in self.scenes):
+            raise LagError(f"scene '{name}' is declared twice", self.span(name))
+        statements = [c for c in node.children if isinstance(c, lark.Tree) and c.data != "description"]
+        time, integrator = DEFAULT_TIME, None
+        parameter_overrides, initial_overrides, outputs = [], [], []
+        errors = ErrorCollector()
+        for statement in statements:
+            if statement.data == "scene_time":
+                time = errors.attempt(self.scene_time, statement) or time
+            elif statement.data == "scene_integrator":
+                integrator = errors.attempt(self.scene_integrator, statement) or integrator
+            elif statement.data == "scene_set":
+                override = errors.attempt(self.scene_set, statement)
+                if isinstance(override, ir.ParameterOverride):
+                    parameter_overrides.append(override)
+                elif override is not None:
+                    initial_overrides.append(override)
+            elif statement.data == "scene_output":
+                for item in statement.children:
+                    if isinstance(item, lark.Tree):
+                        outputs.append(errors.attempt(self.output_request, item))
+        errors.raise_if_any()
+        if integrator is None:
+            integrator = DEFAULT_INTEGRATOR
+        self.scenes.append(ir.Scene(str(name), self.description(node), time, integrator,
+                                    tuple(parameter_overrides), tuple(initial_overrides),
+                                    tuple(outputs), self.span(name)))
+
+    def scene_time(self, node) -> ir.TimeGrid:
+        options = self.modifiers(node, ("start", "stop", "interval"))
+        values = {k: self.parameter_value(v, f"time({k})") for k, v in options.items()}
+        start, stop = values.get("start", 0.0), values.get("stop", DEFAULT_TIME.stop)
+        interval = values.get("interval", (stop - start) / 1000 if "stop" in values else DEFAULT_TIME.interval)
+        if not stop > start:
+            raise LagError(f"the stop time {stop:g} is not after the start time {start:g}", self.span(node))
+        if not interval > 0:
+            raise LagError("the output interval must be positive", self.span(options.get("interval", node)))
+        return ir.TimeGrid(start, stop, interval, self.span(node))
+
+    def scene_integrator(self, node) -> ir.IntegratorChoice:
+        token = tokens(node, "NAME")[0]
+        name = str(token)
+        if name not in INTEGRATOR_OPTIONS:
+            raise LagError(f"unknown integrator '{name}'{suggest(name, INTEGRATOR_OPTIONS)} "
+                           f"(available: {', '.join(ir.INTEGRATORS)})", self.span(token))
+        options = self.modifiers(node, INTEGRATOR_OPTIONS[name])
+        values = {k: self.parameter_value(v, k) for k, v in options.items()}
+        return validate_integrator(name, values, self.span(node))
+
+    def scene_set(self, node):
+        token = tokens(node, "NAME")[0]
+        binding = self.scope.bindings.get(str(token))
+        parts = [c for c in node.children if isinstance(c, lark.Tree) and c.data != "modifiers"]
+        if subtree(node, "modifiers") is None:        # set p = value
+            if binding is None or binding.kind != "parameter":
+                parameters = [p.name for p in self.parameters]
+                raise LagError(f"'{token}' is not a parameter{suggest(str(token), parameters)}", self.span(token))
+            parameter = next(p for p in self.parameters if p.name == str(token))
+            if parameter.symbol in self.expr.structural:
+                raise LagError(f"'{token}' fixes the size of the model and cannot be changed by a scene",
+                               self.span(token))
+            return ir.ParameterOverride(str(token), self.parameter_value(parts[-1], "the value"), self.span(node))
+        if binding is None or binding.kind != "coordinate":
+            coordinates = [c.name for c in self.coordinates]
+            raise LagError(f"'{token}' is not a coordinate{suggest(str(token), coordinates)}", self.span(token))
+        name = str(token)
+        if binding.family is not None:
+            if not parts:
+                raise LagError(f"'{token}' is indexed; write set {token}[i](start = ...)", self.span(token))
+            index = self.expr.integer(parts[0], self.scope, "an index")
+            if index not in binding.family:
+                raise LagError(f"index {index} is out of range for '{token}'", self.span(parts[0]))
+            name = f"{token}[{index}]"
+        options = self.modifiers(node, ("start", "velocity"))
+        values = {k: self.parameter_value(v, f"the {k} value") for k, v in options.items()}
+        return ir.InitialOverride(name, values.get("start"), values.get("velocity"), self.span(node))
+
+    def output_request(self, node) -> ir.OutputRequest:
+        span = self.span(node)
+        column = " ".join(span.text.split())
+        if node.data == "name" and str(node.children[0]) == "energy":
+            return ir.OutputRequest(column, "energy", None, None, span)
+        if node.data == "call" and str(node.children[0]) in ("momentum", "multiplier", "residual"):
+            kind = str(node.children[0])
+            arguments = subtree(node, "arguments")
+            items = [c for c in arguments.children if isinstance(c, lark.Tree)] if arguments else []
+            if len(items) != 1 or items[0].data not in ("name", "index"):
+                raise LagError(f"{kind}() takes one {'coordinate' if kind == 'momentum' else 'constraint'} name", span)
+            return ir.OutputRequest(column, kind, None, self.target_name(kind, items[0]), span)
+        value = self.expr.scalar(node, self.scope, "a scalar output")
+        return ir.OutputRequest(column, "expression", value, None, span)
+
+    def target_name(self, kind: str, node) -> str:
+        token = node.children[0]
+        binding = self.scope.bindings.get(str(token))
+        if kind == "momentum":
+            if binding is None or binding.kind != "coordinate":
+                coordinates = [n for n, b in self.scope.bindings.items() if b.kind == "coordinate"]
+                raise LagError(f"'{token}' is not a coordinate{suggest(str(token), coordinates)}", self.span(token))
+            if node.data == "index":
+                index = self.expr.integer(node.children[2], self.scope, "an index")
+                if binding.family is None or index not in binding.family:
+                    raise LagError(f"'{token}[{index}]' is not a coordinate", self.span(node))
+                return f"{token}[{index}]"
+            if binding.family is not None:
+                raise LagError(f"'{token}' is indexed; write momentum({token}[i])", self.span(token))
+            return str(token)
+        names = [c.name for c in self.constraints]
+        if node.data != "name" or str(token) not in names:
+            raise LagError(f"'{str(token)}' is not a constraint{suggest(str(token), names)}", self.span(node))
+        return str(token)
+
+
+def validate_integrator(name: str, values: dict[str, float], span: Span | None) -> ir.IntegratorChoice:
+    """Check and complete an integrator's options (defaults: rtol 1e-8, atol 1e-10, 2 stages)."""
+    for key, value in values.items():
+        if not value > 0:
+            raise LagError(f"{name}({key} = ...) must be positive", span)
+    if name in ("rk4", "gauss") and "step" not in values:
+        raise LagError(f"{name} is a fixed-step method and needs a step: {name}(step = 0.001)", span)
+    if name == "gauss":
+        stages = values.setdefault("stages", 2)
+        if stages != int(stages) or not 1 <= stages <= 6:
+            raise LagError("gauss(stages = s) takes s = 1 to 6", span)
+    if name in ("dopri5", "dop853", "radau5"):
+        values.setdefault("rtol", 1e-8)
+        values.setdefault("atol", 1e-10)
+    return ir.IntegratorChoice(name, tuple(sorted(values.items())), span)
