@@ -2,7 +2,7 @@
 
 The integrator tests write a test model (LAG_NQ, LAG_NY, struct lag_system, lag_rhs, ...) and a
 `main` that drives the stepper, in C, and use this helper to assemble the single translation unit
-exactly as the code generator does: runtime.h, linalg.c, model, integrator, main.
+exactly as the code generator does: runtime.h, cholesky.c, lu.c, model, integrator, main.
 """
 from __future__ import annotations
 
@@ -26,7 +26,8 @@ def assemble(model_c: str, integrator: str, main_c: str) -> str:
     parts = [
         SYSTEM_HEADERS,
         (C_SOURCES / "runtime.h").read_text(),
-        (C_SOURCES / "linalg.c").read_text(),
+        (C_SOURCES / "cholesky.c").read_text(),
+        (C_SOURCES / "lu.c").read_text(),
         model_c,
         (C_SOURCES / f"{integrator}.c").read_text(),
         main_c,

@@ -81,3 +81,20 @@ typedef struct lag_stats {
     long accepted, rejected;
     long rhs_evals, jac_evals, lu_decomps, newton_iters;
 } lag_stats;
+
+/* Reading and writing numbers in the working precision (the CSV and the command line). */
+#if defined(LAG_FLOAT128)
+#define r_strtod(text, end) strtoflt128((text), (end))
+static void lag_print_real(FILE *file, real x)
+{
+    char buffer[64];
+    quadmath_snprintf(buffer, sizeof buffer, "%.36Qg", x);
+    fputs(buffer, file);
+}
+#elif defined(LAG_LONG_DOUBLE)
+#define r_strtod(text, end) strtold((text), (end))
+static void lag_print_real(FILE *file, real x) { fprintf(file, "%.21Lg", x); }
+#else
+#define r_strtod(text, end) strtod((text), (end))
+static void lag_print_real(FILE *file, real x) { fprintf(file, "%.17g", x); }
+#endif

@@ -1,0 +1,119 @@
+"""Kernel -> one standalone C99 file (runtime, linear algebra, model, one integrator, driver)."""
+from __future__ import annotations
+
+from .. import __version__
+from . import GeneratedSource, c_source, template_environment
+from .kernel import Block, Kernel
+from .printers import CPrinter
+
+# The parameters of each generated C function whose body is a kernel block.
+FUNCTION_PARAMETERS = {
+    "initial": ("par", "y0"),
+    "system": ("par", "t", "y", "K", "b"),
+    "jacobian": ("par", "t", "y", "acc", "lam", "dR"),
+    "momenta": ("par", "t", "y", "p"),
+    "mass": ("par", "t", "y", "M"),
+    "momentum_rate": ("par", "t", "y", "dp"),
+    "constraint_rows": ("par", "t", "y", "g", "c", "A"),
+    "outputs": ("par", "t", "y", "out"),
+    "invariants": ("par", "t", "y", "inv"),
+}
+# Command-line names of the integrator options, and the lag_options field each sets.
+OPTION_FIELDS = {"rtol": "rtol", "atol": "atol", "step": "step", "max_step": "max_step", "stages": "stages"}
+
+
+def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
+    printer = CPrinter()
+    blocks = {name: _print_block(getattr(kernel, name), name, kernel, printer)
+              for name in FUNCTION_PARAMETERS if getattr(kernel, name) is not None}
+    options = dict(kernel.integrator.options)
+    context = {
+        "title": f"{kernel.model_name}, scene {kernel.scene_name}: generated C simulation",
+        "version": __version__, "source_name": source_name, "scene": kernel.scene_name,
+        "stem": stem(kernel), "model": kernel.model_name, "integrator": kernel.integrator.name,
+        "parameter_list": ", ".join(name for name, _ in kernel.parameters) or "none",
+        "option_list": ", ".join(k for k in OPTION_FIELDS if k in _allowed_options(kernel)),
+        "runtime": c_source("runtime.h"), "linalg": _linear_algebra(kernel),
+        "n": kernel.n, "size": kernel.size, "parameters": kernel.parameters,
+        "columns": kernel.columns, "constraints": kernel.constraints, "holonomic": kernel.holonomic,
+        "invariants": kernel.invariants is not None, "invariant_names": kernel.invariant_names,
+        "parameter_names": _strings(name for name, _ in kernel.parameters) or "\"\"",
+        "coordinate_names": _strings(kernel.coordinates),
+        "column_names": _strings(kernel.columns),
+        "invariant_list": _strings(kernel.invariant_names),
+        "constraint_list": _strings(kernel.constraints),
+        "defaults": [f"par[{i}] = {_literal(value)};  /* {name} */"
+                     for i, (name, value) in enumerate(kernel.parameters)],
+        "derived": [f"if (!fixed[{i}])\n        par[{i}] = {_print_parameter_expression(expr, kernel, printer)};"
+                    for i, expr in kernel.derived_parameters],
+        "solver": kernel.solver, "jacobian": kernel.jacobian is not None,
+        "canonical": kernel.momenta is not None,
+        "outputs_need_multipliers": kernel.outputs_need_multipliers,
+        "integrator_source": c_source(f"{kernel.integrator.name}.c"),
+        "t_start": _literal(kernel.time.start), "t_stop": _literal(kernel.time.stop),
+        "t_interval": _literal(kernel.time.interval),
+        "options_init": _options_initializer(options),
+        "option_fields": [(k, f) for k, f in OPTION_FIELDS.items() if k in _allowed_options(kernel)],
+        **blocks,
+    }
+    context["driver"] = template_environment().get_template("c/driver.c.j2").render(context)
+    text = template_environment().get_template("c/model.c.j2").render(context)
+    return GeneratedSource("c", text, stem(kernel))
+
+
+def _linear_algebra(kernel: Kernel) -> str:
+    """Only the factorisations the scene calls: unused static functions are warnings."""
+    needs_lu = kernel.solver == "lu" or kernel.jacobian is not None or bool(kernel.constraints)
+    needs_cholesky = kernel.solver == "cholesky"
+    return "".join(c_source(name) + "\n" for name, needed in (("cholesky.c", needs_cholesky), ("lu.c", needs_lu))
+                   if needed)
+
+
+def stem(kernel: Kernel) -> str:
+    return f"{kernel.model_name}_{kernel.scene_name}"
+
+
+def _allowed_options(kernel: Kernel) -> tuple[str, ...]:
+    from ..semantics import INTEGRATOR_OPTIONS
+    return INTEGRATOR_OPTIONS[kernel.integrator.name]
+
+
+def _options_initializer(options: dict[str, float]) -> str:
+    """lag_options in field order: rtol, atol, step, max_step, stages, max_steps."""
+    values = [options.get("rtol", 0.0), options.get("atol", 0.0), options.get("step", 0.0),
+              options.get("max_step", 0.0)]
+    return ", ".join([_literal(v) for v in values] + [str(int(options.get("stages", 0))), "0"])
+
+
+def _literal(value: float) -> str:
+    return f"LAG_LIT({value!r})"
+
+
+def _strings(names) -> str:
+    return ", ".join('"' + name.replace("\\", "\\\\").replace('"', '\\"') + '"' for name in names)
+
+
+def _print_parameter_expression(expr, kernel: Kernel, printer: CPrinter) -> str:
+    import sympy
+    symbols = {s.name: s for s in expr.free_symbols}
+    rename = {symbols[name]: sympy.Symbol(f"par[{i}]") for i, (name, _) in enumerate(kernel.parameters)
+              if name in symbols}
+    return printer.doprint(expr.xreplace(rename))
+
+
+def _print_block(block: Block, kind: str, kernel: Kernel, printer: CPrinter) -> dict:
+    """A block as printed lines; `unused` lists the function parameters it does not read."""
+    shapes = {"K": kernel.size, "dR": 2 * kernel.n, "A": kernel.n, "M": kernel.n}
+    stores = [(f"{s.array}[{_flat(s.index, shapes.get(s.array, 0))}]", printer.doprint(s.value))
+              for s in block.stores]
+    assignments = [(name, printer.doprint(value)) for name, value in block.assignments]
+    read = {source.partition("[")[0] for _, source in block.inputs} | {s.array for s in block.stores}
+    if any("t" in {x.name for x in value.free_symbols} for _, value in block.assignments) or \
+            any("t" in {x.name for x in s.value.free_symbols} for s in block.stores):
+        read.add("t")
+    unused = [p for p in FUNCTION_PARAMETERS[kind] if p not in read]
+    return {"inputs": block.inputs, "assignments": assignments, "stores": stores, "unused": unused}
+
+
+def _flat(index: tuple[int, ...], columns: int) -> int:
+    return index[0] if len(index) == 1 else index[0] * columns + index[1]

@@ -1,0 +1,286 @@
+"""Equations + ScenePlan -> Kernel: the one code model shared by the C and NumPy backends.
+
+A kernel is a set of straight-line blocks. Each block reads named inputs (state entries,
+parameters, accelerations, multipliers), computes temporaries (the named intermediates it
+needs, after common-subexpression elimination) and stores expressions into output arrays.
+The blocks are exactly what the scene needs:
+
+  system       K and b of the linear system for q'' (and the multipliers λ):
+                 without constraints  K = M,                   b = f
+                 with constraints     K = [[M, -Aᵀ], [A, 0]],  b = [f; γ]
+               so that M q'' = f + Aᵀλ and A q'' = γ. K is solved numerically, never inverted.
+  outputs      the scene's columns
+  invariants   the conserved quantities, to report their drift
+  constraints  residuals g (holonomic, position level), c (velocity level) and rows A, for
+               projection onto the constraint manifold and the residual report
+  jacobian     implicit integrators only: ∂R/∂y for R = [f - M q'' + Aᵀλ; γ - A q''] at fixed
+               (q'', λ); then ∂(q'', λ)/∂y = K⁻¹ ∂R/∂y, solved numerically
+  canonical    gauss only: p = ∂L/∂q', M, and ṗ = ∂L/∂q + Q for Hamilton's equations
+  initial      the initial state y0 from the start values (expressions of parameters)
+
+All symbols are renamed to target-safe names (p_m1, q_theta1, v_theta1, let_x1, c12, ...)
+that cannot collide with C or Python keywords, libm or POSIX names.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import sympy
+
+from .. import ir
+from ..calculus import Differentiator
+from ..errors import LagError
+from ..mechanics import Equations
+from ..scene import ScenePlan
+from .cse import eliminate_common_subexpressions
+
+
+@dataclass(frozen=True)
+class Store:
+    array: str
+    index: tuple[int, ...]
+    value: sympy.Expr
+
+
+@dataclass(frozen=True)
+class Block:
+    inputs: tuple[tuple[str, str], ...]          # (name, source such as "y[3]" or "par[0]")
+    assignments: tuple[tuple[str, sympy.Expr], ...]
+    stores: tuple[Store, ...]
+
+
+@dataclass(frozen=True)
+class Kernel:
+    model_name: str
+    scene_name: str
+    coordinates: tuple[str, ...]
+    parameters: tuple[tuple[str, float], ...]    # name, value for this scene
+    derived_parameters: tuple[tuple[int, sympy.Expr], ...]   # recomputed from earlier ones
+    constraints: tuple[str, ...]                 # active constraints
+    holonomic: int                               # how many of them are holonomic (they come first)
+    columns: tuple[str, ...]
+    invariant_names: tuple[str, ...]
+    integrator: ir.IntegratorChoice
+    time: ir.TimeGrid
+    solver: str                                  # "cholesky" or "lu"
+    initial: Block
+    system: Block
+    outputs: Block
+    outputs_need_multipliers: bool
+    invariants: Block | None
+    constraint_rows: Block | None
+    jacobian: Block | None
+    momenta: Block | None
+    mass: Block | None
+    momentum_rate: Block | None
+
+    @property
+    def n(self) -> int:
+        return len(self.coordinates)
+
+    @property
+    def size(self) -> int:
+        """Order of the linear system K: coordinates plus active constraints."""
+        return self.n + len(self.constraints)
+
+
+def lower_to_kernel(equations: Equations, plan: ScenePlan) -> Kernel:
+    """Build every block the scene needs (see the module docstring)."""
+    return _Lowering(equations, plan).kernel()
+
+
+def safe_name(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_]", "_", text.replace("[", "_").replace("]", "")).strip("_") or "x"
+
+
+class _Lowering:
+    def __init__(self, equations: Equations, plan: ScenePlan):
+        self.eq, self.plan = equations, plan
+        self.model = equations.model
+        self.calculus: Differentiator = equations.calculus()
+        self.active = [c for c in equations.constraints if not c.dropped]
+        self.active.sort(key=lambda c: c.kind != "holonomic")      # holonomic rows first
+        self.n = equations.size
+        q, v = equations.coordinates, equations.velocities
+        self.accelerations = [sympy.Symbol(f"{c.name}''", real=True) for c in self.model.coordinates]
+        self.multipliers = [sympy.Symbol(f"λ[{c.name}]", real=True) for c in self.active]
+        self.sources: dict[sympy.Symbol, str] = {ir.TIME: "t"}
+        self.sources.update({p.symbol: f"par[{i}]" for i, p in enumerate(self.model.parameters)})
+        self.sources.update({s: f"y[{k}]" for k, s in enumerate(q)})
+        self.sources.update({s: f"y[{self.n + k}]" for k, s in enumerate(v)})
+        self.sources.update({s: f"acc[{k}]" for k, s in enumerate(self.accelerations)})
+        self.sources.update({s: f"lam[{i}]" for i, s in enumerate(self.multipliers)})
+        self.names = self._name_table()
+
+    # -- names ---------------------------------------------------------------------------------
+    def _name_table(self) -> dict[sympy.Symbol, str]:
+        taken: set[str] = {"t"}
+        names: dict[sympy.Symbol, str] = {ir.TIME: "t"}
+
+        def claim(symbol, wanted):
+            name, counter = wanted, 1
+            while name in taken:
+                counter += 1
+                name = f"{wanted}_{counter}"
+            taken.add(name)
+            names[symbol] = name
+
+        for p in self.model.parameters:
+            claim(p.symbol, "p_" + safe_name(p.name))
+        for c in self.model.coordinates:
+            claim(c.symbol, "q_" + safe_name(c.name))
+            claim(c.velocity_symbol, "v_" + safe_name(c.name))
+        for c, a in zip(self.model.coordinates, self.accelerations):
+            claim(a, "a_" + safe_name(c.name))
+        for c, lam in zip(self.active, self.multipliers):
+            claim(lam, "lam_" + safe_name(c.name))
+        user_lets = {let.symbol for let in self.model.lets if let.span is not None}
+        for index, (symbol, _) in enumerate(self.calculus.definitions()):
+            if symbol in user_lets:
+                claim(symbol, "let_" + safe_name(symbol.name))
+            elif symbol.name.startswith("der(") and symbol.name.count("(") == 1:
+                claim(symbol, "der_" + safe_name(symbol.name[4:-1]))
+            else:
+                claim(symbol, f"w{index}")
+        return names
+
+    # -- blocks --------------------------------------------------------------------------------
+    def block(self, stores: list[tuple[str, tuple[int, ...], sympy.Expr]]) -> Block:
+        values = [value for _, _, value in stores]
+        needed = self.calculus.needed(values)
+        ordered, reduced = eliminate_common_subexpressions(needed, values)
+        rename = {}
+        for symbol, _ in ordered:
+            rename[symbol] = sympy.Symbol(self.names.get(symbol, symbol.name), real=True)
+        used = set().union(*(e.free_symbols for _, e in ordered), *(e.free_symbols for e in reduced)) \
+            if (ordered or reduced) else set()
+        inputs = []
+        for symbol in sorted(used - set(rename), key=lambda s: self._input_order(s)):
+            if symbol not in self.sources:
+                raise AssertionError(f"unbound symbol {symbol} in a kernel block")
+            rename[symbol] = sympy.Symbol(self.names[symbol], real=True)
+            if symbol != ir.TIME:
+                inputs.append((self.names[symbol], self.sources[symbol]))
+        return Block(tuple(inputs),
+                     tuple((rename[s].name, e.xreplace(rename)) for s, e in ordered),
+                     tuple(Store(array, index, value.xreplace(rename))
+                           for (array, index, _), value in zip(stores, reduced)))
+
+    def _input_order(self, symbol):
+        source = self.sources.get(symbol, "")
+        array, _, rest = source.partition("[")
+        return (("par", "y", "acc", "lam", "t").index(array) if array in ("par", "y", "acc", "lam", "t") else 9,
+                int(rest[:-1]) if rest else 0)
+
+    # -- the kernel ----------------------------------------------------------------------------
+    def kernel(self) -> Kernel:
+        plan, eq = self.plan, self.eq
+        return Kernel(
+            model_name=self.model.name, scene_name=plan.scene_name,
+            coordinates=tuple(c.name for c in self.model.coordinates),
+            parameters=tuple((p.name, value) for p, value in zip(self.model.parameters, plan.parameters)),
+            derived_parameters=self.derived_parameters(),
+            constraints=tuple(c.name for c in self.active),
+            holonomic=sum(c.kind == "holonomic" for c in self.active),
+            columns=plan.columns, invariant_names=plan.invariants,
+            integrator=plan.integrator, time=plan.time,
+            solver="lu" if self.active or not self.model.lagrangian.is_natural else "cholesky",
+            initial=self.initial_block(), system=self.system_block(),
+            outputs=self.outputs_block(),
+            outputs_need_multipliers=any(o.kind == "multiplier" for o in plan.outputs),
+            invariants=self.block([("inv", (i,), q.expression) for i, q in enumerate(eq.conserved)])
+            if eq.conserved else None,
+            constraint_rows=self.constraint_block() if self.active else None,
+            jacobian=self.jacobian_block() if plan.implicit else None,
+            **self.canonical_blocks())
+
+    def derived_parameters(self):
+        return tuple((i, p.expression) for i, p in enumerate(self.model.parameters)
+                     if p.expression.free_symbols and p.name not in self.plan.fixed_parameters)
+
+    def initial_block(self) -> Block:
+        overrides = {name: (start, velocity) for name, start, velocity in self.plan.initial}
+        stores = []
+        for k, c in enumerate(self.model.coordinates):
+            start, velocity = overrides.get(c.name, (None, None))
+            stores.append(("y0", (k,), sympy.Float(start) if start is not None else c.start))
+            stores.append(("y0", (self.n + k,), sympy.Float(velocity) if velocity is not None else c.velocity))
+        return self.block(stores)
+
+    def system_block(self) -> Block:
+        n, m = self.n, len(self.active)
+        stores = []
+        for k in range(n):
+            for j in range(n):
+                stores.append(("K", (k, j), self.eq.mass_matrix[k][j]))
+            for i, c in enumerate(self.active):
+                stores.append(("K", (k, n + i), -c.jacobian[k]))
+        for i, c in enumerate(self.active):
+            for j in range(n):
+                stores.append(("K", (n + i, j), c.jacobian[j]))
+            for l in range(m):
+                stores.append(("K", (n + i, n + l), sympy.S.Zero))
+        stores += [("b", (k,), f) for k, f in enumerate(self.eq.forcing)]
+        stores += [("b", (n + i,), c.gamma) for i, c in enumerate(self.active)]
+        return self.block(stores)
+
+    def outputs_block(self) -> Block:
+        conserved = {q.name: q.expression for q in self.eq.conserved}
+        coordinates = [c.name for c in self.model.coordinates]
+        active = [c.name for c in self.active]
+        by_name = {c.name: c for c in self.eq.constraints}
+        stores = []
+        for column, request in enumerate(self.plan.outputs):
+            if request.kind == "expression":
+                value = request.expression
+            elif request.kind == "energy":
+                value = conserved.get("energy", self.eq.energy)
+            elif request.kind == "momentum":
+                value = self.eq.momenta[coordinates.index(request.target)]
+            elif request.kind == "multiplier":
+                value = self.multipliers[active.index(request.target)]
+            else:                                               # residual
+                constraint = by_name[request.target]
+                value = constraint.residual
+            stores.append(("out", (column,), value))
+        return self.block(stores)
+
+    def constraint_block(self) -> Block:
+        holonomic = [c for c in self.active if c.kind == "holonomic"]
+        stores = [("g", (i,), c.residual) for i, c in enumerate(holonomic)]
+        stores += [("c", (i,), c.velocity_residual) for i, c in enumerate(self.active)]
+        stores += [("A", (i, k), a) for i, c in enumerate(self.active) for k, a in enumerate(c.jacobian)]
+        return self.block(stores)
+
+    def jacobian_block(self) -> Block:
+        eq, n = self.eq, self.n
+        residuals = []
+        for k in range(n):
+            r = eq.forcing[k] - sum((eq.mass_matrix[k][j] * self.accelerations[j] for j in range(n)), sympy.S.Zero)
+            r += sum((lam * c.jacobian[k] for lam, c in zip(self.multipliers, self.active)), sympy.S.Zero)
+            residuals.append(r)
+        for c in self.active:
+            residuals.append(c.gamma - sum((a * x for a, x in zip(c.jacobian, self.accelerations)), sympy.S.Zero))
+        state = (*eq.coordinates, *eq.velocities)
+        stores = [("dR", (r, j), self.calculus.partial(residual, y))
+                  for r, residual in enumerate(residuals) for j, y in enumerate(state)]
+        return self.block(stores)
+
+    def canonical_blocks(self) -> dict:
+        if not self.plan.canonical:
+            return {"momenta": None, "mass": None, "momentum_rate": None}
+        velocities = set(self.eq.velocities)
+        for row in self.eq.mass_matrix:
+            for entry in row:
+                if self.calculus.dependencies(entry) & velocities:
+                    raise LagError("the gauss integrator needs a Lagrangian quadratic in the velocities "
+                                   "(a mass matrix independent of q'); use radau5 or dop853",
+                                   self.plan.integrator.span)
+        eq, n = self.eq, self.n
+        return {
+            "momenta": self.block([("p", (k,), p) for k, p in enumerate(eq.momenta)]),
+            "mass": self.block([("M", (k, j), eq.mass_matrix[k][j]) for k in range(n) for j in range(n)]),
+            "momentum_rate": self.block([("dp", (k,), g + f) for k, (g, f) in
+                                         enumerate(zip(eq.lagrangian_gradient, eq.generalized_forces))]),
+        }

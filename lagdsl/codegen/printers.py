@@ -1,0 +1,167 @@
+"""Expression printers for the C and NumPy backends.
+
+Both print the same scalar kernel expressions; symbols are renamed to target names
+(`p_m1`, `q_theta1`, `c12`, ...) before printing, by the kernel's name table.
+"""
+from __future__ import annotations
+
+from decimal import Decimal, localcontext
+
+import sympy
+from sympy.printing.c import C99CodePrinter
+from sympy.printing.numpy import NumPyPrinter
+
+ELEMENTARY = ("sin", "cos", "tan", "asin", "acos", "atan", "sinh", "cosh", "tanh", "exp", "log")
+PI_DIGITS = "3.14159265358979323846264338327950288"
+E_DIGITS = "2.71828182845904523536028747135266250"
+LARGEST_PLAIN_INTEGER = 2**31 - 1
+
+
+def exact_decimal(value: sympy.Rational) -> str | None:
+    """The exact decimal expansion of p/q when q = 2^a 5^b ("9.81", "6.674e-11"), else None."""
+    q = int(value.q)
+    while q % 2 == 0:
+        q //= 2
+    while q % 5 == 0:
+        q //= 5
+    if q != 1:
+        return None
+    with localcontext() as context:
+        context.prec = 80
+        text = format(Decimal(int(value.p)) / Decimal(int(value.q)), "f").rstrip("0")
+    if len(text) > 24:
+        with localcontext() as context:
+            context.prec = 80
+            text = format(Decimal(int(value.p)) / Decimal(int(value.q)), "e").replace("E", "e")
+        mantissa, exponent = text.split("e")
+        mantissa = mantissa.rstrip("0").rstrip(".")
+        return f"{mantissa}{'' if '.' in mantissa else '.0'}e{int(exponent)}"
+    return text + "0" if text.endswith(".") else text
+
+
+def is_dyadic(value: sympy.Rational) -> bool:
+    q = int(value.q)
+    return q & (q - 1) == 0
+
+
+class CPrinter(C99CodePrinter):
+    """C99 printer for lagdsl kernels, generic in the floating-point type `real`.
+
+    Number policy: integers print as C integers (products with `real` promote exactly);
+    a rational with a power-of-two denominator prints as its exact decimal (0.5); any other
+    terminating decimal prints as LAG_LIT(9.81), which the runtime turns into 9.81, 9.81L or
+    9.81Q, so long double and __float128 builds get the constant to their own precision;
+    other rationals print as (LAG_LIT(1.0)/3). pi and e print as LAG_LIT with 36 digits.
+
+    Functions go through the runtime's table (r_sin, r_sqrt, ...), never libm names directly.
+
+    Powers: integer powers 2 to 4 of a symbol print as products (x*x), since kernels are
+    built without -ffast-math; negative ones as 1/(x*x); square roots as r_sqrt; other powers
+    call r_pow (gcc folds r_pow(x, 2) of an expression into a product by itself).
+    """
+
+    def __init__(self, settings=None):
+        super().__init__(settings or {})
+
+    def _print_Integer(self, expr):
+        if abs(int(expr)) > LARGEST_PLAIN_INTEGER:
+            return f"LAG_LIT({int(expr)}.0)"
+        return str(int(expr))
+
+    def _print_Rational(self, expr):
+        decimal = exact_decimal(expr)
+        if decimal is not None:
+            return decimal if is_dyadic(expr) else f"LAG_LIT({decimal})"
+        return f"(LAG_LIT({int(expr.p)}.0)/{int(expr.q)})"
+
+    def _print_Float(self, expr):
+        return f"LAG_LIT({repr(float(expr))})"
+
+    def _print_Pi(self, expr):
+        return f"LAG_LIT({PI_DIGITS})"
+
+    def _print_Exp1(self, expr):
+        return f"LAG_LIT({E_DIGITS})"
+
+    def _print_Pow(self, expr):
+        base, exponent = expr.args
+        if exponent == sympy.S.Half:
+            return f"r_sqrt({self._print(base)})"
+        if exponent == -sympy.S.Half:
+            return f"(1.0/r_sqrt({self._print(base)}))"
+        if exponent.is_Integer and base.is_Symbol and 2 <= abs(int(exponent)) <= 4:
+            product = "*".join([self._print(base)] * abs(int(exponent)))
+            return product if exponent > 0 else f"(1.0/({product}))"
+        if exponent == -1:
+            return f"(1.0/{self.parenthesize(base, sympy.printing.precedence.PRECEDENCE['Mul'] + 1)})"
+        return f"r_pow({self._print(base)}, {self._print(exponent)})"
+
+    def _print_Abs(self, expr):
+        return f"r_fabs({self._print(expr.args[0])})"
+
+    def _print_sign(self, expr):
+        x = self._print(expr.args[0])
+        return f"((real)(({x} > 0) - ({x} < 0)))"
+
+    def _print_Heaviside(self, expr):
+        return f"((real)({self._print(expr.args[0])} > 0))"
+
+    def _print_DiracDelta(self, expr):
+        return "0"
+
+    def _print_atan2(self, expr):
+        return f"r_atan2({self._print(expr.args[0])}, {self._print(expr.args[1])})"
+
+    def _print_Max(self, expr):
+        return self._nested("r_fmax", expr.args)
+
+    def _print_Min(self, expr):
+        return self._nested("r_fmin", expr.args)
+
+    def _nested(self, function, args):
+        text = self._print(args[0])
+        for arg in args[1:]:
+            text = f"{function}({text}, {self._print(arg)})"
+        return text
+
+
+def _elementary(name):
+    def printer(self, expr):
+        return f"r_{name}({self._print(expr.args[0])})"
+    return printer
+
+
+for _name in ELEMENTARY:
+    setattr(CPrinter, f"_print_{_name}", _elementary(_name))
+
+
+class PythonPrinter(NumPyPrinter):
+    """NumPy printer: the same kernels as Python over arrays (a batch of states broadcasts).
+
+    Numbers print as Python floats or exact fractions (981/100 is correctly rounded by
+    Python's division); functions are numpy's; min and max are elementwise.
+    """
+
+    def __init__(self, settings=None):
+        super().__init__({"fully_qualified_modules": True, **(settings or {})})
+
+    def _print_Max(self, expr):
+        return self._nested("numpy.maximum", expr.args)
+
+    def _print_Min(self, expr):
+        return self._nested("numpy.minimum", expr.args)
+
+    def _print_Heaviside(self, expr):
+        return f"numpy.heaviside({self._print(expr.args[0])}, 0.0)"
+
+    def _print_DiracDelta(self, expr):
+        return "0.0"
+
+    def _print_Integer(self, expr):
+        return f"{int(expr)}.0" if abs(int(expr)) > LARGEST_PLAIN_INTEGER else str(int(expr))
+
+    def _nested(self, function, args):
+        text = self._print(args[0])
+        for arg in args[1:]:
+            text = f"{function}({text}, {self._print(arg)})"
+        return text

@@ -1,0 +1,163 @@
+"""Model + Equations + scene + overrides -> ScenePlan: what one simulation needs.
+
+The plan resolves the scene (the model's first, or the default set-up: t = 0..10 every 0.01,
+dop853 at rtol 1e-8, every coordinate as output), applies overrides from the command line or
+the Python API on top of the scene's own `set` statements, and decides what the generated
+code must contain: the outputs asked for, the invariants to watch, constraint projection only
+for active constraints, a Jacobian only for an implicit integrator, the canonical form only
+for the symplectic `gauss`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+from . import ir
+from .errors import LagError
+from .expressions import suggest
+from .mechanics import Equations
+from .semantics import DEFAULT_INTEGRATOR, DEFAULT_TIME, validate_integrator
+
+
+@dataclass(frozen=True)
+class Overrides:
+    """Settings given outside the model file (`lagc run` options, `simulate()` arguments).
+
+    `values` maps a parameter name, "q.start" or "q.velocity" to a number.
+    """
+
+    values: tuple[tuple[str, float], ...] = ()
+    start: float | None = None
+    stop: float | None = None
+    interval: float | None = None
+    integrator: str | None = None
+    options: tuple[tuple[str, float], ...] = ()     # rtol, atol, step, stages, max_step
+
+
+@dataclass(frozen=True)
+class ScenePlan:
+    model: ir.Model
+    scene_name: str
+    description: str | None
+    time: ir.TimeGrid
+    integrator: ir.IntegratorChoice
+    parameters: tuple[float, ...]                   # one value per model parameter, in order
+    fixed_parameters: frozenset[str]                # set explicitly: not recomputed from others
+    initial: tuple[tuple[str, float | None, float | None], ...]  # (coordinate, start, velocity) overrides
+    outputs: tuple[ir.OutputRequest, ...]
+    invariants: tuple[str, ...]                     # names of conserved quantities to watch
+    constraints: tuple[str, ...]                    # active constraints (projected, monitored)
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        return tuple(o.column for o in self.outputs)
+
+    @property
+    def implicit(self) -> bool:
+        return self.integrator.name in ir.IMPLICIT_INTEGRATORS
+
+    @property
+    def canonical(self) -> bool:
+        return self.integrator.name == "gauss"
+
+
+def plan_scene(model: ir.Model, equations: Equations, scene_name: str | None = None,
+               overrides: Overrides = Overrides()) -> ScenePlan:
+    scene = _find_scene(model, scene_name)
+    time = _time(scene.time if scene else DEFAULT_TIME, overrides)
+    integrator = _integrator(scene.integrator if scene else DEFAULT_INTEGRATOR, overrides)
+    outputs = scene.outputs if scene and scene.outputs else tuple(
+        ir.OutputRequest(c.name, "expression", c.symbol, None, None) for c in model.coordinates)
+    set_values = dict((o.name, o.value) for o in (scene.parameter_overrides if scene else ()))
+    initial = {o.coordinate: (o.start, o.velocity) for o in (scene.initial_overrides if scene else ())}
+    for name, value in overrides.values:
+        _apply_override(model, name, value, set_values, initial)
+    parameters = _parameter_values(model, set_values)
+    active = tuple(c.name for c in equations.active_constraints)
+    _check_outputs(outputs, equations)
+    if integrator.name == "gauss" and active:
+        raise LagError("the symplectic gauss integrator does not handle constraints; use radau5 or dop853",
+                       integrator.span)
+    return ScenePlan(model, scene.name if scene else "default", scene.description if scene else None,
+                     time, integrator, parameters, frozenset(set_values),
+                     tuple((name, start, velocity) for name, (start, velocity) in initial.items()),
+                     outputs, tuple(q.name for q in equations.conserved), active)
+
+
+def _find_scene(model: ir.Model, name: str | None) -> ir.Scene | None:
+    if name is None:
+        return model.scenes[0] if model.scenes else None
+    for scene in model.scenes:
+        if scene.name == name:
+            return scene
+    names = [s.name for s in model.scenes]
+    available = f" (scenes: {', '.join(names)})" if names else " (the model has no scenes)"
+    raise LagError(f"no scene '{name}' in model {model.name}{suggest(name, names)}{available}", model.span)
+
+
+def _time(time: ir.TimeGrid, overrides: Overrides) -> ir.TimeGrid:
+    start = overrides.start if overrides.start is not None else time.start
+    stop = overrides.stop if overrides.stop is not None else time.stop
+    interval = overrides.interval if overrides.interval is not None else time.interval
+    if not stop > start:
+        raise LagError(f"the stop time {stop:g} is not after the start time {start:g}")
+    if not interval > 0:
+        raise LagError("the output interval must be positive")
+    return replace(time, start=start, stop=stop, interval=interval)
+
+
+def _integrator(choice: ir.IntegratorChoice, overrides: Overrides) -> ir.IntegratorChoice:
+    name = overrides.integrator or choice.name
+    if name not in ir.INTEGRATORS:
+        raise LagError(f"unknown integrator '{name}'{suggest(name, ir.INTEGRATORS)} "
+                       f"(available: {', '.join(ir.INTEGRATORS)})")
+    from .semantics import INTEGRATOR_OPTIONS
+    allowed = INTEGRATOR_OPTIONS[name]
+    values = {k: v for k, v in choice.options if k in allowed} if name == choice.name else {}
+    for key, value in overrides.options:
+        if key not in allowed:
+            raise LagError(f"{name} has no option '{key}' (options: {', '.join(allowed)})")
+        values[key] = value
+    return validate_integrator(name, values, choice.span)
+
+
+def _apply_override(model: ir.Model, name: str, value: float, set_values: dict, initial: dict) -> None:
+    coordinate, _, part = name.rpartition(".")
+    if part in ("start", "velocity") and coordinate:
+        names = [c.name for c in model.coordinates]
+        if coordinate not in names:
+            raise LagError(f"cannot set '{name}': '{coordinate}' is not a coordinate{suggest(coordinate, names)}")
+        start, velocity = initial.get(coordinate, (None, None))
+        initial[coordinate] = (value, velocity) if part == "start" else (start, value)
+        return
+    parameters = {p.name: p for p in model.parameters}
+    if name not in parameters:
+        choices = list(parameters) + [f"{c.name}.start" for c in model.coordinates]
+        raise LagError(f"cannot set '{name}': it is not a parameter, nor COORDINATE.start or "
+                       f"COORDINATE.velocity{suggest(name, choices)}")
+    if parameters[name].structural:
+        raise LagError(f"'{name}' fixes the size of the model (it is used as an index range); "
+                       "change it in the model file")
+    set_values[name] = value
+
+
+def _parameter_values(model: ir.Model, set_values: dict[str, float]) -> tuple[float, ...]:
+    """Parameters in declaration order; a parameter not set is recomputed from the ones before."""
+    values: dict = {}
+    result = []
+    for parameter in model.parameters:
+        if parameter.name in set_values:
+            value = float(set_values[parameter.name])
+        else:
+            value = float(parameter.expression.xreplace(values).evalf(30)) if parameter.expression.free_symbols \
+                else parameter.value
+        values[parameter.symbol] = value
+        result.append(value)
+    return tuple(result)
+
+
+def _check_outputs(outputs, equations: Equations) -> None:
+    active = {c.name for c in equations.active_constraints}
+    for request in outputs:
+        if request.kind == "multiplier" and request.target not in active:
+            raise LagError(f"constraint '{request.target}' is identically satisfied by the coordinates "
+                           "and was dropped, so it has no multiplier", request.span)
