@@ -51,7 +51,86 @@ def _parser() -> argparse.ArgumentParser:
     eom.add_argument("model")
     eom.add_argument("--latex", action="store_true", help="print LaTeX (an aligned environment)")
     eom.set_defaults(handler=_eom)
+
+    run = commands.add_parser("run", help="simulate a scene; CSV on stdout (or -o), run summary on stderr")
+    run.add_argument("model")
+    _scene_options(run)
+    run.add_argument("--backend", choices=("c", "numpy"), default="c", help="generated code to run (default: c)")
+    run.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                     help="override a parameter, or an initial value as COORDINATE.start / COORDINATE.velocity")
+    run.add_argument("--start", type=float, help="start time of the output grid")
+    run.add_argument("--stop", type=float, help="stop time")
+    run.add_argument("--interval", type=float, help="output interval")
+    run.add_argument("--integrator", help="rk4, dopri5, dop853, radau5 or gauss")
+    run.add_argument("--rtol", type=float, help="relative tolerance (adaptive integrators)")
+    run.add_argument("--atol", type=float, help="absolute tolerance (adaptive integrators)")
+    run.add_argument("--step", type=float, help="step size (rk4, gauss)")
+    run.add_argument("--stages", type=int, help="number of stages (gauss)")
+    run.add_argument("-o", "--output", help="write the CSV here (atomically) instead of standard output")
+    run.set_defaults(handler=_run)
+
+    emit = commands.add_parser("emit", help="write the generated source: lagc MODEL --emit c|numpy [-o FILE]")
+    emit.add_argument("model")
+    emit.add_argument("--emit", required=True, choices=("c", "numpy"), dest="language")
+    _scene_options(emit)
+    emit.add_argument("-o", "--output", help="file to write (default: standard output)")
+    emit.set_defaults(handler=_emit)
     return parser
+
+
+def _scene_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--scene", help="scene to use (default: the model's first scene)")
+
+
+def _overrides(arguments) -> "Overrides":
+    from .scene import Overrides
+    values = []
+    for item in arguments.set:
+        name, equals, text = item.partition("=")
+        try:
+            value = float(text)
+        except ValueError:
+            value = None
+        if not equals or value is None:
+            raise LagError(f"--set takes NAME=VALUE with a number, got '{item}'")
+        values.append((name.strip(), value))
+    options = tuple((k, float(v)) for k, v in (("rtol", arguments.rtol), ("atol", arguments.atol),
+                                                 ("step", arguments.step), ("stages", arguments.stages))
+                    if v is not None)
+    return Overrides(tuple(values), arguments.start, arguments.stop, arguments.interval,
+                     arguments.integrator, options)
+
+
+def _run(arguments) -> int:
+    from .api import load
+    from .run.output import write_atomically
+    model = load(arguments.model)
+    try:
+        result = model.simulate_plan(arguments.scene, arguments.backend, _overrides(arguments))
+    except SimulationError as error:
+        if error.partial is not None:
+            print(error.partial.summary.render(), file=sys.stderr)
+        raise
+    if arguments.output:
+        from pathlib import Path
+        write_atomically(Path(arguments.output), result.csv())
+    else:
+        sys.stdout.write(result.csv())
+    print(result.summary.render(), file=sys.stderr)
+    return 0
+
+
+def _emit(arguments) -> int:
+    from .api import load
+    from .run.output import write_atomically
+    model = load(arguments.model)
+    source = model.emit(arguments.language, arguments.scene)
+    if arguments.output:
+        from pathlib import Path
+        write_atomically(Path(arguments.output), source.text)
+    else:
+        sys.stdout.write(source.text)
+    return 0
 
 
 def _check(arguments) -> int:

@@ -18,8 +18,15 @@ from __future__ import annotations
 from pathlib import Path
 
 from . import ir
+from .codegen import GeneratedSource
+from .codegen.c import render_c
+from .codegen.kernel import Kernel, lower_to_kernel
+from .codegen.numpy import render_numpy
 from .mechanics import Equations, derive_equations
 from .parser import parse
+from .run.output import Result
+from .run.runner import run_c, run_numpy
+from .scene import Overrides, ScenePlan, plan_scene
 from .semantics import build_model
 from .source import SourceFile
 
@@ -37,3 +44,18 @@ def model_from_source(source: SourceFile) -> ir.Model:
 def load_equations(path: str | Path) -> tuple[ir.Model, Equations]:
     model = load_model(path)
     return model, derive_equations(model)     # Model -> Equations
+
+
+def plan(model: ir.Model, equations: Equations, scene: str | None, overrides: Overrides) -> ScenePlan:
+    return plan_scene(model, equations, scene, overrides)          # + scene, overrides -> ScenePlan
+
+
+def generate(equations: Equations, scene_plan: ScenePlan, backend: str, source_name: str) -> tuple[Kernel, GeneratedSource]:
+    kernel = lower_to_kernel(equations, scene_plan)                 # -> Kernel (CSE applied)
+    render = {"c": render_c, "numpy": render_numpy}[backend]
+    return kernel, render(kernel, source_name)                      # -> C or NumPy source
+
+
+def execute(kernel: Kernel, source: GeneratedSource, scene_plan: ScenePlan) -> Result:
+    run = {"c": run_c, "numpy": run_numpy}[source.language]
+    return run(kernel, source, scene_plan)                          # -> Result

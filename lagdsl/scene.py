@@ -9,7 +9,7 @@ for the symplectic `gauss`.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 from . import ir
 from .errors import LagError
@@ -46,6 +46,7 @@ class ScenePlan:
     outputs: tuple[ir.OutputRequest, ...]
     invariants: tuple[str, ...]                     # names of conserved quantities to watch
     constraints: tuple[str, ...]                    # active constraints (projected, monitored)
+    initial_state: tuple[float, ...]                # y0 = (q(0), q'(0)) with every override applied
 
     @property
     def columns(self) -> tuple[str, ...]:
@@ -80,7 +81,8 @@ def plan_scene(model: ir.Model, equations: Equations, scene_name: str | None = N
     return ScenePlan(model, scene.name if scene else "default", scene.description if scene else None,
                      time, integrator, parameters, frozenset(set_values),
                      tuple((name, start, velocity) for name, (start, velocity) in initial.items()),
-                     outputs, tuple(q.name for q in equations.conserved), active)
+                     outputs, tuple(q.name for q in equations.conserved), active,
+                     _initial_state(model, parameters, initial))
 
 
 def _find_scene(model: ir.Model, name: str | None) -> ir.Scene | None:
@@ -153,6 +155,16 @@ def _parameter_values(model: ir.Model, set_values: dict[str, float]) -> tuple[fl
         values[parameter.symbol] = value
         result.append(value)
     return tuple(result)
+
+
+def _initial_state(model: ir.Model, parameters, initial: dict) -> tuple[float, ...]:
+    values = {p.symbol: v for p, v in zip(model.parameters, parameters)}
+    starts, velocities = [], []
+    for c in model.coordinates:
+        start, velocity = initial.get(c.name, (None, None))
+        starts.append(start if start is not None else float(c.start.xreplace(values).evalf(30)))
+        velocities.append(velocity if velocity is not None else float(c.velocity.xreplace(values).evalf(30)))
+    return tuple(starts + velocities)
 
 
 def _check_outputs(outputs, equations: Equations) -> None:

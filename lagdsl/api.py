@@ -1,0 +1,77 @@
+"""The Python API: `lagdsl.load("model.lag").simulate()`. The command line is a thin layer over it."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from . import ir
+from .codegen import GeneratedSource
+from .errors import LagError
+from .mechanics import Equations, derive_equations
+from .pipeline import execute, generate, model_from_source, plan
+from .run.output import Result
+from .scene import Overrides, ScenePlan
+from .source import SourceFile
+
+BACKENDS = ("c", "numpy")
+
+
+class Model:
+    """A parsed, checked model with its derived equations of motion."""
+
+    def __init__(self, source: SourceFile):
+        self.source = source
+        self.ir: ir.Model = model_from_source(source)
+        self.equations: Equations = derive_equations(self.ir)
+
+    @property
+    def name(self) -> str:
+        return self.ir.name
+
+    @property
+    def scenes(self) -> tuple[str, ...]:
+        return tuple(s.name for s in self.ir.scenes)
+
+    def plan(self, scene: str | None = None, overrides: Overrides = Overrides()) -> ScenePlan:
+        return plan(self.ir, self.equations, scene, overrides)
+
+    def emit(self, backend: str = "c", scene: str | None = None, overrides: Overrides = Overrides()) -> GeneratedSource:
+        """The standalone generated source of a scene (C99 or a NumPy module)."""
+        _check_backend(backend)
+        return generate(self.equations, self.plan(scene, overrides), backend, self.source.name)[1]
+
+    def simulate(self, scene: str | None = None, backend: str = "c", *, set: dict | None = None,
+                 start: float | None = None, stop: float | None = None, interval: float | None = None,
+                 integrator: str | None = None, rtol: float | None = None, atol: float | None = None,
+                 step: float | None = None, stages: int | None = None, **parameters: float) -> Result:
+        """Run a scene and return its outputs.
+
+        `set` maps parameter names, "q.start" and "q.velocity" to values; parameters may also be
+        given as keyword arguments (`simulate(m2=3)`). The other arguments override the scene's
+        time grid and integrator. Raises SimulationError (with `.partial`, the rows computed so
+        far) when the integration fails.
+        """
+        _check_backend(backend)
+        values = dict(set or {})
+        values.update(parameters)
+        options = tuple((k, float(v)) for k, v in (("rtol", rtol), ("atol", atol), ("step", step),
+                                                     ("stages", stages)) if v is not None)
+        overrides = Overrides(tuple((k, float(v)) for k, v in values.items()), start, stop, interval,
+                              integrator, options)
+        return self.simulate_plan(scene, backend, overrides)
+
+    def simulate_plan(self, scene: str | None, backend: str, overrides: Overrides) -> Result:
+        """`simulate` with the overrides already gathered (what `lagc run` calls)."""
+        _check_backend(backend)
+        scene_plan = self.plan(scene, overrides)
+        kernel, source = generate(self.equations, scene_plan, backend, self.source.name)
+        return execute(kernel, source, scene_plan)
+
+
+def load(path: str | Path) -> Model:
+    """Read, check and derive a model file; raises LagError with located diagnostics."""
+    return Model(SourceFile.read(path))
+
+
+def _check_backend(backend: str) -> None:
+    if backend not in BACKENDS:
+        raise LagError(f"unknown backend '{backend}' (available: {', '.join(BACKENDS)})")

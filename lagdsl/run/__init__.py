@@ -1,0 +1,1 @@
+"""Running generated code: the C toolchain and cache, the two backends' runners, outputs."""

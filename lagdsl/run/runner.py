@@ -1,0 +1,237 @@
+"""Run a scene: the C backend through ctypes, the NumPy backend with scipy or our Python methods.
+
+Both deliver the same `Result`: rows at the output grid t0, t0 + dt, ... <= t1, the scene's
+columns, and a `RunSummary`. A numerical failure raises SimulationError naming the time, the
+state and a remedy, with the rows computed so far in `error.partial`.
+"""
+from __future__ import annotations
+
+import ctypes
+import importlib.util
+import time as clock
+from pathlib import Path
+
+import numpy as np
+
+from ..codegen import GeneratedSource
+from ..codegen.kernel import Kernel
+from ..errors import SimulationError
+from ..scene import ScenePlan
+from .output import Result, RunSummary
+from .toolchain import cache_directory, shared_library
+
+STATUS = {
+    1: ("the mass matrix is singular at this state",
+        "the coordinates are singular here (e.g. Euler angles at theta = 0, a link of zero length) or "
+        "the constraints are dependent; start away from the singular configuration or choose other coordinates"),
+    2: ("the state or its derivative became infinite or NaN",
+        "check the parameters and initial values; a stiff model may need --integrator radau5"),
+    3: ("the step size collapsed below the resolution of t",
+        "the solution may be singular near this time (a collision, a coordinate singularity), "
+        "or the problem is stiff: try --integrator radau5 or a looser --rtol"),
+    4: ("the maximum number of steps was reached",
+        "loosen --rtol, or use --integrator radau5 if the problem is stiff"),
+    5: ("the implicit iteration did not converge",
+        "reduce the step (gauss: step = ...), or loosen the tolerances"),
+    6: ("projection onto the constraints did not converge",
+        "the constraints may be singular at this state; check the initial values"),
+}
+SETTINGS_ORDER = ("rtol", "atol", "step", "max_step", "stages")
+SCIPY_METHODS = {"dopri5": "RK45", "dop853": "DOP853", "radau5": "Radau"}
+
+
+def output_times(plan: ScenePlan) -> np.ndarray:
+    start, stop, interval = plan.time.start, plan.time.stop, plan.time.interval
+    last = int(np.floor((stop - start) / interval + 1e-9))
+    times = start + interval * np.arange(last + 1)
+    times[-1] = min(times[-1], stop)
+    return times
+
+
+def _state_names(plan: ScenePlan) -> list[str]:
+    names = [c.name for c in plan.model.coordinates]
+    return names + [f"{n}'" for n in names]
+
+
+def _failure(plan: ScenePlan, status: int, t_fail: float, y_fail, partial: Result) -> SimulationError:
+    message, remedy = STATUS.get(status, ("unknown failure", "please report this"))
+    return SimulationError(message, t_fail, dict(zip(_state_names(plan), map(float, y_fail))), remedy, partial)
+
+
+# ---- C ---------------------------------------------------------------------------------------
+def run_c(kernel: Kernel, source: GeneratedSource, plan: ScenePlan) -> Result:
+    library = ctypes.CDLL(str(shared_library(source.text, source.suggested_name)))
+    entry = library.lag_run
+    double_p = ctypes.POINTER(ctypes.c_double)
+    entry.argtypes = [double_p, double_p, double_p, double_p, ctypes.c_long, double_p]
+    entry.restype = ctypes.c_int
+    times = output_times(plan)
+    options = dict(plan.integrator.options)
+    settings = np.array([plan.time.start, plan.time.stop, plan.time.interval,
+                         *(float(options.get(k, 0.0)) for k in SETTINGS_ORDER), 0.0])
+    parameters = np.array(plan.parameters or (0.0,), dtype=float)
+    initial = np.array(plan.initial_state, dtype=float)
+    ncols = len(plan.columns)
+    rows = np.zeros((len(times), ncols + 1))
+    summary = np.zeros(11 + 2 * len(plan.invariants) + len(initial))
+    pointer = lambda a: a.ctypes.data_as(double_p)   # noqa: E731
+    started = clock.perf_counter()
+    status = entry(pointer(parameters), pointer(initial), pointer(settings), pointer(rows),
+                   len(times), pointer(summary))
+    elapsed = clock.perf_counter() - started
+    used = int(summary[1])
+    invariants = tuple((name, float(summary[11 + 2 * i]), float(summary[12 + 2 * i]))
+                       for i, name in enumerate(plan.invariants))
+    report = RunSummary("c", plan.integrator.name, int(summary[3]), int(summary[4]), int(summary[5]),
+                        int(summary[6]), int(summary[7]), elapsed, invariants, plan.constraints,
+                        float(summary[9]) if plan.constraints else None,
+                        float(summary[10]) if plan.constraints else None)
+    result = Result(rows[:used, 0].copy(), plan.columns, rows[:used, 1:].copy(), report)
+    if status != 0:
+        raise _failure(plan, status, float(summary[2]), summary[11 + 2 * len(plan.invariants):], result)
+    return result
+
+
+# ---- NumPy -----------------------------------------------------------------------------------
+def load_module(source: GeneratedSource):
+    """Import generated NumPy code from the cache (written once per content hash)."""
+    import hashlib
+    key = hashlib.sha256(source.text.encode()).hexdigest()[:20]
+    path = cache_directory() / f"{source.suggested_name}_{key}.py"
+    if not path.exists():
+        from .output import write_atomically
+        write_atomically(path, source.text)
+    spec = importlib.util.spec_from_file_location(f"lagdsl_generated_{key}", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def run_numpy(kernel: Kernel, source: GeneratedSource, plan: ScenePlan) -> Result:
+    module = load_module(source)
+    par = np.array(plan.parameters, dtype=float)
+    times = output_times(plan)
+    y0 = np.array(plan.initial_state, dtype=float)
+    projection = 0.0
+    if plan.constraints:
+        y0, projection = project(module, par, times[0], y0)
+    started = clock.perf_counter()
+    name = plan.integrator.name
+    if name in SCIPY_METHODS:
+        states, counts, failure = _run_scipy(module, par, times, y0, plan)
+    else:
+        states, counts, failure = _run_fixed_step(module, par, times, y0, plan)
+    elapsed = clock.perf_counter() - started
+    result = _numpy_result(module, par, times[:len(states)], np.array(states).reshape(len(states), -1),
+                           plan, counts, elapsed, projection)
+    if failure is not None:
+        status, t_fail, y_fail = failure
+        raise _failure(plan, status, t_fail, y_fail, result)
+    return result
+
+
+def _numpy_result(module, par, times, states, plan, counts, elapsed, projection) -> Result:
+    Y = states.T
+    values = module.outputs(times, Y, par).T if len(times) else np.zeros((0, len(plan.columns)))
+    invariants = ()
+    if plan.invariants and len(times):
+        watched = module.invariants(times, Y, par)
+        invariants = tuple((name, float(watched[i, 0]), float(np.max(np.abs(watched[i] - watched[i, 0]))))
+                           for i, name in enumerate(plan.invariants))
+    residual = None
+    if plan.constraints and len(times):
+        g, c, _ = module.constraint_rows(par, times, Y)
+        residual = float(max(np.max(np.abs(g), initial=0.0), np.max(np.abs(c), initial=0.0)))
+    summary = RunSummary("numpy", plan.integrator.name, counts.get("accepted"), counts.get("rejected"),
+                         counts.get("rhs_evals", 0), counts.get("jac_evals", 0), counts.get("lu_decomps", 0),
+                         elapsed, invariants, plan.constraints, residual, projection if plan.constraints else None)
+    return Result(np.asarray(times, dtype=float), plan.columns, np.asarray(values, dtype=float), summary)
+
+
+def _run_scipy(module, par, times, y0, plan):
+    from scipy import integrate
+    options = dict(plan.integrator.options)
+    method = getattr(integrate, SCIPY_METHODS[plan.integrator.name])
+    extra = {"jac": lambda t, y: module.jacobian(t, y, par)} if plan.integrator.name == "radau5" else {}
+    if options.get("max_step"):
+        extra["max_step"] = options["max_step"]
+
+    def fun(t, y):
+        return module.rhs(t, y, par)
+
+    def start(t, y, first_step=None):
+        return method(fun, t, y, times[-1], rtol=options["rtol"], atol=options["atol"],
+                      first_step=first_step, **extra)
+
+    counts = {"accepted": 0, "rejected": None, "rhs_evals": 0, "jac_evals": 0, "lu_decomps": 0}
+    states = [y0]
+    solver = start(times[0], y0)
+    k = 1
+    try:
+        while k < len(times):
+            solver.step()
+            if solver.status == "failed":
+                return states, _tally(counts, solver), (3, solver.t, solver.y)
+            counts["accepted"] += 1
+            if not np.all(np.isfinite(solver.y)):
+                return states, _tally(counts, solver), (2, solver.t, solver.y)
+            dense = solver.dense_output()
+            while k < len(times) and times[k] <= solver.t:
+                states.append(solver.y.copy() if times[k] == solver.t else dense(times[k]))
+                k += 1
+            if plan.constraints and solver.status == "running":
+                projected, _ = project(module, par, solver.t, solver.y)
+                counts = _tally(counts, solver)
+                # Restart from the projected state with the step the solver would take next
+                # (h_abs; scipy's solvers keep it there), so step-size growth is not lost.
+                proposed = getattr(solver, "h_abs", solver.step_size)
+                solver = start(solver.t, projected, first_step=min(proposed, times[-1] - solver.t))
+    except np.linalg.LinAlgError:
+        return states, _tally(counts, solver), (1, solver.t, solver.y)
+    return states, _tally(counts, solver), None
+
+
+def _tally(counts, solver):
+    counts["rhs_evals"] += solver.nfev
+    counts["jac_evals"] += solver.njev
+    counts["lu_decomps"] += solver.nlu
+    solver.nfev = solver.njev = solver.nlu = 0
+    return counts
+
+
+def _run_fixed_step(module, par, times, y0, plan):
+    from ..integrators.python.fixed_step import IntegrationFailure, integrate_gauss, integrate_rk4
+    options = dict(plan.integrator.options)
+    try:
+        if plan.integrator.name == "rk4":
+            Y, stats = integrate_rk4(lambda t, y: module.rhs(t, y, par), times, y0, options["step"])
+        else:
+            Y, stats = integrate_gauss(lambda t, z: module.hamilton_rhs(t, z, par),
+                                       lambda t, y: module.to_canonical(t, y, par),
+                                       lambda t, z: module.from_canonical(t, z, par),
+                                       times, y0, options["step"], int(options["stages"]))
+    except IntegrationFailure as failure:
+        return list(failure.Y[:failure.completed]), {}, (2, failure.t, failure.y)
+    except np.linalg.LinAlgError:
+        return [y0], {}, (1, times[0], y0)
+    return list(Y), stats, None
+
+
+def project(module, par, t, y, iterations: int = 10):
+    """Project y onto the constraints (the same Gauss-Newton/least-norm steps as the C driver)."""
+    y = np.array(y, dtype=float)
+    n = len(y) // 2
+    moved = 0.0
+    h = module.HOLONOMIC
+    for _ in range(iterations if h else 0):
+        g, _, A = module.constraint_rows(par, t, y)
+        Ah = A[:h]
+        dq = Ah.T @ np.linalg.solve(Ah @ Ah.T, g)
+        y[:n] -= dq
+        moved = max(moved, float(np.max(np.abs(dq))))
+        if np.max(np.abs(dq)) <= 4 * np.finfo(float).eps * (1 + np.max(np.abs(y[:n]))):
+            break
+    _, c, A = module.constraint_rows(par, t, y)
+    dv = A.T @ np.linalg.solve(A @ A.T, c)
+    y[n:] -= dv
+    return y, max(moved, float(np.max(np.abs(dv), initial=0.0)))

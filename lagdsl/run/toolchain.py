@@ -1,0 +1,62 @@
+"""Finding a C compiler and building generated sources, cached by content hash.
+
+A shared library is built once per (source, compiler, flags) and reused: its file name
+carries the SHA-256 of all three, so a second run of the same scene does not recompile and a
+changed model never reuses a stale library. The cache is $LAGDSL_CACHE, or
+~/.cache/lagdsl. Builds are written to a temporary file and renamed into place, so
+concurrent runs never see a half-written library.
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+from ..errors import LagError
+
+STRICT_FLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic")
+LIBRARY_FLAGS = ("-std=c99", "-O2", "-fPIC", "-shared")
+
+
+def find_compiler() -> str:
+    for candidate in (os.environ.get("CC"), "cc", "gcc", "clang"):
+        if candidate and shutil.which(candidate):
+            return candidate
+    raise LagError("no C compiler found (looked for $CC, cc, gcc, clang); install one, "
+                   "or run with --backend numpy")
+
+
+def cache_directory() -> Path:
+    root = os.environ.get("LAGDSL_CACHE") or os.path.join(os.path.expanduser("~"), ".cache", "lagdsl")
+    path = Path(root)
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def compile_c(source: str, output: Path, flags=STRICT_FLAGS, compiler: str | None = None) -> None:
+    """Compile one C file; a compiler error in generated code is our bug, reported in full."""
+    compiler = compiler or find_compiler()
+    with tempfile.TemporaryDirectory() as work:
+        source_path = Path(work) / f"{output.stem}.c"
+        source_path.write_text(source, encoding="utf-8")
+        partial = output.with_name(f".{output.name}.{os.getpid()}.tmp")
+        result = subprocess.run([compiler, *flags, str(source_path), "-o", str(partial), "-lm"],
+                                capture_output=True, text=True)
+        if result.returncode != 0:
+            partial.unlink(missing_ok=True)
+            raise RuntimeError(f"internal error in lagdsl, please report: the generated C did not compile\n"
+                               f"{result.stderr}")
+        os.replace(partial, output)
+
+
+def shared_library(source: str, stem: str) -> Path:
+    """The compiled shared library for `source`, built on first use and cached."""
+    compiler = find_compiler()
+    key = hashlib.sha256("\0".join((source, compiler, *LIBRARY_FLAGS)).encode()).hexdigest()[:20]
+    path = cache_directory() / f"{stem}-{key}.so"
+    if not path.exists():
+        compile_c(source, path, LIBRARY_FLAGS, compiler)
+    return path
