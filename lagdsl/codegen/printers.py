@@ -10,6 +10,7 @@ from decimal import Decimal, localcontext
 import sympy
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.numpy import NumPyPrinter
+from sympy.printing.precedence import PRECEDENCE
 
 ELEMENTARY = ("sin", "cos", "tan", "asin", "acos", "atan", "sinh", "cosh", "tanh", "exp", "log")
 PI_DIGITS = "3.14159265358979323846264338327950288"
@@ -28,14 +29,13 @@ def exact_decimal(value: sympy.Rational) -> str | None:
         return None
     with localcontext() as context:
         context.prec = 80
-        text = format(Decimal(int(value.p)) / Decimal(int(value.q)), "f").rstrip("0")
-    if len(text) > 24:
-        with localcontext() as context:
-            context.prec = 80
-            text = format(Decimal(int(value.p)) / Decimal(int(value.q)), "e").replace("E", "e")
-        mantissa, exponent = text.split("e")
-        mantissa = mantissa.rstrip("0").rstrip(".")
-        return f"{mantissa}{'' if '.' in mantissa else '.0'}e{int(exponent)}"
+        exact = Decimal(int(value.p)) / Decimal(int(value.q))
+    if exact != 0 and not Decimal("1e-4") <= abs(exact) < Decimal("1e16"):
+        mantissa, exponent = format(exact, "e").split("e")
+        mantissa = mantissa.rstrip("0").rstrip(".") if "." in mantissa else mantissa
+        return f"{mantissa}e{int(exponent)}"
+    text = format(exact, "f")
+    text = text.rstrip("0") if "." in text else text + "."
     return text + "0" if text.endswith(".") else text
 
 
@@ -77,6 +77,13 @@ class CPrinter(C99CodePrinter):
     def _print_Float(self, expr):
         return f"LAG_LIT({repr(float(expr))})"
 
+    def _print_Mul(self, expr):
+        # A positive rational coefficient reads best in front: LAG_LIT(9.81)*x, 0.5*m*v*v.
+        coefficient, rest = expr.as_coeff_Mul()
+        if coefficient.is_Rational and not coefficient.is_Integer and coefficient > 0 and rest != 1:
+            return f"{self._print(coefficient)}*{self._print(rest) if rest.is_Mul else self.parenthesize(rest, PRECEDENCE['Mul'])}"
+        return super()._print_Mul(expr)
+
     def _print_Pi(self, expr):
         return f"LAG_LIT({PI_DIGITS})"
 
@@ -93,7 +100,7 @@ class CPrinter(C99CodePrinter):
             product = "*".join([self._print(base)] * abs(int(exponent)))
             return product if exponent > 0 else f"(1.0/({product}))"
         if exponent == -1:
-            return f"(1.0/{self.parenthesize(base, sympy.printing.precedence.PRECEDENCE['Mul'] + 1)})"
+            return f"(1.0/{self.parenthesize(base, PRECEDENCE['Mul'] + 1)})"
         return f"r_pow({self._print(base)}, {self._print(exponent)})"
 
     def _print_Abs(self, expr):
