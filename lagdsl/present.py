@@ -23,7 +23,7 @@ def format_number(value: float) -> str:
 def describe_model(model: ir.Model, equations: Equations) -> str:
     """The report of `lagc check`."""
     title = f'model {model.name}' + (f' "{model.description}"' if model.description else "")
-    lines = [f"{title}  ({model.source_name})", f"degrees of freedom: {len(model.coordinates)}"]
+    lines = [f"{title}  ({model.source_name})", f"degrees of freedom: {degrees_of_freedom(equations)}"]
     for c in model.coordinates:
         unit = f" [{c.unit.text}]" if c.unit else ""
         lines.append(f"  {c.name}{unit}" + (f"  {c.description}" if c.description else ""))
@@ -53,6 +53,22 @@ def describe_model(model: ir.Model, equations: Equations) -> str:
                      f" every {format_number(s.time.interval)}, {s.integrator.name}({options}); "
                      f"outputs: {', '.join(o.column for o in s.outputs) or 'the coordinates'}")
     return "\n".join(lines)
+
+
+def degrees_of_freedom(equations: Equations) -> str:
+    """n coordinates less the holonomic constraints; nonholonomic ones restrict only velocities."""
+    n = equations.size
+    holonomic = sum(c.kind == "holonomic" for c in equations.active_constraints)
+    nonholonomic = len(equations.active_constraints) - holonomic
+    if not holonomic and not nonholonomic:
+        return str(n)
+    parts = [f"{n} coordinates"]
+    if holonomic:
+        parts.append(f"{holonomic} holonomic constraint{'s' if holonomic > 1 else ''}")
+    if nonholonomic:
+        parts.append(f"{nonholonomic} nonholonomic constraint{'s' if nonholonomic > 1 else ''}")
+        return f"{n - holonomic} in position, {n - holonomic - nonholonomic} in velocity ({', '.join(parts)})"
+    return f"{n - holonomic} ({', '.join(parts)})"
 
 
 def tidy(expr: sympy.Expr, calculus: Differentiator) -> sympy.Expr:

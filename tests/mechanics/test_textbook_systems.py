@@ -120,3 +120,29 @@ def test_pendulum_chain_mass_matrix():
     for k, j in [(0, 0), (0, 5), (3, 7), (11, 11)]:
         expected = m * l**2 * (n - max(k, j)) * sympy.cos(eq.coordinates[k] - eq.coordinates[j])
         assert is_zero(calculus.inline(eq.mass_matrix[k][j]) - expected)
+
+
+def test_cartesian_pendulum_multiplier_is_the_rod_force():
+    """g = x^2 + y^2 - l^2: m x'' = 2 λ x, m y'' = -m g + 2 λ y, λ = -m (v^2 - g y) / (2 l^2)."""
+    eq = equations_of("cartesian_pendulum")
+    s = symbols_of(eq)
+    m, l, g = s["m"], s["l"], s["g"]
+    x, y, vx, vy = s["x"], s["y"], s["x'"], s["y'"]
+    xdd, ydd, lam = solve_accelerations(eq)
+    on_circle = {y: -sympy.sqrt(l**2 - x**2)}
+    expected = -m * (vx**2 + vy**2 - g * y) / (2 * l**2)
+    assert is_zero((lam - expected).subs(on_circle))
+    assert is_zero((m * xdd - 2 * lam * x).subs(on_circle))
+    assert is_zero((m * ydd + m * g - 2 * lam * y).subs(on_circle))
+    assert [c.dropped for c in eq.constraints] == [False]
+
+
+def test_explicitly_time_dependent_lagrangian():
+    """Kapitza's pendulum: l theta'' = -(g - A omega^2 cos(omega t)) sin(theta); h not conserved."""
+    eq = equations_of("driven_support")
+    s = symbols_of(eq)
+    m, l, g, A, omega, t = (s[n] for n in ("m", "l", "g", "A", "omega", "t"))
+    theta, acc = s["theta"], s["theta''"]
+    expected = m * l**2 * acc + m * l * (g - A * omega**2 * sympy.cos(omega * t)) * sympy.sin(theta)
+    assert is_zero(residual_rows(eq)[0] - expected)
+    assert eq.conserved == ()
