@@ -1,0 +1,639 @@
+/* radau5: the Radau IIA method with 3 stages, order 5, L-stable, for stiff problems.
+ *
+ * Reference: E. Hairer, G. Wanner, Solving Ordinary Differential Equations II, 2nd ed.,
+ * Springer 1996, section IV.8 "Implementation of Implicit Runge-Kutta Methods"; the control
+ * parameters are those of the authors' code RADAU5 described there.
+ *
+ * Method.  Collocation at c = ((4 - sqrt6)/10, (4 + sqrt6)/10, 1).  The stage increments
+ * z_i = Y_i - y0 solve Z = h (A x I) F(Z) and y1 = y0 + z_3 (the method is stiffly accurate).
+ *
+ * Nonlinear system ("Simplified Newton Iterations", "The Linear System").  Simplified Newton
+ * with J = df/dy at the start of a step.  A^-1 has one real eigenvalue gamma and a complex pair
+ * alpha +- i beta; in W = (T^-1 x I) Z the 3n x 3n iteration matrix falls apart into the real
+ * n x n matrix gamma/h I - J and the complex (alpha + i beta)/h I - J, factored once per step
+ * size (the complex one in real arithmetic on (re, im) pairs).  J is kept across steps while
+ * the iteration contracts fast (Theta <= 0.001), and the factors too when h hardly changes.
+ * The starting values extrapolate the collocation polynomial of the previous step.  The
+ * iteration stops when eta_k ||dW_k|| <= kappa Tol (8.10-8.11), eta_k = Theta_k / (1 - Theta_k)
+ * from the observed contraction Theta_k (eta_0 from the previous step, damped), in the norm
+ * weighted by atol' + rtol' |y0|, with kappa = max(10 eps / rtol', min(0.03, rtol'^1/2)).
+ * An iteration that diverges (Theta >= 0.99) or is still running after 7 iterations halves h;
+ * one predicted not to converge within 7 is stopped early and h reduced so that it would.
+ * Both count as rejected steps.  A singular iteration matrix halves h as well; five in a row
+ * end the integration with LAG_ERR_NO_CONVERGENCE.
+ *
+ * Error estimate (8.19-8.20).  err = (I - h gamma0 J)^-1 (gamma0 h f(t0, y0) + sum e_i z_i),
+ * gamma0 = 1/gamma, e = gamma0 (-13 - 7 sqrt6, -13 + 7 sqrt6, -1) / 3: the filter keeps the
+ * estimate bounded for stiff components.  When the first step, or a step after a rejection,
+ * fails the test, f(t0, y0) is replaced by f(t0, y0 + err) and the filter applied once more.
+ * The norm is the interface's (HNW I, II.4, (4.11)) with max(|y0|, |y1|).
+ *
+ * Step size ("Step Size Selection").  h_new = h / max(1/8, min(5, err^1/4 / fac)) with
+ * fac = 0.9 (1 + 2 nit) / (newt + 2 nit) (fewer Newton iterations, bolder steps); after an
+ * accepted step also at most the prediction of Gustafsson's controller (8.25),
+ * 0.9 h_n (h_n / h_{n-1}) (err_{n-1} / err_n^2)^1/4, limited to the same range.
+ * A rejected first step is retried with h/10; a right-hand side that fails in a stage (the
+ * trial left the domain of the model) or gives non-finite values, with h/10 as well (interface
+ * README).  The first step is opt->step, or 1e-6 as in RADAU5 (it adapts within a few steps).
+ * When h falls below 10 eps |t| the reason of the last failure is returned: the right-hand
+ * side's status, LAG_ERR_NO_CONVERGENCE for Newton, LAG_ERR_STEP_TOO_SMALL for the error test.
+ *
+ * Tolerances.  The estimate is O(h^4) while the method has order 5, so, as RADAU5 does, the
+ * user's tolerances are transformed to rtol' = 0.1 rtol^(2/3), atol' = rtol' atol / rtol,
+ * which makes the global error roughly proportional to rtol (rtol is raised to at least
+ * 10 eps first).
+ *
+ * Dense output.  The collocation polynomial of the last step, the cubic through (t_old, y_old)
+ * and (t_old + c_i h, y_old + z_i), kept in Newton form about t; it has order 3 inside the
+ * step and reproduces y1 at t.
+ *
+ * Work counters: one LU per factorisation of both iteration matrices (RADAU5's NDEC); every
+ * unsuccessful trial counts as rejected, so accepted + rejected is the number of attempts that
+ * max_steps limits.
+ */
+
+#define LAG_INTEGRATOR_NAME "radau5"
+
+#define RADAU_NIT 7                  /* Newton iterations per step */
+#define RADAU_THET LAG_LIT(0.001)    /* keep J while the contraction Theta stays below this */
+#define RADAU_SAFE LAG_LIT(0.9)
+#define RADAU_FACL LAG_LIT(5.0)      /* h_new >= h / 5 */
+#define RADAU_FACR LAG_LIT(0.125)    /* h_new <= 8 h */
+#define RADAU_QUOT2 LAG_LIT(1.2)     /* keep h and the LU factors when 1 <= h_new/h <= 1.2 */
+#define RADAU_MAX_SINGULAR 5         /* singular iteration matrices in a row before giving up */
+
+typedef struct lag_stepper {
+    /* public, read by the driver */
+    real t;
+    real t_old;
+    real y[LAG_NY];
+    real h;
+    lag_stats stats;
+    /* the problem */
+    const lag_system *sys;
+    real t_end, h_max, rtol, atol, fnewt;
+    long max_steps;
+    /* the method: nodes, eigenvalues of A^-1, the eigenbasis T with
+     * T^-1 A^-1 T = [[gamma, 0, 0], [0, alpha, -beta], [0, beta, alpha]], error weights dd = e/gamma0 */
+    real c1, c2, gamma, alpha, beta;
+    real T[3][3], TI[3][3], dd[3];
+    /* iteration matrices: J, the LU of gamma/h I - J, the complex LU of (alpha + i beta)/h I - J */
+    real jac[LAG_NY * LAG_NY];
+    real e1[LAG_NY * LAG_NY];
+    real e2re[LAG_NY * LAG_NY], e2im[LAG_NY * LAG_NY];
+    int piv1[LAG_NY], piv2[LAG_NY];
+    real h_lu;                 /* the h the factors belong to, 0 = none */
+    /* the step */
+    real f0[LAG_NY];           /* f(t, y) */
+    real scal[LAG_NY];         /* Newton weights atol' + rtol' |y| */
+    real z[3][LAG_NY];         /* stage increments */
+    real w[3][LAG_NY];         /* the same in the eigenbasis, W = (T^-1 x I) Z */
+    real r[3][LAG_NY];         /* stage derivatives, then Newton corrections */
+    real tmp[LAG_NY];
+    real cont[3][LAG_NY];      /* divided differences of the collocation polynomial */
+    /* the controllers */
+    real h_old;                /* last accepted step, for dense output and extrapolation */
+    real h_acc, err_acc;       /* previous accepted step and its error, for Gustafsson */
+    real theta, faccon;        /* contraction of the last Newton iteration, its eta */
+    int newt;                  /* Newton iterations of the last step */
+    int first, reject, last;
+    int fresh_jac;             /* J was evaluated at the current (t, y) */
+    int need_jac, have_f0;
+} lag_stepper;
+
+/* ---- complex LU with partial pivoting, in real arithmetic ---- */
+
+/* 1/(a + ib) without overflow in the intermediate a^2 + b^2 (Smith's algorithm). */
+static void radau_reciprocal(real a, real b, real *re, real *im)
+{
+    real q, d;
+    if (r_fabs(a) >= r_fabs(b)) {
+        q = b / a;
+        d = a + b * q;
+        *re = 1 / d;
+        *im = -q / d;
+    } else {
+        q = a / b;
+        d = a * q + b;
+        *re = q / d;
+        *im = -1 / d;
+    }
+}
+
+/* P (ar + i ai) = L U in place, pivoting on |re| + |im| (a modulus without a square root).
+ * The diagonal of U is stored inverted, so that the solves multiply instead of divide.
+ * Returns 0, or k+1 when column k has no nonzero pivot. */
+static int radau_complex_factor(int n, real *ar, real *ai, int *piv)
+{
+    int i, j, k;
+    for (k = 0; k < n; ++k) {
+        int p = k;
+        real big = r_fabs(ar[k * n + k]) + r_fabs(ai[k * n + k]), dr, di;
+        for (i = k + 1; i < n; ++i) {
+            real size = r_fabs(ar[i * n + k]) + r_fabs(ai[i * n + k]);
+            if (size > big) {
+                big = size;
+                p = i;
+            }
+        }
+        piv[k] = p;
+        if (!(big > 0))
+            return k + 1;
+        if (p != k)
+            for (j = 0; j < n; ++j) {
+                real t = ar[k * n + j];
+                ar[k * n + j] = ar[p * n + j];
+                ar[p * n + j] = t;
+                t = ai[k * n + j];
+                ai[k * n + j] = ai[p * n + j];
+                ai[p * n + j] = t;
+            }
+        radau_reciprocal(ar[k * n + k], ai[k * n + k], &dr, &di);
+        ar[k * n + k] = dr;
+        ai[k * n + k] = di;
+        for (i = k + 1; i < n; ++i) {
+            real mr = ar[i * n + k] * dr - ai[i * n + k] * di;
+            real mi = ar[i * n + k] * di + ai[i * n + k] * dr;
+            ar[i * n + k] = mr;
+            ai[i * n + k] = mi;
+            if (mr != 0 || mi != 0)
+                for (j = k + 1; j < n; ++j) {
+                    ar[i * n + j] -= mr * ar[k * n + j] - mi * ai[k * n + j];
+                    ai[i * n + j] -= mr * ai[k * n + j] + mi * ar[k * n + j];
+                }
+        }
+    }
+    return 0;
+}
+
+/* Solve (ar + i ai) x = br + i bi with the factors of radau_complex_factor; x overwrites b. */
+static void radau_complex_solve(int n, const real *ar, const real *ai, const int *piv, real *br, real *bi)
+{
+    int i, k;
+    for (k = 0; k < n; ++k)
+        if (piv[k] != k) {
+            real t = br[k];
+            br[k] = br[piv[k]];
+            br[piv[k]] = t;
+            t = bi[k];
+            bi[k] = bi[piv[k]];
+            bi[piv[k]] = t;
+        }
+    for (i = 1; i < n; ++i) {
+        real sr = br[i], si = bi[i];
+        for (k = 0; k < i; ++k) {
+            sr -= ar[i * n + k] * br[k] - ai[i * n + k] * bi[k];
+            si -= ar[i * n + k] * bi[k] + ai[i * n + k] * br[k];
+        }
+        br[i] = sr;
+        bi[i] = si;
+    }
+    for (i = n - 1; i >= 0; --i) {
+        real sr = br[i], si = bi[i];
+        for (k = i + 1; k < n; ++k) {
+            sr -= ar[i * n + k] * br[k] - ai[i * n + k] * bi[k];
+            si -= ar[i * n + k] * bi[k] + ai[i * n + k] * br[k];
+        }
+        br[i] = sr * ar[i * n + i] - si * ai[i * n + i];
+        bi[i] = sr * ai[i * n + i] + si * ar[i * n + i];
+    }
+}
+
+/* ---- the coefficients ---- */
+
+/* Solve (A - mu I) v = 0 with v_3 = 1 for a complex eigenvalue mu = mr + i mi of the 3 x 3
+ * matrix a, by Cramer's rule on the first two rows. */
+static void radau_eigenvector(real a[3][3], real mr, real mi, real vr[3], real vi[3])
+{
+    /* M = [[a00 - mu, a01], [a10, a11 - mu]], M v12 = -(a02, a12) */
+    real m00r = a[0][0] - mr, m11r = a[1][1] - mr;
+    real detr = m00r * m11r - mi * mi - a[0][1] * a[1][0];
+    real deti = -mi * (m00r + m11r);
+    real n0r = -a[0][2] * m11r + a[0][1] * a[1][2], n0i = a[0][2] * mi;
+    real n1r = -a[1][2] * m00r + a[1][0] * a[0][2], n1i = a[1][2] * mi;
+    real qr, qi;
+    radau_reciprocal(detr, deti, &qr, &qi);
+    vr[0] = n0r * qr - n0i * qi;
+    vi[0] = n0r * qi + n0i * qr;
+    vr[1] = n1r * qr - n1i * qi;
+    vi[1] = n1r * qi + n1i * qr;
+    vr[2] = 1;
+    vi[2] = 0;
+}
+
+/* Nodes, eigenvalues of A^-1, and T from the exact Radau IIA matrix A, so that every precision
+ * gets constants accurate to its own rounding unit.  T is normalised as in RADAU5 (its first column,
+ * the real eigenvector, has unit length; the complex eigenvector has third component 1), which
+ * fixes the scale of the Newton norm. */
+static void radau_coefficients(lag_stepper *s)
+{
+    real s6 = r_sqrt(LAG_LIT(6.0)), c3 = r_pow(LAG_LIT(3.0), 1 / LAG_LIT(3.0));
+    real a[3][3], vr[3], vi[3], ur[3], ui[3], norm, det, mod2;
+    int i, j;
+    s->c1 = (4 - s6) / 10;
+    s->c2 = (4 + s6) / 10;
+    a[0][0] = (88 - 7 * s6) / 360;
+    a[0][1] = (296 - 169 * s6) / 1800;
+    a[0][2] = (-2 + 3 * s6) / 225;
+    a[1][0] = (296 + 169 * s6) / 1800;
+    a[1][1] = (88 + 7 * s6) / 360;
+    a[1][2] = (-2 - 3 * s6) / 225;
+    a[2][0] = (16 - s6) / 36;
+    a[2][1] = (16 + s6) / 36;
+    a[2][2] = LAG_LIT(1.0) / 9;
+    /* the eigenvalues of A^-1 are the poles of the stability function, the roots of
+     * z^3 - 9 z^2 + 36 z - 60 (Cardano): 3 + 3^(2/3) - 3^(1/3) and
+     * 3 + (3^(1/3) - 3^(2/3))/2 +- i sqrt3 (3^(1/3) + 3^(2/3))/2 */
+    s->gamma = 3 + c3 * c3 - c3;
+    s->alpha = 3 + (c3 - c3 * c3) / 2;
+    s->beta = r_sqrt(LAG_LIT(3.0)) * (c3 + c3 * c3) / 2;
+    radau_eigenvector(a, 1 / s->gamma, 0, vr, vi);
+    norm = r_sqrt(vr[0] * vr[0] + vr[1] * vr[1] + vr[2] * vr[2]);
+    /* t2 + i t3 belongs to the eigenvalue alpha - i beta of A^-1, i.e. (alpha + i beta)/|.|^2 of A */
+    mod2 = s->alpha * s->alpha + s->beta * s->beta;
+    radau_eigenvector(a, s->alpha / mod2, s->beta / mod2, ur, ui);
+    for (i = 0; i < 3; ++i) {
+        s->T[i][0] = vr[i] / norm;
+        s->T[i][1] = ur[i];
+        s->T[i][2] = ui[i];
+    }
+    det = 0;
+    for (j = 0; j < 3; ++j)
+        det += s->T[0][j] * (s->T[1][(j + 1) % 3] * s->T[2][(j + 2) % 3]
+                             - s->T[1][(j + 2) % 3] * s->T[2][(j + 1) % 3]);
+    for (i = 0; i < 3; ++i)
+        for (j = 0; j < 3; ++j)
+            s->TI[j][i] = (s->T[(i + 1) % 3][(j + 1) % 3] * s->T[(i + 2) % 3][(j + 2) % 3]
+                           - s->T[(i + 1) % 3][(j + 2) % 3] * s->T[(i + 2) % 3][(j + 1) % 3]) / det;
+    s->dd[0] = -(13 + 7 * s6) / 3;
+    s->dd[1] = (-13 + 7 * s6) / 3;
+    s->dd[2] = -LAG_LIT(1.0) / 3;
+}
+
+/* ---- the step ---- */
+
+/* Take the rest of the interval when the proposed step reaches (or all but reaches) t_end,
+ * so that no sliver of a step is left over. */
+static void radau_clip(lag_stepper *s)
+{
+    s->last = s->t + LAG_LIT(1.0001) * s->h >= s->t_end;
+    if (s->last)
+        s->h = s->t_end - s->t;
+}
+
+/* A failed trial: retry from the same (t, y) with h_new, and with J evaluated there (once). */
+static void radau_retry(lag_stepper *s, real h_new)
+{
+    s->h = h_new;
+    s->reject = 1;
+    s->stats.rejected += 1;
+    if (!s->fresh_jac)
+        s->need_jac = 1;
+    radau_clip(s);
+}
+
+/* Factor gamma/h I - J and (alpha + i beta)/h I - J.  Returns 0, or nonzero when singular. */
+static int radau_factor(lag_stepper *s)
+{
+    const int n = LAG_NY;
+    real g = s->gamma / s->h, a = s->alpha / s->h, b = s->beta / s->h;
+    int i;
+    for (i = 0; i < n * n; ++i) {
+        s->e1[i] = -s->jac[i];
+        s->e2re[i] = -s->jac[i];
+        s->e2im[i] = 0;
+    }
+    for (i = 0; i < n; ++i) {
+        s->e1[i * n + i] += g;
+        s->e2re[i * n + i] += a;
+        s->e2im[i * n + i] = b;
+    }
+    s->stats.lu_decomps += 1;
+    s->h_lu = 0;
+    if (lag_lu_factor(n, s->e1, s->piv1) != 0 || radau_complex_factor(n, s->e2re, s->e2im, s->piv2) != 0)
+        return 1;
+    s->h_lu = s->h;
+    return 0;
+}
+
+/* Starting values: the previous collocation polynomial continued to the new nodes t + c_i h. */
+static void radau_start(lag_stepper *s)
+{
+    real c[3];
+    int i, k;
+    if (s->first) {
+        for (k = 0; k < 3; ++k)
+            for (i = 0; i < LAG_NY; ++i)
+                s->z[k][i] = s->w[k][i] = 0;
+        return;
+    }
+    c[0] = s->c1 * s->h / s->h_old;
+    c[1] = s->c2 * s->h / s->h_old;
+    c[2] = s->h / s->h_old;
+    for (i = 0; i < LAG_NY; ++i) {
+        for (k = 0; k < 3; ++k)
+            s->z[k][i] = c[k] * (s->cont[0][i] + (c[k] - (s->c2 - 1))
+                                 * (s->cont[1][i] + (c[k] - (s->c1 - 1)) * s->cont[2][i]));
+        for (k = 0; k < 3; ++k)
+            s->w[k][i] = s->TI[k][0] * s->z[0][i] + s->TI[k][1] * s->z[1][i] + s->TI[k][2] * s->z[2][i];
+    }
+}
+
+/* One simplified Newton correction: r = (iteration matrix)^-1 (-(Lambda/h x I) W + (T^-1 x I) F(Z)),
+ * in the eigenbasis.  Returns the status of the right-hand side. */
+static int radau_correction(lag_stepper *s)
+{
+    const real c[3] = {s->c1, s->c2, 1};
+    real g = s->gamma / s->h, a = s->alpha / s->h, b = s->beta / s->h;
+    int i, k, status;
+    for (k = 0; k < 3; ++k) {
+        for (i = 0; i < LAG_NY; ++i)
+            s->tmp[i] = s->y[i] + s->z[k][i];
+        status = lag_rhs(s->sys, s->t + c[k] * s->h, s->tmp, s->r[k]);
+        if (status != LAG_OK)
+            return status;
+    }
+    s->stats.rhs_evals += 3;
+    for (i = 0; i < LAG_NY; ++i) {
+        real f1 = s->r[0][i], f2 = s->r[1][i], f3 = s->r[2][i];
+        real w1 = s->w[0][i], w2 = s->w[1][i], w3 = s->w[2][i];
+        s->r[0][i] = s->TI[0][0] * f1 + s->TI[0][1] * f2 + s->TI[0][2] * f3 - g * w1;
+        s->r[1][i] = s->TI[1][0] * f1 + s->TI[1][1] * f2 + s->TI[1][2] * f3 - (a * w2 - b * w3);
+        s->r[2][i] = s->TI[2][0] * f1 + s->TI[2][1] * f2 + s->TI[2][2] * f3 - (b * w2 + a * w3);
+    }
+    lag_lu_solve(LAG_NY, s->e1, s->piv1, s->r[0]);
+    radau_complex_solve(LAG_NY, s->e2re, s->e2im, s->piv2, s->r[1], s->r[2]);
+    return LAG_OK;
+}
+
+/* Solve the collocation system for Z by simplified Newton iterations (IV.8, (8.10)-(8.11)).
+ * Returns LAG_OK, or a failure status with *shrink the factor to retry with. */
+static int radau_newton(lag_stepper *s, real *shrink)
+{
+    real dyno, dynold = 1, thq, thqold = 1, dyth;
+    int i, k, left, status;
+    radau_start(s);
+    s->faccon = r_pow(r_fmax(s->faccon, REAL_EPSILON), LAG_LIT(0.8));
+    s->theta = RADAU_THET;
+    s->newt = 0;
+    for (;;) {
+        if (s->newt >= RADAU_NIT) {
+            *shrink = LAG_LIT(0.5);
+            return LAG_ERR_NO_CONVERGENCE;
+        }
+        status = radau_correction(s);
+        if (status != LAG_OK) {
+            *shrink = LAG_LIT(0.1);
+            return status;
+        }
+        s->newt += 1;
+        s->stats.newton_iters += 1;
+        dyno = 0;
+        for (k = 0; k < 3; ++k)
+            for (i = 0; i < LAG_NY; ++i)
+                dyno += (s->r[k][i] / s->scal[i]) * (s->r[k][i] / s->scal[i]);
+        dyno = r_sqrt(dyno / (3 * LAG_NY));
+        if (!r_isfinite(dyno)) {
+            /* a stage derivative the model did not flag: treated like a failed right-hand side */
+            *shrink = LAG_LIT(0.1);
+            return LAG_ERR_NONFINITE;
+        }
+        if (s->newt > 1 && s->newt < RADAU_NIT) {
+            thq = dyno / dynold;
+            s->theta = s->newt == 2 ? thq : r_sqrt(thq * thqold);
+            thqold = thq;
+            if (!(s->theta < LAG_LIT(0.99))) {
+                *shrink = LAG_LIT(0.5);
+                return LAG_ERR_NO_CONVERGENCE;
+            }
+            s->faccon = s->theta / (1 - s->theta);
+            /* the error left after the remaining iterations: when it will not reach fnewt,
+             * retry at once with the step that should converge in time */
+            left = RADAU_NIT - 1 - s->newt;
+            dyth = s->faccon * dyno * r_pow(s->theta, (real)left) / s->fnewt;
+            if (dyth >= 1) {
+                real qnewt = r_fmax(LAG_LIT(1e-4), r_fmin(20, dyth));
+                *shrink = LAG_LIT(0.8) * r_pow(qnewt, -1 / (4 + (real)left));
+                return LAG_ERR_NO_CONVERGENCE;
+            }
+        }
+        dynold = r_fmax(dyno, REAL_EPSILON);
+        for (i = 0; i < LAG_NY; ++i) {
+            real w1 = s->w[0][i] += s->r[0][i];
+            real w2 = s->w[1][i] += s->r[1][i];
+            real w3 = s->w[2][i] += s->r[2][i];
+            for (k = 0; k < 3; ++k)
+                s->z[k][i] = s->T[k][0] * w1 + s->T[k][1] * w2 + s->T[k][2] * w3;
+        }
+        if (s->faccon * dyno <= s->fnewt)
+            return LAG_OK;
+    }
+}
+
+/* The weighted RMS norm of the interface README, with max(|y0|, |y1|), y1 = y0 + z_3. */
+static real radau_norm(const lag_stepper *s, const real *e)
+{
+    real sum = 0;
+    int i;
+    for (i = 0; i < LAG_NY; ++i) {
+        real y1 = s->y[i] + s->z[2][i];
+        real sk = s->atol + s->rtol * r_fmax(r_fabs(s->y[i]), r_fabs(y1));
+        sum += (e[i] / sk) * (e[i] / sk);
+    }
+    return r_sqrt(sum / LAG_NY);
+}
+
+/* The filtered error estimate (8.19-8.20), with the second filtering when the first step or a
+ * step after a rejection fails.  Returns the status of the extra right-hand side. */
+static int radau_error(lag_stepper *s, real *err)
+{
+    real *e = s->r[0], *g = s->r[1];   /* free after the Newton iteration */
+    int i, status;
+    for (i = 0; i < LAG_NY; ++i) {
+        g[i] = (s->dd[0] * s->z[0][i] + s->dd[1] * s->z[1][i] + s->dd[2] * s->z[2][i]) / s->h;
+        e[i] = s->f0[i] + g[i];
+    }
+    /* (gamma/h I - J)^-1 = h gamma0 (I - h gamma0 J)^-1 */
+    lag_lu_solve(LAG_NY, s->e1, s->piv1, e);
+    *err = radau_norm(s, e);
+    if (*err >= 1 && (s->first || s->reject)) {
+        for (i = 0; i < LAG_NY; ++i)
+            s->tmp[i] = s->y[i] + e[i];
+        status = lag_rhs(s->sys, s->t, s->tmp, e);
+        s->stats.rhs_evals += 1;
+        if (status != LAG_OK)
+            return status;
+        for (i = 0; i < LAG_NY; ++i)
+            e[i] += g[i];
+        lag_lu_solve(LAG_NY, s->e1, s->piv1, e);
+        *err = radau_norm(s, e);
+    }
+    *err = r_isfinite(*err) ? r_fmax(*err, LAG_LIT(1e-10)) : REAL_MAX;
+    return LAG_OK;
+}
+
+/* Accept the step: y1 = y0 + z_3, the collocation polynomial as y1 + s (cont0 + (s - c2 + 1)
+ * (cont1 + (s - c1 + 1) cont2)) in s = (t - t1)/h, whose cont are the divided differences of
+ * the increments 0, z2 - z3, z1 - z3, -z3 at the nodes s = 0, c2 - 1, c1 - 1, -1; and the next
+ * step size. */
+static void radau_accept(lag_stepper *s, real err, real quot)
+{
+    real h = s->h, h_new, h_opt;
+    int i;
+    s->first = 0;
+    s->stats.accepted += 1;
+    if (s->stats.accepted > 1) {
+        real facgus = (s->h_acc / h) * r_pow(err * err / s->err_acc, LAG_LIT(0.25)) / RADAU_SAFE;
+        quot = r_fmax(quot, r_fmax(RADAU_FACR, r_fmin(RADAU_FACL, facgus)));
+    }
+    s->h_acc = h;
+    s->err_acc = r_fmax(LAG_LIT(1e-2), err);
+    for (i = 0; i < LAG_NY; ++i) {
+        real z1 = s->z[0][i], z2 = s->z[1][i], z3 = s->z[2][i];
+        real d12 = (z1 - z2) / (s->c1 - s->c2);        /* nodes c2 - 1, c1 - 1 */
+        real d123 = (d12 - z1 / s->c1) / s->c2;        /* nodes c2 - 1, c1 - 1, -1 */
+        s->y[i] += z3;
+        s->cont[0][i] = (z2 - z3) / (s->c2 - 1);
+        s->cont[1][i] = (d12 - s->cont[0][i]) / (s->c1 - 1);
+        s->cont[2][i] = s->cont[1][i] - d123;
+    }
+    s->t_old = s->t;
+    s->t = s->last ? s->t_end : s->t + h;
+    s->h_old = h;
+    s->have_f0 = 0;
+    s->fresh_jac = 0;
+    h_new = r_fmin(h / quot, s->h_max);
+    h_opt = r_fmin(h, h_new);
+    if (s->reject)
+        h_new = r_fmin(h_new, h);
+    s->reject = 0;
+    if (s->last) {
+        s->h = h_opt;
+        return;
+    }
+    /* fast convergence and a step size that would hardly change: keep J and the factors */
+    if (!(s->theta <= RADAU_THET && h_new >= h && h_new <= RADAU_QUOT2 * h))
+        s->h = h_new;
+    radau_clip(s);
+    s->need_jac = s->theta > RADAU_THET;
+}
+
+/* ---- the interface ---- */
+
+static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, const real *y0,
+                            real t_end, const lag_options *opt)
+{
+    real rtol = r_fmax(opt->rtol, 10 * REAL_EPSILON);
+    int i, status;
+    memset(&s->stats, 0, sizeof s->stats);
+    s->sys = sys;
+    s->t = s->t_old = t0;
+    s->t_end = t_end;
+    for (i = 0; i < LAG_NY; ++i)
+        s->y[i] = y0[i];
+    radau_coefficients(s);
+    s->rtol = LAG_LIT(0.1) * r_pow(rtol, 2 / LAG_LIT(3.0));
+    s->atol = r_fmax(s->rtol * (opt->atol / rtol), REAL_MIN);
+    s->fnewt = r_fmax(10 * REAL_EPSILON / s->rtol, r_fmin(LAG_LIT(0.03), r_sqrt(s->rtol)));
+    s->max_steps = opt->max_steps;
+    s->h_max = opt->max_step > 0 ? r_fmin(opt->max_step, t_end - t0) : t_end - t0;
+    s->h = opt->step > 0 ? opt->step : LAG_LIT(1e-6);
+    s->h = r_fmin(s->h, s->h_max);
+    s->h_old = s->h_acc = s->h;
+    s->err_acc = 1;
+    s->h_lu = 0;
+    s->theta = RADAU_THET;
+    s->faccon = 1;
+    s->newt = 0;
+    s->first = 1;
+    s->reject = 0;
+    s->fresh_jac = 0;
+    s->need_jac = 1;
+    radau_clip(s);
+    status = lag_rhs(sys, t0, s->y, s->f0);
+    s->stats.rhs_evals += 1;
+    s->have_f0 = status == LAG_OK;
+    return status;
+}
+
+static int lag_stepper_step(lag_stepper *s)
+{
+    int i, status, singular = 0, failure = LAG_ERR_STEP_TOO_SMALL;
+    if (s->t >= s->t_end)
+        return LAG_OK;
+    if (!s->have_f0) {
+        status = lag_rhs(s->sys, s->t, s->y, s->f0);
+        s->stats.rhs_evals += 1;
+        if (status != LAG_OK)
+            return status;
+        s->have_f0 = 1;
+    }
+    for (i = 0; i < LAG_NY; ++i)
+        s->scal[i] = s->atol + s->rtol * r_fabs(s->y[i]);
+    for (;;) {
+        real err, shrink, fac, quot;
+        if (s->max_steps > 0 && s->stats.accepted + s->stats.rejected >= s->max_steps)
+            return LAG_ERR_MAX_STEPS;
+        if (!(s->h >= 10 * REAL_EPSILON * r_fabs(s->t)) || s->h <= 0)
+            return failure;
+        if (s->need_jac) {
+            status = lag_jacobian(s->sys, s->t, s->y, s->jac);
+            s->stats.jac_evals += 1;
+            if (status != LAG_OK)
+                return status;
+            s->need_jac = 0;
+            s->fresh_jac = 1;
+            s->h_lu = 0;
+        }
+        if (s->h != s->h_lu && radau_factor(s) != 0) {
+            /* not the model's mass matrix but Newton's: the iteration cannot proceed */
+            failure = LAG_ERR_NO_CONVERGENCE;
+            if (++singular >= RADAU_MAX_SINGULAR)
+                return failure;
+            radau_retry(s, s->h / 2);
+            continue;
+        }
+        status = radau_newton(s, &shrink);
+        if (status == LAG_OK) {
+            shrink = LAG_LIT(0.1);
+            status = radau_error(s, &err);
+        }
+        if (status != LAG_OK) {
+            failure = status;
+            radau_retry(s, s->h * shrink);
+            continue;
+        }
+        /* the safety factor drops when Newton needed many iterations */
+        fac = r_fmin(RADAU_SAFE, RADAU_SAFE * (1 + 2 * RADAU_NIT) / (s->newt + 2 * RADAU_NIT));
+        quot = r_fmax(RADAU_FACR, r_fmin(RADAU_FACL, r_pow(err, LAG_LIT(0.25)) / fac));
+        if (err <= 1) {
+            radau_accept(s, err, quot);
+            return LAG_OK;
+        }
+        failure = LAG_ERR_STEP_TOO_SMALL;
+        radau_retry(s, s->first ? s->h / 10 : s->h / quot);
+    }
+}
+
+static void lag_stepper_dense(const lag_stepper *s, real t, real *yout)
+{
+    int i;
+    if (s->t == s->t_old) {
+        for (i = 0; i < LAG_NY; ++i)
+            yout[i] = s->y[i];
+        return;
+    }
+    {
+        real u = (t - s->t) / s->h_old, a = u - (s->c2 - 1), b = u - (s->c1 - 1);
+        for (i = 0; i < LAG_NY; ++i)
+            yout[i] = s->y[i] + u * (s->cont[0][i] + a * (s->cont[1][i] + b * s->cont[2][i]));
+    }
+}
+
+static int lag_stepper_restart(lag_stepper *s)
+{
+    /* f(t, y) is re-evaluated at the start of the next step; J, the factors and the
+     * extrapolated starting values remain good approximations after a small projection */
+    s->have_f0 = 0;
+    return LAG_OK;
+}
