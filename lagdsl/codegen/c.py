@@ -49,7 +49,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
         "solver": kernel.solver, "jacobian": kernel.jacobian is not None,
         "canonical": kernel.momenta is not None,
         "outputs_need_multipliers": kernel.outputs_need_multipliers,
-        "integrator_source": c_source(f"{kernel.integrator.name}.c"),
+        "integrator_source": _integrator_source(kernel.integrator.name),
         "t_start": _literal(kernel.time.start), "t_stop": _literal(kernel.time.stop),
         "t_interval": _literal(kernel.time.interval),
         "options_init": _options_initializer(options),
@@ -59,6 +59,12 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
     context["driver"] = template_environment().get_template("c/driver.c.j2").render(context)
     text = template_environment().get_template("c/model.c.j2").render(context)
     return GeneratedSource("c", text, stem(kernel))
+
+
+def _integrator_source(name: str) -> str:
+    """The integrator file, after the step-size control the two Dormand-Prince pairs share."""
+    shared = c_source("explicit_control.c") + "\n" if name in ("dopri5", "dop853") else ""
+    return shared + c_source(f"{name}.c")
 
 
 def _linear_algebra(kernel: Kernel) -> str:
@@ -111,7 +117,8 @@ def _print_block(block: Block, kind: str, kernel: Kernel, printer: CPrinter) -> 
     if any("t" in {x.name for x in value.free_symbols} for _, value in block.assignments) or \
             any("t" in {x.name for x in s.value.free_symbols} for s in block.stores):
         read.add("t")
-    unused = [p for p in FUNCTION_PARAMETERS[kind] if p not in read]
+    parameters = [p for p in FUNCTION_PARAMETERS[kind] if p != "lam" or kernel.constraints]
+    unused = [p for p in parameters if p not in read]
     return {"inputs": block.inputs, "assignments": assignments, "stores": stores, "unused": unused}
 
 

@@ -22,13 +22,16 @@ def find_cc() -> str | None:
     return None
 
 
-def assemble(model_c: str, integrator: str, main_c: str) -> str:
+def assemble(model_c: str, integrator: str, main_c: str, fragments: list[str] = ()) -> str:
+    """`fragments` are further bundled files (e.g. "explicit_control.c") pasted, in this order,
+    between the model and the integrator."""
     parts = [
         SYSTEM_HEADERS,
         (C_SOURCES / "runtime.h").read_text(),
         (C_SOURCES / "cholesky.c").read_text(),
         (C_SOURCES / "lu.c").read_text(),
         model_c,
+        *((C_SOURCES / name).read_text() for name in fragments),
         (C_SOURCES / f"{integrator}.c").read_text(),
         main_c,
     ]
@@ -36,7 +39,7 @@ def assemble(model_c: str, integrator: str, main_c: str) -> str:
 
 
 def build_and_run(tmp_path: Path, model_c: str, integrator: str, main_c: str,
-                  args: list[str] = (), extra_flags: list[str] = ()) -> str:
+                  args: list[str] = (), extra_flags: list[str] = (), fragments: list[str] = ()) -> str:
     """Compile with the strict flags (warnings are errors) and return the program's stdout."""
     cc = find_cc()
     if cc is None:
@@ -44,7 +47,7 @@ def build_and_run(tmp_path: Path, model_c: str, integrator: str, main_c: str,
         pytest.skip("no C compiler")
     src = tmp_path / f"{integrator}_test.c"
     exe = tmp_path / f"{integrator}_test"
-    src.write_text(assemble(model_c, integrator, main_c))
+    src.write_text(assemble(model_c, integrator, main_c, fragments))
     subprocess.run([cc, *STRICT_FLAGS, *extra_flags, str(src), "-o", str(exe), "-lm"],
                    check=True, capture_output=True, text=True)
     return subprocess.run([str(exe), *args], check=True, capture_output=True, text=True).stdout
