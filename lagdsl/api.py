@@ -63,7 +63,11 @@ class Model:
         """`simulate` with the overrides already gathered (what `lagc run` calls)."""
         _check_backend(backend)
         scene_plan = self.plan(scene, overrides)
-        kernel, source = generate(self.equations, scene_plan, backend, self.source.name)
+        # Parameters, initial values, the time grid and tolerances are run-time inputs of the
+        # generated code; only the integrator changes the code. Generating from the scene as
+        # written keeps one compiled library per scene and integrator, whatever is overridden.
+        code_plan = self.plan(scene, Overrides(integrator=overrides.integrator, options=overrides.options))
+        kernel, source = generate(self.equations, code_plan, backend, self.source.name)
         return execute(kernel, source, scene_plan)
 
 

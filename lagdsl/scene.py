@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
+import sympy
+
 from . import ir
 from .errors import LagError
 from .expressions import suggest
@@ -152,13 +154,13 @@ def _parameter_values(model: ir.Model, set_values: dict[str, float]) -> tuple[fl
         else:
             value = float(parameter.expression.xreplace(values).evalf(30)) if parameter.expression.free_symbols \
                 else parameter.value
-        values[parameter.symbol] = value
+        values[parameter.symbol] = sympy.Float(value, 30)
         result.append(value)
     return tuple(result)
 
 
 def _initial_state(model: ir.Model, parameters, initial: dict) -> tuple[float, ...]:
-    values = {p.symbol: v for p, v in zip(model.parameters, parameters)}
+    values = {p.symbol: sympy.Float(v, 30) for p, v in zip(model.parameters, parameters)}
     starts, velocities = [], []
     for c in model.coordinates:
         start, velocity = initial.get(c.name, (None, None))

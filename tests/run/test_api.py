@@ -1,0 +1,78 @@
+"""The Python API, the build cache, and names that would collide in C."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import lagdsl
+from lagdsl.run import toolchain
+from tests.conftest import MODELS
+
+COLLIDING = """
+model Collide "names that are C keywords, libm or POSIX functions"
+  parameter y0 = 1.0;
+  parameter j1 = 2.0;
+  parameter gamma = 0.5;
+  parameter main = 3.0;
+  parameter errno = 1.0;
+  coordinate int(start = y0);
+  coordinate double(velocity = j1);
+  let sqrt2 = gamma*int;
+  T = main/2*(der(int)^2 + der(double)^2);
+  U = errno*sqrt2^2/2;
+  scene exp
+    time(stop = 1, interval = 0.5);
+    integrator dopri5(rtol = 1e-10, atol = 1e-12);
+    output int, double, energy;
+  end exp;
+end Collide;
+"""
+
+
+def test_simulate_returns_named_columns_and_summary(tmp_path):
+    result = lagdsl.load(MODELS / "kepler.lag").simulate("ellipse", stop=1.0)
+    assert result.t[0] == 0.0 and result.t[-1] == pytest.approx(1.0)
+    assert result["r"].shape == result.t.shape
+    assert result.columns == ("r", "theta", "energy", "momentum(theta)")
+    assert result.summary.accepted > 0 and "drift of energy" in result.summary.render()
+    result.to_csv(tmp_path / "kepler.csv")
+    assert (tmp_path / "kepler.csv").read_text().startswith("t,r,theta,energy,momentum(theta)\n")
+
+
+def test_parameter_and_initial_overrides():
+    model = lagdsl.load(MODELS / "wedge.lag")
+    heavy = model.simulate(M=100.0, stop=0.1)
+    light = model.simulate(set={"M": 0.5, "s.velocity": 1.0}, stop=0.1)
+    assert abs(heavy["x"][-1]) < abs(light["x"][-1])
+    assert light["der(s)"][0] == 1.0
+
+
+def test_names_that_collide_in_c(tmp_path):
+    path = tmp_path / "collide.lag"
+    path.write_text(COLLIDING)
+    model = lagdsl.load(path)
+    c = model.simulate()
+    numpy = model.simulate(backend="numpy")
+    # int'' = -(errno gamma^2 / main) int: a harmonic oscillator with omega^2 = 1/12
+    omega = np.sqrt(0.25 / 3.0)
+    assert np.allclose(c["int"], np.cos(omega * c.t), atol=1e-9)
+    assert np.allclose(c.values, numpy.values, atol=1e-9)
+
+
+def test_second_run_reuses_the_compiled_library(tmp_path, monkeypatch):
+    monkeypatch.setenv("LAGDSL_CACHE", str(tmp_path))
+    model = lagdsl.load(MODELS / "wedge.lag")
+    model.simulate(stop=0.1)
+    compiled = []
+    original = toolchain.compile_c
+    monkeypatch.setattr(toolchain, "compile_c", lambda *a, **k: compiled.append(a) or original(*a, **k))
+    model.simulate(stop=0.1, M=5.0)           # parameters are run-time inputs: same library
+    assert compiled == []
+    assert len(list(tmp_path.glob("*.so"))) == 1
+
+
+def test_failure_keeps_partial_results():
+    model = lagdsl.load(MODELS / "wedge.lag")
+    with pytest.raises(lagdsl.SimulationError) as failure:
+        model.simulate(integrator="dopri5", set={"M": -1.0, "m": 0.0})
+    assert failure.value.partial is not None
