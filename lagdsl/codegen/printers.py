@@ -55,7 +55,7 @@ class CPrinter(C99CodePrinter):
 
     Functions go through the runtime's table (r_sin, r_sqrt, ...), never libm names directly.
 
-    Powers: integer powers 2 to 4 of a symbol print as products (x*x), since kernels are
+    Powers: integer powers 2 to 4 of a symbol print as parenthesized products ((x*x)), since kernels are
     built without -ffast-math; negative ones as 1/(x*x); square roots as r_sqrt; other powers
     call r_pow (gcc folds r_pow(x, 2) of an expression into a product by itself).
     """
@@ -97,8 +97,9 @@ class CPrinter(C99CodePrinter):
         if exponent == -sympy.S.Half:
             return f"(1.0/r_sqrt({self._print(base)}))"
         if exponent.is_Integer and base.is_Symbol and 2 <= abs(int(exponent)) <= 4:
+            # Parenthesized: the Mul printer puts powers after '/' without parentheses.
             product = "*".join([self._print(base)] * abs(int(exponent)))
-            return product if exponent > 0 else f"(1.0/({product}))"
+            return f"({product})" if exponent > 0 else f"(1.0/({product}))"
         if exponent == -1:
             return f"(1.0/{self.parenthesize(base, PRECEDENCE['Mul'] + 1)})"
         return f"r_pow({self._print(base)}, {self._print(exponent)})"

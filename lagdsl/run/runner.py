@@ -211,7 +211,7 @@ def _run_fixed_step(module, par, times, y0, plan):
                                        lambda t, z: module.from_canonical(t, z, par),
                                        times, y0, options["step"], int(options["stages"]))
     except IntegrationFailure as failure:
-        return list(failure.Y[:failure.completed]), {}, (2, failure.t, failure.y)
+        return list(failure.Y[:failure.completed]), {}, (failure.status, failure.t, failure.y)
     except np.linalg.LinAlgError:
         return [y0], {}, (1, times[0], y0)
     return list(Y), stats, None

@@ -21,8 +21,9 @@ def test_numbers_are_exact_in_every_precision():
 
 
 def test_powers():
-    assert c(x**2) == "x*x"
-    assert c(x**4) == "x*x*x*x"
+    assert c(x**2) == "(x*x)"
+    assert c(x**4) == "(x*x*x*x)"
+    assert c(y / x**2) == "y/(x*x)"          # not y/x*x
     assert c(x**-2) == "(1.0/(x*x))"
     assert c(x**-1) == "(1.0/x)"
     assert c(sympy.sqrt(x)) == "r_sqrt(x)"
