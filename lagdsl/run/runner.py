@@ -203,7 +203,9 @@ def _run_fixed_step(module, par, times, y0, plan):
     from ..integrators.python.fixed_step import IntegrationFailure, integrate_gauss, integrate_rk4
     options = dict(plan.integrator.options)
     try:
-        if plan.integrator.name == "rk4":
+        if plan.integrator.name == "rk4" and plan.constraints:
+            Y, stats = _rk4_projected(module, par, times, y0, options["step"], plan.time.stop)
+        elif plan.integrator.name == "rk4":
             Y, stats = integrate_rk4(lambda t, y: module.rhs(t, y, par), times, y0, options["step"])
         else:
             Y, stats = integrate_gauss(lambda t, z: module.hamilton_rhs(t, z, par),
@@ -215,6 +217,24 @@ def _run_fixed_step(module, par, times, y0, plan):
     except np.linalg.LinAlgError:
         return [y0], {}, (1, times[0], y0)
     return list(Y), stats, None
+
+
+def _rk4_projected(module, par, times, y0, step, stop):
+    """rk4 step by step, projecting onto the constraints after each step as the C driver does;
+    output rows inside a step come from that step's dense output."""
+    from ..integrators.python.fixed_step import integrate_rk4
+    rows, stats, k, n, y = [y0], {"accepted": 0, "rejected": 0, "rhs_evals": 0}, 1, 0, y0
+    while k < len(times):
+        start, end = times[0] + n * step, min(times[0] + (n + 1) * step, stop)
+        inside = [t for t in times[k:] if t <= end]
+        grid = np.array([start, *inside] + ([] if inside and inside[-1] == end else [end]))
+        Y, counts = integrate_rk4(lambda t, x: module.rhs(t, x, par), grid, y, end - start)
+        rows.extend(Y[1:1 + len(inside)])
+        for key in stats:
+            stats[key] += counts.get(key, 0)
+        y, _ = project(module, par, end, Y[-1])
+        k, n = k + len(inside), n + 1
+    return np.array(rows), stats
 
 
 def project(module, par, t, y, iterations: int = 10):
