@@ -177,7 +177,8 @@ def _run_scipy(module, par, times, y0, plan):
                 return states, _tally(counts, solver), (2, solver.t, solver.y)
             dense = solver.dense_output()
             while k < len(times) and times[k] <= solver.t:
-                states.append(solver.y.copy() if times[k] == solver.t else dense(times[k]))
+                state = solver.y.copy() if times[k] == solver.t else dense(times[k])
+                states.append(project(module, par, times[k], state)[0] if plan.constraints else state)
                 k += 1
             if plan.constraints and solver.status == "running":
                 projected, _ = project(module, par, solver.t, solver.y)
@@ -229,7 +230,7 @@ def _rk4_projected(module, par, times, y0, step, stop):
         inside = [t for t in times[k:] if t <= end]
         grid = np.array([start, *inside] + ([] if inside and inside[-1] == end else [end]))
         Y, counts = integrate_rk4(lambda t, x: module.rhs(t, x, par), grid, y, end - start)
-        rows.extend(Y[1:1 + len(inside)])
+        rows.extend(project(module, par, t, row)[0] for t, row in zip(inside, Y[1:1 + len(inside)]))
         for key in stats:
             stats[key] += counts.get(key, 0)
         y, _ = project(module, par, end, Y[-1])

@@ -1092,6 +1092,11 @@ static int lag_integrate(const lag_system *sys, const real *y0, real t0, real t1
             status = lag_deliver(sys, tk, stepper->y, sink, context, report);
         } else {
             lag_stepper_dense(stepper, tk, y);
+            {
+                real moved;     /* output rows lie on the constraints too, not only step ends */
+                status = lag_project(sys, tk, y, &moved);
+            }
+            if (status == LAG_OK)
             status = lag_deliver(sys, tk, y, sink, context, report);
         }
     }
