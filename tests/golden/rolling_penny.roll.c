@@ -1065,6 +1065,7 @@ static int lag_integrate(const lag_system *sys, const real *y0, real t0, real t1
     real y[LAG_NY];
     long k, last = (long)r_floor((t1 - t0) / dt + LAG_LIT(1e-9));
     int status = LAG_OK;
+    real moved;
     memset(report, 0, sizeof *report);
     memcpy(y, y0, sizeof y);
     if (stepper == NULL)
@@ -1080,7 +1081,6 @@ static int lag_integrate(const lag_system *sys, const real *y0, real t0, real t1
         while (stepper->t < tk && status == LAG_OK) {
             status = lag_stepper_step(stepper);
             if (status == LAG_OK) {
-                real moved;
                 status = lag_project(sys, stepper->t, stepper->y, &moved);
                 if (status == LAG_OK)
                     status = lag_stepper_restart(stepper);
@@ -1092,11 +1092,9 @@ static int lag_integrate(const lag_system *sys, const real *y0, real t0, real t1
             status = lag_deliver(sys, tk, stepper->y, sink, context, report);
         } else {
             lag_stepper_dense(stepper, tk, y);
-            {
-                real moved;     /* output rows lie on the constraints too, not only step ends */
-                status = lag_project(sys, tk, y, &moved);
-            }
-            if (status == LAG_OK)
+            status = lag_project(sys, tk, y, &moved);    /* output rows lie on the constraints too */
+            if (status != LAG_OK)
+                break;
             status = lag_deliver(sys, tk, y, sink, context, report);
         }
     }
