@@ -43,8 +43,9 @@ class Differentiator:
     """
 
     def __init__(self, definitions: Iterable[tuple[sympy.Symbol, sympy.Expr]],
-                 base: Iterable[sympy.Symbol]):
+                 base: Iterable[sympy.Symbol], mark: str = "∂"):
         self.base = set(base)
+        self.mark = mark          # names derivatives ∂x/∂q; another mark keeps two tables apart
         self._definitions: dict[sympy.Symbol, sympy.Expr] = {}
         self._depends: dict[sympy.Symbol, frozenset] = {}
         self._memo: dict[tuple, sympy.Expr] = {}
@@ -71,6 +72,11 @@ class Differentiator:
     def definitions(self) -> tuple[tuple[sympy.Symbol, sympy.Expr], ...]:
         """All intermediates, each after the ones it uses."""
         return tuple(self._definitions.items())
+
+    def named_derivatives(self, direction: tuple) -> dict[sympy.Symbol, sympy.Symbol]:
+        """Intermediates created as derivatives along `direction`: derivative -> source."""
+        return {value: symbol for (symbol, kind), value in self._memo.items()
+                if kind == direction and value in self._definitions}
 
     def dependencies(self, expr: sympy.Basic) -> frozenset:
         """The base symbols `expr` depends on, directly or through intermediates."""
@@ -129,13 +135,10 @@ class Differentiator:
             self._memo[key] = derivative
         return self._memo[key]
 
-    @staticmethod
-    def _name(symbol: sympy.Symbol, direction: tuple) -> sympy.Symbol:
+    def _name(self, symbol: sympy.Symbol, direction: tuple) -> sympy.Symbol:
         kind, *about = direction
-        if kind == "der":
-            return sympy.Symbol(f"der({symbol.name})", real=True)
         if kind == "∂":
-            return sympy.Symbol(f"∂{symbol.name}/∂{about[0].name}", real=True)
+            return sympy.Symbol(f"{self.mark}{symbol.name}/{self.mark}{about[0].name}", real=True)
         return sympy.Symbol(f"{kind}({symbol.name})", real=True)
 
     # -- evaluation helpers ------------------------------------------------------------------

@@ -26,7 +26,8 @@ class Diagnostic:
         span = self.span
         line = span.source.line(span.line)
         width = max(1, min(span.end - span.start, len(line) - span.column + 1))
-        caret = " " * (span.column - 1) + "^" + "~" * (width - 1)
+        indent = "".join(c if c == "\t" else " " for c in line[:span.column - 1])   # tabs stay aligned
+        caret = indent.ljust(span.column - 1) + "^" + "~" * (width - 1)
         return f"{span.source.name}:{span.line}:{span.column}: error: {self.message}\n{line}\n{caret}"
 
 
@@ -39,8 +40,10 @@ class LagError(Exception):
 
     @classmethod
     def combine(cls, errors: list["LagError"]) -> "LagError":
-        combined = cls(errors[0].diagnostics[0].message, errors[0].diagnostics[0].span)
-        combined.diagnostics = tuple(d for e in errors for d in e.diagnostics)
+        diagnostics = tuple(d for e in errors for d in e.diagnostics)
+        # Errors without diagnostics are follow-ons of one reported elsewhere (a poisoned name).
+        combined = cls(diagnostics[0].message, diagnostics[0].span) if diagnostics else cls("follow-on error")
+        combined.diagnostics = diagnostics
         return combined
 
     def render(self) -> str:

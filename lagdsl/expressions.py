@@ -10,6 +10,7 @@ depend on accelerations.
 from __future__ import annotations
 
 import difflib
+import math
 from dataclasses import dataclass
 from fractions import Fraction
 
@@ -33,6 +34,12 @@ SPECIAL_FORMS = {"der": 1, "sum": 2}
 BUILTIN_CALLS = {"momentum", "multiplier", "residual"}
 ALL_FUNCTION_NAMES = sorted(set(FUNCTIONS) | set(VECTOR_FUNCTIONS) | set(SPECIAL_FORMS))
 MAX_DOUBLE = sympy.Rational(1.7976931348623157e308)
+NON_FINITE = (sympy.zoo, sympy.nan, sympy.oo, sympy.S.NegativeInfinity)
+MAX_MEMBERS = 10000         # largest index range or indexed family: sizes are unrolled at compile time
+MAX_UNROLLED = 100000       # all sums and indexed lets of a model together
+KIND_WORDS = {"parameter": "a parameter", "coordinate": "a coordinate", "let": "a let",
+              "output": "an output", "pending output": "an output", "constraint": "a constraint",
+              "loop": "an index", "partial": "a let", "invalid": "a name whose declaration failed"}
 
 
 @dataclass(frozen=True)
@@ -71,12 +78,49 @@ class Scope:
 
 
 def suggest(name: str, candidates) -> str:
-    close = difflib.get_close_matches(name, list(candidates), n=1, cutoff=0.6)
-    return f"; did you mean '{close[0]}'?" if close else ""
+    """"; did you mean 'x'?" for the closest candidate within a few typing mistakes, else ""."""
+    scored = []
+    for candidate in dict.fromkeys(candidates):
+        distance = _edit_distance(name, candidate)
+        if candidate != name and distance <= max(1, len(name) // 3) and distance < len(name):
+            prefix = len(_common_prefix(name, candidate))
+            ratio = difflib.SequenceMatcher(None, name, candidate).ratio()
+            scored.append((distance, -prefix, -ratio, candidate))
+    return f"; did you mean '{min(scored)[3]}'?" if scored else ""
+
+
+def _common_prefix(a: str, b: str) -> str:
+    return a[:next((i for i, (x, y) in enumerate(zip(a, b)) if x != y), min(len(a), len(b)))]
+
+
+def _edit_distance(a: str, b: str) -> int:
+    """Insertions, deletions, substitutions and swaps of neighbours ("lenght" -> "length" is 1)."""
+    if abs(len(a) - len(b)) > 3:
+        return abs(len(a) - len(b))
+    previous, current = None, list(range(len(b) + 1))
+    for i in range(1, len(a) + 1):
+        before, previous, current = previous, current, [i] + [0] * len(b)
+        for j in range(1, len(b) + 1):
+            current[j] = min(previous[j] + 1, current[j - 1] + 1, previous[j - 1] + (a[i - 1] != b[j - 1]))
+            if i > 1 and j > 1 and a[i - 1] == b[j - 2] and a[i - 2] == b[j - 1]:
+                current[j] = min(current[j], before[j - 2] + 1)
+    return current[len(b)]
 
 
 def number_value(text: str, span: Span) -> sympy.Rational:
     """A decimal literal, exactly: 9.81 is 981/100, so no precision is lost before code."""
+    mantissa, _, exponent = text.lower().partition("e")
+    whole, _, fraction = mantissa.partition(".")
+    if exponent and not (whole + fraction).strip("0"):
+        return sympy.S.Zero
+    if exponent:
+        # The decimal exponent of the value, found before 10**exponent is computed exactly.
+        magnitude = int(exponent) + (len(whole.lstrip("0")) - 1 if whole.strip("0")
+                                     else -(len(fraction) - len(fraction.lstrip("0"))) - 1)
+        if magnitude > 308:
+            raise LagError(f"the number {text} is not finite in double precision", span)
+        if magnitude < -330:
+            raise LagError(f"the number {text} is smaller than the smallest double (about 5e-324)", span)
     value = sympy.Rational(Fraction(text))
     if abs(value) > MAX_DOUBLE:
         raise LagError(f"the number {text} is not finite in double precision", span)
@@ -95,6 +139,7 @@ class ExpressionBuilder:
         self.rates[sympy.Symbol("t", real=True)] = sympy.S.One
         self.exact_parameters: dict[sympy.Symbol, sympy.Expr] = {}   # parameter -> exact value
         self.structural: set[sympy.Symbol] = set()                    # parameters used as sizes
+        self.unrolled = 0                                             # terms of sums and indexed lets
 
     def span(self, node) -> Span:
         if isinstance(node, lark.Token):
@@ -115,6 +160,8 @@ class ExpressionBuilder:
         used = value.free_symbols & self.exact_parameters.keys()
         value = value.xreplace(self.exact_parameters)
         if not value.is_Integer:
+            if value.is_number and value.is_real:
+                raise LagError(f"{what} must be an integer, not {float(value):g}", self.span(node))
             raise LagError(f"{what} must be an integer known at compile time "
                            "(a literal or a parameter with an integer value)", self.span(node))
         self.structural |= used
@@ -127,7 +174,24 @@ class ExpressionBuilder:
         method = getattr(self, f"_{node.data}", None)
         if method is None:
             raise LagError("this is not an expression", self.span(node))
-        return method(node, scope)
+        value = method(node, scope)
+        for component in (value.components if isinstance(value, Vector) else (value,)):
+            self._require_real_number(component, node)
+        return value
+
+    def _require_real_number(self, value, node) -> None:
+        """A constant part of an expression must be a finite real double (tan(pi/2) is not)."""
+        if not value.is_number:
+            return
+        span = self.span(node)
+        text = " ".join(span.text.split())
+        this = text if len(text) <= 40 else "this constant"
+        if value.has(*NON_FINITE):
+            raise LagError(f"{this} has no finite value", span)
+        if value.is_real is False:
+            raise LagError(f"{this} is not a real number", span)
+        if value.is_Rational and abs(value) > MAX_DOUBLE:
+            raise LagError(f"{this} is not finite in double precision", span)
 
     def _number(self, node, scope):
         return number_value(str(node.children[0]), self.span(node))
@@ -139,6 +203,12 @@ class ExpressionBuilder:
             return sympy.pi
         if name == "t":
             return sympy.Symbol("t", real=True)
+        if name not in scope.bindings:
+            if name in ALL_FUNCTION_NAMES or name in BUILTIN_CALLS:
+                raise LagError(f"'{name}' is a function; call it as {name}(...)", self.span(token))
+            if name in ("T", "U", "L"):
+                raise LagError(f"{name} cannot be used in an expression; name the shared part with a let",
+                               self.span(token))
         binding = scope.lookup(name, self.span(token))
         if binding.family is not None:
             raise LagError(f"'{name}' is an indexed family; write {name}[i]", self.span(token))
@@ -149,14 +219,18 @@ class ExpressionBuilder:
 
     def _index(self, node, scope):
         token, _, index_node, _ = node.children
+        if str(token) in ("t", "pi") and str(token) not in scope.bindings:
+            raise LagError(f"'{token}' is not indexed", self.span(token))
         binding = scope.lookup(str(token), self.span(token))
         if binding.family is None:
             raise LagError(f"'{token}' is not indexed", self.span(token))
         index = self.integer(index_node, scope, "an index")
+        if binding.kind == "partial" and index not in binding.family:
+            raise LagError(f"'{token}[{index}]' is used before it is defined; a member of an indexed let "
+                           "may only use earlier members", self.span(node))
         if index not in binding.family:
-            low, high = min(binding.family), max(binding.family)
-            raise LagError(f"index {index} is out of range for '{token}' ({low}:{high})",
-                           self.span(index_node))
+            members = f"{min(binding.family)}:{max(binding.family)}" if binding.family else "it has no members"
+            raise LagError(f"index {index} is out of range for '{token}' ({members})", self.span(index_node))
         return binding.family[index]
 
     def _braces(self, node, scope):
@@ -217,6 +291,13 @@ class ExpressionBuilder:
         exponent = self.scalar(right, scope, "a scalar exponent")
         if base == 0 and exponent.is_number and exponent.is_negative:
             raise LagError("division by zero", self.span(node))
+        if base.is_Rational and exponent.is_Rational and abs(base) not in (0, 1) and abs(exponent) > 1:
+            # Rational powers are computed exactly: check their size first (2^(10^9) is not a double).
+            p, q = abs(base.p), base.q
+            bits = abs(float(exponent)) * abs(math.log2(p) - math.log2(q))
+            work = abs(float(exponent)) * max(math.log2(p), math.log2(q))
+            if bits > 1100 or work > 100000:
+                raise LagError(f"{base}^{exponent} is out of the range of double precision", self.span(node))
         return base ** exponent
 
     def _call(self, node, scope):
@@ -231,6 +312,13 @@ class ExpressionBuilder:
         expected = {**{k: v[1] for k, v in FUNCTIONS.items()}, **VECTOR_FUNCTIONS,
                     **SPECIAL_FORMS}.get(name)
         if expected is None:
+            if name in scope.bindings:
+                binding = scope.lookup(name, self.span(token))   # a failed declaration is reported there
+                raise LagError(f"'{name}' is {KIND_WORDS.get(binding.kind, 'a name')}, not a function",
+                               self.span(token))
+            if name in ("t", "pi"):
+                raise LagError(f"'{name}' is {'the time' if name == 't' else 'a constant'}, not a function",
+                               self.span(token))
             raise LagError(f"unknown function '{name}'{suggest(name, ALL_FUNCTION_NAMES)}",
                            self.span(token))
         if len(arguments) != expected:
@@ -292,6 +380,16 @@ class ExpressionBuilder:
                            self.span(name_token))
         low = self.integer(low_node, scope, "a range bound")
         high = self.integer(high_node, scope, "a range bound")
+        if high - low + 1 > MAX_MEMBERS:
+            raise LagError(f"the range {low}:{high} has {high - low + 1} members; at most {MAX_MEMBERS} "
+                           "are unrolled", self.span(range_node))
+        self.unrolled += max(0, high - low + 1)
+        if self.unrolled > MAX_UNROLLED:
+            error = LagError(f"the sums and indexed lets of the model unroll to more than {MAX_UNROLLED} terms, "
+                             "too many to derive symbolically", self.span(range_node))
+            if self.unrolled - (high - low + 1) > MAX_UNROLLED:
+                error.diagnostics = ()          # reported once, where the budget ran out
+            raise error
         return str(name_token), low, high
 
     def _sum_terms(self, a, b, span):

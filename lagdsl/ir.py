@@ -57,10 +57,13 @@ class Coordinate:
 
 @dataclass(frozen=True)
 class Let:
+    """A named intermediate: a user's let (with its span), or der(x) of a let x (derivative_of)."""
+
     name: str
     symbol: sympy.Symbol
     expression: sympy.Expr
-    span: Span
+    span: Span | None
+    derivative_of: sympy.Symbol | None = None
 
 
 @dataclass(frozen=True)

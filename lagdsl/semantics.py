@@ -12,9 +12,9 @@ import lark
 import sympy
 
 from . import ir
-from .calculus import Differentiator
-from .errors import ErrorCollector, LagError
-from .expressions import Binding, ExpressionBuilder, Scope, Vector, number_value, suggest
+from .calculus import TIME_DIRECTION, Differentiator
+from .errors import ErrorCollector, InternalError, LagError
+from .expressions import KIND_WORDS, MAX_MEMBERS, Binding, ExpressionBuilder, Scope, Vector, number_value, suggest
 from .source import SourceFile, Span
 from .units import parse_unit
 
@@ -60,6 +60,9 @@ class _ScopeWithPoison(Scope):
         binding = super().lookup(name, span)
         if binding.kind == "invalid":
             raise PoisonedName()
+        if binding.kind == "pending output":
+            raise LagError(f"'{name}' is an output (line {binding.span.line}); only later outputs and "
+                           "scenes can use it", span)
         return binding
 
     def child(self, **loops):
@@ -85,6 +88,8 @@ class _ModelBuilder:
         self.constraints: list[ir.Constraint] = []
         self.outputs: list[ir.Output] = []
         self.scenes: list[ir.Scene] = []
+        self.scene_spans: dict[str, Span] = {}
+        self.constraint_statements = 0
 
     def span(self, node) -> Span:
         return self.expr.span(node)
@@ -94,7 +99,8 @@ class _ModelBuilder:
         names = tokens(node, "NAME")
         name, end_name = names[0], names[-1]
         if str(end_name) != str(name):
-            self.errors.errors.append(LagError(f"'end {end_name}' closes model '{name}'", self.span(end_name)))
+            self.errors.errors.append(LagError(f"'end {end_name}' does not match model '{name}'; expected 'end {name};'",
+                                               self.span(end_name)))
         declarations = [c for c in node.children if isinstance(c, lark.Tree) and c.data != "description"]
         first_pass = {"parameter": self.parameter, "coordinate": self.coordinate, "let": self.let}
         later = {"energy": self.energy_statement, "dissipation": self.dissipation_statement,
@@ -112,14 +118,25 @@ class _ModelBuilder:
         for declaration in declarations:
             if declaration.data == "scene":
                 self.errors.attempt(self.scene, declaration)
-        self.errors.raise_if_any()
+        if self.errors.errors:
+            error = LagError.combine(self.errors.errors)
+            if not error.diagnostics:
+                raise InternalError("a model was rejected without a diagnostic")
+            error.diagnostics = tuple(sorted(error.diagnostics, key=_position))   # in source order
+            raise error
         return ir.Model(
             name=str(name), description=self.description(node),
             parameters=tuple(self.parameters), coordinates=tuple(self.coordinates),
-            lets=tuple(ir.Let(s.name, s, e, self.let_spans.get(s)) for s, e in self.calculus.definitions()),
+            lets=self.lets(),
             lagrangian=lagrangian, dissipation=self.dissipation, forces=tuple(self.forces),
             constraints=tuple(self.constraints), outputs=tuple(self.outputs),
             scenes=tuple(self.scenes), span=self.span(name), source_name=self.source.name)
+
+    def lets(self) -> tuple[ir.Let, ...]:
+        """User lets and the der(x) intermediates the chain rule named for them."""
+        sources = self.calculus.named_derivatives(TIME_DIRECTION)
+        return tuple(ir.Let(s.name, s, e, self.let_spans.get(s), sources.get(s))
+                     for s, e in self.calculus.definitions())
 
     def description(self, node) -> str | None:
         description = subtree(node, "description")
@@ -130,6 +147,10 @@ class _ModelBuilder:
         return parse_unit(self.span(unit.children[0])) if unit is not None else None
 
     def declare(self, token: lark.Token, binding: Binding) -> None:
+        self.require_new_name(token)
+        self.scope.bindings[str(token)] = binding
+
+    def require_new_name(self, token: lark.Token) -> None:
         name = str(token)
         if name in RESERVED:
             raise LagError(f"'{name}' is a reserved word and cannot be used as a name", self.span(token))
@@ -137,12 +158,14 @@ class _ModelBuilder:
             raise LagError(f"'{name}' is the name of a built-in observable", self.span(token))
         existing = self.scope.bindings.get(name)
         if existing is not None and existing.kind != "invalid":
-            where = f" (at line {existing.span.line})" if existing.span else ""
-            raise LagError(f"'{name}' is already declared{where}", self.span(token))
-        self.scope.bindings[name] = binding
+            what = f" as {KIND_WORDS[existing.kind]}" if existing.kind in KIND_WORDS else ""
+            where = f" (line {existing.span.line})" if existing.span else ""
+            raise LagError(f"'{name}' is already declared{what}{where}", self.span(token))
 
     def poison(self, token: lark.Token) -> None:
-        self.scope.bindings.setdefault(str(token), Binding("invalid", self.span(token)))
+        existing = self.scope.bindings.get(str(token))
+        if existing is None or existing.kind == "pending output":
+            self.scope.bindings[str(token)] = Binding("invalid", self.span(token))
 
     def guarded(self, token, action):
         """Run a declaration; if it fails, its name stays declared but poisoned."""
@@ -197,7 +220,7 @@ class _ModelBuilder:
     def _coordinate(self, node, token):
         name = str(token)
         dimension = subtree(node, "dimension")
-        modifiers = self.modifiers(node, ("start", "velocity"))
+        modifiers = self.modifiers(node, ("start", "velocity"), f"coordinate '{name}'")
         unit, description = self.unit(node), self.description(node)
         if dimension is None:
             start = self.initial_values(modifiers.get("start"), None)
@@ -208,8 +231,12 @@ class _ModelBuilder:
         size = self.expr.integer(dimension.children[1], self.scope, "the number of coordinates")
         if size < 1:
             raise LagError("an indexed coordinate needs at least one member", self.span(dimension))
-        starts = self.initial_values(modifiers.get("start"), size)
-        velocities = self.initial_values(modifiers.get("velocity"), size)
+        if size > MAX_MEMBERS:
+            raise LagError(f"{size} coordinates in one family; at most {MAX_MEMBERS} are allowed",
+                           self.span(dimension))
+        starts = self.initial_values(modifiers.get("start"), size, f"{name}[1] .. {name}[{size}]", "start")
+        velocities = self.initial_values(modifiers.get("velocity"), size, f"{name}[1] .. {name}[{size}]",
+                                         "velocity")
         family = {}
         for i in range(1, size + 1):
             member = self.new_coordinate(f"{name}[{i}]", starts[i - 1], velocities[i - 1], unit,
@@ -227,7 +254,7 @@ class _ModelBuilder:
         self.coordinates.append(coordinate)
         return coordinate
 
-    def modifiers(self, node, allowed) -> dict[str, lark.Tree]:
+    def modifiers(self, node, allowed, owner: str = "") -> dict[str, lark.Tree]:
         found: dict[str, lark.Tree] = {}
         block = subtree(node, "modifiers")
         for modifier in (block.children if block is not None else []):
@@ -236,14 +263,15 @@ class _ModelBuilder:
             key = modifier.children[0]
             if str(key) not in allowed:
                 options = ", ".join(allowed) if allowed else "none"
-                raise LagError(f"unknown option '{key}'{suggest(str(key), allowed)} (allowed: {options})",
+                owner_text = f" for {owner}" if owner else ""
+                raise LagError(f"unknown option '{key}'{owner_text}{suggest(str(key), allowed)} (allowed: {options})",
                                self.span(key))
             if str(key) in found:
                 raise LagError(f"'{key}' is given twice", self.span(key))
             found[str(key)] = modifier.children[2]
         return found
 
-    def initial_values(self, node, size: int | None):
+    def initial_values(self, node, size: int | None, members: str = "", kind: str = "initial"):
         """start/velocity: a parameter expression, or {a, b, ...} for an indexed family."""
         if node is None:
             return sympy.S.Zero if size is None else [sympy.S.Zero] * size
@@ -252,7 +280,8 @@ class _ModelBuilder:
             if size is None:
                 raise LagError("a list of initial values needs an indexed coordinate", self.span(node))
             if len(items) != size:
-                raise LagError(f"{len(items)} initial values for {size} coordinates", self.span(node))
+                raise LagError(f"{len(items)} {kind} values for the {size} coordinates {members}; give one "
+                               f"value for all, or a list of {size}", self.span(node))
             return [self.initial_expression(item) for item in items]
         value = self.initial_expression(node)
         return value if size is None else [value] * size
@@ -286,13 +315,16 @@ class _ModelBuilder:
                            self.span(family_range.children[1]))
         iteration = lark.Tree("iteration", family_range.children[1:], family_range.meta)
         _, low, high = self.expr.iteration(iteration, self.scope)
+        self.require_new_name(token)
         family = {}
-        self.scope.bindings[name] = Binding("let", self.span(token), family={})
-        for i in range(low, high + 1):
-            value = self.expr.build(body, self.scope.child(**{variable: i}))
-            family[i] = self.intermediate(f"{name}[{i}]", value, token)
-            self.scope.bindings[name].family[i] = family[i]
-        del self.scope.bindings[name]
+        self.scope.bindings[name] = Binding("partial", self.span(token), family={})   # earlier members only
+        try:
+            for i in range(low, high + 1):
+                value = self.expr.build(body, self.scope.child(**{variable: i}))
+                family[i] = self.intermediate(f"{name}[{i}]", value, token)
+                self.scope.bindings[name].family[i] = family[i]
+        finally:
+            del self.scope.bindings[name]
         self.declare(token, Binding("let", self.span(token), family=family))
 
     def intermediate(self, name: str, value, token):
@@ -308,10 +340,12 @@ class _ModelBuilder:
         """Constraints and outputs have names too; declare them up front to catch clashes."""
         if node.data == "output":
             token = tokens(node, "NAME")[0]
-            self.errors.attempt(self.declare, token, Binding("invalid", self.span(token)))
-        elif node.data == "constraint" and tokens(node, "NAME") and tokens(node, "COLON"):
-            token = tokens(node, "NAME")[0]
-            self.errors.attempt(self.declare, token, Binding("constraint", self.span(token)))
+            self.errors.attempt(self.declare, token, Binding("pending output", self.span(token)))
+        elif node.data == "constraint":
+            self.constraint_statements += 1
+            if tokens(node, "NAME") and tokens(node, "COLON"):
+                token = tokens(node, "NAME")[0]
+                self.errors.attempt(self.declare, token, Binding("constraint", self.span(token)))
 
     def velocity_free(self, value, node, what):
         if self.calculus.dependencies(value) & set(self.velocity_of.values()):
@@ -341,7 +375,8 @@ class _ModelBuilder:
         if "T" in e:
             return ir.Lagrangian(e["T"][0], e["U"][0] if "U" in e else None, None, e["T"][1])
         if "U" in e:
-            raise LagError("the model gives U but no kinetic energy T", e["U"][1])
+            raise LagError("U is given without a kinetic energy T; add T = ..., or write the Lagrangian "
+                           "as L = ...", e["U"][1])
         raise LagError(f"model '{name_token}' has neither a kinetic energy T nor a Lagrangian L",
                        self.span(name_token))
 
@@ -358,14 +393,16 @@ class _ModelBuilder:
         binding = self.scope.bindings.get(str(token))
         if binding is None or binding.kind != "coordinate":
             coordinates = [n for n, b in self.scope.bindings.items() if b.kind == "coordinate"]
-            raise LagError(f"force on '{token}', which is not a coordinate{suggest(str(token), coordinates)}",
+            what = f"{KIND_WORDS.get(binding.kind, 'a name')}, not a coordinate" if binding else "not a coordinate"
+            raise LagError(f"force on '{token}', which is {what}{suggest(str(token), coordinates)}",
                            self.span(token))
         if binding.family is not None:
             if len(parts) != 2:
                 raise LagError(f"'{token}' is indexed; write force {token}[i] = ...", self.span(token))
             index = self.expr.integer(parts[0], self.scope, "an index")
             if index not in binding.family:
-                raise LagError(f"index {index} is out of range for '{token}'", self.span(parts[0]))
+                raise LagError(f"index {index} is out of range for '{token}' (1:{len(binding.family)})",
+                               self.span(parts[0]))
             name = f"{token}[{index}]"
         else:
             if len(parts) != 1:
@@ -394,15 +431,27 @@ class _ModelBuilder:
     def scene(self, node):
         names = tokens(node, "NAME")
         name, end_name = names[0], names[-1]
+        errors = ErrorCollector()
         if str(end_name) != str(name):
-            raise LagError(f"'end {end_name}' closes scene '{name}'", self.span(end_name))
-        if any(s.name == str(name) for s in self.scenes):
-            raise LagError(f"scene '{name}' is declared twice", self.span(name))
+            errors.errors.append(LagError(f"'end {end_name}' does not match scene '{name}'; expected 'end {name};'",
+                                          self.span(end_name)))
+        if str(name) in self.scene_spans:
+            errors.errors.append(LagError(f"scene '{name}' is declared twice (first at line "
+                                          f"{self.scene_spans[str(name)].line})", self.span(name)))
+        else:
+            self.scene_spans[str(name)] = self.span(name)
         statements = [c for c in node.children if isinstance(c, lark.Tree) and c.data != "description"]
         time, integrator = DEFAULT_TIME, None
         parameter_overrides, initial_overrides, outputs = [], [], []
-        errors = ErrorCollector()
+        given: dict[str, Span] = {}
         for statement in statements:
+            if statement.data in ("scene_time", "scene_integrator"):
+                word = "time" if statement.data == "scene_time" else "integrator"
+                if word in given:
+                    errors.errors.append(LagError(f"the scene gives {word}(...) twice (first at line "
+                                                  f"{given[word].line})", self.span(statement)))
+                    continue
+                given[word] = self.span(statement)
             if statement.data == "scene_time":
                 time = errors.attempt(self.scene_time, statement) or time
             elif statement.data == "scene_integrator":
@@ -416,7 +465,13 @@ class _ModelBuilder:
             elif statement.data == "scene_output":
                 for item in statement.children:
                     if isinstance(item, lark.Tree):
-                        outputs.append(errors.attempt(self.output_request, item))
+                        request = errors.attempt(self.output_request, item)
+                        twice = next((o for o in outputs if request and o.column == request.column), None)
+                        if twice is not None:
+                            errors.errors.append(LagError(f"'{request.column}' is already in the output list",
+                                                          request.span))
+                        elif request is not None:
+                            outputs.append(request)
         errors.raise_if_any()
         if integrator is None:
             integrator = DEFAULT_INTEGRATOR
@@ -425,7 +480,7 @@ class _ModelBuilder:
                                     tuple(outputs), self.span(name)))
 
     def scene_time(self, node) -> ir.TimeGrid:
-        options = self.modifiers(node, ("start", "stop", "interval"))
+        options = self.modifiers(node, ("start", "stop", "interval"), "time(...)")
         values = {k: self.parameter_value(v, f"time({k})") for k, v in options.items()}
         start, stop = values.get("start", 0.0), values.get("stop", DEFAULT_TIME.stop)
         interval = values.get("interval", (stop - start) / 1000 if "stop" in values else DEFAULT_TIME.interval)
@@ -441,7 +496,7 @@ class _ModelBuilder:
         if name not in INTEGRATOR_OPTIONS:
             raise LagError(f"unknown integrator '{name}'{suggest(name, INTEGRATOR_OPTIONS)} "
                            f"(available: {', '.join(ir.INTEGRATORS)})", self.span(token))
-        options = self.modifiers(node, INTEGRATOR_OPTIONS[name])
+        options = self.modifiers(node, INTEGRATOR_OPTIONS[name], f"integrator {name}")
         values = {k: self.parameter_value(v, k) for k, v in options.items()}
         return validate_integrator(name, values, self.span(node))
 
@@ -450,26 +505,36 @@ class _ModelBuilder:
         binding = self.scope.bindings.get(str(token))
         parts = [c for c in node.children if isinstance(c, lark.Tree) and c.data != "modifiers"]
         if subtree(node, "modifiers") is None:        # set p = value
+            if binding is not None and binding.kind == "coordinate":
+                raise LagError(f"'{token}' is a coordinate; set its initial values with "
+                               f"set {token}(start = ..., velocity = ...)", self.span(token))
             if binding is None or binding.kind != "parameter":
                 parameters = [p.name for p in self.parameters]
                 raise LagError(f"'{token}' is not a parameter{suggest(str(token), parameters)}", self.span(token))
+            if len(parts) != 1:
+                raise LagError(f"'{token}' is not indexed", self.span(token))
             parameter = next(p for p in self.parameters if p.name == str(token))
             if parameter.symbol in self.expr.structural:
                 raise LagError(f"'{token}' fixes the size of the model and cannot be changed by a scene",
                                self.span(token))
             return ir.ParameterOverride(str(token), self.parameter_value(parts[-1], "the value"), self.span(node))
+        if binding is not None and binding.kind == "parameter":
+            raise LagError(f"'{token}' is a parameter; set it with set {token} = ...", self.span(token))
         if binding is None or binding.kind != "coordinate":
             coordinates = [c.name for c in self.coordinates]
             raise LagError(f"'{token}' is not a coordinate{suggest(str(token), coordinates)}", self.span(token))
         name = str(token)
+        if binding.family is None and parts:
+            raise LagError(f"'{token}' is not indexed", self.span(token))
         if binding.family is not None:
             if not parts:
                 raise LagError(f"'{token}' is indexed; write set {token}[i](start = ...)", self.span(token))
             index = self.expr.integer(parts[0], self.scope, "an index")
             if index not in binding.family:
-                raise LagError(f"index {index} is out of range for '{token}'", self.span(parts[0]))
+                raise LagError(f"index {index} is out of range for '{token}' (1:{len(binding.family)})",
+                               self.span(parts[0]))
             name = f"{token}[{index}]"
-        options = self.modifiers(node, ("start", "velocity"))
+        options = self.modifiers(node, ("start", "velocity"), f"set {name}")
         values = {k: self.parameter_value(v, f"the {k} value") for k, v in options.items()}
         return ir.InitialOverride(name, values.get("start"), values.get("velocity"), self.span(node))
 
@@ -494,7 +559,9 @@ class _ModelBuilder:
         if kind == "momentum":
             if binding is None or binding.kind != "coordinate":
                 coordinates = [n for n, b in self.scope.bindings.items() if b.kind == "coordinate"]
-                raise LagError(f"'{token}' is not a coordinate{suggest(str(token), coordinates)}", self.span(token))
+                what = f"{KIND_WORDS.get(binding.kind, 'a name')}, not a coordinate" if binding else "not one"
+                raise LagError(f"momentum() takes a coordinate, and '{token}' is {what}"
+                               f"{suggest(str(token), coordinates)}", self.span(token))
             if node.data == "index":
                 index = self.expr.integer(node.children[2], self.scope, "an index")
                 if binding.family is None or index not in binding.family:
@@ -504,9 +571,18 @@ class _ModelBuilder:
                 raise LagError(f"'{token}' is indexed; write momentum({token}[i])", self.span(token))
             return str(token)
         names = [c.name for c in self.constraints]
+        if binding is not None and binding.kind == "constraint" and str(token) not in names:
+            raise PoisonedName()                 # the constraint itself failed, and was reported
         if node.data != "name" or str(token) not in names:
-            raise LagError(f"'{str(token)}' is not a constraint{suggest(str(token), names)}", self.span(node))
+            known = suggest(str(token), names) or (f" (constraints: {', '.join(names)})" if names
+                                                    else "; the model has no constraints"
+                                                    if not self.constraint_statements else "")
+            raise LagError(f"{kind}() takes a constraint, and '{str(token)}' is not one{known}", self.span(node))
         return str(token)
+
+
+def _position(diagnostic) -> tuple[int, int]:
+    return (0, diagnostic.span.start) if diagnostic.span is not None else (1, 0)
 
 
 def validate_integrator(name: str, values: dict[str, float], span: Span | None) -> ir.IntegratorChoice:

@@ -14,12 +14,27 @@ class SourceFile:
 
     @classmethod
     def read(cls, path: str | Path) -> "SourceFile":
-        return cls(str(path), Path(path).read_text(encoding="utf-8"))
+        data = Path(path).read_bytes()
+        try:
+            text = data.decode("utf-8")
+        except UnicodeDecodeError as error:
+            from .errors import LagError
+            source = cls(str(path), data.decode("utf-8", errors="replace"))
+            offset = len(data[:error.start].decode("utf-8", errors="replace"))
+            line = source.text.count("\n", 0, offset) + 1
+            column = offset - (source.text.rfind("\n", 0, offset) + 1) + 1
+            raise LagError(f"the file is not UTF-8 text (byte 0x{data[error.start]:02x})",
+                           Span(source, line, column, offset, offset + 1)) from None
+        return cls(str(path), text.replace("\r\n", "\n").replace("\r", "\n"))   # as read_text does
 
     def line(self, number: int) -> str:
-        """The text of 1-based line `number`, without its newline."""
-        lines = self.text.splitlines()
-        return lines[number - 1] if 0 < number <= len(lines) else ""
+        """The text of 1-based line `number`, without its newline.
+
+        Lines end at '\\n' only, as the parser counts them (str.splitlines also breaks at form
+        feeds and other separators, which would show the wrong line under a diagnostic).
+        """
+        lines = self.text.split("\n")
+        return lines[number - 1].rstrip("\r") if 0 < number <= len(lines) else ""
 
 
 @dataclass(frozen=True)

@@ -20,10 +20,12 @@ def parse_unit(span: Span) -> Unit:
     """Parse the text of a UNIT token (with its brackets) located at `span`."""
     body = span.text[1:-1]
     tokens = _tokenize(body, span)
+    if not tokens:
+        raise LagError("empty unit: write [1] for a dimensionless quantity", span)
     parser = _UnitParser(tokens, span)
     factors = parser.product()
     if parser.position < len(tokens):
-        parser.fail(f"unexpected '{tokens[parser.position][1]}' in unit")
+        parser.fail(f"expected '*', '/' or the end of the unit, found '{tokens[parser.position][1]}'")
     cleaned = tuple(sorted((name, power) for name, power in factors.items() if power != 0))
     return Unit(body.strip(), cleaned, span)
 
@@ -59,9 +61,10 @@ class _UnitParser:
     def peek(self) -> str | None:
         return self.tokens[self.position][1] if self.position < len(self.tokens) else None
 
-    def take(self) -> tuple[str, str, int]:
+    def take(self, expected: str = "a unit name") -> tuple[str, str, int]:
         if self.position >= len(self.tokens):
-            self.fail("unit ends too early")
+            after = f" after '{self.tokens[-1][1]}'" if self.tokens else ""
+            self.fail(f"the unit ends too early: expected {expected}{after}")
         token = self.tokens[self.position]
         self.position += 1
         return token
@@ -91,13 +94,19 @@ class _UnitParser:
             value = self.exponent()
             if self.peek() == "/":
                 self.take()
-                value /= self.exponent()
-            if self.take()[1] != ")":
+                divisor = self.exponent()
+                if divisor == 0:
+                    self.position -= 1
+                    self.fail("division by zero in a unit exponent")
+                value /= divisor
+            if self.take("')'")[1] != ")":
+                self.position -= 1
                 self.fail("expected ')' in unit exponent")
             return sign * value
-        kind, text, _ = self.take()
+        kind, text, _ = self.take("an exponent")
         if kind != "number":
-            self.fail("expected a number as unit exponent")
+            self.position -= 1
+            self.fail(f"expected a number as unit exponent, found '{text}'")
         return sign * Fraction(text)
 
     def atom(self) -> dict[str, Fraction]:
@@ -108,8 +117,11 @@ class _UnitParser:
             return {}
         if text == "(":
             inner = self.product()
-            if self.take()[1] != ")":
+            if self.take("')'")[1] != ")":
+                self.position -= 1
                 self.fail("expected ')' in unit")
             return inner
         self.position -= 1
-        self.fail(f"unexpected '{text}' in unit")
+        if kind == "number":
+            self.fail(f"unexpected '{text}' in unit: the only number allowed is 1, as in [1/s], or an exponent")
+        self.fail(f"unexpected '{text}' in unit: expected a unit name")

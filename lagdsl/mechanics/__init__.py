@@ -26,15 +26,23 @@ def derive_equations(model: ir.Model) -> Equations:
     v = [c.velocity_symbol for c in model.coordinates]
     calculus = Differentiator(((let.symbol, let.expression) for let in model.lets), (*q, *v, ir.TIME))
     probe = Probe(calculus, (*q, *v, ir.TIME, *(p.symbol for p in model.parameters)))
-    lagrangian, momenta, mass, gradient, forces, forcing = lagrange_terms(model, calculus)
+    lagrangian, momenta, mass, gradient, forces, forcing, held = lagrange_terms(model, calculus)
     constraints = constraint_equations(model, calculus, probe)
     _require_regular(model, mass, constraints, probe)
     energy = sum((vk * pk for vk, pk in zip(v, momenta)), sympy.S.Zero) - lagrangian
     conserved = conserved_quantities(model, calculus, probe, lagrangian, momenta, gradient,
                                      constraints, energy)
-    return Equations(model, tuple(q), tuple(v), calculus.definitions(), lagrangian,
+    return Equations(model, tuple(q), tuple(v), merged_definitions(calculus, held), lagrangian,
                      tuple(tuple(row) for row in mass), tuple(forcing), tuple(gradient),
                      tuple(forces), tuple(momenta), energy, constraints, conserved)
+
+
+def merged_definitions(calculus: Differentiator, held: Differentiator):
+    """Both tables of intermediates in one dependency order: the full one, then what the
+    carrier-held table added (it only refers to symbols defined before it)."""
+    full = calculus.definitions()
+    known = {s for s, _ in full}
+    return full + tuple((s, e) for s, e in held.definitions() if s not in known)
 
 
 def _require_regular(model: ir.Model, mass, constraints, probe: Probe) -> None:

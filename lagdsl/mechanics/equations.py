@@ -4,14 +4,22 @@ For each coordinate q_k, with p_k = ∂L/∂q'_k,
 
     d/dt(∂L/∂q'_k) - ∂L/∂q_k = Q_k - ∂D/∂q'_k + Σ_j λ_j A_jk,
 
-and d/dt p_k = Σ_j (∂p_k/∂q'_j) q''_j + [Σ_j (∂p_k/∂q_j) q'_j + ∂p_k/∂t], so
+assembled as M(q, q', t) q'' = f(q, q', t) + Aᵀλ. M is never inverted: the generated code
+solves the system numerically.
 
-    M(q, q', t) q'' = f(q, q', t) + Aᵀλ,   M_kj = ∂²L/∂q'_k∂q'_j,
-    f_k = ∂L/∂q_k - Σ_j (∂p_k/∂q_j) q'_j - ∂p_k/∂t + Q_k - ∂D/∂q'_k.
+The velocities enter L only through *carriers* c: the velocities q'_j themselves and the time
+derivatives der(x) = Σ_k ∂x/∂q_k q'_k + ∂x/∂t of velocity-free lets x. Write L = L̃(q, t, c)
+with the carriers held fixed (∂̃), J_ck = ∂c/∂q'_k (= ∂x/∂q_k), π_c = ∂̃L/∂c. By Lagrange's
+identity d/dt(∂x/∂q_k) = ∂(der x)/∂q_k, the terms π_c ∂c/∂q_k of d/dt(∂L/∂q'_k) and of ∂L/∂q_k
+cancel exactly, and
 
-The bracket is one directional derivative of p_k along (q', 1) (`calculus.time_rates`), so f
-costs one pass per coordinate, not one per pair. M is never inverted: the generated code
-solves M q'' = f (or the saddle-point system with the constraint rows) numerically.
+    M_kl = Σ_c Σ_c' J_ck (∂̃π_c/∂c') J_c'l,
+    f_k  = ∂̃L/∂q_k + Q_k - ∂D/∂q'_k - Σ_c J_ck [Σ_c' (∂̃π_c/∂c') D(c') + D̃(π_c)],
+
+where D is the time derivative at zero acceleration (D(c') is the convective acceleration of
+x', `calculus.time_rates`) and D̃ the same with the carriers held fixed. For T = Σ m/2 |r_i'|²
+this is d'Alembert's form M = Σ m Jᵀ J, f = -Σ m Jᵀ (J' q') - ∂U/∂q: the cancelling terms of
+the textbook formula are never generated, which keeps the kernels as small as Kane's.
 """
 from __future__ import annotations
 
@@ -81,22 +89,55 @@ class Equations:
 
 
 def lagrange_terms(model: ir.Model, calculus: Differentiator):
-    """L, p, M, ∂L/∂q, the generalized forces and f for `model`, as intermediates of `calculus`."""
+    """L, p, M, ∂L/∂q, the generalized forces and f for `model`, as intermediates of `calculus`.
+
+    Returns them with the carriers' table of intermediates, which the caller merges.
+    """
     q = [c.symbol for c in model.coordinates]
     v = [c.velocity_symbol for c in model.coordinates]
     n = len(q)
     lagrangian = calculus.define(sympy.Symbol("L", real=True), model.lagrangian.expression)
-    momenta = [calculus.partial(lagrangian, vk) for vk in v]
-    mass = [[sympy.S.Zero] * n for _ in range(n)]
-    for k in range(n):
-        for j in range(k + 1):
-            mass[k][j] = mass[j][k] = calculus.partial(momenta[k], v[j])
-    gradient = [calculus.partial(lagrangian, qk) for qk in q]
-    forces = generalized_forces(model, calculus, v)
+    carriers = velocity_carriers(model)
+    held = Differentiator(((s, e) for s, e in calculus.definitions() if s not in carriers),
+                          (*q, *v, ir.TIME, *carriers), mark="δ")
     rates = time_rates(q, v, ir.TIME)
-    forcing = [gradient[k] - calculus.directional(momenta[k], TIME_DIRECTION, rates) + forces[k]
+    slope = {c: held.partial(lagrangian, c) for c in carriers}                  # π_c
+    slope = {c: x for c, x in slope.items() if x != 0}
+    curvature = {c: {d: held.partial(slope[c], d) for d in slope if d in held.dependencies(slope[c])}
+                 for c in slope}                                               # ∂̃π_c/∂c'
+    rows = {c: carrier_row(calculus, c, v) for c in slope}                     # J_c·
+    mass = [[sympy.S.Zero] * n for _ in range(n)]
+    for c, row in rows.items():
+        for d, weight in curvature[c].items():
+            for k, a in row.items():
+                for l, b in rows[d].items():
+                    if l <= k:
+                        mass[k][l] += a * weight * b
+    for k in range(n):
+        for l in range(k):
+            mass[l][k] = mass[k][l]
+    rate = {c: sum((w * calculus.directional(d, TIME_DIRECTION, rates) for d, w in curvature[c].items()),
+                   sympy.S.Zero) + held.directional(slope[c], ("der̃",), rates) for c in slope}
+    forces = generalized_forces(model, calculus, v)
+    forcing = [held.partial(lagrangian, q[k]) + forces[k]
+               - sum((row[k] * rate[c] for c, row in rows.items() if k in row), sympy.S.Zero)
                for k in range(n)]
-    return lagrangian, momenta, mass, gradient, forces, forcing
+    momenta = [sum((slope[c] * row[k] for c, row in rows.items() if k in row), sympy.S.Zero) for k in range(n)]
+    gradient = [calculus.partial(lagrangian, qk) for qk in q]
+    return lagrangian, momenta, mass, gradient, forces, forcing, held
+
+
+def velocity_carriers(model: ir.Model) -> list[sympy.Symbol]:
+    """The symbols through which velocities enter L: q'_k and the der(x) of lets."""
+    return ([c.velocity_symbol for c in model.coordinates]
+            + [let.symbol for let in model.lets if let.derivative_of is not None])
+
+
+def carrier_row(calculus: Differentiator, carrier: sympy.Symbol, velocities) -> dict[int, sympy.Expr]:
+    """J_c· = ∂c/∂q' as {k: entry}, nonzero entries only."""
+    row = {k: calculus.partial(carrier, vk) for k, vk in enumerate(velocities)
+           if vk in calculus.dependencies(carrier)}
+    return {k: x for k, x in row.items() if x != 0}
 
 
 def generalized_forces(model: ir.Model, calculus: Differentiator, v) -> list[sympy.Expr]:

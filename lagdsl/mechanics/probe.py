@@ -23,6 +23,18 @@ POINTS = 3
 ZERO_TOLERANCE = mpmath.mpf(10) ** -35
 
 
+def _heaviside(x, at_zero=0.5):
+    return mpmath.mpf(0) if x < 0 else mpmath.mpf(1) if x > 0 else mpmath.mpf(at_zero)
+
+
+def _dirac_delta(x, order=0):
+    return mpmath.inf if x == 0 else mpmath.mpf(0)
+
+
+# Derivatives of abs, sign, min and max bring in Heaviside and DiracDelta, which mpmath lacks.
+MPMATH_EXTRAS = {"Heaviside": _heaviside, "DiracDelta": _dirac_delta}
+
+
 class Probe:
     """Evaluates expressions over intermediates at fixed random points."""
 
@@ -44,7 +56,7 @@ class Probe:
         # lambdify prints names as Python identifiers; ours ("theta1'", "∂L/∂x'") are not.
         safe = {s: sympy.Symbol(f"_p{i}") for i, s in enumerate((*symbols, *(d for d, _ in definitions)))}
         function = sympy.lambdify(
-            [safe[s] for s in symbols], [e.xreplace(safe) for e in exprs], modules="mpmath",
+            [safe[s] for s in symbols], [e.xreplace(safe) for e in exprs], modules=[MPMATH_EXTRAS, "mpmath"],
             cse=lambda e: ([(safe[d], x.xreplace(safe)) for d, x in definitions], e))
         results = []
         with mpmath.workdps(DIGITS):
@@ -52,7 +64,7 @@ class Probe:
                 extra = [mpmath.mpf(0.5)] * (len(symbols) - len(point))
                 try:
                     results.append(function(*point, *extra))
-                except (ZeroDivisionError, ValueError, TypeError):
+                except (ArithmeticError, ValueError, TypeError):    # a pole or overflow at this point
                     results.append([mpmath.nan] * len(exprs))
         return results
 
@@ -86,6 +98,8 @@ def _is_tiny(value) -> bool:
 def _to_float(value) -> float:
     try:
         value = complex(value)
+    except OverflowError:                   # an exact integer beyond double range
+        return float("inf")
     except TypeError:
         return float("nan")
     return value.real if value.imag == 0 else float("nan")

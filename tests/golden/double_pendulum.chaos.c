@@ -225,50 +225,36 @@ static void lag_assemble(const real *par, real t, const real *y, real *K, real *
     const real q_theta2 = y[1];
     const real v_theta1 = y[2];
     const real v_theta2 = y[3];
-    const real c0 = r_cos(q_theta1);
-    const real c10 = (c0*c0);
-    const real c11 = (p_l1*p_l1);
-    const real c12 = 2*c11;
-    const real c6 = r_sin(q_theta1);
-    const real c13 = (c6*c6);
-    const real c14 = c11*p_m2;
-    const real w9 = c10*c14 + c13*c14 + 0.5*p_m1*(c10*c12 + c12*c13);
-    const real c15 = c0*p_l1;
-    const real c16 = p_l2*p_m2;
-    const real c3 = r_cos(q_theta2);
-    const real c17 = c16*c3;
-    const real c18 = c6*p_l1;
-    const real c8 = r_sin(q_theta2);
-    const real c19 = c16*c8;
-    const real w10 = c15*c17 + c18*c19;
-    const real c20 = (p_l2*p_l2)*p_m2;
-    const real w11 = c20*(c3*c3) + c20*(c8*c8);
-    const real c1 = p_l1*v_theta1;
-    const real c7 = c1*c6;
-    const real c4 = p_l2*v_theta2;
-    const real c9 = c4*c8;
-    const real der_y2 = -c7 - c9;
-    const real c23 = der_y2*p_m2;
-    const real c26 = c18*p_m2;
-    const real c24 = p_l1*(v_theta1*v_theta1);
-    const real c25 = p_l2*(v_theta2*v_theta2);
-    const real w14 = -c24*c6 - c25*c8;
-    const real w15 = -c0*c24 - c25*c3;
-    const real c2 = c0*c1;
-    const real c5 = c3*c4;
-    const real der_x2 = c2 + c5;
-    const real der_L__theta1 = c15*p_m2*w14 - c26*w15 + v_theta1*(-c15*c23 - c26*der_x2);
-    const real c21 = c18*p_g;
-    const real c22 = der_x2*p_m2;
-    const real w12 = -c2*c23 - c21*p_m1 - c21*p_m2 - c22*c7;
-    const real der_L__theta2 = c17*w14 - c19*w15 + v_theta2*(-c17*der_y2 - c19*der_x2);
-    const real w13 = -c19*p_g - c22*c9 - c23*c5;
-    K[0] = w9;
-    K[1] = w10;
-    K[2] = w10;
-    K[3] = w11;
-    b[0] = -der_L__theta1 + w12;
-    b[1] = -der_L__theta2 + w13;
+    const real c7 = (p_l1*p_l1);
+    const real c14 = c7*p_m2;
+    const real c4 = r_cos(q_theta1);
+    const real c6 = (c4*c4);
+    const real c0 = r_sin(q_theta1);
+    const real c9 = (c0*c0);
+    const real c8 = 2*c7;
+    const real w12 = 0.5*p_m1*(c6*c8 + c8*c9);
+    const real c10 = c0*p_l1;
+    const real c12 = p_l2*p_m2;
+    const real c2 = r_sin(q_theta2);
+    const real c13 = c12*c2;
+    const real c15 = c4*p_l1;
+    const real c5 = r_cos(q_theta2);
+    const real c16 = c12*c5;
+    const real c17 = c10*c13 + c15*c16;
+    const real c18 = (p_l2*p_l2)*p_m2;
+    const real c1 = p_l1*(v_theta1*v_theta1);
+    const real c3 = p_l2*(v_theta2*v_theta2);
+    const real w7 = -c0*c1 - c2*c3;
+    const real w8 = -c1*c4 - c3*c5;
+    const real c11 = c10*p_g;
+    const real w13 = -c11*p_m1 - c11*p_m2;
+    const real w14 = -c13*p_g;
+    K[0] = c14*c6 + c14*c9 + w12;
+    K[1] = c17;
+    K[2] = c17;
+    K[3] = c18*(c2*c2) + c18*(c5*c5);
+    b[0] = c10*p_m2*w8 - c15*p_m2*w7 + w13;
+    b[1] = c13*w8 - c16*w7 + w14;
 }
 
 /* q'' at (t, y): assemble and solve by Cholesky (M is positive definite). */
@@ -327,14 +313,13 @@ static int lag_outputs(const lag_system *sys, real t, const real *y, real *out)
     const real let_y1 = c1;
     const real let_y2 = c2 + let_y1;
     const real w6 = c10*(c6*c8 + c8*c9) + let_y1*p_g*p_m1 + let_y2*p_g*p_m2 + 0.5*p_m2*((der_x2*der_x2) + (der_y2*der_y2));
-    const real c11 = 2*c7*v_theta1;
     const real c12 = der_x2*p_m2;
     const real c13 = der_y2*p_m2;
-    const real w7 = c1*c12 + c10*(c11*c6 + c11*c9) - c13*c4;
-    const real w8 = c12*c2 - c13*c5;
+    const real c11 = 2*c7*v_theta1;
+    const real w11 = c10*(c11*c6 + c11*c9);
     out[0] = q_theta1;
     out[1] = q_theta2;
-    out[2] = v_theta1*w7 + v_theta2*w8 - w6;
+    out[2] = v_theta1*(c1*c12 - c13*c4 + w11) + v_theta2*(c12*c2 - c13*c5) - w6;
     return LAG_OK;
 }
 
@@ -367,12 +352,11 @@ static void lag_invariants(const real *par, real t, const real *y, real *inv)
     const real let_y1 = c1;
     const real let_y2 = c2 + let_y1;
     const real w6 = c10*(c6*c8 + c8*c9) + let_y1*p_g*p_m1 + let_y2*p_g*p_m2 + 0.5*p_m2*((der_x2*der_x2) + (der_y2*der_y2));
-    const real c11 = 2*c7*v_theta1;
     const real c12 = der_x2*p_m2;
     const real c13 = der_y2*p_m2;
-    const real w7 = c1*c12 + c10*(c11*c6 + c11*c9) - c13*c4;
-    const real w8 = c12*c2 - c13*c5;
-    inv[0] = v_theta1*w7 + v_theta2*w8 - w6;
+    const real c11 = 2*c7*v_theta1;
+    const real w11 = c10*(c11*c6 + c11*c9);
+    inv[0] = v_theta1*(c1*c12 - c13*c4 + w11) + v_theta2*(c12*c2 - c13*c5) - w6;
 }
 
 /* ---- integrator: dop853 ---- */

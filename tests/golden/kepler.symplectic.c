@@ -221,12 +221,12 @@ static void lag_assemble(const real *par, real t, const real *y, real *K, real *
     const real v_r = y[2];
     const real v_theta = y[3];
     const real c0 = (q_r*q_r);
-    const real w1 = p_m*q_r*(v_theta*v_theta) - p_G*p_M0*p_m/c0;
+    const real w2 = p_m*q_r*(v_theta*v_theta) - p_G*p_M0*p_m/c0;
     K[0] = p_m;
     K[1] = 0;
     K[2] = 0;
     K[3] = c0*p_m;
-    b[0] = w1;
+    b[0] = w2;
     b[1] = -2*p_m*q_r*v_r*v_theta;
 }
 

@@ -57,12 +57,12 @@ def assemble(par, t, y):
     v_r = y[2]
     v_theta = y[3]
     c0 = q_r**2
-    w1 = p_m*q_r*v_theta**2 - p_G*p_M0*p_m/c0
+    w2 = p_m*q_r*v_theta**2 - p_G*p_M0*p_m/c0
     K[0, 0] = p_m
     K[0, 1] = 0
     K[1, 0] = 0
     K[1, 1] = c0*p_m
-    b[0] = w1
+    b[0] = w2
     b[1] = -2*p_m*q_r*v_r*v_theta
     return K, b
 
