@@ -6,6 +6,7 @@ with the source line and a caret, and exits 1. Anything else escaping is a bug i
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 from . import __version__
@@ -23,8 +24,13 @@ def main(argv: list[str] | None = None) -> int:
     except SimulationError as error:
         print(error.render(), file=sys.stderr)
         return 1
+    except BrokenPipeError:
+        # The reader went away (`lagc eom model.lag | head`): stop quietly, as Unix tools do.
+        sys.stdout = open(os.devnull, "w")
+        return 0
     except OSError as error:
-        print(f"lagc: error: {error.strerror}: {error.filename}", file=sys.stderr)
+        where = f": {error.filename}" if error.filename else ""
+        print(f"lagc: error: {error.strerror}{where}", file=sys.stderr)
         return 1
 
 

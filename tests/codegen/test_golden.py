@@ -127,3 +127,11 @@ def test_double_pendulum_golden_matches_the_worksheet_equations(tmp_path):
                           atol=1e-13, t_eval=table["t"])
     assert np.allclose(table["theta1"], reference.y[0], atol=1e-7)
     assert np.allclose(table["theta2"], reference.y[1], atol=1e-7)
+
+
+def test_standalone_program_takes_overrides(tmp_path):
+    table, _ = run_golden(tmp_path, "wedge", "slide", "s.velocity=1.5", "M=5", "t.stop=0.1", "t.interval=0.05")
+    assert list(table["t"]) == [0.0, 0.05, 0.1]
+    assert table["der(s)"][0] == 1.5
+    done = subprocess.run([str(tmp_path / "wedge"), "bogus=1"], capture_output=True, text=True)
+    assert done.returncode == 2 and "unknown setting 'bogus'" in done.stderr

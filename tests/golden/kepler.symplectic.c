@@ -936,9 +936,13 @@ int main(int argc, char **argv)
     lag_default_parameters(sys.par);
     for (i = 1; i < argc; ++i) {
         const char *equals = strchr(argv[i], '=');
-        const char *dot = strrchr(argv[i], '.');
+        const char *dot = NULL;
+        const char *c;
         real value;
         int index;
+        for (c = argv[i]; equals != NULL && c < equals; ++c)    /* the last '.' of the name */
+            if (*c == '.')
+                dot = c;
         if (equals == NULL || !lag_parse_value(equals + 1, &value)) {
             fprintf(stderr, "%s: expected NAME=VALUE, got '%s'\n", argv[0], argv[i]);
             return 2;
@@ -956,7 +960,7 @@ int main(int argc, char **argv)
             options.step = value;
         } else if (strncmp(argv[i], "stages=", 7) == 0) {
             options.stages = (int)value;
-        } else if (dot != NULL && dot < equals
+        } else if (dot != NULL
                    && (index = lag_index_of(lag_coordinate_names, LAG_NQ, argv[i], (size_t)(dot - argv[i]))) >= 0
                    && (strncmp(dot, ".start=", 7) == 0 || strncmp(dot, ".velocity=", 10) == 0)) {
             int slot = dot[1] == 's' ? index : LAG_NQ + index;
