@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from .. import __version__
+from ..integrators import integrator_files
 from . import GeneratedSource, c_source, template_environment
 from .kernel import Block, Kernel
 from .printers import CPrinter
@@ -62,9 +63,8 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
 
 
 def _integrator_source(name: str) -> str:
-    """The integrator file, after the step-size control the two Dormand-Prince pairs share."""
-    shared = c_source("explicit_control.c") + "\n" if name in ("dopri5", "dop853") else ""
-    return shared + c_source(f"{name}.c")
+    """The integrator file, after the fragments it shares with its siblings."""
+    return "\n".join(c_source(file) for file in integrator_files(name))
 
 
 def _linear_algebra(kernel: Kernel) -> str:

@@ -10,6 +10,8 @@ import shutil
 import subprocess
 from pathlib import Path
 
+from lagdsl.integrators import integrator_files
+
 C_SOURCES = Path(__file__).resolve().parents[2] / "lagdsl" / "integrators" / "c"
 STRICT_FLAGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic"]
 SYSTEM_HEADERS = "#include <math.h>\n#include <float.h>\n#include <stdio.h>\n#include <stdlib.h>\n#include <string.h>\n"
@@ -22,24 +24,22 @@ def find_cc() -> str | None:
     return None
 
 
-def assemble(model_c: str, integrator: str, main_c: str, fragments: list[str] = ()) -> str:
-    """`fragments` are further bundled files (e.g. "explicit_control.c") pasted, in this order,
-    between the model and the integrator."""
+def assemble(model_c: str, integrator: str, main_c: str) -> str:
+    """The integrator's files (with the fragments it shares) between the model and main."""
     parts = [
         SYSTEM_HEADERS,
         (C_SOURCES / "runtime.h").read_text(),
         (C_SOURCES / "cholesky.c").read_text(),
         (C_SOURCES / "lu.c").read_text(),
         model_c,
-        *((C_SOURCES / name).read_text() for name in fragments),
-        (C_SOURCES / f"{integrator}.c").read_text(),
+        *((C_SOURCES / name).read_text() for name in integrator_files(integrator)),
         main_c,
     ]
     return "\n".join(parts)
 
 
 def build_and_run(tmp_path: Path, model_c: str, integrator: str, main_c: str,
-                  args: list[str] = (), extra_flags: list[str] = (), fragments: list[str] = ()) -> str:
+                  args: list[str] = (), extra_flags: list[str] = ()) -> str:
     """Compile with the strict flags (warnings are errors) and return the program's stdout."""
     cc = find_cc()
     if cc is None:
@@ -47,7 +47,7 @@ def build_and_run(tmp_path: Path, model_c: str, integrator: str, main_c: str,
         pytest.skip("no C compiler")
     src = tmp_path / f"{integrator}_test.c"
     exe = tmp_path / f"{integrator}_test"
-    src.write_text(assemble(model_c, integrator, main_c, fragments))
+    src.write_text(assemble(model_c, integrator, main_c))
     subprocess.run([cc, *STRICT_FLAGS, *extra_flags, str(src), "-o", str(exe), "-lm"],
                    check=True, capture_output=True, text=True)
     return subprocess.run([str(exe), *args], check=True, capture_output=True, text=True).stdout

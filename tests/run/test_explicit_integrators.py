@@ -243,7 +243,6 @@ static const lag_system test_system = {0};
 """
 
 MODELS = {"oscillator": OSCILLATOR, "kepler": KEPLER, "cubic": CUBIC}
-FRAGMENTS = {"rk4": (), "dopri5": ("explicit_control.c",), "dop853": ("explicit_control.c",)}
 ADAPTIVE = ("dopri5", "dop853")
 METHODS = ("rk4",) + ADAPTIVE
 ORDER = {"rk4": 4, "dopri5": 5, "dop853": 8}
@@ -275,7 +274,7 @@ def simulate(tmp_path, method: str, model: str, runs: list[Run], long_double: bo
         tmp_path = tmp_path / "long_double"
         tmp_path.mkdir()
     out = build_and_run(tmp_path, MODELS[model], method, MAIN, args,
-                        extra_flags=["-DLAG_LONG_DOUBLE"] if long_double else [], fragments=FRAGMENTS[method])
+                        extra_flags=["-DLAG_LONG_DOUBLE"] if long_double else [])
     results = []
     for line in out.splitlines():
         fields = dict(item.split("=") for item in line.split())

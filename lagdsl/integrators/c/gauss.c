@@ -163,18 +163,6 @@ static void gauss_tableau(lag_stepper *s)
     gauss_predictor(s, 1);
 }
 
-/* The number of steps: (t_end - t0) / step rounded up, except that an excess below the rounding
- * error of the times themselves is not a step (10 / 0.01 gives 1000 steps, not 1001). */
-static long gauss_step_count(real t0, real t_end, real step)
-{
-    real ratio = (t_end - t0) / step;
-    real slack = 8 * REAL_EPSILON * (r_fabs(t0) + r_fabs(t_end)) / step;
-    real whole = r_floor(ratio);
-    if (!(ratio > 0))
-        return 0;
-    return (long)whole + (ratio - whole > slack);
-}
-
 /* dz = weight F(t, z).  A non-finite derivative inside the iteration means it diverged. */
 static int gauss_rhs(lag_stepper *s, real t, const real *z, real weight, real *dz)
 {
@@ -281,7 +269,7 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
     if (s->stages < 1 || s->stages > LAG_GAUSS_MAX_STAGES)
         return LAG_ERR_NO_CONVERGENCE;   /* no status fits better; the front end checks 1..6 */
     gauss_tableau(s);
-    s->steps = gauss_step_count(t0, t_end, opt->step);
+    s->steps = lag_step_count(t0, t_end, opt->step);
     if (s->steps == 1)
         s->h = t_end - t0;
     return lag_to_canonical(sys, t0, s->y, s->z);

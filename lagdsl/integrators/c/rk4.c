@@ -30,18 +30,6 @@ static int rk4_rhs(lag_stepper *s, real t, const real *y, real *f)
     return lag_rhs(s->sys, t, y, f);
 }
 
-/* The number of steps: (t_end - t0) / step rounded up, except that an excess below the rounding
- * error of the times themselves is not a step (10 / 0.01 gives 1000 steps, not 1001). */
-static long rk4_step_count(real t0, real t_end, real step)
-{
-    real ratio = (t_end - t0) / step;
-    real slack = 8 * REAL_EPSILON * (r_fabs(t0) + r_fabs(t_end)) / step;
-    real whole = r_floor(ratio);
-    if (!(ratio > 0))
-        return 0;
-    return (long)whole + (ratio - whole > slack);
-}
-
 static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, const real *y0,
                             real t_end, const lag_options *opt)
 {
@@ -55,7 +43,7 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
     memcpy(s->y_old, y0, sizeof s->y_old);
     if (!(opt->step > 0))
         return LAG_ERR_STEP_TOO_SMALL;
-    s->steps = rk4_step_count(t0, t_end, opt->step);
+    s->steps = lag_step_count(t0, t_end, opt->step);
     return rk4_rhs(s, t0, s->y, s->f);
 }
 
