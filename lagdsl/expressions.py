@@ -179,6 +179,15 @@ class ExpressionBuilder:
             self._require_real_number(component, node)
         return value
 
+    def _require_finite(self, value, node):
+        """A function or power of finite arguments may still be infinite: tan(atan2(x, 0)) is zoo*x."""
+        for component in (value.components if isinstance(value, Vector) else (value,)):
+            if not component.is_number and component.has(*NON_FINITE):
+                text = " ".join(self.span(node).text.split())
+                raise LagError(f"{text if len(text) <= 40 else 'this expression'} has no finite value",
+                               self.span(node))
+        return value
+
     def _require_real_number(self, value, node) -> None:
         """A constant part of an expression must be a finite real double (tan(pi/2) is not)."""
         if not value.is_number:
@@ -298,7 +307,7 @@ class ExpressionBuilder:
             work = abs(float(exponent)) * max(math.log2(p), math.log2(q))
             if bits > 1100 or work > 100000:
                 raise LagError(f"{base}^{exponent} is out of the range of double precision", self.span(node))
-        return base ** exponent
+        return self._require_finite(base ** exponent, node)
 
     def _call(self, node, scope):
         token = node.children[0]
@@ -338,7 +347,7 @@ class ExpressionBuilder:
         for value, argument in zip(values, arguments):
             if isinstance(value, Vector):
                 raise LagError(f"{name}() takes scalars, but this is a 3-vector", self.span(argument))
-        return FUNCTIONS[name][0](*values)
+        return self._require_finite(FUNCTIONS[name][0](*values), node)
 
     def _vector_function(self, name, values, arguments):
         for value, argument in zip(values, arguments):

@@ -1,6 +1,7 @@
 """Text -> lark Tree. Syntax errors become LagErrors worded in the language's own terms."""
 from __future__ import annotations
 
+import re
 from functools import lru_cache
 from importlib import resources
 
@@ -119,11 +120,10 @@ def _syntax_error(source: SourceFile, error: UnexpectedInput, accepts: set[str])
         return LagError("a unit is written after a space ([kg]); an index follows its name without "
                         "a space (theta[i])", span_at(source, position))
     if token.type == "UNIT" and "UNIT" not in accepts:
-        before = text[:position].rstrip()
-        name = before[len(before.rstrip("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ_0123456789")):]
-        if name and not name[0].isdigit():
+        name = re.search(r"(?<![\w.])[A-Za-z_]\w*$", text[:position].rstrip())
+        if name:
             return LagError(f"'{token}' after a space reads as a unit, and no unit belongs here; an index is "
-                            f"written without a space: {name}{token}", span)
+                            f"written without a space: {name.group()}{token}", span)
         return LagError(f"unexpected '{token}': a unit is only written after the value of a parameter, "
                         "coordinate or output", span)
     bracket = _bracket_error(source, token, accepts)

@@ -1,8 +1,9 @@
 """Property: whatever text it is given, the front end either builds a model or raises LagError.
 
 Inputs are (a) the models in models/ with random character and token mutations, (b) random
-sequences of the language's tokens, bare or inside a model skeleton, and (c) random models
-built from the grammar, with random (often ill-typed) expressions. Each is run through
+sequences of the language's tokens, bare or inside a model skeleton, (c) random models built
+from the grammar, with random (often ill-typed) expressions, and (d) well-formed models with
+random energies, constraints and forces, for the derivation's checks. Each is run through
 `model_from_source` and `derive_equations`. Any other exception is a bug in lagdsl, and so is a
 rendered LagError that mentions a Python traceback.
 
@@ -24,6 +25,7 @@ from tests.conftest import MODELS
 
 SETTINGS = settings(max_examples=200, deadline=None, derandomize=True, database=None,
                     suppress_health_check=list(HealthCheck))
+CHEAP = settings(SETTINGS, max_examples=300)      # mostly syntax errors: fast, so more of them
 
 # The chain is the derivation benchmark; three links exercise the same code in a tenth of the time.
 MAX_COORDINATES = 8     # a mutated chain may grow to 93 links: valid, but slow to derive
@@ -95,7 +97,7 @@ def mutated_models(draw) -> str:
     return text
 
 
-@SETTINGS
+@CHEAP
 @given(mutated_models())
 def test_mutated_models_raise_only_lag_errors(text):
     check(text)
@@ -111,7 +113,7 @@ def token_sequences(draw) -> str:
     return body
 
 
-@SETTINGS
+@CHEAP
 @given(token_sequences())
 def test_token_sequences_raise_only_lag_errors(text):
     check(text)
@@ -141,9 +143,10 @@ def expressions(names: list[str]):
 def grammar_models(draw) -> str:
     names = ["m", "x", "y", "q"]
     expression = expressions(names)
-    lines = ["model M", "  parameter m = " + draw(expression) + ";", "  parameter n = 2;",
-             "  coordinate x(start = " + draw(expression) + ");", "  coordinate y;",
-             "  coordinate q[" + draw(st.sampled_from(["2", "n", "m", "0", "2.5"])) + "];"]
+    header = expressions(["m", "n"])          # half of the time a valid value, so that more gets built
+    lines = ["model M", "  parameter m = " + draw(st.one_of(st.just("1.5"), header)) + ";", "  parameter n = 2;",
+             "  coordinate x(start = " + draw(st.one_of(st.just("0.3"), header)) + ");", "  coordinate y;",
+             "  coordinate q[" + draw(st.sampled_from(["2", "2", "2", "n", "m", "0", "2.5"])) + "];"]
     statements = [
         lambda: f"  let a{draw(st.integers(0, 3))} = {draw(expression)};",
         lambda: f"  T = {draw(expression)};",
@@ -171,4 +174,46 @@ def grammar_models(draw) -> str:
 @SETTINGS
 @given(grammar_models())
 def test_grammar_models_raise_only_lag_errors(text):
+    check(text)
+
+
+# -- (d) random mechanics: valid structure, random energies, constraints and forces --------------------
+MECHANICS_LEAVES = st.sampled_from(["x", "y", "der(x)", "der(y)", "t", "m", "1", "2", "0", "0.5"])
+
+
+def mechanics_expressions():
+    def extend(inner):
+        return st.one_of(
+            st.tuples(inner, st.sampled_from(["+", "-", "*", "/", "^"]), inner).map(lambda p: f"({p[0]} {p[1]} {p[2]})"),
+            st.tuples(st.sampled_from(["sin", "cos", "exp", "log", "sqrt", "abs", "sign", "tan", "atan", "asin",
+                                       "cosh"]), inner).map(lambda p: f"{p[0]}({p[1]})"),
+            st.tuples(st.sampled_from(["min", "max", "atan2"]), inner, inner).map(lambda p: f"{p[0]}({p[1]}, {p[2]})"),
+        )
+
+    return st.recursive(MECHANICS_LEAVES, extend, max_leaves=6)
+
+
+@st.composite
+def mechanics_models(draw) -> str:
+    expression = mechanics_expressions()
+    lines = ["model M", "  parameter m = 1.5;", "  coordinate x(start = 0.3);", "  coordinate y(start = 0.7);"]
+    if draw(st.booleans()):
+        lines.append(f"  T = der(x)^2*({draw(expression)}) + der(y)^2 + {draw(expression)};")
+        if draw(st.booleans()):
+            lines.append(f"  U = {draw(expression)};")
+    else:
+        lines.append(f"  L = {draw(expression)} + {draw(expression)};")
+    for k in range(draw(st.integers(0, 2))):
+        lines.append(f"  constraint c{k}: {draw(expression)} = {draw(expression)};")
+    if draw(st.booleans()):
+        lines.append(f"  force x = {draw(expression)};")
+    if draw(st.booleans()):
+        lines.append(f"  dissipation = {draw(expression)};")
+    lines.append("end M;")
+    return "\n".join(lines) + "\n"
+
+
+@SETTINGS
+@given(mechanics_models())
+def test_mechanics_models_raise_only_lag_errors(text):
     check(text)

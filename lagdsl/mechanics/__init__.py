@@ -28,6 +28,9 @@ def derive_equations(model: ir.Model) -> Equations:
     probe = Probe(calculus, (*q, *v, ir.TIME, *(p.symbol for p in model.parameters)))
     lagrangian, momenta, mass, gradient, forces, forcing, held = lagrange_terms(model, calculus)
     constraints = constraint_equations(model, calculus, probe)
+    _require_derivatives(model, merged_definitions(calculus, held),
+                         [*forcing, *(e for row in mass for e in row),
+                          *(e for c in constraints for e in (*c.jacobian, c.gamma))])
     _require_regular(model, mass, constraints, probe)
     energy = sum((vk * pk for vk, pk in zip(v, momenta)), sympy.S.Zero) - lagrangian
     conserved = conserved_quantities(model, calculus, probe, lagrangian, momenta, gradient,
@@ -43,6 +46,24 @@ def merged_definitions(calculus: Differentiator, held: Differentiator):
     full = calculus.definitions()
     known = {s for s, _ in full}
     return full + tuple((s, e) for s, e in held.definitions() if s not in known)
+
+
+def _require_derivatives(model: ir.Model, definitions, exprs) -> None:
+    """sympy leaves a derivative it cannot take (sign(y^a) when y^a may be complex) unevaluated."""
+    for expr in (*exprs, *(e for _, e in definitions)):
+        derivative = next(iter(expr.atoms(sympy.Derivative)), None)
+        if derivative is None:
+            continue
+        function = derivative.expr
+        places = [*((let.expression, let.span) for let in model.lets),
+                  (model.lagrangian.expression, model.lagrangian.span),
+                  *((d.expression, d.span) for d in (model.dissipation,) if d is not None),
+                  *((f.expression, f.span) for f in model.forces),
+                  *((c.residual, c.span) for c in model.constraints)]
+        span = next((span for e, span in places if span is not None and e.has(function)), model.lagrangian.span)
+        variable = derivative.variables[0]
+        raise LagError(f"cannot differentiate {sympy.sstr(function)} with respect to {variable}: its argument "
+                       "is not known to be real", span)
 
 
 def _require_regular(model: ir.Model, mass, constraints, probe: Probe) -> None:

@@ -55,16 +55,22 @@ class Probe:
         symbols = self.symbols + tuple(sorted(stray, key=sympy.default_sort_key))
         # lambdify prints names as Python identifiers; ours ("theta1'", "∂L/∂x'") are not.
         safe = {s: sympy.Symbol(f"_p{i}") for i, s in enumerate((*symbols, *(d for d, _ in definitions)))}
-        function = sympy.lambdify(
-            [safe[s] for s in symbols], [e.xreplace(safe) for e in exprs], modules=[MPMATH_EXTRAS, "mpmath"],
-            cse=lambda e: ([(safe[d], x.xreplace(safe)) for d, x in definitions], e))
+        try:
+            function = sympy.lambdify(
+                [safe[s] for s in symbols], [e.xreplace(safe) for e in exprs], modules=[MPMATH_EXTRAS, "mpmath"],
+                cse=lambda e: ([(safe[d], x.xreplace(safe)) for d, x in definitions], e))
+        except (ValueError, KeyError, TypeError, NotImplementedError):
+            # Not printable for mpmath (an unevaluated Derivative, say): unknown, so never "zero".
+            # derive_equations reports an underivable expression itself.
+            return [[mpmath.nan] * len(exprs) for _ in self.points]
         results = []
         with mpmath.workdps(DIGITS):
             for point in self.points:
                 extra = [mpmath.mpf(0.5)] * (len(symbols) - len(point))
                 try:
                     results.append(function(*point, *extra))
-                except (ArithmeticError, ValueError, TypeError):    # a pole or overflow at this point
+                except (ArithmeticError, ValueError, TypeError, AttributeError):   # a pole, an overflow, or
+                    # a complex value where mpmath wants a real one (atan2 of sqrt(log(0.5)))
                     results.append([mpmath.nan] * len(exprs))
         return results
 
