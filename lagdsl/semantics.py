@@ -396,20 +396,24 @@ class _ModelBuilder:
             what = f"{KIND_WORDS.get(binding.kind, 'a name')}, not a coordinate" if binding else "not a coordinate"
             raise LagError(f"force on '{token}', which is {what}{suggest(str(token), coordinates)}",
                            self.span(token))
-        if binding.family is not None:
-            if len(parts) != 2:
-                raise LagError(f"'{token}' is indexed; write force {token}[i] = ...", self.span(token))
-            index = self.expr.integer(parts[0], self.scope, "an index")
-            if index not in binding.family:
-                raise LagError(f"index {index} is out of range for '{token}' (1:{len(binding.family)})",
-                               self.span(parts[0]))
-            name = f"{token}[{index}]"
-        else:
-            if len(parts) != 1:
-                raise LagError(f"'{token}' is not indexed", self.span(token))
-            name = str(token)
+        name = self.coordinate_member(token, binding, parts[0] if len(parts) == 2 else None,
+                                      f"force {token}[i] = ...")
         value = self.expr.scalar(parts[-1], self.scope, "a scalar force")
         self.forces.append(ir.Force(name, value, self.span(node)))
+
+    def coordinate_member(self, token, binding: Binding, index_node, usage: str) -> str:
+        """'q', or 'q[i]' for a member of an indexed coordinate, with the index checked."""
+        if binding.family is None:
+            if index_node is not None:
+                raise LagError(f"'{token}' is not indexed", self.span(token))
+            return str(token)
+        if index_node is None:
+            raise LagError(f"'{token}' is indexed; write {usage}", self.span(token))
+        index = self.expr.integer(index_node, self.scope, "an index")
+        if index not in binding.family:
+            raise LagError(f"index {index} is out of range for '{token}' (1:{len(binding.family)})",
+                           self.span(index_node))
+        return f"{token}[{index}]"
 
     def constraint(self, node):
         names = tokens(node, "NAME") if tokens(node, "COLON") else []
@@ -523,17 +527,8 @@ class _ModelBuilder:
         if binding is None or binding.kind != "coordinate":
             coordinates = [c.name for c in self.coordinates]
             raise LagError(f"'{token}' is not a coordinate{suggest(str(token), coordinates)}", self.span(token))
-        name = str(token)
-        if binding.family is None and parts:
-            raise LagError(f"'{token}' is not indexed", self.span(token))
-        if binding.family is not None:
-            if not parts:
-                raise LagError(f"'{token}' is indexed; write set {token}[i](start = ...)", self.span(token))
-            index = self.expr.integer(parts[0], self.scope, "an index")
-            if index not in binding.family:
-                raise LagError(f"index {index} is out of range for '{token}' (1:{len(binding.family)})",
-                               self.span(parts[0]))
-            name = f"{token}[{index}]"
+        name = self.coordinate_member(token, binding, parts[0] if parts else None,
+                                      f"set {token}[i](start = ...)")
         options = self.modifiers(node, ("start", "velocity"), f"set {name}")
         values = {k: self.parameter_value(v, f"the {k} value") for k, v in options.items()}
         return ir.InitialOverride(name, values.get("start"), values.get("velocity"), self.span(node))
