@@ -6,6 +6,10 @@ evaluated in 50-digit arithmetic at a few random states and random parameter val
 nonzero analytic expression vanishes at a random point with probability zero, and the
 extended precision separates true zeros (round-off ~1e-50) from small values.
 Points are drawn from a fixed seed, so the answers are deterministic.
+
+The test is for analytic expressions. A piecewise one can vanish at every probe point without
+vanishing identically: the second velocity derivative of abs(der(x)) is zero away from x' = 0,
+so `abs(der(x)) = 1` passes as linear in the velocities.
 """
 from __future__ import annotations
 
