@@ -6,8 +6,8 @@ from pathlib import Path
 from . import ir
 from .codegen import GeneratedSource
 from .errors import LagError
-from .mechanics import Equations, derive_equations
-from .pipeline import execute, generate, model_from_source, plan
+from .mechanics import Equations
+from .pipeline import compile_model, execute, generate, plan
 from .run.output import Result
 from .scene import Overrides, ScenePlan
 from .source import SourceFile
@@ -20,8 +20,9 @@ class Model:
 
     def __init__(self, source: SourceFile):
         self.source = source
-        self.ir: ir.Model = model_from_source(source)
-        self.equations: Equations = derive_equations(self.ir)
+        self.ir: ir.Model
+        self.equations: Equations
+        self.ir, self.equations = compile_model(source)
 
     @property
     def name(self) -> str:

@@ -63,12 +63,6 @@ class Differentiator:
         self._depends[symbol] = self.dependencies(expr)
         return symbol
 
-    def is_intermediate(self, symbol: sympy.Basic) -> bool:
-        return symbol in self._definitions
-
-    def definition(self, symbol: sympy.Symbol) -> sympy.Expr:
-        return self._definitions[symbol]
-
     def definitions(self) -> tuple[tuple[sympy.Symbol, sympy.Expr], ...]:
         """All intermediates, each after the ones it uses."""
         return tuple(self._definitions.items())

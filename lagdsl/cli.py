@@ -9,9 +9,14 @@ import argparse
 import os
 import sys
 
+from pathlib import Path
+
 from . import __version__
+from .api import load
 from .errors import LagError, SimulationError
-from .pipeline import load_equations
+from .present import describe_model, format_equations
+from .run.output import write_atomically
+from .scene import Overrides
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -88,8 +93,7 @@ def _scene_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scene", help="scene to use (default: the model's first scene)")
 
 
-def _overrides(arguments) -> "Overrides":
-    from .scene import Overrides
+def _overrides(arguments) -> Overrides:
     values = []
     for item in arguments.set:
         name, equals, text = item.partition("=")
@@ -108,8 +112,6 @@ def _overrides(arguments) -> "Overrides":
 
 
 def _run(arguments) -> int:
-    from .api import load
-    from .run.output import write_atomically
     model = load(arguments.model)
     try:
         result = model.simulate_plan(arguments.scene, arguments.backend, _overrides(arguments))
@@ -117,39 +119,32 @@ def _run(arguments) -> int:
         if error.partial is not None:
             print(error.partial.summary.render(), file=sys.stderr)
         raise
-    if arguments.output:
-        from pathlib import Path
-        write_atomically(Path(arguments.output), result.csv())
-    else:
-        sys.stdout.write(result.csv())
+    _deliver(result.csv(), arguments.output)
     print(result.summary.render(), file=sys.stderr)
     return 0
 
 
 def _emit(arguments) -> int:
-    from .api import load
-    from .run.output import write_atomically
-    model = load(arguments.model)
-    source = model.emit(arguments.language, arguments.scene)
-    if arguments.output:
-        from pathlib import Path
-        write_atomically(Path(arguments.output), source.text)
-    else:
-        sys.stdout.write(source.text)
+    _deliver(load(arguments.model).emit(arguments.language, arguments.scene).text, arguments.output)
     return 0
 
 
+def _deliver(text: str, output: str | None) -> None:
+    """To the -o file (atomically), or to standard output."""
+    if output:
+        write_atomically(Path(output), text)
+    else:
+        sys.stdout.write(text)
+
+
 def _check(arguments) -> int:
-    from .present import describe_model
-    model, equations = load_equations(arguments.model)
-    print(describe_model(model, equations))
+    model = load(arguments.model)
+    print(describe_model(model.ir, model.equations))
     return 0
 
 
 def _eom(arguments) -> int:
-    from .present import format_equations
-    _, equations = load_equations(arguments.model)
-    print(format_equations(equations, latex=arguments.latex))
+    print(format_equations(load(arguments.model).equations, latex=arguments.latex))
     return 0
 
 

@@ -129,9 +129,6 @@ class IntegratorChoice:
     options: tuple[tuple[str, float], ...]
     span: Span | None
 
-    def option(self, key: str, default: float | None = None) -> float | None:
-        return dict(self.options).get(key, default)
-
 
 @dataclass(frozen=True)
 class ParameterOverride:
@@ -190,13 +187,3 @@ class Model:
     scenes: tuple[Scene, ...]
     span: Span
     source_name: str = field(default="")
-
-    def coordinate(self, name: str) -> Coordinate:
-        return next(c for c in self.coordinates if c.name == name)
-
-    def parameter(self, name: str) -> Parameter:
-        return next(p for p in self.parameters if p.name == name)
-
-    @property
-    def parameter_values(self) -> dict[sympy.Symbol, float]:
-        return {p.symbol: p.value for p in self.parameters}

@@ -41,8 +41,8 @@ def model_from_source(source: SourceFile) -> ir.Model:
     return build_model(tree, source)          # Tree -> ir.Model
 
 
-def load_equations(path: str | Path) -> tuple[ir.Model, Equations]:
-    model = load_model(path)
+def compile_model(source: SourceFile) -> tuple[ir.Model, Equations]:
+    model = model_from_source(source)         # text -> ir.Model
     return model, derive_equations(model)     # Model -> Equations
 
 

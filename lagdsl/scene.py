@@ -17,7 +17,7 @@ from . import ir
 from .errors import LagError
 from .expressions import suggest
 from .mechanics import Equations
-from .semantics import DEFAULT_INTEGRATOR, DEFAULT_TIME, validate_integrator
+from .semantics import DEFAULT_INTEGRATOR, DEFAULT_TIME, INTEGRATOR_OPTIONS, validate_integrator
 
 
 @dataclass(frozen=True)
@@ -114,7 +114,6 @@ def _integrator(choice: ir.IntegratorChoice, overrides: Overrides) -> ir.Integra
     if name not in ir.INTEGRATORS:
         raise LagError(f"unknown integrator '{name}'{suggest(name, ir.INTEGRATORS)} "
                        f"(available: {', '.join(ir.INTEGRATORS)})")
-    from .semantics import INTEGRATOR_OPTIONS
     allowed = INTEGRATOR_OPTIONS[name]
     values = {k: v for k, v in choice.options if k in allowed} if name == choice.name else {}
     for key, value in overrides.options:

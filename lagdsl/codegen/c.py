@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from .. import __version__
 from ..integrators import integrator_files
+from ..semantics import INTEGRATOR_OPTIONS
 from . import GeneratedSource, c_source, template_environment
 from .kernel import Block, Kernel
 from .printers import CPrinter
@@ -45,7 +46,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
         "constraint_list": _strings(kernel.constraints),
         "defaults": [f"par[{i}] = {_literal(value)};  /* {name} */"
                      for i, (name, value) in enumerate(kernel.parameters)],
-        "derived": [f"if (!fixed[{i}])\n        par[{i}] = {_print_parameter_expression(expr, kernel, printer)};"
+        "derived": [f"if (!fixed[{i}])\n        par[{i}] = {printer.doprint(expr)};"
                     for i, expr in kernel.derived_parameters],
         "solver": kernel.solver, "jacobian": kernel.jacobian is not None,
         "canonical": kernel.momenta is not None,
@@ -80,7 +81,6 @@ def stem(kernel: Kernel) -> str:
 
 
 def _allowed_options(kernel: Kernel) -> tuple[str, ...]:
-    from ..semantics import INTEGRATOR_OPTIONS
     return INTEGRATOR_OPTIONS[kernel.integrator.name]
 
 
@@ -97,14 +97,6 @@ def _literal(value: float) -> str:
 
 def _strings(names) -> str:
     return ", ".join('"' + name.replace("\\", "\\\\").replace('"', '\\"') + '"' for name in names)
-
-
-def _print_parameter_expression(expr, kernel: Kernel, printer: CPrinter) -> str:
-    import sympy
-    symbols = {s.name: s for s in expr.free_symbols}
-    rename = {symbols[name]: sympy.Symbol(f"par[{i}]") for i, (name, _) in enumerate(kernel.parameters)
-              if name in symbols}
-    return printer.doprint(expr.xreplace(rename))
 
 
 def _print_block(block: Block, kind: str, kernel: Kernel, printer: CPrinter) -> dict:

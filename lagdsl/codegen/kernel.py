@@ -56,7 +56,7 @@ class Kernel:
     scene_name: str
     coordinates: tuple[str, ...]
     parameters: tuple[tuple[str, float], ...]    # name, value for this scene
-    derived_parameters: tuple[tuple[int, sympy.Expr], ...]   # recomputed from earlier ones
+    derived_parameters: tuple[tuple[int, sympy.Expr], ...]   # index, expression in par[j]
     constraints: tuple[str, ...]                 # active constraints
     holonomic: int                               # how many of them are holonomic (they come first)
     columns: tuple[str, ...]
@@ -196,7 +196,9 @@ class _Lowering:
             **self.canonical_blocks())
 
     def derived_parameters(self):
-        return tuple((i, p.expression) for i, p in enumerate(self.model.parameters)
+        """Parameters defined by earlier ones, written in terms of the array par[] they live in."""
+        in_array = {p.symbol: sympy.Symbol(f"par[{i}]") for i, p in enumerate(self.model.parameters)}
+        return tuple((i, p.expression.xreplace(in_array)) for i, p in enumerate(self.model.parameters)
                      if p.expression.free_symbols and p.name not in self.plan.fixed_parameters)
 
     def initial_block(self) -> Block:

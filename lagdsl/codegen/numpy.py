@@ -1,8 +1,6 @@
 """Kernel -> an importable Python module over NumPy arrays (batched states)."""
 from __future__ import annotations
 
-import sympy
-
 from .. import __version__
 from . import GeneratedSource, template_environment
 from .c import FUNCTION_PARAMETERS
@@ -27,7 +25,7 @@ def render_numpy(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSou
         "integrator": kernel.integrator.name, "options": kernel.integrator.options,
         "t_start": repr(kernel.time.start), "t_stop": repr(kernel.time.stop),
         "t_interval": repr(kernel.time.interval), "solver": kernel.solver,
-        "derived": [(i, _parameter_expression(expr, kernel, printer)) for i, expr in kernel.derived_parameters],
+        "derived": [(i, printer.doprint(expr)) for i, expr in kernel.derived_parameters],
         "jacobian": kernel.jacobian is not None, "canonical": kernel.momenta is not None,
         "outputs_need_multipliers": kernel.outputs_need_multipliers,
         **blocks,
@@ -42,10 +40,3 @@ def _print_block(block: Block, printer: PythonPrinter) -> dict:
     return {"inputs": block.inputs,
             "assignments": [(name, printer.doprint(value)) for name, value in block.assignments],
             "stores": stores}
-
-
-def _parameter_expression(expr, kernel: Kernel, printer: PythonPrinter) -> str:
-    symbols = {s.name: s for s in expr.free_symbols}
-    rename = {symbols[name]: sympy.Symbol(f"par[{i}]") for i, (name, _) in enumerate(kernel.parameters)
-              if name in symbols}
-    return printer.doprint(expr.xreplace(rename))

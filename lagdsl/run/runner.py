@@ -7,6 +7,7 @@ state and a remedy, with the rows computed so far in `error.partial`.
 from __future__ import annotations
 
 import ctypes
+import hashlib
 import importlib.util
 import time as clock
 from pathlib import Path
@@ -16,8 +17,9 @@ import numpy as np
 from ..codegen import GeneratedSource
 from ..codegen.kernel import Kernel
 from ..errors import SimulationError
+from ..integrators.python.fixed_step import IntegrationFailure, integrate_gauss, integrate_rk4
 from ..scene import ScenePlan
-from .output import Result, RunSummary
+from .output import Result, RunSummary, write_atomically
 from .toolchain import cache_directory, shared_library
 
 STATUS = {
@@ -95,11 +97,9 @@ def run_c(kernel: Kernel, source: GeneratedSource, plan: ScenePlan) -> Result:
 # ---- NumPy -----------------------------------------------------------------------------------
 def load_module(source: GeneratedSource):
     """Import generated NumPy code from the cache (written once per content hash)."""
-    import hashlib
     key = hashlib.sha256(source.text.encode()).hexdigest()[:20]
     path = cache_directory() / f"{source.suggested_name}_{key}.py"
     if not path.exists():
-        from .output import write_atomically
         write_atomically(path, source.text)
     spec = importlib.util.spec_from_file_location(f"lagdsl_generated_{key}", path)
     module = importlib.util.module_from_spec(spec)
@@ -201,7 +201,6 @@ def _tally(counts, solver):
 
 
 def _run_fixed_step(module, par, times, y0, plan):
-    from ..integrators.python.fixed_step import IntegrationFailure, integrate_gauss, integrate_rk4
     options = dict(plan.integrator.options)
     try:
         if plan.integrator.name == "rk4" and plan.constraints:
@@ -223,7 +222,6 @@ def _run_fixed_step(module, par, times, y0, plan):
 def _rk4_projected(module, par, times, y0, step, stop):
     """rk4 step by step, projecting onto the constraints after each step as the C driver does;
     output rows inside a step come from that step's dense output."""
-    from ..integrators.python.fixed_step import integrate_rk4
     rows, stats, k, n, y = [y0], {"accepted": 0, "rejected": 0, "rhs_evals": 0}, 1, 0, y0
     while k < len(times):
         start, end = times[0] + n * step, min(times[0] + (n + 1) * step, stop)
