@@ -17,8 +17,7 @@ FUNCTION_PARAMETERS = {
     "mass": ("par", "t", "y", "M"),
     "momentum_rate": ("par", "t", "y", "dp"),
     "constraint_rows": ("par", "t", "y", "g", "c", "A"),
-    "outputs": ("par", "t", "y", "out"),
-    "invariants": ("par", "t", "y", "inv"),
+    "outputs": ("par", "t", "y", "out", "inv"),
 }
 # Command-line names of the integrator options, and the lag_options field each sets.
 OPTION_FIELDS = {"rtol": "rtol", "atol": "atol", "step": "step", "max_step": "max_step", "stages": "stages"}
@@ -38,7 +37,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
         "runtime": c_source("runtime.h"), "linalg": _linear_algebra(kernel),
         "n": kernel.n, "size": kernel.size, "parameters": kernel.parameters,
         "columns": kernel.columns, "constraints": kernel.constraints, "holonomic": kernel.holonomic,
-        "invariants": kernel.invariants is not None, "invariant_names": kernel.invariant_names,
+        "invariants": bool(kernel.invariant_names), "invariant_names": kernel.invariant_names,
         "parameter_names": _strings(name for name, _ in kernel.parameters) or "\"\"",
         "coordinate_names": _strings(kernel.coordinates),
         "column_names": _strings(kernel.columns),
@@ -109,7 +108,8 @@ def _print_block(block: Block, kind: str, kernel: Kernel, printer: CPrinter) -> 
     if any("t" in {x.name for x in value.free_symbols} for _, value in block.assignments) or \
             any("t" in {x.name for x in s.value.free_symbols} for s in block.stores):
         read.add("t")
-    parameters = [p for p in FUNCTION_PARAMETERS[kind] if p != "lam" or kernel.constraints]
+    parameters = [p for p in FUNCTION_PARAMETERS[kind]
+                  if (p != "lam" or kernel.constraints) and (p != "inv" or kernel.invariant_names)]
     unused = [p for p in parameters if p not in read]
     return {"inputs": block.inputs, "assignments": assignments, "stores": stores, "unused": unused}
 

@@ -9,8 +9,8 @@ The blocks are exactly what the scene needs:
                  without constraints  K = M,                   b = f
                  with constraints     K = [[M, -Aᵀ], [A, 0]],  b = [f; γ]
                so that M q'' = f + Aᵀλ and A q'' = γ. K is solved numerically, never inverted.
-  outputs      the scene's columns
-  invariants   the conserved quantities, to report their drift
+  outputs      the scene's columns and the conserved quantities (to report their drift), in
+               one block so that what they share (the energy, say) is computed once
   constraints  residuals g (holonomic, position level), c (velocity level) and rows A, for
                projection onto the constraint manifold and the residual report
   jacobian     implicit integrators only: ∂R/∂y for R = [f - M q'' + Aᵀλ; γ - A q''] at fixed
@@ -68,7 +68,6 @@ class Kernel:
     system: Block
     outputs: Block
     outputs_need_multipliers: bool
-    invariants: Block | None
     constraint_rows: Block | None
     jacobian: Block | None
     momenta: Block | None
@@ -189,8 +188,6 @@ class _Lowering:
             initial=self.initial_block(), system=self.system_block(),
             outputs=self.outputs_block(),
             outputs_need_multipliers=any(o.kind == "multiplier" for o in plan.outputs),
-            invariants=self.block([("inv", (i,), q.expression) for i, q in enumerate(eq.conserved)])
-            if eq.conserved else None,
             constraint_rows=self.constraint_block() if self.active else None,
             jacobian=self.jacobian_block() if plan.implicit else None,
             **self.canonical_blocks())
@@ -246,6 +243,7 @@ class _Lowering:
                 constraint = by_name[request.target]
                 value = constraint.residual
             stores.append(("out", (column,), value))
+        stores += [("inv", (i,), q.expression) for i, q in enumerate(self.eq.conserved)]
         return self.block(stores)
 
     def constraint_block(self) -> Block:

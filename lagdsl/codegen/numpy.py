@@ -21,7 +21,7 @@ def render_numpy(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSou
         "coordinate_names": quoted(kernel.coordinates), "column_names": quoted(kernel.columns),
         "constraints": kernel.constraints, "constraint_list": quoted(kernel.constraints),
         "holonomic": kernel.holonomic, "invariant_names": kernel.invariant_names,
-        "invariant_list": quoted(kernel.invariant_names), "invariants": kernel.invariants is not None,
+        "invariant_list": quoted(kernel.invariant_names), "invariants": bool(kernel.invariant_names),
         "integrator": kernel.integrator.name, "options": kernel.integrator.options,
         "t_start": repr(kernel.time.start), "t_stop": repr(kernel.time.stop),
         "t_interval": repr(kernel.time.interval), "solver": kernel.solver,

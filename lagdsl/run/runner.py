@@ -132,10 +132,10 @@ def run_numpy(kernel: Kernel, source: GeneratedSource, plan: ScenePlan) -> Resul
 
 def _numpy_result(module, par, times, states, plan, counts, elapsed, projection) -> Result:
     Y = states.T
-    values = module.outputs(times, Y, par).T if len(times) else np.zeros((0, len(plan.columns)))
+    values, watched = module.observables(times, Y, par) if len(times) else (np.zeros((len(plan.columns), 0)), None)
+    values = values.T
     invariants = ()
     if plan.invariants and len(times):
-        watched = module.invariants(times, Y, par)
         invariants = tuple((name, float(watched[i, 0]), float(np.max(np.abs(watched[i] - watched[i, 0]))))
                            for i, name in enumerate(plan.invariants))
     residual = None

@@ -335,8 +335,9 @@ static int lag_jacobian(const lag_system *sys, real t, const real *y, real *jac)
     return LAG_OK;
 }
 
-/* The scene's output columns: x, y, z, energy, momentum(z). */
-static int lag_outputs(const lag_system *sys, real t, const real *y, real *out)
+/* The scene's output columns: x, y, z, energy, momentum(z);
+ * and the conserved quantities: momentum(z), energy. */
+static int lag_outputs(const lag_system *sys, real t, const real *y, real *out, real *inv)
 {
     const real *par = sys->par;
     (void)t;
@@ -357,36 +358,15 @@ static int lag_outputs(const lag_system *sys, real t, const real *y, real *out)
     const real w7 = let_A_x*p_e + p_m*v_x;
     const real w8 = let_A_y*p_e + p_m*v_y;
     const real w9 = let_A_z*p_e + p_m*v_z;
+    const real c1 = v_x*w7 + v_y*w8 + v_z*w9 - w6;
     out[0] = q_x;
     out[1] = q_y;
     out[2] = q_z;
-    out[3] = v_x*w7 + v_y*w8 + v_z*w9 - w6;
+    out[3] = c1;
     out[4] = w9;
-    return LAG_OK;
-}
-
-/* Conserved quantities: momentum(z), energy. */
-static void lag_invariants(const real *par, real t, const real *y, real *inv)
-{
-    (void)t;
-    const real p_m = par[0];
-    const real p_e = par[1];
-    const real p_B = par[2];
-    const real q_x = y[0];
-    const real q_y = y[1];
-    const real v_x = y[3];
-    const real v_y = y[4];
-    const real v_z = y[5];
-    const real let_A_z = 0;
-    const real w9 = let_A_z*p_e + p_m*v_z;
-    const real c0 = 0.5*p_B;
-    const real let_A_x = -c0*q_y;
-    const real let_A_y = c0*q_x;
-    const real w6 = p_e*(let_A_x*v_x + let_A_y*v_y + let_A_z*v_z) + 0.5*p_m*((v_x*v_x) + (v_y*v_y) + (v_z*v_z));
-    const real w7 = let_A_x*p_e + p_m*v_x;
-    const real w8 = let_A_y*p_e + p_m*v_y;
     inv[0] = w9;
-    inv[1] = v_x*w7 + v_y*w8 + v_z*w9 - w6;
+    inv[1] = c1;
+    return LAG_OK;
 }
 
 /* ---- integrator: radau5 ---- */
@@ -1050,12 +1030,10 @@ static int lag_deliver(const lag_system *sys, real t, const real *y, lag_sink si
                        lag_report *report)
 {
     real out[LAG_NOUT];
-    int status = lag_outputs(sys, t, y, out);
     real inv[LAG_NINV];
-    int i;
+    int i, status = lag_outputs(sys, t, y, out, inv);
     if (status != LAG_OK)
         return status;
-    lag_invariants(sys->par, t, y, inv);
     for (i = 0; i < LAG_NINV; ++i) {
         if (report->rows == 0)
             report->invariant_start[i] = inv[i];

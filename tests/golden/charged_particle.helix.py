@@ -141,11 +141,13 @@ def solve_columns(K, B):
     return numpy.moveaxis(X, (-2, -1), (0, 1))
 
 
-def outputs(t, y, par):
-    """The scene's columns: x, y, z, energy, momentum(z)."""
+def observables(t, y, par):
+    """The scene's columns (x, y, z, energy, momentum(z)) and the conserved quantities
+    (momentum(z), energy): the arrays out and inv."""
     y = numpy.asarray(y, dtype=float)
     shape = numpy.shape(y[0])
     out = numpy.zeros((len(COLUMNS),) + shape)
+    inv = numpy.zeros((len(INVARIANTS),) + shape)
     p_m = par[0]
     p_e = par[1]
     p_B = par[2]
@@ -163,35 +165,12 @@ def outputs(t, y, par):
     w7 = let_A_x*p_e + p_m*v_x
     w8 = let_A_y*p_e + p_m*v_y
     w9 = let_A_z*p_e + p_m*v_z
+    c1 = v_x*w7 + v_y*w8 + v_z*w9 - w6
     out[0] = q_x
     out[1] = q_y
     out[2] = q_z
-    out[3] = v_x*w7 + v_y*w8 + v_z*w9 - w6
+    out[3] = c1
     out[4] = w9
-    return out
-
-
-def invariants(t, y, par):
-    """Conserved quantities: momentum(z), energy."""
-    y = numpy.asarray(y, dtype=float)
-    shape = numpy.shape(y[0])
-    inv = numpy.zeros((len(INVARIANTS),) + shape)
-    p_m = par[0]
-    p_e = par[1]
-    p_B = par[2]
-    q_x = y[0]
-    q_y = y[1]
-    v_x = y[3]
-    v_y = y[4]
-    v_z = y[5]
-    let_A_z = 0
-    w9 = let_A_z*p_e + p_m*v_z
-    c0 = (1/2)*p_B
-    let_A_x = -c0*q_y
-    let_A_y = c0*q_x
-    w6 = p_e*(let_A_x*v_x + let_A_y*v_y + let_A_z*v_z) + (1/2)*p_m*(v_x**2 + v_y**2 + v_z**2)
-    w7 = let_A_x*p_e + p_m*v_x
-    w8 = let_A_y*p_e + p_m*v_y
     inv[0] = w9
-    inv[1] = v_x*w7 + v_y*w8 + v_z*w9 - w6
-    return inv
+    inv[1] = c1
+    return out, inv

@@ -283,8 +283,9 @@ static int lag_rhs(const lag_system *sys, real t, const real *y, real *dydt)
     return lag_accelerations(sys, t, y, dydt + LAG_NQ);
 }
 
-/* The scene's output columns: theta1, theta2, energy. */
-static int lag_outputs(const lag_system *sys, real t, const real *y, real *out)
+/* The scene's output columns: theta1, theta2, energy;
+ * and the conserved quantities: energy. */
+static int lag_outputs(const lag_system *sys, real t, const real *y, real *out, real *inv)
 {
     const real *par = sys->par;
     (void)t;
@@ -317,46 +318,12 @@ static int lag_outputs(const lag_system *sys, real t, const real *y, real *out)
     const real c13 = der_y2*p_m2;
     const real c11 = 2*c7*v_theta1;
     const real w11 = c10*(c11*c6 + c11*c9);
+    const real c14 = v_theta1*(c1*c12 - c13*c4 + w11) + v_theta2*(c12*c2 - c13*c5) - w6;
     out[0] = q_theta1;
     out[1] = q_theta2;
-    out[2] = v_theta1*(c1*c12 - c13*c4 + w11) + v_theta2*(c12*c2 - c13*c5) - w6;
+    out[2] = c14;
+    inv[0] = c14;
     return LAG_OK;
-}
-
-/* Conserved quantities: energy. */
-static void lag_invariants(const real *par, real t, const real *y, real *inv)
-{
-    (void)t;
-    const real p_m1 = par[0];
-    const real p_m2 = par[1];
-    const real p_l1 = par[2];
-    const real p_l2 = par[3];
-    const real p_g = par[4];
-    const real q_theta1 = y[0];
-    const real q_theta2 = y[1];
-    const real v_theta1 = y[2];
-    const real v_theta2 = y[3];
-    const real c10 = 0.5*p_m1;
-    const real c0 = r_cos(q_theta1);
-    const real c6 = (c0*c0);
-    const real c7 = (p_l1*p_l1);
-    const real c8 = c7*(v_theta1*v_theta1);
-    const real c3 = r_sin(q_theta1);
-    const real c9 = (c3*c3);
-    const real c1 = c0*p_l1;
-    const real c2 = p_l2*r_cos(q_theta2);
-    const real der_x2 = c1*v_theta1 + c2*v_theta2;
-    const real c4 = c3*p_l1;
-    const real c5 = p_l2*r_sin(q_theta2);
-    const real der_y2 = -c4*v_theta1 - c5*v_theta2;
-    const real let_y1 = c1;
-    const real let_y2 = c2 + let_y1;
-    const real w6 = c10*(c6*c8 + c8*c9) + let_y1*p_g*p_m1 + let_y2*p_g*p_m2 + 0.5*p_m2*((der_x2*der_x2) + (der_y2*der_y2));
-    const real c12 = der_x2*p_m2;
-    const real c13 = der_y2*p_m2;
-    const real c11 = 2*c7*v_theta1;
-    const real w11 = c10*(c11*c6 + c11*c9);
-    inv[0] = v_theta1*(c1*c12 - c13*c4 + w11) + v_theta2*(c12*c2 - c13*c5) - w6;
 }
 
 /* ---- integrator: dop853 ---- */
@@ -936,12 +903,10 @@ static int lag_deliver(const lag_system *sys, real t, const real *y, lag_sink si
                        lag_report *report)
 {
     real out[LAG_NOUT];
-    int status = lag_outputs(sys, t, y, out);
     real inv[LAG_NINV];
-    int i;
+    int i, status = lag_outputs(sys, t, y, out, inv);
     if (status != LAG_OK)
         return status;
-    lag_invariants(sys->par, t, y, inv);
     for (i = 0; i < LAG_NINV; ++i) {
         if (report->rows == 0)
             report->invariant_start[i] = inv[i];

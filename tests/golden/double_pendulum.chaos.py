@@ -112,50 +112,12 @@ def rhs(t, y, par):
     return numpy.concatenate([y[NQ:], accelerations(par, t, y)[0]])
 
 
-def outputs(t, y, par):
-    """The scene's columns: theta1, theta2, energy."""
+def observables(t, y, par):
+    """The scene's columns (theta1, theta2, energy) and the conserved quantities
+    (energy): the arrays out and inv."""
     y = numpy.asarray(y, dtype=float)
     shape = numpy.shape(y[0])
     out = numpy.zeros((len(COLUMNS),) + shape)
-    p_m1 = par[0]
-    p_m2 = par[1]
-    p_l1 = par[2]
-    p_l2 = par[3]
-    p_g = par[4]
-    q_theta1 = y[0]
-    q_theta2 = y[1]
-    v_theta1 = y[2]
-    v_theta2 = y[3]
-    c10 = (1/2)*p_m1
-    c0 = numpy.cos(q_theta1)
-    c6 = c0**2
-    c7 = p_l1**2
-    c8 = c7*v_theta1**2
-    c3 = numpy.sin(q_theta1)
-    c9 = c3**2
-    c1 = c0*p_l1
-    c2 = p_l2*numpy.cos(q_theta2)
-    der_x2 = c1*v_theta1 + c2*v_theta2
-    c4 = c3*p_l1
-    c5 = p_l2*numpy.sin(q_theta2)
-    der_y2 = -c4*v_theta1 - c5*v_theta2
-    let_y1 = c1
-    let_y2 = c2 + let_y1
-    w6 = c10*(c6*c8 + c8*c9) + let_y1*p_g*p_m1 + let_y2*p_g*p_m2 + (1/2)*p_m2*(der_x2**2 + der_y2**2)
-    c12 = der_x2*p_m2
-    c13 = der_y2*p_m2
-    c11 = 2*c7*v_theta1
-    w11 = c10*(c11*c6 + c11*c9)
-    out[0] = q_theta1
-    out[1] = q_theta2
-    out[2] = v_theta1*(c1*c12 - c13*c4 + w11) + v_theta2*(c12*c2 - c13*c5) - w6
-    return out
-
-
-def invariants(t, y, par):
-    """Conserved quantities: energy."""
-    y = numpy.asarray(y, dtype=float)
-    shape = numpy.shape(y[0])
     inv = numpy.zeros((len(INVARIANTS),) + shape)
     p_m1 = par[0]
     p_m2 = par[1]
@@ -186,5 +148,9 @@ def invariants(t, y, par):
     c13 = der_y2*p_m2
     c11 = 2*c7*v_theta1
     w11 = c10*(c11*c6 + c11*c9)
-    inv[0] = v_theta1*(c1*c12 - c13*c4 + w11) + v_theta2*(c12*c2 - c13*c5) - w6
-    return inv
+    c14 = v_theta1*(c1*c12 - c13*c4 + w11) + v_theta2*(c12*c2 - c13*c5) - w6
+    out[0] = q_theta1
+    out[1] = q_theta2
+    out[2] = c14
+    inv[0] = c14
+    return out, inv

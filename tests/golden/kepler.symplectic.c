@@ -335,8 +335,9 @@ static int lag_hamilton_rhs(const lag_system *sys, real t, const real *z, real *
     return LAG_OK;
 }
 
-/* The scene's output columns: r, theta, energy, momentum(theta). */
-static int lag_outputs(const lag_system *sys, real t, const real *y, real *out)
+/* The scene's output columns: r, theta, energy, momentum(theta);
+ * and the conserved quantities: momentum(theta), energy. */
+static int lag_outputs(const lag_system *sys, real t, const real *y, real *out, real *inv)
 {
     const real *par = sys->par;
     (void)t;
@@ -351,29 +352,15 @@ static int lag_outputs(const lag_system *sys, real t, const real *y, real *out)
     const real c1 = (q_r*q_r);
     const real c2 = c1*(v_theta*v_theta);
     const real w0 = p_G*p_M0*p_m/q_r + 0.5*p_m*(c0 + c2);
+    const real c3 = c0*p_m + c2*p_m - w0;
+    const real c4 = c1*p_m*v_theta;
     out[0] = q_r;
     out[1] = q_theta;
-    out[2] = c0*p_m + c2*p_m - w0;
-    out[3] = c1*p_m*v_theta;
+    out[2] = c3;
+    out[3] = c4;
+    inv[0] = c4;
+    inv[1] = c3;
     return LAG_OK;
-}
-
-/* Conserved quantities: momentum(theta), energy. */
-static void lag_invariants(const real *par, real t, const real *y, real *inv)
-{
-    (void)t;
-    const real p_G = par[0];
-    const real p_M0 = par[1];
-    const real p_m = par[2];
-    const real q_r = y[0];
-    const real v_r = y[2];
-    const real v_theta = y[3];
-    const real c1 = (q_r*q_r);
-    const real c0 = (v_r*v_r);
-    const real c2 = c1*(v_theta*v_theta);
-    const real w0 = p_G*p_M0*p_m/q_r + 0.5*p_m*(c0 + c2);
-    inv[0] = c1*p_m*v_theta;
-    inv[1] = c0*p_m + c2*p_m - w0;
 }
 
 /* ---- integrator: gauss ---- */
@@ -762,12 +749,10 @@ static int lag_deliver(const lag_system *sys, real t, const real *y, lag_sink si
                        lag_report *report)
 {
     real out[LAG_NOUT];
-    int status = lag_outputs(sys, t, y, out);
     real inv[LAG_NINV];
-    int i;
+    int i, status = lag_outputs(sys, t, y, out, inv);
     if (status != LAG_OK)
         return status;
-    lag_invariants(sys->par, t, y, inv);
     for (i = 0; i < LAG_NINV; ++i) {
         if (report->rows == 0)
             report->invariant_start[i] = inv[i];

@@ -148,11 +148,13 @@ def hamilton_rhs(t, z, par):
     return numpy.concatenate([y[NQ:], momentum_rate(par, t, y)])
 
 
-def outputs(t, y, par):
-    """The scene's columns: r, theta, energy, momentum(theta)."""
+def observables(t, y, par):
+    """The scene's columns (r, theta, energy, momentum(theta)) and the conserved quantities
+    (momentum(theta), energy): the arrays out and inv."""
     y = numpy.asarray(y, dtype=float)
     shape = numpy.shape(y[0])
     out = numpy.zeros((len(COLUMNS),) + shape)
+    inv = numpy.zeros((len(INVARIANTS),) + shape)
     p_G = par[0]
     p_M0 = par[1]
     p_m = par[2]
@@ -164,28 +166,12 @@ def outputs(t, y, par):
     c1 = q_r**2
     c2 = c1*v_theta**2
     w0 = p_G*p_M0*p_m/q_r + (1/2)*p_m*(c0 + c2)
+    c3 = c0*p_m + c2*p_m - w0
+    c4 = c1*p_m*v_theta
     out[0] = q_r
     out[1] = q_theta
-    out[2] = c0*p_m + c2*p_m - w0
-    out[3] = c1*p_m*v_theta
-    return out
-
-
-def invariants(t, y, par):
-    """Conserved quantities: momentum(theta), energy."""
-    y = numpy.asarray(y, dtype=float)
-    shape = numpy.shape(y[0])
-    inv = numpy.zeros((len(INVARIANTS),) + shape)
-    p_G = par[0]
-    p_M0 = par[1]
-    p_m = par[2]
-    q_r = y[0]
-    v_r = y[2]
-    v_theta = y[3]
-    c1 = q_r**2
-    c0 = v_r**2
-    c2 = c1*v_theta**2
-    w0 = p_G*p_M0*p_m/q_r + (1/2)*p_m*(c0 + c2)
-    inv[0] = c1*p_m*v_theta
-    inv[1] = c0*p_m + c2*p_m - w0
-    return inv
+    out[2] = c3
+    out[3] = c4
+    inv[0] = c4
+    inv[1] = c3
+    return out, inv

@@ -348,8 +348,9 @@ static void lag_constraint_rows(const real *par, real t, const real *y, real *g,
     A[7] = 0;
 }
 
-/* The scene's output columns: x, y, phi, theta, energy, momentum(theta), multiplier(roll_x), multiplier(roll_y), residual(roll_x), residual(roll_y). */
-static int lag_outputs(const lag_system *sys, real t, const real *y, real *out)
+/* The scene's output columns: x, y, phi, theta, energy, momentum(theta), multiplier(roll_x), multiplier(roll_y), residual(roll_x), residual(roll_y);
+ * and the conserved quantities: momentum(theta), energy. */
+static int lag_outputs(const lag_system *sys, real t, const real *y, real *out, real *inv)
 {
     real acc[LAG_NQ], lam[LAG_NC];
     const real *par = sys->par;
@@ -379,43 +380,21 @@ static int lag_outputs(const lag_system *sys, real t, const real *y, real *out)
     const real w0 = c2*(c0 + c1) + c4*((v_phi*v_phi) + 0.5*(v_theta*v_theta)) + p_g*p_m*q_x*r_sin(p_alpha);
     const real w1 = c2*c3*v_phi;
     const real w2 = c4*v_theta;
-    const real c5 = p_a*v_phi;
+    const real c5 = c0*p_m + c1*p_m + v_phi*w1 + v_theta*w2 - w0;
+    const real c6 = p_a*v_phi;
     out[0] = q_x;
     out[1] = q_y;
     out[2] = q_phi;
     out[3] = q_theta;
-    out[4] = c0*p_m + c1*p_m + v_phi*w1 + v_theta*w2 - w0;
+    out[4] = c5;
     out[5] = w2;
     out[6] = lam_roll_x;
     out[7] = lam_roll_y;
-    out[8] = c5*r_sin(q_theta) + v_x;
-    out[9] = -c5*r_cos(q_theta) + v_y;
-    return LAG_OK;
-}
-
-/* Conserved quantities: momentum(theta), energy. */
-static void lag_invariants(const real *par, real t, const real *y, real *inv)
-{
-    (void)t;
-    const real p_m = par[0];
-    const real p_a = par[1];
-    const real p_g = par[2];
-    const real p_alpha = par[3];
-    const real q_x = y[0];
-    const real v_x = y[4];
-    const real v_y = y[5];
-    const real v_phi = y[6];
-    const real v_theta = y[7];
-    const real c3 = (p_a*p_a);
-    const real c4 = 0.25*c3*p_m;
-    const real w2 = c4*v_theta;
-    const real c0 = (v_x*v_x);
-    const real c1 = (v_y*v_y);
-    const real c2 = 0.5*p_m;
-    const real w0 = c2*(c0 + c1) + c4*((v_phi*v_phi) + 0.5*(v_theta*v_theta)) + p_g*p_m*q_x*r_sin(p_alpha);
-    const real w1 = c2*c3*v_phi;
+    out[8] = c6*r_sin(q_theta) + v_x;
+    out[9] = -c6*r_cos(q_theta) + v_y;
     inv[0] = w2;
-    inv[1] = c0*p_m + c1*p_m + v_phi*w1 + v_theta*w2 - w0;
+    inv[1] = c5;
+    return LAG_OK;
 }
 
 /* ---- integrator: dop853 ---- */
@@ -1041,12 +1020,10 @@ static int lag_deliver(const lag_system *sys, real t, const real *y, lag_sink si
                        lag_report *report)
 {
     real out[LAG_NOUT];
-    int status = lag_outputs(sys, t, y, out);
     real inv[LAG_NINV];
-    int i;
+    int i, status = lag_outputs(sys, t, y, out, inv);
     if (status != LAG_OK)
         return status;
-    lag_invariants(sys->par, t, y, inv);
     for (i = 0; i < LAG_NINV; ++i) {
         if (report->rows == 0)
             report->invariant_start[i] = inv[i];

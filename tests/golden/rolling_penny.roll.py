@@ -156,11 +156,13 @@ def constraint_rows(par, t, y):
     return g, c, A
 
 
-def outputs(t, y, par):
-    """The scene's columns: x, y, phi, theta, energy, momentum(theta), multiplier(roll_x), multiplier(roll_y), residual(roll_x), residual(roll_y)."""
+def observables(t, y, par):
+    """The scene's columns (x, y, phi, theta, energy, momentum(theta), multiplier(roll_x), multiplier(roll_y), residual(roll_x), residual(roll_y)) and the conserved quantities
+    (momentum(theta), energy): the arrays out and inv."""
     y = numpy.asarray(y, dtype=float)
     shape = numpy.shape(y[0])
     out = numpy.zeros((len(COLUMNS),) + shape)
+    inv = numpy.zeros((len(INVARIANTS),) + shape)
     acc, lam = accelerations(par, t, y)
     p_m = par[0]
     p_a = par[1]
@@ -184,42 +186,18 @@ def outputs(t, y, par):
     w0 = c2*(c0 + c1) + c4*(v_phi**2 + (1/2)*v_theta**2) + p_g*p_m*q_x*numpy.sin(p_alpha)
     w1 = c2*c3*v_phi
     w2 = c4*v_theta
-    c5 = p_a*v_phi
+    c5 = c0*p_m + c1*p_m + v_phi*w1 + v_theta*w2 - w0
+    c6 = p_a*v_phi
     out[0] = q_x
     out[1] = q_y
     out[2] = q_phi
     out[3] = q_theta
-    out[4] = c0*p_m + c1*p_m + v_phi*w1 + v_theta*w2 - w0
+    out[4] = c5
     out[5] = w2
     out[6] = lam_roll_x
     out[7] = lam_roll_y
-    out[8] = c5*numpy.sin(q_theta) + v_x
-    out[9] = -c5*numpy.cos(q_theta) + v_y
-    return out
-
-
-def invariants(t, y, par):
-    """Conserved quantities: momentum(theta), energy."""
-    y = numpy.asarray(y, dtype=float)
-    shape = numpy.shape(y[0])
-    inv = numpy.zeros((len(INVARIANTS),) + shape)
-    p_m = par[0]
-    p_a = par[1]
-    p_g = par[2]
-    p_alpha = par[3]
-    q_x = y[0]
-    v_x = y[4]
-    v_y = y[5]
-    v_phi = y[6]
-    v_theta = y[7]
-    c3 = p_a**2
-    c4 = (1/4)*c3*p_m
-    w2 = c4*v_theta
-    c0 = v_x**2
-    c1 = v_y**2
-    c2 = (1/2)*p_m
-    w0 = c2*(c0 + c1) + c4*(v_phi**2 + (1/2)*v_theta**2) + p_g*p_m*q_x*numpy.sin(p_alpha)
-    w1 = c2*c3*v_phi
+    out[8] = c6*numpy.sin(q_theta) + v_x
+    out[9] = -c6*numpy.cos(q_theta) + v_y
     inv[0] = w2
-    inv[1] = c0*p_m + c1*p_m + v_phi*w1 + v_theta*w2 - w0
-    return inv
+    inv[1] = c5
+    return out, inv

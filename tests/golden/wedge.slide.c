@@ -259,8 +259,9 @@ static int lag_rhs(const lag_system *sys, real t, const real *y, real *dydt)
     return lag_accelerations(sys, t, y, dydt + LAG_NQ);
 }
 
-/* The scene's output columns: x, s, der(x), der(s), energy, momentum(x). */
-static int lag_outputs(const lag_system *sys, real t, const real *y, real *out)
+/* The scene's output columns: x, s, der(x), der(s), energy, momentum(x);
+ * and the conserved quantities: momentum(x), energy. */
+static int lag_outputs(const lag_system *sys, real t, const real *y, real *out, real *inv)
 {
     const real *par = sys->par;
     (void)t;
@@ -282,38 +283,16 @@ static int lag_outputs(const lag_system *sys, real t, const real *y, real *out)
     const real w3 = c5*((c2*c2) + c4*(v_s*v_s)) + 0.5*p_M*(v_x*v_x) - p_g*p_m*(-c3*q_s + p_H);
     const real w5 = c5*(2*c0*c2 + 2*c4*v_s);
     const real w4 = c5*(2*c1 + 2*v_x) + p_M*v_x;
+    const real c6 = v_s*w5 + v_x*w4 - w3;
     out[0] = q_x;
     out[1] = q_s;
     out[2] = v_x;
     out[3] = v_s;
-    out[4] = v_s*w5 + v_x*w4 - w3;
+    out[4] = c6;
     out[5] = w4;
-    return LAG_OK;
-}
-
-/* Conserved quantities: momentum(x), energy. */
-static void lag_invariants(const real *par, real t, const real *y, real *inv)
-{
-    (void)t;
-    const real p_M = par[0];
-    const real p_m = par[1];
-    const real p_alpha = par[2];
-    const real p_H = par[3];
-    const real p_g = par[4];
-    const real q_s = y[1];
-    const real v_x = y[2];
-    const real v_s = y[3];
-    const real c0 = r_cos(p_alpha);
-    const real c1 = c0*v_s;
-    const real c5 = 0.5*p_m;
-    const real w4 = c5*(2*c1 + 2*v_x) + p_M*v_x;
-    const real c2 = c1 + v_x;
-    const real c3 = r_sin(p_alpha);
-    const real c4 = (c3*c3);
-    const real w3 = c5*((c2*c2) + c4*(v_s*v_s)) + 0.5*p_M*(v_x*v_x) - p_g*p_m*(-c3*q_s + p_H);
-    const real w5 = c5*(2*c0*c2 + 2*c4*v_s);
     inv[0] = w4;
-    inv[1] = v_s*w5 + v_x*w4 - w3;
+    inv[1] = c6;
+    return LAG_OK;
 }
 
 /* ---- integrator: rk4 ---- */
@@ -466,12 +445,10 @@ static int lag_deliver(const lag_system *sys, real t, const real *y, lag_sink si
                        lag_report *report)
 {
     real out[LAG_NOUT];
-    int status = lag_outputs(sys, t, y, out);
     real inv[LAG_NINV];
-    int i;
+    int i, status = lag_outputs(sys, t, y, out, inv);
     if (status != LAG_OK)
         return status;
-    lag_invariants(sys->par, t, y, inv);
     for (i = 0; i < LAG_NINV; ++i) {
         if (report->rows == 0)
             report->invariant_start[i] = inv[i];

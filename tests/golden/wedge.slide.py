@@ -87,11 +87,13 @@ def rhs(t, y, par):
     return numpy.concatenate([y[NQ:], accelerations(par, t, y)[0]])
 
 
-def outputs(t, y, par):
-    """The scene's columns: x, s, der(x), der(s), energy, momentum(x)."""
+def observables(t, y, par):
+    """The scene's columns (x, s, der(x), der(s), energy, momentum(x)) and the conserved quantities
+    (momentum(x), energy): the arrays out and inv."""
     y = numpy.asarray(y, dtype=float)
     shape = numpy.shape(y[0])
     out = numpy.zeros((len(COLUMNS),) + shape)
+    inv = numpy.zeros((len(INVARIANTS),) + shape)
     p_M = par[0]
     p_m = par[1]
     p_alpha = par[2]
@@ -110,37 +112,13 @@ def outputs(t, y, par):
     w3 = c5*(c2**2 + c4*v_s**2) + (1/2)*p_M*v_x**2 - p_g*p_m*(-c3*q_s + p_H)
     w5 = c5*(2*c0*c2 + 2*c4*v_s)
     w4 = c5*(2*c1 + 2*v_x) + p_M*v_x
+    c6 = v_s*w5 + v_x*w4 - w3
     out[0] = q_x
     out[1] = q_s
     out[2] = v_x
     out[3] = v_s
-    out[4] = v_s*w5 + v_x*w4 - w3
+    out[4] = c6
     out[5] = w4
-    return out
-
-
-def invariants(t, y, par):
-    """Conserved quantities: momentum(x), energy."""
-    y = numpy.asarray(y, dtype=float)
-    shape = numpy.shape(y[0])
-    inv = numpy.zeros((len(INVARIANTS),) + shape)
-    p_M = par[0]
-    p_m = par[1]
-    p_alpha = par[2]
-    p_H = par[3]
-    p_g = par[4]
-    q_s = y[1]
-    v_x = y[2]
-    v_s = y[3]
-    c0 = numpy.cos(p_alpha)
-    c1 = c0*v_s
-    c5 = (1/2)*p_m
-    w4 = c5*(2*c1 + 2*v_x) + p_M*v_x
-    c2 = c1 + v_x
-    c3 = numpy.sin(p_alpha)
-    c4 = c3**2
-    w3 = c5*(c2**2 + c4*v_s**2) + (1/2)*p_M*v_x**2 - p_g*p_m*(-c3*q_s + p_H)
-    w5 = c5*(2*c0*c2 + 2*c4*v_s)
     inv[0] = w4
-    inv[1] = v_s*w5 + v_x*w4 - w3
-    return inv
+    inv[1] = c6
+    return out, inv
