@@ -65,7 +65,7 @@ class Kernel:
     time: ir.TimeGrid
     solver: str                                  # "cholesky" or "lu"
     initial: Block
-    system: Block
+    system: Block | None                         # None for gauss, which uses the canonical form
     outputs: Block
     outputs_need_multipliers: bool
     constraint_rows: Block | None
@@ -185,7 +185,7 @@ class _Lowering:
             columns=plan.columns, invariant_names=plan.invariants,
             integrator=plan.integrator, time=plan.time,
             solver="lu" if self.active or not self.model.lagrangian.is_natural else "cholesky",
-            initial=self.initial_block(), system=self.system_block(),
+            initial=self.initial_block(), system=None if plan.canonical else self.system_block(),
             outputs=self.outputs_block(),
             outputs_need_multipliers=any(o.kind == "multiplier" for o in plan.outputs),
             constraint_rows=self.constraint_block() if self.active else None,

@@ -209,52 +209,6 @@ static void lag_initial_state(const real *par, real *y0)
     y0[3] = LAG_LIT(1.2);
 }
 
-/* The linear system K x = b for x = (q''):
- * K = M, the mass matrix d2L/dq'dq', and b = f, so that M q'' = f. */
-static void lag_assemble(const real *par, real t, const real *y, real *K, real *b)
-{
-    (void)t;
-    const real p_G = par[0];
-    const real p_M0 = par[1];
-    const real p_m = par[2];
-    const real q_r = y[0];
-    const real v_r = y[2];
-    const real v_theta = y[3];
-    const real c0 = (q_r*q_r);
-    const real w2 = p_m*q_r*(v_theta*v_theta) - p_G*p_M0*p_m/c0;
-    K[0] = p_m;
-    K[1] = 0;
-    K[2] = 0;
-    K[3] = c0*p_m;
-    b[0] = w2;
-    b[1] = -2*p_m*q_r*v_r*v_theta;
-}
-
-/* q'' at (t, y): assemble and solve by Cholesky (M is positive definite). */
-static int lag_accelerations(const lag_system *sys, real t, const real *y, real *acc)
-{
-    real K[LAG_NK * LAG_NK], b[LAG_NK];
-    int i;
-    lag_assemble(sys->par, t, y, K, b);
-    if (lag_cholesky_factor(LAG_NK, K) != 0)
-        return LAG_ERR_SINGULAR;
-    lag_cholesky_solve(LAG_NK, K, b);
-    for (i = 0; i < LAG_NQ; ++i)
-        acc[i] = b[i];
-    for (i = 0; i < LAG_NK; ++i)
-        if (!r_isfinite(b[i]))
-            return LAG_ERR_NONFINITE;
-    return LAG_OK;
-}
-
-/* dy/dt = (q', q''). */
-static int lag_rhs(const lag_system *sys, real t, const real *y, real *dydt)
-{
-    int i;
-    for (i = 0; i < LAG_NQ; ++i)
-        dydt[i] = y[LAG_NQ + i];
-    return lag_accelerations(sys, t, y, dydt + LAG_NQ);
-}
 
 /* Canonical momenta p = dL/dq' at (q, q'). */
 static void lag_momenta(const real *par, real t, const real *y, real *p)
@@ -636,7 +590,6 @@ static int gauss_solve_stages(lag_stepper *s, real h)
 static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, const real *y0,
                             real t_end, const lag_options *opt)
 {
-    (void)lag_rhs;     /* the model always provides it; this method uses Hamilton's equations */
     memset(s, 0, sizeof *s);
     s->sys = sys;
     s->t = s->t_old = s->t0 = t0;

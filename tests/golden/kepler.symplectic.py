@@ -45,26 +45,6 @@ def initial_state(par):
     return y0
 
 
-def assemble(par, t, y):
-    """K and b of K x = b for x = (q''): K = M, b = f."""
-    shape = numpy.shape(y[0])
-    K = numpy.zeros((NK, NK) + shape)
-    b = numpy.zeros((NK,) + shape)
-    p_G = par[0]
-    p_M0 = par[1]
-    p_m = par[2]
-    q_r = y[0]
-    v_r = y[2]
-    v_theta = y[3]
-    c0 = q_r**2
-    w2 = p_m*q_r*v_theta**2 - p_G*p_M0*p_m/c0
-    K[0, 0] = p_m
-    K[0, 1] = 0
-    K[1, 0] = 0
-    K[1, 1] = c0*p_m
-    b[0] = w2
-    b[1] = -2*p_m*q_r*v_r*v_theta
-    return K, b
 
 
 def solve(K, b):
@@ -75,16 +55,6 @@ def solve(K, b):
     return numpy.moveaxis(x[..., 0], -1, 0)
 
 
-def accelerations(par, t, y):
-    """(q'', λ) at (t, y); λ is empty without constraints."""
-    x = solve(*assemble(par, t, y))
-    return x[:NQ], x[NQ:]
-
-
-def rhs(t, y, par):
-    """dy/dt = (q', q'')."""
-    y = numpy.asarray(y, dtype=float)
-    return numpy.concatenate([y[NQ:], accelerations(par, t, y)[0]])
 
 
 def momenta(par, t, y):

@@ -255,7 +255,6 @@ static int gauss_solve_stages(lag_stepper *s, real h)
 static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, const real *y0,
                             real t_end, const lag_options *opt)
 {
-    (void)lag_rhs;     /* the model always provides it; this method uses Hamilton's equations */
     memset(s, 0, sizeof *s);
     s->sys = sys;
     s->t = s->t_old = s->t0 = t0;
