@@ -72,7 +72,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--start", type=float, help="start time of the output grid")
     run.add_argument("--stop", type=float, help="stop time")
     run.add_argument("--interval", type=float, help="output interval")
-    run.add_argument("--integrator", help="rk4, dopri5, dop853, radau5 or gauss")
+    run.add_argument("--integrator", help="rk4, dopri5, dop853, radau5, gauss or auto")
     run.add_argument("--rtol", type=float, help="relative tolerance (adaptive integrators)")
     run.add_argument("--atol", type=float, help="absolute tolerance (adaptive integrators)")
     run.add_argument("--step", type=float, help="step size (rk4, gauss)")

@@ -17,8 +17,8 @@ import sympy
 from .source import Span
 
 TIME = sympy.Symbol("t", real=True)
-INTEGRATORS = ("rk4", "dopri5", "dop853", "radau5", "gauss")
-IMPLICIT_INTEGRATORS = ("radau5",)
+INTEGRATORS = ("rk4", "dopri5", "dop853", "radau5", "gauss", "auto")
+IMPLICIT_INTEGRATORS = ("radau5", "auto")      # they need the Jacobian (auto switches to radau5)
 BUILTIN_OBSERVABLES = ("energy", "momentum", "multiplier", "residual")
 
 

@@ -22,7 +22,7 @@ RESERVED = {"model", "end", "parameter", "coordinate", "let", "constraint", "for
             "output", "scene", "time", "integrator", "set", "t", "T", "U", "L", "der", "pi", "sum", "in"}
 INTEGRATOR_OPTIONS = {
     "rk4": ("step",), "dopri5": ("rtol", "atol", "max_step"), "dop853": ("rtol", "atol", "max_step"),
-    "radau5": ("rtol", "atol", "max_step"), "gauss": ("stages", "step"),
+    "radau5": ("rtol", "atol", "max_step"), "gauss": ("stages", "step"), "auto": ("rtol", "atol", "max_step"),
 }
 DEFAULT_INTEGRATOR = ir.IntegratorChoice("dop853", (("rtol", 1e-8), ("atol", 1e-10)), None)
 DEFAULT_TIME = ir.TimeGrid(0.0, 10.0, 0.01, None)
@@ -591,7 +591,7 @@ def validate_integrator(name: str, values: dict[str, float], span: Span | None) 
         stages = values.setdefault("stages", 2)
         if stages != int(stages) or not 1 <= stages <= 6:
             raise LagError("gauss(stages = s) takes s = 1 to 6", span)
-    if name in ("dopri5", "dop853", "radau5"):
+    if name in ("dopri5", "dop853", "radau5", "auto"):
         values.setdefault("rtol", 1e-8)
         values.setdefault("atol", 1e-10)
     return ir.IntegratorChoice(name, tuple(sorted(values.items())), span)

@@ -3,7 +3,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache
-from importlib import resources
 
 import jinja2
 
@@ -22,8 +21,3 @@ def template_environment() -> jinja2.Environment:
         loader=jinja2.PackageLoader("lagdsl.codegen", "templates"),
         undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True,
         keep_trailing_newline=True, autoescape=False)
-
-
-def c_source(name: str) -> str:
-    """A bundled C fragment (runtime.h, linalg.c, an integrator)."""
-    return resources.files("lagdsl.integrators").joinpath("c").joinpath(name).read_text(encoding="utf-8")

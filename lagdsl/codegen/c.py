@@ -2,9 +2,9 @@
 from __future__ import annotations
 
 from .. import __version__
-from ..integrators import integrator_files
+from ..integrators import COMPOSITES, STIFFNESS_TESTED, c_file, integrator_source
 from ..semantics import INTEGRATOR_OPTIONS
-from . import GeneratedSource, c_source, template_environment
+from . import GeneratedSource, template_environment
 from .kernel import Block, Kernel
 from .printers import CPrinter
 
@@ -34,7 +34,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
         "stem": stem(kernel), "model": kernel.model_name, "integrator": kernel.integrator.name,
         "parameter_list": ", ".join(name for name, _ in kernel.parameters) or "none",
         "option_list": ", ".join(k for k in OPTION_FIELDS if k in _allowed_options(kernel)),
-        "runtime": c_source("runtime.h"), "linalg": _linear_algebra(kernel),
+        "runtime": c_file("runtime.h"), "linalg": _linear_algebra(kernel),
         "n": kernel.n, "size": kernel.size, "parameters": kernel.parameters,
         "columns": kernel.columns, "constraints": kernel.constraints, "holonomic": kernel.holonomic,
         "invariants": bool(kernel.invariant_names), "invariant_names": kernel.invariant_names,
@@ -50,7 +50,9 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
         "solver": kernel.solver, "jacobian": kernel.jacobian is not None,
         "canonical": kernel.momenta is not None,
         "outputs_need_multipliers": kernel.outputs_need_multipliers,
-        "integrator_source": _integrator_source(kernel.integrator.name),
+        "integrator_source": integrator_source(kernel.integrator.name),
+        "switching": kernel.integrator.name in COMPOSITES,
+        "stiffness_test": kernel.integrator.name in STIFFNESS_TESTED,
         "t_start": _literal(kernel.time.start), "t_stop": _literal(kernel.time.stop),
         "t_interval": _literal(kernel.time.interval),
         "options_init": _options_initializer(options),
@@ -62,16 +64,11 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
     return GeneratedSource("c", text, stem(kernel))
 
 
-def _integrator_source(name: str) -> str:
-    """The integrator file, after the fragments it shares with its siblings."""
-    return "\n".join(c_source(file) for file in integrator_files(name))
-
-
 def _linear_algebra(kernel: Kernel) -> str:
     """Only the factorisations the scene calls: unused static functions are warnings."""
     needs_lu = kernel.solver == "lu" or kernel.jacobian is not None or bool(kernel.constraints)
     needs_cholesky = kernel.solver == "cholesky"
-    return "".join(c_source(name) + "\n" for name, needed in (("cholesky.c", needs_cholesky), ("lu.c", needs_lu))
+    return "".join(c_file(name) + "\n" for name, needed in (("cholesky.c", needs_cholesky), ("lu.c", needs_lu))
                    if needed)
 
 

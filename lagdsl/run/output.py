@@ -10,6 +10,43 @@ import numpy as np
 
 
 @dataclass(frozen=True)
+class Stiffness:
+    """The stiffness test of an explicit method fired at `time`; the work done since."""
+
+    time: float
+    accepted: int           # steps accepted since
+    rejected: int | None    # steps rejected since (None: not counted, as by scipy)
+    rhs_evals: int          # right-hand sides evaluated since
+    rhs_total: int          # ... and in the whole run
+
+    def render(self) -> str:
+        rejected = f" ({self.rejected} rejected)" if self.rejected is not None else ""
+        return (f"stiffness detected at t = {self.time:.6g}: since then {self.accepted} steps{rejected} "
+                f"and {self.rhs_evals} of the {self.rhs_total} right-hand sides; "
+                "an implicit method needs far fewer steps: use --integrator radau5 (or auto)")
+
+
+@dataclass(frozen=True)
+class Switches:
+    """`auto`: the times of its switches (the first from methods[0] to methods[1], the next back,
+    ...; `count` may exceed len(times)) and the span of t each method covered."""
+
+    methods: tuple[str, str]
+    count: int
+    times: tuple[float, ...]
+    spans: tuple[float, float]
+
+    def render(self) -> str:
+        moves = [f"to {self.methods[(i + 1) % 2]} at t = {t:.6g}" for i, t in enumerate(self.times)]
+        if self.count > len(self.times):
+            moves.append("...")
+        listed = f" ({', '.join(moves)})" if moves else ""
+        noun = "switch" if self.count == 1 else "switches"
+        return (f"auto: {self.count} {noun}{listed}; {self.methods[0]} over {self.spans[0]:.6g} of t, "
+                f"{self.methods[1]} over {self.spans[1]:.6g}")
+
+
+@dataclass(frozen=True)
 class RunSummary:
     """What the run cost and how well it kept its invariants and constraints."""
 
@@ -25,6 +62,8 @@ class RunSummary:
     constraints: tuple[str, ...]
     residual_max: float | None
     projection_start: float | None                      # how far the initial state was projected
+    stiffness: Stiffness | None = None                  # explicit methods: stiffness detected
+    switches: Switches | None = None                    # auto: its changes of method
 
     def render(self) -> str:
         counts = [f"{self.accepted} steps accepted" if self.accepted is not None else None,
@@ -34,6 +73,7 @@ class RunSummary:
             counts.append(f"{self.jac_evals} Jacobians, {self.lu_decomps} LU")
         lines = [f"integrator {self.integrator} ({self.backend}): "
                  + ", ".join(c for c in counts if c) + f", {self.wall_time:.3g} s"]
+        lines += [part.render() for part in (self.stiffness, self.switches) if part is not None]
         for name, start, drift in self.invariants:
             relative = f", relative {drift / abs(start):.3g}" if start != 0 else ""
             lines.append(f"drift of {name}: {drift:.3g} (from {start:.17g}{relative})")

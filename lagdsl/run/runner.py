@@ -18,8 +18,9 @@ from ..codegen import GeneratedSource
 from ..codegen.kernel import Kernel
 from ..errors import SimulationError
 from ..integrators.python.fixed_step import IntegrationFailure, integrate_gauss, integrate_rk4
+from ..integrators.python.stiffness import STABILITY_BOUNDARY, StiffnessTest, SwitchLog
 from ..scene import ScenePlan
-from .output import Result, RunSummary, write_atomically
+from .output import Result, RunSummary, Stiffness, Switches, write_atomically
 from .toolchain import cache_directory, shared_library
 
 STATUS = {
@@ -39,7 +40,9 @@ STATUS = {
         "the constraints may be singular at this state; check the initial values"),
 }
 SETTINGS_ORDER = ("rtol", "atol", "step", "max_step", "stages")
-SCIPY_METHODS = {"dopri5": "RK45", "dop853": "DOP853", "radau5": "Radau"}
+SUMMARY_SWITCHES = 8                     # switch times in the C summary (LAG_SUMMARY_SWITCHES)
+SUMMARY_FIXED = 19 + SUMMARY_SWITCHES    # the C summary's entries before the invariants
+SCIPY_METHODS = {"dopri5": "RK45", "dop853": "DOP853", "radau5": "Radau", "auto": "LSODA"}
 
 
 def output_times(plan: ScenePlan) -> np.ndarray:
@@ -75,23 +78,39 @@ def run_c(kernel: Kernel, source: GeneratedSource, plan: ScenePlan) -> Result:
     initial = np.array(plan.initial_state, dtype=float)
     ncols = len(plan.columns)
     rows = np.zeros((len(times), ncols + 1))
-    summary = np.zeros(11 + 2 * len(plan.invariants) + len(initial))
+    summary = np.zeros(SUMMARY_FIXED + 2 * len(plan.invariants) + len(initial))
     pointer = lambda a: a.ctypes.data_as(double_p)   # noqa: E731
     started = clock.perf_counter()
     status = entry(pointer(parameters), pointer(initial), pointer(settings), pointer(rows),
                    len(times), pointer(summary))
     elapsed = clock.perf_counter() - started
     used = int(summary[1])
-    invariants = tuple((name, float(summary[11 + 2 * i]), float(summary[12 + 2 * i]))
+    invariants = tuple((name, float(summary[SUMMARY_FIXED + 2 * i]), float(summary[SUMMARY_FIXED + 1 + 2 * i]))
                        for i, name in enumerate(plan.invariants))
     report = RunSummary("c", plan.integrator.name, int(summary[3]), int(summary[4]), int(summary[5]),
                         int(summary[6]), int(summary[7]), elapsed, invariants, plan.constraints,
                         float(summary[9]) if plan.constraints else None,
-                        float(summary[10]) if plan.constraints else None)
+                        float(summary[10]) if plan.constraints else None,
+                        _c_stiffness(summary), _c_switches(summary) if plan.integrator.name == "auto" else None)
     result = Result(rows[:used, 0].copy(), plan.columns, rows[:used, 1:].copy(), report)
     if status != 0:
-        raise _failure(plan, status, float(summary[2]), summary[11 + 2 * len(plan.invariants):], result)
+        raise _failure(plan, status, float(summary[2]), summary[SUMMARY_FIXED + 2 * len(plan.invariants):], result)
     return result
+
+
+def _c_stiffness(summary: np.ndarray) -> Stiffness | None:
+    """Entries 11-15: stiff, its time, and the counters accepted, rejected, rhs_evals then."""
+    if not summary[11]:
+        return None
+    since = summary[3:6] - summary[13:16]
+    return Stiffness(float(summary[12]), int(since[0]), int(since[1]), int(since[2]), int(summary[5]))
+
+
+def _c_switches(summary: np.ndarray) -> Switches:
+    """Entries 16-18: the number of switches and the spans of t of dop853 and radau5; then the times."""
+    count = int(summary[16])
+    times = tuple(float(t) for t in summary[19:19 + min(count, SUMMARY_SWITCHES)])
+    return Switches(("dop853", "radau5"), count, times, (float(summary[17]), float(summary[18])))
 
 
 # ---- NumPy -----------------------------------------------------------------------------------
@@ -144,7 +163,8 @@ def _numpy_result(module, par, times, states, plan, counts, elapsed, projection)
         residual = float(max(np.max(np.abs(g), initial=0.0), np.max(np.abs(c), initial=0.0)))
     summary = RunSummary("numpy", plan.integrator.name, counts.get("accepted"), counts.get("rejected"),
                          counts.get("rhs_evals", 0), counts.get("jac_evals", 0), counts.get("lu_decomps", 0),
-                         elapsed, invariants, plan.constraints, residual, projection if plan.constraints else None)
+                         elapsed, invariants, plan.constraints, residual, projection if plan.constraints else None,
+                         counts.get("stiffness"), counts.get("switches"))
     return Result(np.asarray(times, dtype=float), plan.columns, np.asarray(values, dtype=float), summary)
 
 
@@ -152,7 +172,7 @@ def _run_scipy(module, par, times, y0, plan):
     from scipy import integrate
     options = dict(plan.integrator.options)
     method = getattr(integrate, SCIPY_METHODS[plan.integrator.name])
-    extra = {"jac": lambda t, y: module.jacobian(t, y, par)} if plan.integrator.name == "radau5" else {}
+    extra = {"jac": lambda t, y: module.jacobian(t, y, par)} if plan.implicit else {}
     if options.get("max_step"):
         extra["max_step"] = options["max_step"]
 
@@ -164,6 +184,7 @@ def _run_scipy(module, par, times, y0, plan):
                       first_step=first_step, **extra)
 
     counts = {"accepted": 0, "rejected": None, "rhs_evals": 0, "jac_evals": 0, "lu_decomps": 0}
+    watch = _StepWatch(method.__name__, counts)
     states = [y0]
     solver = start(times[0], y0)
     k = 1
@@ -171,10 +192,11 @@ def _run_scipy(module, par, times, y0, plan):
         while k < len(times):
             solver.step()
             if solver.status == "failed":
-                return states, _tally(counts, solver), (3, solver.t, solver.y)
+                return states, watch.finish(_tally(counts, solver)), (3, solver.t, solver.y)
             counts["accepted"] += 1
+            watch.record(solver)
             if not np.all(np.isfinite(solver.y)):
-                return states, _tally(counts, solver), (2, solver.t, solver.y)
+                return states, watch.finish(_tally(counts, solver)), (2, solver.t, solver.y)
             dense = solver.dense_output()
             while k < len(times) and times[k] <= solver.t:
                 state = solver.y.copy() if times[k] == solver.t else dense(times[k])
@@ -188,8 +210,35 @@ def _run_scipy(module, par, times, y0, plan):
                 proposed = getattr(solver, "h_abs", solver.step_size)
                 solver = start(solver.t, projected, first_step=min(proposed, times[-1] - solver.t))
     except np.linalg.LinAlgError:
-        return states, _tally(counts, solver), (1, solver.t, solver.y)
-    return states, _tally(counts, solver), None
+        return states, watch.finish(_tally(counts, solver)), (1, solver.t, solver.y)
+    return states, watch.finish(_tally(counts, solver)), None
+
+
+class _StepWatch:
+    """What the summary reports beyond the counts: the stiffness test of the explicit pairs
+    (with the counts when it fired) or LSODA's switches."""
+
+    def __init__(self, method: str, counts: dict):
+        self.counts = counts
+        self.stiffness = StiffnessTest(method) if method in STABILITY_BOUNDARY else None
+        self.switches = SwitchLog() if method == "LSODA" else None
+        self.at_detection: tuple[int, int] | None = None
+
+    def record(self, solver) -> None:
+        if self.stiffness is not None and self.stiffness.record(solver):
+            self.at_detection = (self.counts["accepted"], self.counts["rhs_evals"] + solver.nfev)
+        if self.switches is not None:
+            self.switches.record(solver)
+
+    def finish(self, counts: dict) -> dict:
+        if self.at_detection is not None:
+            accepted, rhs_evals = self.at_detection
+            counts["stiffness"] = Stiffness(self.stiffness.time, counts["accepted"] - accepted, None,
+                                            counts["rhs_evals"] - rhs_evals, counts["rhs_evals"])
+        if self.switches is not None:
+            log = self.switches
+            counts["switches"] = Switches(SwitchLog.METHODS, len(log.times), tuple(log.times), tuple(log.spans))
+        return counts
 
 
 def _tally(counts, solver):

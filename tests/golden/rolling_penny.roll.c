@@ -101,6 +101,11 @@ typedef struct lag_options {
 typedef struct lag_stats {
     long accepted, rejected;
     long rhs_evals, jac_evals, lu_decomps, newton_iters;
+    /* the explicit pairs' stiffness test (explicit_control.c): stiff = 1 once it has fired, at
+     * stiff_time, when the counters above stood at stiff_accepted, stiff_rejected, stiff_rhs_evals */
+    int stiff;
+    real stiff_time;
+    long stiff_accepted, stiff_rejected, stiff_rhs_evals;
 } lag_stats;
 
 /* Reading and writing numbers in the working precision (the CSV and the command line). */
@@ -542,6 +547,64 @@ static int lag_control_update(lag_control *c, lag_stats *stats, int status, real
     return 1;
 }
 
+/* Stiffness detection, Hairer-Norsett-Wanner I, Section IV.2 ("Automatic Stiffness Detection"),
+ * as in the codes DOPRI5 and DOP853.  The last two stages of the pairs evaluate f at the same
+ * time t + h, at the stage argument y_stage and at the new solution y_new (FSAL), so
+ *     h lambda = h ||f(t+h, y_new) - f(t+h, y_stage)|| / ||y_new - y_stage||
+ * estimates h times the dominant eigenvalue of df/dy.  A step whose h lambda exceeds the method's
+ * stability boundary (3.25 for DOPRI5, 6.1 for DOP853) was limited by stability rather than
+ * accuracy; 15 such accepted steps, without 6 non-stiff ones in a row in between, mean the
+ * problem is stiff: the first time, the counters are recorded in the statistics (stiff = 1), so
+ * that the run summary can say when, what the explicit method has cost since, and recommend an
+ * implicit method. */
+typedef struct lag_stiffness_test {
+    real boundary;      /* h lambda beyond which a step counts as stiff */
+    real h_lambda;      /* the estimate of the trial that is being accepted */
+    int stiff_steps;    /* stiff accepted steps since the last run of non-stiff ones */
+    int calm_steps;     /* non-stiff accepted steps in a row */
+} lag_stiffness_test;
+
+#define LAG_STIFF_STEPS 15   /* stiff steps that make the verdict */
+#define LAG_CALM_STEPS 6     /* non-stiff steps in a row that clear the stiff count */
+
+static void lag_stiffness_start(lag_stiffness_test *test, real boundary)
+{
+    test->boundary = boundary;
+    test->h_lambda = 0;
+    test->stiff_steps = test->calm_steps = 0;
+}
+
+/* h lambda of the trial of size h from its two derivatives at t + h (0 when y_new = y_stage). */
+static void lag_stiffness_measure(lag_stiffness_test *test, real h, const real *y_new, const real *y_stage,
+                                  const real *f_new, const real *f_stage)
+{
+    real df = 0, dy = 0;
+    int i;
+    for (i = 0; i < LAG_NY; ++i) {
+        df += (f_new[i] - f_stage[i]) * (f_new[i] - f_stage[i]);
+        dy += (y_new[i] - y_stage[i]) * (y_new[i] - y_stage[i]);
+    }
+    test->h_lambda = dy > 0 ? h * r_sqrt(df / dy) : 0;
+}
+
+/* Count the accepted step that ended at t; stats already counts it. */
+static void lag_stiffness_record(lag_stiffness_test *test, lag_stats *stats, real t)
+{
+    if (!(test->h_lambda > test->boundary)) {
+        if (++test->calm_steps == LAG_CALM_STEPS)
+            test->stiff_steps = 0;
+        return;
+    }
+    test->calm_steps = 0;
+    if (++test->stiff_steps == LAG_STIFF_STEPS && !stats->stiff) {
+        stats->stiff = 1;
+        stats->stiff_time = t;
+        stats->stiff_accepted = stats->accepted;
+        stats->stiff_rejected = stats->rejected;
+        stats->stiff_rhs_evals = stats->rhs_evals;
+    }
+}
+
 /* DOP853: the explicit Runge-Kutta method of order 8 of Dormand and Prince, 12 stages plus f at
  * the new point (FSAL), with error estimates of orders 5 and 3 combined as in Hairer's DOP853:
  *     err = err5^2 / sqrt(err5^2 + 0.01 err3^2),
@@ -559,8 +622,9 @@ static int lag_control_update(lag_control *c, lag_stats *stats, int status, real
  * theta = (t - t_old)/h is kept in the nested form
  *     r1 + theta (r2 + theta1 (r3 + theta (r4 + theta1 (r5 + theta (r6 + theta1 (r7 + theta r8)))))),
  * theta1 = 1 - theta, which matches y and f at both ends of the step.
- * Step-size control (beta = 0, safety 0.9, facmin 1/3, facmax 6) and the starting step:
- * explicit_control.c, which must be pasted before this file.
+ * Step-size control (beta = 0, safety 0.9, facmin 1/3, facmax 6), the starting step and the
+ * stiffness test (stability boundary 6.1): explicit_control.c, which must be pasted before
+ * this file.
  */
 
 #define LAG_INTEGRATOR_NAME "dop853"
@@ -730,6 +794,7 @@ typedef struct lag_stepper {
     lag_stats stats;
     const lag_system *sys;
     lag_control control;
+    lag_stiffness_test stiffness;
     real h_done;                  /* size of the last accepted step */
     real k1[LAG_NY];              /* f(t, y), the first stage of the next step */
     real k2[LAG_NY], k3[LAG_NY], k4[LAG_NY], k5[LAG_NY], k6[LAG_NY], k7[LAG_NY], k8[LAG_NY];
@@ -835,6 +900,8 @@ static int dop853_finish(lag_stepper *s, real h, real t_new)
     int i, status;
     if ((status = lag_control_rhs(s->sys, &s->stats, t_new, s->y_new, s->k13)) != LAG_OK)
         return status;
+    /* stage 12 (at y_stage, still in place) and stage 13 both evaluate f at t_new */
+    lag_stiffness_measure(&s->stiffness, h, s->y_new, s->y_stage, s->k13, s->k12);
     for (i = 0; i < LAG_NY; ++i)
         s->y_stage[i] = s->y[i] + h * (dp8_a14_1 * s->k1[i] + dp8_a14_7 * s->k7[i] + dp8_a14_8 * s->k8[i]
                                        + dp8_a14_9 * s->k9[i] + dp8_a14_10 * s->k10[i]
@@ -889,6 +956,7 @@ static void dop853_accept(lag_stepper *s, real h, real t_new)
     s->t_old = s->t;
     s->t = t_new;
     s->h_done = h;
+    lag_stiffness_record(&s->stiffness, &s->stats, t_new);
 }
 
 static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, const real *y0,
@@ -905,6 +973,7 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
     for (i = 0; i < LAG_NY; ++i)
         s->dense[0][i] = y0[i];
     lag_control_init(&s->control, opt, t0, t_end, (real)1 / 8, 0, (real)1 / 3, 6);
+    lag_stiffness_start(&s->stiffness, LAG_LIT(6.1));
     if ((status = lag_control_rhs(sys, &s->stats, t0, s->y, s->k1)) != LAG_OK)
         return status;
     s->h = lag_control_first_step(&s->control, opt, sys, &s->stats, t0, s->y, s->k1, 8);
@@ -1119,8 +1188,12 @@ static int lag_buffer_row(void *context, real t, const real *out)
 
 /* settings: t0, t1, dt, rtol, atol, step, max_step, stages, max_steps.
  * summary: status, rows, t_fail, accepted, rejected, rhs_evals, jac_evals, lu_decomps,
- *          newton_iters, residual_max, projection_start, then the invariants' start values
- *          and drifts, then the state at failure. */
+ *          newton_iters, residual_max, projection_start,
+ *          stiff, stiff_time, stiff_accepted, stiff_rejected, stiff_rhs_evals (the counters when
+ *          the stiffness test fired), switches, the spans of t of dop853 and radau5, the times of
+ *          the first LAG_SUMMARY_SWITCHES switches (auto),
+ *          then the invariants' start values and drifts, then the state at failure. */
+#define LAG_SUMMARY_SWITCHES 8
 int lag_run(const double *parameters, const double *initial, const double *settings,
             double *rows, long capacity, double *summary)
 {
@@ -1129,7 +1202,7 @@ int lag_run(const double *parameters, const double *initial, const double *setti
     lag_report report;
     lag_buffer buffer;
     real y0[LAG_NY];
-    int i, n = 11;
+    int i, n = 19 + LAG_SUMMARY_SWITCHES;
     for (i = 0; i < LAG_NP; ++i)
         sys.par[i] = parameters[i];
     for (i = 0; i < LAG_NY; ++i)
@@ -1155,6 +1228,13 @@ int lag_run(const double *parameters, const double *initial, const double *setti
     summary[8] = report.stats.newton_iters;
     summary[9] = (double)report.residual_max;
     summary[10] = (double)report.projection_start;
+    summary[11] = report.stats.stiff;
+    summary[12] = (double)report.stats.stiff_time;
+    summary[13] = report.stats.stiff_accepted;
+    summary[14] = report.stats.stiff_rejected;
+    summary[15] = report.stats.stiff_rhs_evals;
+    for (i = 16; i < 19 + LAG_SUMMARY_SWITCHES; ++i)
+        summary[i] = 0;
     for (i = 0; i < LAG_NINV; ++i) {
         summary[n++] = (double)report.invariant_start[i];
         summary[n++] = (double)report.invariant_drift[i];
@@ -1263,6 +1343,13 @@ int main(int argc, char **argv)
     if (report.stats.jac_evals > 0)
         fprintf(stderr, ", %ld Jacobians, %ld LU", report.stats.jac_evals, report.stats.lu_decomps);
     fprintf(stderr, ", %.3g s CPU\n", (double)(clock() - clock_start) / CLOCKS_PER_SEC);
+    if (report.stats.stiff)
+        fprintf(stderr, "stiffness detected at t = %.6g: since then %ld steps (%ld rejected) and %ld of the "
+                "%ld right-hand sides; an implicit method needs far fewer steps: generate this program "
+                "with integrator radau5 (or auto) in the scene\n",
+                (double)report.stats.stiff_time, report.stats.accepted - report.stats.stiff_accepted,
+                report.stats.rejected - report.stats.stiff_rejected,
+                report.stats.rhs_evals - report.stats.stiff_rhs_evals, report.stats.rhs_evals);
     for (i = 0; i < LAG_NINV; ++i)
         fprintf(stderr, "drift of %s: %.3g (from %.17g)\n", lag_invariant_names[i],
                 (double)report.invariant_drift[i], (double)report.invariant_start[i]);

@@ -101,6 +101,11 @@ typedef struct lag_options {
 typedef struct lag_stats {
     long accepted, rejected;
     long rhs_evals, jac_evals, lu_decomps, newton_iters;
+    /* the explicit pairs' stiffness test (explicit_control.c): stiff = 1 once it has fired, at
+     * stiff_time, when the counters above stood at stiff_accepted, stiff_rejected, stiff_rhs_evals */
+    int stiff;
+    real stiff_time;
+    long stiff_accepted, stiff_rejected, stiff_rhs_evals;
 } lag_stats;
 
 /* Reading and writing numbers in the working precision (the CSV and the command line). */
@@ -534,8 +539,12 @@ static int lag_buffer_row(void *context, real t, const real *out)
 
 /* settings: t0, t1, dt, rtol, atol, step, max_step, stages, max_steps.
  * summary: status, rows, t_fail, accepted, rejected, rhs_evals, jac_evals, lu_decomps,
- *          newton_iters, residual_max, projection_start, then the invariants' start values
- *          and drifts, then the state at failure. */
+ *          newton_iters, residual_max, projection_start,
+ *          stiff, stiff_time, stiff_accepted, stiff_rejected, stiff_rhs_evals (the counters when
+ *          the stiffness test fired), switches, the spans of t of dop853 and radau5, the times of
+ *          the first LAG_SUMMARY_SWITCHES switches (auto),
+ *          then the invariants' start values and drifts, then the state at failure. */
+#define LAG_SUMMARY_SWITCHES 8
 int lag_run(const double *parameters, const double *initial, const double *settings,
             double *rows, long capacity, double *summary)
 {
@@ -544,7 +553,7 @@ int lag_run(const double *parameters, const double *initial, const double *setti
     lag_report report;
     lag_buffer buffer;
     real y0[LAG_NY];
-    int i, n = 11;
+    int i, n = 19 + LAG_SUMMARY_SWITCHES;
     for (i = 0; i < LAG_NP; ++i)
         sys.par[i] = parameters[i];
     for (i = 0; i < LAG_NY; ++i)
@@ -569,6 +578,13 @@ int lag_run(const double *parameters, const double *initial, const double *setti
     summary[7] = report.stats.lu_decomps;
     summary[8] = report.stats.newton_iters;
     summary[9] = summary[10] = 0;
+    summary[11] = report.stats.stiff;
+    summary[12] = (double)report.stats.stiff_time;
+    summary[13] = report.stats.stiff_accepted;
+    summary[14] = report.stats.stiff_rejected;
+    summary[15] = report.stats.stiff_rhs_evals;
+    for (i = 16; i < 19 + LAG_SUMMARY_SWITCHES; ++i)
+        summary[i] = 0;
     for (i = 0; i < LAG_NINV; ++i) {
         summary[n++] = (double)report.invariant_start[i];
         summary[n++] = (double)report.invariant_drift[i];

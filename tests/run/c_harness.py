@@ -10,7 +10,7 @@ import shutil
 import subprocess
 from pathlib import Path
 
-from lagdsl.integrators import integrator_files
+from lagdsl.integrators import integrator_source
 
 C_SOURCES = Path(__file__).resolve().parents[2] / "lagdsl" / "integrators" / "c"
 STRICT_FLAGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic"]
@@ -25,14 +25,15 @@ def find_cc() -> str | None:
 
 
 def assemble(model_c: str, integrator: str, main_c: str) -> str:
-    """The integrator's files (with the fragments it shares) between the model and main."""
+    """The integrator's files (with the fragments it shares; a composite's parts renamed) between
+    the model and main."""
     parts = [
         SYSTEM_HEADERS,
         (C_SOURCES / "runtime.h").read_text(),
         (C_SOURCES / "cholesky.c").read_text(),
         (C_SOURCES / "lu.c").read_text(),
         model_c,
-        *((C_SOURCES / name).read_text() for name in integrator_files(integrator)),
+        integrator_source(integrator),
         main_c,
     ]
     return "\n".join(parts)

@@ -15,8 +15,9 @@
  * theta = (t - t_old)/h is kept in the nested form
  *     r1 + theta (r2 + theta1 (r3 + theta (r4 + theta1 (r5 + theta (r6 + theta1 (r7 + theta r8)))))),
  * theta1 = 1 - theta, which matches y and f at both ends of the step.
- * Step-size control (beta = 0, safety 0.9, facmin 1/3, facmax 6) and the starting step:
- * explicit_control.c, which must be pasted before this file.
+ * Step-size control (beta = 0, safety 0.9, facmin 1/3, facmax 6), the starting step and the
+ * stiffness test (stability boundary 6.1): explicit_control.c, which must be pasted before
+ * this file.
  */
 
 #define LAG_INTEGRATOR_NAME "dop853"
@@ -186,6 +187,7 @@ typedef struct lag_stepper {
     lag_stats stats;
     const lag_system *sys;
     lag_control control;
+    lag_stiffness_test stiffness;
     real h_done;                  /* size of the last accepted step */
     real k1[LAG_NY];              /* f(t, y), the first stage of the next step */
     real k2[LAG_NY], k3[LAG_NY], k4[LAG_NY], k5[LAG_NY], k6[LAG_NY], k7[LAG_NY], k8[LAG_NY];
@@ -291,6 +293,8 @@ static int dop853_finish(lag_stepper *s, real h, real t_new)
     int i, status;
     if ((status = lag_control_rhs(s->sys, &s->stats, t_new, s->y_new, s->k13)) != LAG_OK)
         return status;
+    /* stage 12 (at y_stage, still in place) and stage 13 both evaluate f at t_new */
+    lag_stiffness_measure(&s->stiffness, h, s->y_new, s->y_stage, s->k13, s->k12);
     for (i = 0; i < LAG_NY; ++i)
         s->y_stage[i] = s->y[i] + h * (dp8_a14_1 * s->k1[i] + dp8_a14_7 * s->k7[i] + dp8_a14_8 * s->k8[i]
                                        + dp8_a14_9 * s->k9[i] + dp8_a14_10 * s->k10[i]
@@ -345,6 +349,7 @@ static void dop853_accept(lag_stepper *s, real h, real t_new)
     s->t_old = s->t;
     s->t = t_new;
     s->h_done = h;
+    lag_stiffness_record(&s->stiffness, &s->stats, t_new);
 }
 
 static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, const real *y0,
@@ -361,6 +366,7 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
     for (i = 0; i < LAG_NY; ++i)
         s->dense[0][i] = y0[i];
     lag_control_init(&s->control, opt, t0, t_end, (real)1 / 8, 0, (real)1 / 3, 6);
+    lag_stiffness_start(&s->stiffness, LAG_LIT(6.1));
     if ((status = lag_control_rhs(sys, &s->stats, t0, s->y, s->k1)) != LAG_OK)
         return status;
     s->h = lag_control_first_step(&s->control, opt, sys, &s->stats, t0, s->y, s->k1, 8);

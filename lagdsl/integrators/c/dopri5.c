@@ -7,8 +7,9 @@
  * same 7 stages at no extra evaluation), a quartic in theta = (t - t_old)/h written in the nested
  * form y_old + theta (r2 + (1-theta) (r3 + theta (r4 + (1-theta) r5))) which matches y and f at
  * both ends of the step.
- * Step-size control (PI, beta = 0.04, safety 0.9, facmin 0.2, facmax 10), error norm and
- * starting step: explicit_control.c, which must be pasted before this file.
+ * Step-size control (PI, beta = 0.04, safety 0.9, facmin 0.2, facmax 10), error norm,
+ * starting step and the stiffness test (stability boundary 3.25): explicit_control.c, which
+ * must be pasted before this file.
  */
 
 #define LAG_INTEGRATOR_NAME "dopri5"
@@ -44,6 +45,7 @@ typedef struct lag_stepper {
     lag_stats stats;
     const lag_system *sys;
     lag_control control;
+    lag_stiffness_test stiffness;
     real h_done;                  /* size of the last accepted step */
     real k1[LAG_NY];              /* f(t, y), the first stage of the next step */
     real k2[LAG_NY], k3[LAG_NY], k4[LAG_NY], k5[LAG_NY], k6[LAG_NY], k7[LAG_NY];
@@ -113,11 +115,14 @@ static void dopri5_accept(lag_stepper *s, real h, real t_new)
         s->dense[4][i] = h * (dp5_d1 * s->k1[i] + dp5_d3 * s->k3[i] + dp5_d4 * s->k4[i]
                               + dp5_d5 * s->k5[i] + dp5_d6 * s->k6[i] + dp5_d7 * s->k7[i]);
     }
+    /* stage 6 and stage 7 (FSAL) both evaluate f at t_new */
+    lag_stiffness_measure(&s->stiffness, h, s->y_new, s->y_stage, s->k7, s->k6);
     memcpy(s->y, s->y_new, sizeof s->y);
     memcpy(s->k1, s->k7, sizeof s->k1);
     s->t_old = s->t;
     s->t = t_new;
     s->h_done = h;
+    lag_stiffness_record(&s->stiffness, &s->stats, t_new);
 }
 
 static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, const real *y0,
@@ -136,6 +141,7 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
     /* Hairer's DOPRI5: beta = 0.04 and alpha = 1/5 - 0.75 beta, facmin 0.2, facmax 10 */
     lag_control_init(&s->control, opt, t0, t_end, (real)1 / 5 - LAG_LIT(0.75) * dp5_beta, dp5_beta,
                      LAG_LIT(0.2), 10);
+    lag_stiffness_start(&s->stiffness, LAG_LIT(3.25));
     if ((status = lag_control_rhs(sys, &s->stats, t0, s->y, s->k1)) != LAG_OK)
         return status;
     s->h = lag_control_first_step(&s->control, opt, sys, &s->stats, t0, s->y, s->k1, 5);

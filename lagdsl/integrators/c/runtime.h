@@ -80,6 +80,11 @@ typedef struct lag_options {
 typedef struct lag_stats {
     long accepted, rejected;
     long rhs_evals, jac_evals, lu_decomps, newton_iters;
+    /* the explicit pairs' stiffness test (explicit_control.c): stiff = 1 once it has fired, at
+     * stiff_time, when the counters above stood at stiff_accepted, stiff_rejected, stiff_rhs_evals */
+    int stiff;
+    real stiff_time;
+    long stiff_accepted, stiff_rejected, stiff_rhs_evals;
 } lag_stats;
 
 /* Reading and writing numbers in the working precision (the CSV and the command line). */

@@ -1,0 +1,223 @@
+/* auto: dop853 while the problem is not stiff, radau5 while it is, switching both ways during
+ * the run, in the spirit of Petzold's LSODA (which switches between Adams and BDF methods).
+ *
+ * Pasted after dop853.c and radau5.c, whose interfaces are renamed dop853_stepper... and
+ * radau5_stepper... (lagdsl.integrators.integrator_source), so that both live in one file.
+ *
+ * To radau5: when the stiffness test of dop853 fires (explicit_control.c: 15 accepted steps with
+ * h lambda beyond the stability boundary 6.1, HNW I, IV.2).  radau5 starts from dop853's last
+ * step size, which stability had limited, and soon enlarges it.
+ * Back to dop853: when radau5's accepted steps lie well inside dop853's stability region,
+ * h rho <= 3 (half its boundary) with rho the spectral radius of J = df/dy, on 15 accepted
+ * steps in a row: dop853 could then take radau5's steps without being limited by stability, at
+ * less cost per step.  rho is estimated by power iteration on J^2 (one product J (J v) per
+ * accepted step, continued from the previous v): the eigenvalues of a mechanical system's
+ * stiff modes come in pairs +-i omega (or a +- i b) of equal modulus, which J^2 maps to one
+ * real eigenvalue -omega^2 (or one modulus), so ||J^2 v|| / ||v|| -> rho^2 where ||J v|| / ||v||
+ * would oscillate.  The margin of 2 and the 15 steps keep the two methods from alternating when
+ * the problem sits at the border; so does patience: after each return to dop853, its stiffness
+ * verdict is heeded only after twice as many accepted steps as the time before (30, 60, ...),
+ * since a fast mode that radau5 had to resolve as well (it is active above the tolerance) makes
+ * dop853 look stiff while it is merely accurate.
+ *
+ * Each switch restarts the other method at the current (t, y), as if a new integration began
+ * there.  The dense output stays that of the method that took the last step, so output rows
+ * inside the step of a switch are interpolated as usual.  The statistics are the sums over
+ * both methods; `switches` records how many switches, the times of the first LAG_AUTO_LOGGED,
+ * and the span of t each method covered.
+ */
+
+#define LAG_INTEGRATOR_NAME "auto"
+
+#define LAG_AUTO_LOGGED 8          /* switch times kept for the summary */
+#define LAG_AUTO_CALM LAG_LIT(3.0)  /* h rho below this: dop853 would be stable with this h */
+
+enum lag_auto_method { LAG_AUTO_EXPLICIT, LAG_AUTO_IMPLICIT };
+
+typedef struct lag_switches {
+    long count;
+    real at[LAG_AUTO_LOGGED];      /* times of the first switches; even entries are to radau5 */
+    real span[2];                  /* t covered by dop853 and by radau5 */
+} lag_switches;
+
+typedef struct lag_stepper {
+    real t;
+    real t_old;
+    real y[LAG_NY];
+    real h;
+    lag_stats stats;
+    lag_switches switches;
+    const lag_system *sys;
+    real t_end;
+    lag_options options;
+    int method;                    /* the method that takes the next step */
+    int last;                      /* the method that took the last step (its dense output) */
+    lag_stats finished;            /* counters of the methods' earlier runs */
+    int calm_steps;                /* radau5 steps in a row with h rho <= LAG_AUTO_CALM */
+    long patience;                 /* dop853 steps before its stiffness verdict is heeded */
+    real v[LAG_NY];                /* power iteration vector for rho(J)^2 */
+    real jv[LAG_NY];
+    dop853_stepper explicit_method;
+    radau5_stepper implicit_method;
+} lag_stepper;
+
+static void auto_add_counters(lag_stats *sum, const lag_stats *part)
+{
+    sum->accepted += part->accepted;
+    sum->rejected += part->rejected;
+    sum->rhs_evals += part->rhs_evals;
+    sum->jac_evals += part->jac_evals;
+    sum->lu_decomps += part->lu_decomps;
+    sum->newton_iters += part->newton_iters;
+}
+
+/* The public fields from the method that took the last step, the counters of both. */
+static void auto_sync(lag_stepper *s)
+{
+    const lag_stats *explicit_stats = &s->explicit_method.stats, *implicit_stats = &s->implicit_method.stats;
+    if (s->last == LAG_AUTO_EXPLICIT) {
+        s->t = s->explicit_method.t;
+        s->t_old = s->explicit_method.t_old;
+        memcpy(s->y, s->explicit_method.y, sizeof s->y);
+    } else {
+        s->t = s->implicit_method.t;
+        s->t_old = s->implicit_method.t_old;
+        memcpy(s->y, s->implicit_method.y, sizeof s->y);
+    }
+    s->h = s->method == LAG_AUTO_EXPLICIT ? s->explicit_method.h : s->implicit_method.h;
+    s->stats = s->finished;
+    auto_add_counters(&s->stats, explicit_stats);
+    auto_add_counters(&s->stats, implicit_stats);
+}
+
+/* Start `method` at (s->t, s->y) with the first step h0, within what is left of max_steps. */
+static int auto_start(lag_stepper *s, int method, real h0)
+{
+    lag_options options = s->options;
+    long used = s->stats.accepted + s->stats.rejected;
+    options.step = h0;
+    if (options.max_steps > 0)
+        options.max_steps = options.max_steps > used ? options.max_steps - used : 1;
+    s->method = method;
+    if (method == LAG_AUTO_EXPLICIT) {
+        auto_add_counters(&s->finished, &s->explicit_method.stats);
+        return dop853_stepper_init(&s->explicit_method, s->sys, s->t, s->y, s->t_end, &options);
+    }
+    auto_add_counters(&s->finished, &s->implicit_method.stats);
+    s->calm_steps = 0;
+    return radau5_stepper_init(&s->implicit_method, s->sys, s->t, s->y, s->t_end, &options);
+}
+
+static int auto_switch(lag_stepper *s, int method, real h0)
+{
+    int status;
+    if (s->switches.count < LAG_AUTO_LOGGED)
+        s->switches.at[s->switches.count] = s->t;
+    s->switches.count += 1;
+    status = auto_start(s, method, h0);
+    auto_sync(s);
+    return status;
+}
+
+/* rho(J)^2 from one step of power iteration on J^2, with J radau5's current Jacobian. */
+static real auto_spectral_radius_squared(lag_stepper *s)
+{
+    const real *jac = s->implicit_method.jac;
+    real size = 0, before = 0;
+    int i, j;
+    for (i = 0; i < LAG_NY; ++i) {
+        s->jv[i] = 0;
+        for (j = 0; j < LAG_NY; ++j)
+            s->jv[i] += jac[i * LAG_NY + j] * s->v[j];
+    }
+    for (i = 0; i < LAG_NY; ++i) {
+        real x = 0;
+        for (j = 0; j < LAG_NY; ++j)
+            x += jac[i * LAG_NY + j] * s->jv[j];
+        before += s->v[i] * s->v[i];
+        size += x * x;
+        s->v[i] = x;
+    }
+    size = r_sqrt(size);
+    if (!(size > 0) || !r_isfinite(size)) {
+        /* J^2 v = 0 (no stiff direction seen from v) or overflow: start the iteration afresh */
+        for (i = 0; i < LAG_NY; ++i)
+            s->v[i] = 1;
+        return 0;
+    }
+    for (i = 0; i < LAG_NY; ++i)
+        s->v[i] /= size;
+    return size / r_sqrt(before);
+}
+
+static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, const real *y0,
+                            real t_end, const lag_options *opt)
+{
+    int i, status;
+    memset(s, 0, sizeof *s);
+    s->sys = sys;
+    s->t = s->t_old = t0;
+    s->t_end = t_end;
+    s->options = *opt;
+    memcpy(s->y, y0, sizeof s->y);
+    for (i = 0; i < LAG_NY; ++i)
+        s->v[i] = 1;
+    s->last = LAG_AUTO_EXPLICIT;
+    status = auto_start(s, LAG_AUTO_EXPLICIT, opt->step);
+    auto_sync(s);
+    return status;
+}
+
+static int lag_stepper_step(lag_stepper *s)
+{
+    real t = s->t, h_rho;
+    int status;
+    if (s->method == LAG_AUTO_EXPLICIT) {
+        status = dop853_stepper_step(&s->explicit_method);
+        s->last = LAG_AUTO_EXPLICIT;
+        auto_sync(s);
+        s->switches.span[LAG_AUTO_EXPLICIT] += s->t - t;
+        if (status == LAG_OK && s->explicit_method.stats.stiff && s->explicit_method.stats.accepted >= s->patience
+            && s->t < s->t_end)
+            status = auto_switch(s, LAG_AUTO_IMPLICIT, s->explicit_method.h);
+        return status;
+    }
+    status = radau5_stepper_step(&s->implicit_method);
+    s->last = LAG_AUTO_IMPLICIT;
+    auto_sync(s);
+    s->switches.span[LAG_AUTO_IMPLICIT] += s->t - t;
+    if (status != LAG_OK || !(s->t < s->t_end))
+        return status;
+    h_rho = s->implicit_method.h_old * r_sqrt(auto_spectral_radius_squared(s));
+    s->calm_steps = h_rho <= LAG_AUTO_CALM ? s->calm_steps + 1 : 0;
+    if (s->calm_steps >= LAG_STIFF_STEPS) {
+        s->patience = s->patience > 0 ? 2 * s->patience : 2 * LAG_STIFF_STEPS;
+        status = auto_switch(s, LAG_AUTO_EXPLICIT, s->implicit_method.h_old);
+    }
+    return status;
+}
+
+static void lag_stepper_dense(const lag_stepper *s, real t, real *yout)
+{
+    if (s->last == LAG_AUTO_EXPLICIT)
+        dop853_stepper_dense(&s->explicit_method, t, yout);
+    else
+        radau5_stepper_dense(&s->implicit_method, t, yout);
+}
+
+/* The driver moved y: hand it to the method that continues and, after a switch, to the one
+ * whose dense output covers the last step. */
+static int lag_stepper_restart(lag_stepper *s)
+{
+    int status = LAG_OK;
+    if (s->method == LAG_AUTO_EXPLICIT || s->last == LAG_AUTO_EXPLICIT) {
+        memcpy(s->explicit_method.y, s->y, sizeof s->y);
+        status = dop853_stepper_restart(&s->explicit_method);
+    }
+    if (status == LAG_OK && (s->method == LAG_AUTO_IMPLICIT || s->last == LAG_AUTO_IMPLICIT)) {
+        memcpy(s->implicit_method.y, s->y, sizeof s->y);
+        status = radau5_stepper_restart(&s->implicit_method);
+    }
+    auto_sync(s);
+    return status;
+}

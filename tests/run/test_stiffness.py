@@ -1,0 +1,134 @@
+"""Stiffness: the explicit pairs detect it and say so once, with the remedy; `auto` switches.
+
+The stiff test problem (`models/stiff_spring.lag`): two unit masses on soft springs (k1 = 1,
+k2 = 3), joined by a stiff spring K = 1e8, started in the slow normal mode, so that
+x1 = cos(omega t), x2 = r cos(omega t) exactly while the fast mode (omega near 1.4e4) only limits
+an explicit method's step. The chaotic double pendulum is the non-stiff counterpart.
+"""
+from __future__ import annotations
+
+import math
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import lagdsl
+from lagdsl.scene import Overrides
+from tests.conftest import MODELS
+from tests.run.c_harness import STRICT_FLAGS, find_cc
+
+STIFF_SPRING = Path(__file__).parent / "models" / "stiff_spring.lag"
+K1, K2, K = 1.0, 3.0, 1e8
+
+
+@pytest.fixture(scope="module")
+def spring():
+    return lagdsl.load(STIFF_SPRING)
+
+
+@pytest.fixture(scope="module")
+def pendulum():
+    return lagdsl.load(MODELS / "double_pendulum.lag")
+
+
+def slow_mode(t: np.ndarray) -> np.ndarray:
+    """x1, x2 of the slow normal mode (the model's own start), in closed form."""
+    w2 = (K1 * K2 + K * (K1 + K2)) / ((K1 + K2) / 2 + K + math.sqrt(((K2 - K1) / 2) ** 2 + K ** 2))
+    r = 1 + (K1 - w2) / K
+    return np.column_stack([np.cos(math.sqrt(w2) * t), r * np.cos(math.sqrt(w2) * t)])
+
+
+def position_error(result) -> float:
+    return float(np.max(np.abs(result.values[:, :2] - slow_mode(result.t))))
+
+
+@pytest.mark.parametrize("integrator", ["dopri5", "dop853"])
+def test_explicit_pairs_report_stiffness_once_with_the_remedy(spring, integrator):
+    result = spring.simulate(integrator=integrator)
+    stiffness = result.summary.stiffness
+    assert stiffness is not None and 0 < stiffness.time < 0.1
+    # nearly all the work of the run came after the detection
+    assert stiffness.accepted > 0.99 * result.summary.accepted
+    assert stiffness.rhs_total == result.summary.rhs_evals > stiffness.rhs_evals > 0.99 * stiffness.rhs_total
+    text = result.summary.render()
+    assert text.count("stiffness detected") == 1 and "--integrator radau5" in text
+    assert position_error(result) < 1e-6
+
+
+def test_numpy_backend_detects_stiffness_too(spring):
+    result = spring.simulate(backend="numpy", stop=0.2)
+    assert result.summary.stiffness is not None and result.summary.stiffness.time < 0.1
+    assert result.summary.render().count("stiffness detected") == 1
+
+
+@pytest.mark.parametrize("backend, stop", [("c", None), ("numpy", 3.0)])
+def test_the_chaotic_double_pendulum_is_not_stiff(pendulum, backend, stop):
+    for integrator in ("dopri5", "dop853"):
+        summary = pendulum.simulate(backend=backend, integrator=integrator, stop=stop).summary
+        assert summary.stiffness is None and "stiff" not in summary.render()
+
+
+def test_the_standalone_program_reports_stiffness_once(spring, tmp_path):
+    cc = find_cc()
+    if cc is None:
+        pytest.skip("no C compiler")
+    source, program = tmp_path / "spring.c", tmp_path / "spring"
+    source.write_text(spring.emit("c").text)
+    subprocess.run([cc, *STRICT_FLAGS, str(source), "-o", str(program), "-lm"], check=True)
+    done = subprocess.run([str(program), "t.stop=1"], capture_output=True, text=True, check=True)
+    assert done.stderr.count("stiffness detected at t = ") == 1 and "radau5" in done.stderr
+
+
+def test_auto_switches_to_radau5_on_the_stiff_spring(spring):
+    auto = spring.simulate(integrator="auto")
+    dop853 = spring.simulate(integrator="dop853")
+    radau5 = spring.simulate(integrator="radau5")
+    switches = auto.summary.switches
+    assert switches.methods == ("dop853", "radau5") and switches.count == 1
+    assert switches.times[0] == pytest.approx(dop853.summary.stiffness.time)
+    assert switches.spans[0] == pytest.approx(switches.times[0]) and switches.spans[1] > 9.9
+    assert auto.summary.stiffness is None and "auto: 1 switch (to radau5 at t = " in auto.summary.render()
+    assert auto.summary.rhs_evals < dop853.summary.rhs_evals / 100
+    assert position_error(auto) < 1e-6
+    assert np.max(np.abs(auto.values[:, :2] - radau5.values[:, :2])) < 1e-6
+
+
+def test_auto_returns_to_dop853_when_the_stiffness_fades(spring):
+    # K exp(-5 t): radau5's steps fall well inside dop853's stability region near t = 2.5
+    auto = spring.simulate(integrator="auto", decay=5.0)
+    dop853 = spring.simulate(integrator="dop853", decay=5.0, rtol=1e-11, atol=1e-13)
+    switches = auto.summary.switches
+    assert switches.count == 2 and switches.times[0] < 0.1 and 1 < switches.times[1] < 5
+    assert switches.spans[0] + switches.spans[1] == pytest.approx(10)
+    assert "to dop853 at t = " in auto.summary.render()
+    assert np.max(np.abs(auto.values[:, :2] - dop853.values[:, :2])) < 1e-6
+
+
+def test_auto_stays_with_dop853_on_the_double_pendulum(pendulum):
+    auto = pendulum.simulate(integrator="auto", stop=5, rtol=1e-10, atol=1e-12)
+    dop853 = pendulum.simulate(integrator="dop853", stop=5, rtol=1e-10, atol=1e-12)
+    assert auto.summary.switches.count == 0 and auto.summary.switches.spans == (pytest.approx(5), 0)
+    # no switch: the very steps of dop853
+    assert np.max(np.abs(auto.values - dop853.values)) < 1e-12
+    assert auto.summary.rhs_evals == dop853.summary.rhs_evals
+
+
+def test_numpy_auto_is_lsoda_and_reports_its_switch(spring):
+    result = spring.simulate(backend="numpy", integrator="auto", stop=0.5)
+    switches = result.summary.switches
+    assert switches.methods == ("Adams", "BDF") and switches.count >= 1 and switches.spans[1] > 0.4
+    assert position_error(result) < 1e-5
+
+
+def test_the_auto_program_compiles_strictly(spring, tmp_path):
+    cc = find_cc()
+    if cc is None:
+        pytest.skip("no C compiler")
+    source = tmp_path / "auto.c"
+    source.write_text(spring.emit("c", None, Overrides(integrator="auto")).text)
+    for precision in ([], ["-DLAG_LONG_DOUBLE"]):
+        done = subprocess.run([cc, *STRICT_FLAGS, *precision, "-c", str(source), "-o", str(tmp_path / "a.o")],
+                              capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr
