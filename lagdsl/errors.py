@@ -87,6 +87,17 @@ class SimulationError(Exception):
                 f"  state: {state}\n  remedy: {self.remedy}")
 
 
+class SimulationInterrupted(SimulationError):
+    """The run was stopped by Ctrl-C; `partial` holds the rows computed until then."""
+
+    def render(self) -> str:
+        return f"interrupted at t = {self.time:.17g}"
+
+
+class LagWarning(UserWarning):
+    """A setting lagdsl changed or doubts, e.g. an rtol below what double precision resolves."""
+
+
 class InternalError(Exception):
     """A bug in lagdsl, not in the model."""
 
