@@ -175,7 +175,8 @@ class ProgressLine:
         now = clock.monotonic()
         if not self.active or now - self.started < self.DELAY or now - self.shown < self.REFRESH:
             return
-        text = f"lagc: t = {t:.6g} of {stop:.6g} ({100 * (t - start) / (stop - start):.0f}%), {now - self.started:.1f} s"
+        share = 100 * (t - start) / (stop - start)
+        text = f"lagc: t = {t:.6g} of {stop:.6g} ({share:.0f}%), {now - self.started:.1f} s"
         self.stream.write("\r" + text.ljust(self.width))
         self.stream.flush()
         self.width, self.shown = len(text), now

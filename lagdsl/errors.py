@@ -3,8 +3,9 @@
 - `LagError`: the model is wrong. It carries one or more located diagnostics and is rendered
   as `file:line:column: error: message`, the source line and a caret. The command line prints
   it and exits 1, never with a traceback.
-- `SimulationError`: the numbers failed (singular mass matrix, step-size collapse, NaN). It
-  names the time, the state and a remedy, and keeps the results computed so far.
+- `SimulationError`: the numbers failed (singular mass matrix, step-size collapse, NaN, the
+  step limit). It names the time, the state and a remedy, and keeps the results computed so
+  far. `SimulationInterrupted` is the same for a run stopped by Ctrl-C.
 - `InternalError`: a bug in lagdsl. It keeps its traceback and asks to be reported.
 """
 from __future__ import annotations

@@ -80,10 +80,6 @@ class ScenePlan:
         return tuple(o.column for o in self.outputs)
 
     @property
-    def rows(self) -> int:
-        return grid_rows(self.time.start, self.time.stop, self.time.interval)
-
-    @property
     def max_steps(self) -> int:
         return step_limit(self.integrator, self.time)
 

@@ -1,6 +1,7 @@
 """The command line end to end: exit codes, output formats, no output file on failure."""
 from __future__ import annotations
 
+import io
 import os
 import re
 import shutil
@@ -12,6 +13,7 @@ from pathlib import Path
 
 import pytest
 
+from lagdsl.cli import ProgressLine
 from tests.conftest import MODELS
 from tests.run.test_bounds import OSCILLATOR
 
@@ -203,3 +205,20 @@ def test_ctrl_c_stops_the_standalone_program_with_a_valid_csv(oscillator, tmp_pa
     assert re.search(r"interrupted at t = [0-9.e+]+ after \d+ rows", stderr)
     rows = _assert_valid_partial_csv(stdout, "t,x,energy")
     assert 1 < len(rows) < 5000001
+
+
+def test_the_progress_line_is_rewritten_in_place_on_a_terminal_only():
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    terminal, log = Terminal(), io.StringIO()
+    for stream in (terminal, log):
+        line = ProgressLine(stream)
+        line.started -= 10                  # a run that has taken 10 s
+        line.show(12.5, 0.0, 50.0)
+        line.show(13.0, 0.0, 50.0)          # within REFRESH seconds: not rewritten
+        line.clear()
+    assert terminal.getvalue().startswith("\rlagc: t = 12.5 of 50 (25%), 10.0 s")
+    assert "13" not in terminal.getvalue() and terminal.getvalue().endswith("\r")
+    assert log.getvalue() == ""

@@ -68,8 +68,8 @@ def _state_names(plan: ScenePlan) -> list[str]:
 def _failure(plan: ScenePlan, status: int, t_fail: float, y_fail, partial: Result) -> SimulationError:
     message, remedy = STATUS.get(status, ("unknown failure", "please report this"))
     kind = SimulationInterrupted if status == INTERRUPTED else SimulationError
-    return kind(message.format(max_steps=plan.max_steps), t_fail, dict(zip(_state_names(plan), map(float, y_fail))),
-                remedy, partial)
+    state = dict(zip(_state_names(plan), map(float, y_fail)))
+    return kind(message.format(max_steps=plan.max_steps), t_fail, state, remedy, partial)
 
 
 # ---- C ---------------------------------------------------------------------------------------
@@ -106,7 +106,8 @@ def run_c(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress: Pr
     return result
 
 
-def _interruptible(library: ctypes.CDLL, call: Callable[[], int], plan: ScenePlan, progress: Progress | None) -> int:
+def _interruptible(library: ctypes.CDLL, call: Callable[[], int], plan: ScenePlan,
+                   progress: Progress | None) -> int:
     """Make the C call in a worker thread, so that the main thread stays free for Ctrl-C and progress.
 
     ctypes releases the GIL during the call, and a blocked foreign call would otherwise hold back
@@ -165,7 +166,7 @@ def run_numpy(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress
     started = clock.perf_counter()
     name = plan.integrator.name
     if name in SCIPY_METHODS:
-        states, counts, failure = _run_scipy(module, par, times, y0, plan, progress or (lambda t, start, stop: None))
+        states, counts, failure = _run_scipy(module, par, times, y0, plan, progress or _no_progress)
     else:
         states, counts, failure = _run_fixed_step(module, par, times, y0, plan)
     elapsed = clock.perf_counter() - started
@@ -193,6 +194,10 @@ def _numpy_result(module, par, times, states, plan, counts, elapsed, projection)
                          counts.get("rhs_evals", 0), counts.get("jac_evals", 0), counts.get("lu_decomps", 0),
                          elapsed, invariants, plan.constraints, residual, projection if plan.constraints else None)
     return Result(np.asarray(times, dtype=float), plan.columns, np.asarray(values, dtype=float), summary)
+
+
+def _no_progress(t: float, start: float, stop: float) -> None:
+    pass
 
 
 def _run_scipy(module, par, times, y0, plan, progress):

@@ -416,8 +416,9 @@ static int lag_outputs(const lag_system *sys, real t, const real *y, real *out, 
  * A rejected first step is retried with h/10; a right-hand side that fails in a stage (the
  * trial left the domain of the model) or gives non-finite values, with h/10 as well (interface
  * README).  The first step is opt->step, or 1e-6 as in RADAU5 (it adapts within a few steps).
- * When h falls below 10 eps max(|t|, t_end - t0) (LAG_MIN_STEP) the reason of the last failure is returned: the right-hand
- * side's status, LAG_ERR_NO_CONVERGENCE for Newton, LAG_ERR_STEP_TOO_SMALL for the error test.
+ * When h falls below LAG_MIN_STEP = 10 eps max(|t|, t_end - t0) the reason of the last failure
+ * is returned: the right-hand side's status, LAG_ERR_NO_CONVERGENCE for Newton,
+ * LAG_ERR_STEP_TOO_SMALL for the error test.
  *
  * Tolerances.  The estimate is O(h^4) while the method has order 5, so, as RADAU5 does, the
  * user's tolerances are transformed to rtol' = 0.1 rtol^(2/3), atol' = rtol' atol / rtol,
@@ -1312,25 +1313,29 @@ int main(int argc, char **argv)
             dt = value;
         } else if (strncmp(argv[i], "rtol=", 5) == 0) {
             if (!(r_isfinite(value) && value >= 0)) {
-                fprintf(stderr, "%s: rtol must be a finite number >= 0, got '%s'\n", argv[0], equals + 1);
+                fprintf(stderr, "%s: rtol must be a finite number >= 0, got '%s'\n",
+                        argv[0], equals + 1);
                 return 2;
             }
             options.rtol = value;
         } else if (strncmp(argv[i], "atol=", 5) == 0) {
             if (!(r_isfinite(value) && value >= 0)) {
-                fprintf(stderr, "%s: atol must be a finite number >= 0, got '%s'\n", argv[0], equals + 1);
+                fprintf(stderr, "%s: atol must be a finite number >= 0, got '%s'\n",
+                        argv[0], equals + 1);
                 return 2;
             }
             options.atol = value;
         } else if (strncmp(argv[i], "max_step=", 9) == 0) {
             if (!(r_isfinite(value) && value > 0)) {
-                fprintf(stderr, "%s: max_step must be a finite number > 0, got '%s'\n", argv[0], equals + 1);
+                fprintf(stderr, "%s: max_step must be a finite number > 0, got '%s'\n",
+                        argv[0], equals + 1);
                 return 2;
             }
             options.max_step = value;
         } else if (strncmp(argv[i], "max_steps=", 10) == 0) {
             if (!(value >= 1 && value <= LAG_LIT(1e15) && value == r_floor(value))) {
-                fprintf(stderr, "%s: max_steps must be a whole number from 1 to 1e15, got '%s'\n", argv[0], equals + 1);
+                fprintf(stderr, "%s: max_steps must be a whole number from 1 to 1e15, got '%s'\n",
+                        argv[0], equals + 1);
                 return 2;
             }
             options.max_steps = (long)value;

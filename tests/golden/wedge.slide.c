@@ -729,13 +729,15 @@ int main(int argc, char **argv)
             dt = value;
         } else if (strncmp(argv[i], "step=", 5) == 0) {
             if (!(r_isfinite(value) && value > 0)) {
-                fprintf(stderr, "%s: step must be a finite number > 0, got '%s'\n", argv[0], equals + 1);
+                fprintf(stderr, "%s: step must be a finite number > 0, got '%s'\n",
+                        argv[0], equals + 1);
                 return 2;
             }
             options.step = value;
         } else if (strncmp(argv[i], "max_steps=", 10) == 0) {
             if (!(value >= 1 && value <= LAG_LIT(1e15) && value == r_floor(value))) {
-                fprintf(stderr, "%s: max_steps must be a whole number from 1 to 1e15, got '%s'\n", argv[0], equals + 1);
+                fprintf(stderr, "%s: max_steps must be a whole number from 1 to 1e15, got '%s'\n",
+                        argv[0], equals + 1);
                 return 2;
             }
             options.max_steps = (long)value;

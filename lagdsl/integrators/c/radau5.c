@@ -35,8 +35,9 @@
  * A rejected first step is retried with h/10; a right-hand side that fails in a stage (the
  * trial left the domain of the model) or gives non-finite values, with h/10 as well (interface
  * README).  The first step is opt->step, or 1e-6 as in RADAU5 (it adapts within a few steps).
- * When h falls below 10 eps max(|t|, t_end - t0) (LAG_MIN_STEP) the reason of the last failure is returned: the right-hand
- * side's status, LAG_ERR_NO_CONVERGENCE for Newton, LAG_ERR_STEP_TOO_SMALL for the error test.
+ * When h falls below LAG_MIN_STEP = 10 eps max(|t|, t_end - t0) the reason of the last failure
+ * is returned: the right-hand side's status, LAG_ERR_NO_CONVERGENCE for Newton,
+ * LAG_ERR_STEP_TOO_SMALL for the error test.
  *
  * Tolerances.  The estimate is O(h^4) while the method has order 5, so, as RADAU5 does, the
  * user's tolerances are transformed to rtol' = 0.1 rtol^(2/3), atol' = rtol' atol / rtol,
