@@ -179,20 +179,26 @@ def test_a_fixed_step_run_over_the_limit_is_refused_before_it_starts(oscillator)
 
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_ctrl_c_stops_a_run_and_keeps_its_rows(oscillator, backend):
-    oscillator.simulate(backend=backend)                      # build (and cache) the code first
-    interrupted_at = []
+    """Ctrl-C (KeyboardInterrupt in the main thread) half a second into the integration itself:
+    the first progress report says it has begun."""
+    interrupted_at, timers = [], []
 
     def press_ctrl_c():
         interrupted_at.append(time.monotonic())
         _thread.interrupt_main()
 
-    timer = threading.Timer(1.0, press_ctrl_c)
-    timer.start()
+    def progress(t, start, stop):
+        if not timers:
+            timers.append(threading.Timer(0.5, press_ctrl_c))
+            timers[0].start()
+
+    long_run = Overrides(stop=1e6, interval=1.0, options=(("rtol", 1e-13), ("max_steps", 1e12)))
     try:
         with pytest.raises(SimulationInterrupted) as stopped:
-            oscillator.simulate(backend=backend, stop=1e6, interval=1.0, rtol=1e-13, max_steps=10**12)
+            oscillator.simulate_plan(None, backend, long_run, progress)
     finally:
-        timer.cancel()
+        for timer in timers:
+            timer.cancel()
     waited = time.monotonic() - interrupted_at[0]
     partial = stopped.value.partial
     assert waited < 10, waited                                # within a fraction of a second, unloaded
