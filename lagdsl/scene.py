@@ -183,7 +183,7 @@ def check_step_count(plan: ScenePlan) -> None:
         return
     steps = (time.stop - time.start) / step
     if steps > plan.max_steps:
-        raise LagError(f"{integrator.name} with step {step:g} takes {steps:.3g} steps from {time.start:g} to "
+        raise LagError(f"{integrator.name} with step {step:g} would take {steps:.3g} steps from {time.start:g} to "
                        f"{time.stop:g}, more than the step limit of {plan.max_steps}; take a larger step or "
                        "raise --max-steps", integrator.span)
 
