@@ -58,6 +58,7 @@ def test_lagc_run_to_csv_and_the_standalone_program_write_the_same_bytes(tmp_pat
     assert rows[2][0] == "0.10000000000000001"
 
 
+@pytest.mark.filterwarnings("ignore:divide by zero:RuntimeWarning", "ignore:invalid value:RuntimeWarning")
 def test_the_numpy_backend_writes_the_same_format(tmp_path, model_path, capsys):
     assert lagc(["run", str(model_path), "--backend", "numpy"]) == 0
     rows = list(csv.reader(io.StringIO(capsys.readouterr().out)))
