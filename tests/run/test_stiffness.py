@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import lagdsl
+from lagdsl.errors import LagError
 from lagdsl.scene import Overrides
 from tests.conftest import MODELS
 from tests.run.c_harness import STRICT_FLAGS, find_cc
@@ -46,7 +47,7 @@ def position_error(result) -> float:
 
 @pytest.mark.parametrize("integrator", ["dopri5", "dop853"])
 def test_explicit_pairs_report_stiffness_once_with_the_remedy(spring, integrator):
-    result = spring.simulate(integrator=integrator)
+    result = spring.simulate(integrator=integrator, stop=2)
     stiffness = result.summary.stiffness
     assert stiffness is not None and 0 < stiffness.time < 0.1
     # nearly all the work of the run came after the detection
@@ -120,6 +121,15 @@ def test_numpy_auto_is_lsoda_and_reports_its_switch(spring):
     switches = result.summary.switches
     assert switches.methods == ("Adams", "BDF") and switches.count >= 1 and switches.spans[1] > 0.4
     assert position_error(result) < 1e-5
+
+
+def test_auto_handles_constraints_in_c_and_is_refused_by_numpy():
+    model = lagdsl.load(MODELS / "cartesian_pendulum.lag")
+    auto = model.simulate(integrator="auto", stop=1, rtol=1e-10, atol=1e-12)
+    dop853 = model.simulate(integrator="dop853", stop=1, rtol=1e-10, atol=1e-12)
+    assert auto.summary.switches.count == 0 and np.max(np.abs(auto.values - dop853.values)) < 1e-12
+    with pytest.raises(LagError, match="LSODA"):
+        model.simulate(backend="numpy", integrator="auto", stop=1)
 
 
 def test_the_auto_program_compiles_strictly(spring, tmp_path):
