@@ -142,15 +142,21 @@ def equation_rows(equations: Equations, calculus: Differentiator) -> list[tuple[
     a = accelerations(equations)
     lam = multipliers(equations)
     active = equations.active_constraints
+    tidied: dict[sympy.Expr, sympy.Expr] = {}
+
+    def show(expr: sympy.Expr) -> sympy.Expr:       # M is symmetric: each entry tidied once
+        if expr not in tidied:
+            tidied[expr] = shown(expr, calculus)
+        return tidied[expr]
+
     rows = []
     for k, q in enumerate(equations.coordinates):
-        lhs = sum((shown(m, calculus) * a[j] for j, m in enumerate(equations.mass_matrix[k])), sympy.S.Zero)
-        rhs = shown(equations.forcing[k], calculus) + sum(
-            (lam[i] * shown(c.jacobian[k], calculus) for i, c in enumerate(active)), sympy.S.Zero)
+        lhs = sympy.Add(*(show(m) * a[j] for j, m in enumerate(equations.mass_matrix[k])))
+        rhs = sympy.Add(show(equations.forcing[k]), *(lam[i] * show(c.jacobian[k]) for i, c in enumerate(active)))
         rows.append((q.name, lhs, rhs))
     for c in active:
-        lhs = sum((shown(x, calculus) * a[j] for j, x in enumerate(c.jacobian)), sympy.S.Zero)
-        rows.append((c.name, lhs, shown(c.gamma, calculus)))
+        lhs = sympy.Add(*(show(x) * a[j] for j, x in enumerate(c.jacobian)))
+        rows.append((c.name, lhs, show(c.gamma)))
     return rows
 
 
