@@ -16,7 +16,7 @@ import numpy as np
 
 from ..codegen import GeneratedSource
 from ..codegen.kernel import Kernel
-from ..errors import SimulationError
+from ..errors import InternalError, SimulationError
 from ..integrators.python.fixed_step import IntegrationFailure, integrate_gauss, integrate_rk4
 from ..scene import ScenePlan
 from .output import Result, RunSummary, write_atomically
@@ -100,6 +100,10 @@ def load_module(source: GeneratedSource):
     key = hashlib.sha256(source.text.encode()).hexdigest()[:20]
     path = cache_directory() / f"{source.suggested_name}_{key}.py"
     if not path.exists():
+        try:
+            compile(source.text, str(path), "exec")     # never cache a module that cannot load
+        except SyntaxError as error:
+            raise InternalError(f"the generated Python does not parse: {error}") from None
         write_atomically(path, source.text)
     spec = importlib.util.spec_from_file_location(f"lagdsl_generated_{key}", path)
     module = importlib.util.module_from_spec(spec)
