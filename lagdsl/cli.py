@@ -112,16 +112,26 @@ def _overrides(arguments) -> Overrides:
 
 
 def _run(arguments) -> int:
+    """Simulate; on a numerical failure deliver the rows computed so far, say where the run
+    stopped, and exit 1 (with the error, which `main` prints)."""
     model = load(arguments.model)
     try:
         result = model.simulate_plan(arguments.scene, arguments.backend, _overrides(arguments))
     except SimulationError as error:
         if error.partial is not None:
+            _deliver(error.partial.csv(), arguments.output)
             print(error.partial.summary.render(), file=sys.stderr)
+            print(_incomplete(error.partial, error.time, arguments.output), file=sys.stderr)
         raise
     _deliver(result.csv(), arguments.output)
     print(result.summary.render(), file=sys.stderr)
     return 0
+
+
+def _incomplete(partial, time: float, output: str | None) -> str:
+    where = output or "standard output"
+    rows = f"{len(partial.t)} rows up to t = {partial.t[-1]:.17g}" if len(partial.t) else "no rows"
+    return f"the run is incomplete: it stopped at t = {time:.17g}; {rows} written to {where}"
 
 
 def _emit(arguments) -> int:

@@ -76,12 +76,6 @@ typedef struct lag_options {
     long max_steps;    /* give up after this many attempted steps, 0 = no limit */
 } lag_options;
 
-/* Work counters every integrator keeps up to date (the run summary prints them). */
-typedef struct lag_stats {
-    long accepted, rejected;
-    long rhs_evals, jac_evals, lu_decomps, newton_iters;
-} lag_stats;
-
 /* Reading and writing numbers in the working precision (the CSV and the command line). */
 #if defined(LAG_FLOAT128)
 #define r_strtod(text, end) strtoflt128((text), (end))
