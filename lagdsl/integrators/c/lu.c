@@ -60,4 +60,3 @@ static void lag_lu_solve(int n, const real *lu, const int *piv, real *b)
         b[i] = s / lu[i * n + i];
     }
 }
-
