@@ -100,7 +100,7 @@ typedef struct lag_options {
 /* Reading and writing numbers in the working precision (the CSV and the command line). */
 #if defined(LAG_FLOAT128)
 #define r_strtod(text, end) strtoflt128((text), (end))
-static void lag_print_real(FILE *file, real x)
+static void lag_print_number(FILE *file, real x)
 {
     char buffer[64];
     quadmath_snprintf(buffer, sizeof buffer, "%.36Qg", x);
@@ -108,11 +108,20 @@ static void lag_print_real(FILE *file, real x)
 }
 #elif defined(LAG_LONG_DOUBLE)
 #define r_strtod(text, end) strtold((text), (end))
-static void lag_print_real(FILE *file, real x) { fprintf(file, "%.21Lg", x); }
+static void lag_print_number(FILE *file, real x) { fprintf(file, "%.21Lg", x); }
 #else
 #define r_strtod(text, end) strtod((text), (end))
-static void lag_print_real(FILE *file, real x) { fprintf(file, "%.17g", x); }
+static void lag_print_number(FILE *file, real x) { fprintf(file, "%.17g", x); }
 #endif
+
+/* A NaN is written "nan" whatever its sign bit (printf may write "-nan"), as lagc run writes it. */
+static void lag_print_real(FILE *file, real x)
+{
+    if (x != x)
+        fputs("nan", file);
+    else
+        lag_print_number(file, x);
+}
 
 /* ---- dense linear algebra ---- */
 /* LU factorisation with partial pivoting, row-major, in place: for a general Lagrangian's
@@ -177,7 +186,6 @@ static void lag_lu_solve(int n, const real *lu, const int *piv, real *b)
         b[i] = s / lu[i * n + i];
     }
 }
-
 
 /* A condition estimate from the LU factors of lu.c: pasted after lu.c in the scenes that solve
  * for q'' by LU (a general Lagrangian, constraints), where a nearly singular system must be
@@ -286,7 +294,7 @@ typedef struct lag_system {
 
 static const char *const lag_parameter_names[] = { "m", "e", "B" };
 static const char *const lag_coordinate_names[] = { "x", "y", "z" };
-static const char *const lag_column_names[] = { "x", "y", "z", "energy", "momentum(z)" };
+static const char *const lag_column_names[] = { "x", "y", "z", "energy", "momentum(z)" };     /* CSV header fields */
 static const char *const lag_invariant_names[] = { "momentum(z)", "energy" };
 
 /* Parameter values of scene helix. */
