@@ -4,9 +4,10 @@ from __future__ import annotations
 import re
 
 import pytest
+import sympy
 
 from lagdsl.api import Model, load
-from lagdsl.present import format_equations
+from lagdsl.present import format_equations, tidy
 from lagdsl.source import SourceFile
 from tests.conftest import MODELS
 
@@ -54,3 +55,10 @@ def test_the_12_link_chain_in_latex(chain12):
     assert "&\\text{where} \\\\" in shown
     assert "\\operatorname{der}(\\operatorname{der}(x_{12})) &= " in shown
     assert "\\delta L/\\delta \\theta_{1} &= " in shown
+
+
+def test_tidy_leaves_alone_what_would_expand_into_too_many_terms():
+    a, b, c, d, x = sympy.symbols("a b c d x")
+    power = (a + b + c + d + sympy.sin(x)) ** 12
+    assert tidy(power) == power
+    assert tidy(a * sympy.sin(x) ** 2 + a * sympy.cos(x) ** 2) == a
