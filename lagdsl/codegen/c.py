@@ -3,7 +3,8 @@ from __future__ import annotations
 
 from .. import __version__
 from ..escape import c_comment, csv_field
-from ..integrators import COMPOSITES, STIFFNESS_TESTED, c_file, integrator_source
+from ..integrators import (COMPOSITES, COUNTER_LABELS, COUNTERS, STIFFNESS_TESTED, c_file, integrator_source,
+                           summary_extras)
 from ..semantics import INTEGRATOR_OPTIONS
 from . import GeneratedSource, template_environment
 from .kernel import Block, Kernel
@@ -63,6 +64,10 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
         "integrator_source": integrator_source(kernel.integrator.name),
         "switching": kernel.integrator.name in COMPOSITES,
         "stiffness_test": kernel.integrator.name in STIFFNESS_TESTED,
+        "summary_fixed": 6 + len(COUNTERS[kernel.integrator.name]) + summary_extras(kernel.integrator.name),
+        "counters": COUNTERS[kernel.integrator.name],
+        "counter_format": ", ".join(f"%ld {COUNTER_LABELS[c]}" for c in COUNTERS[kernel.integrator.name]),
+        "counter_fields": ", ".join(f"report.stats.{c}" for c in COUNTERS[kernel.integrator.name]),
         "t_start": _literal(kernel.time.start), "t_stop": _literal(kernel.time.stop),
         "t_interval": _literal(kernel.time.interval),
         "options_init": _options_initializer(options),
@@ -79,8 +84,8 @@ def _linear_algebra(kernel: Kernel) -> str:
     """Only the factorisations the scene calls: unused static functions are warnings."""
     needs_lu = kernel.solver == "lu" or kernel.jacobian is not None or bool(kernel.constraints)
     needs_cholesky = kernel.solver == "cholesky"
-    return "".join(c_file(name) + "\n" for name, needed in (("cholesky.c", needs_cholesky), ("lu.c", needs_lu))
-                   if needed)
+    files = (("cholesky.c", needs_cholesky), ("lu.c", needs_lu), ("lu_condition.c", kernel.solver == "lu"))
+    return "".join(c_file(name) + "\n" for name, needed in files if needed)
 
 
 def stem(kernel: Kernel) -> str:

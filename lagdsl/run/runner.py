@@ -23,16 +23,22 @@ import numpy as np
 from ..codegen import GeneratedSource
 from ..codegen.kernel import Kernel
 from ..errors import InternalError, LagError, SimulationError, SimulationInterrupted
+from ..integrators import COUNTERS, STIFFNESS_TESTED, SWITCH_TIMES, summary_extras
 from ..integrators.python.fixed_step import IntegrationFailure, integrate_gauss, integrate_rk4
 from ..integrators.python.stiffness import STABILITY_BOUNDARY, StiffnessTest, SwitchLog
 from ..scene import ScenePlan, grid_rows
 from .output import Result, RunSummary, Stiffness, Switches, write_atomically
 from .toolchain import cache_directory, shared_library
 
+# K (M, or the saddle-point matrix of a constrained system) counts as singular below this
+# reciprocal condition estimate: q'' would keep fewer than about 3 correct digits. The generated
+# code of both backends uses the same threshold (LAG_RCOND_MIN, RCOND_MIN).
+RCOND_MIN = 1000 * float(np.finfo(float).eps)
 STATUS = {
     1: ("the mass matrix is singular at this state",
-        "the coordinates are singular here (e.g. Euler angles at theta = 0, a link of zero length) or "
-        "the constraints are dependent; start away from the singular configuration or choose other coordinates"),
+        "the coordinates are singular here (e.g. Euler angles at theta = 0, spherical coordinates at a "
+        "pole, a link of zero length) or the constraints are dependent; use coordinates that do not pass "
+        "through this configuration, or start away from it"),
     2: ("the state or its derivative became infinite or NaN",
         "check the parameters and initial values; a stiff model may need --integrator radau5"),
     3: ("the step size collapsed below the resolution of t",
@@ -48,8 +54,6 @@ STATUS = {
 }
 INTERRUPTED = 7
 SETTINGS_ORDER = ("rtol", "atol", "step", "max_step", "stages")
-SUMMARY_SWITCHES = 8                     # switch times in the C summary (LAG_SUMMARY_SWITCHES)
-SUMMARY_FIXED = 19 + SUMMARY_SWITCHES    # the C summary's entries before the invariants
 SCIPY_METHODS = {"dopri5": "RK45", "dop853": "DOP853", "radau5": "Radau", "auto": "LSODA"}
 POLL_SECONDS = 0.1      # how often the main thread looks at a C run: Ctrl-C and progress
 Progress = Callable[[float, float, float], None]     # (t reached, start, stop)
@@ -68,16 +72,32 @@ def _state_names(plan: ScenePlan) -> list[str]:
     return names + [f"{n}'" for n in names]
 
 
-def _failure(plan: ScenePlan, status: int, t_fail: float, y_fail, partial: Result) -> SimulationError:
+def _failure(plan: ScenePlan, status: int, t_fail: float, y_fail, partial: Result,
+             rcond: float) -> SimulationError:
+    """The error for a failed run; `rcond` is the reciprocal condition estimate of K at y_fail."""
     message, remedy = STATUS.get(status, ("unknown failure", "please report this"))
+    if status == 1:
+        message += f" (reciprocal condition estimate {rcond:.3g}, below {RCOND_MIN:.3g})"
     kind = SimulationInterrupted if status == INTERRUPTED else SimulationError
     state = dict(zip(_state_names(plan), map(float, y_fail)))
     return kind(message.format(max_steps=plan.max_steps), t_fail, state, remedy, partial)
 
 
 # ---- C ---------------------------------------------------------------------------------------
-def run_c(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress: Progress | None = None) -> Result:
-    library = ctypes.CDLL(str(shared_library(source.text, source.suggested_name)))
+def load(source: GeneratedSource):
+    """What runs `source`: its shared library (C, compiled on first use) or its module (NumPy).
+
+    A caller that keeps it passes it back as `loaded` to run_c or run_numpy, which then go
+    straight to the integration: no hashing of the source, no compiler, no dlopen or import.
+    """
+    if source.language == "c":
+        return ctypes.CDLL(str(shared_library(source.text, source.suggested_name)))
+    return load_module(source)
+
+
+def run_c(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress: Progress | None = None,
+          loaded: ctypes.CDLL | None = None) -> Result:
+    library = loaded if loaded is not None else load(source)
     entry = library.lag_run
     double_p = ctypes.POINTER(ctypes.c_double)
     entry.argtypes = [double_p, double_p, double_p, double_p, ctypes.c_long, double_p]
@@ -90,39 +110,46 @@ def run_c(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress: Pr
     initial = np.array(plan.initial_state, dtype=float)
     ncols = len(plan.columns)
     rows = np.zeros((len(times), ncols + 1))
-    summary = np.zeros(SUMMARY_FIXED + 2 * len(plan.invariants) + len(initial))
+    counters = COUNTERS[plan.integrator.name]
+    head = 6 + len(counters)        # status, rows, t_fail, rcond_fail, residual, projection, counters
+    extras = head + summary_extras(plan.integrator.name)     # the stiffness verdict, the switches
+    summary = np.zeros(extras + 2 * len(plan.invariants) + len(initial))
     pointer = lambda a: a.ctypes.data_as(double_p)   # noqa: E731
     started = clock.perf_counter()
     status = _interruptible(library, lambda: entry(pointer(parameters), pointer(initial), pointer(settings),
                                                    pointer(rows), len(times), pointer(summary)), plan, progress)
     elapsed = clock.perf_counter() - started
     used = int(summary[1])
-    invariants = tuple((name, float(summary[SUMMARY_FIXED + 2 * i]), float(summary[SUMMARY_FIXED + 1 + 2 * i]))
+    invariants = tuple((name, float(summary[extras + 2 * i]), float(summary[extras + 1 + 2 * i]))
                        for i, name in enumerate(plan.invariants))
-    report = RunSummary("c", plan.integrator.name, int(summary[3]), int(summary[4]), int(summary[5]),
-                        int(summary[6]), int(summary[7]), elapsed, invariants, plan.constraints,
-                        float(summary[9]) if plan.constraints else None,
-                        float(summary[10]) if plan.constraints else None,
-                        _c_stiffness(summary), _c_switches(summary) if plan.integrator.name == "auto" else None)
+    name = plan.integrator.name
+    report = RunSummary("c", name, tuple(zip(counters, map(int, summary[6:head]))), elapsed,
+                        invariants, plan.constraints, float(summary[4]) if plan.constraints else None,
+                        float(summary[5]) if plan.constraints else None,
+                        _c_stiffness(summary[head:], dict(zip(counters, summary[6:head])))
+                        if name in STIFFNESS_TESTED else None,
+                        _c_switches(summary[head:]) if name == "auto" else None)
     result = Result(rows[:used, 0].copy(), plan.columns, rows[:used, 1:].copy(), report)
     if status != 0:
-        raise _failure(plan, status, float(summary[2]), summary[SUMMARY_FIXED + 2 * len(plan.invariants):], result)
+        raise _failure(plan, status, float(summary[2]), summary[extras + 2 * len(plan.invariants):], result,
+                       float(summary[3]))
     return result
 
 
-def _c_stiffness(summary: np.ndarray) -> Stiffness | None:
-    """Entries 11-15: stiff, its time, and the counters accepted, rejected, rhs_evals then."""
-    if not summary[11]:
+def _c_stiffness(extras: np.ndarray, counts: dict) -> Stiffness | None:
+    """The summary's entries after the counters: stiff, its time, and accepted, rejected, rhs_evals then."""
+    if not extras[0]:
         return None
-    since = summary[3:6] - summary[13:16]
-    return Stiffness(float(summary[12]), int(since[0]), int(since[1]), int(since[2]), int(summary[5]))
+    return Stiffness(float(extras[1]), int(counts["accepted"] - extras[2]), int(counts["rejected"] - extras[3]),
+                     int(counts["rhs_evals"] - extras[4]), int(counts["rhs_evals"]))
 
 
-def _c_switches(summary: np.ndarray) -> Switches:
-    """Entries 16-18: the number of switches and the spans of t of dop853 and radau5; then the times."""
-    count = int(summary[16])
-    times = tuple(float(t) for t in summary[19:19 + min(count, SUMMARY_SWITCHES)])
-    return Switches(("dop853", "radau5"), count, times, (float(summary[17]), float(summary[18])))
+def _c_switches(extras: np.ndarray) -> Switches:
+    """The summary's entries after the counters: the number of switches, the spans of t of dop853
+    and radau5, then the times of the first SWITCH_TIMES switches."""
+    count = int(extras[0])
+    times = tuple(float(t) for t in extras[3:3 + min(count, SWITCH_TIMES)])
+    return Switches(("dop853", "radau5"), count, times, (float(extras[1]), float(extras[2])))
 
 
 def _interruptible(library: ctypes.CDLL, call: Callable[[], int], plan: ScenePlan,
@@ -147,11 +174,12 @@ def _interruptible(library: ctypes.CDLL, call: Callable[[], int], plan: ScenePla
             done.set()
 
     threading.Thread(target=work, name="lagdsl-c-run", daemon=True).start()
-    # Plain sleeps, not join(timeout): a KeyboardInterrupt inside Thread.join can leave the
-    # thread looking finished while it still runs.
+    # Waits on the event, not join(timeout): a KeyboardInterrupt inside Thread.join can leave
+    # the thread looking finished while it still runs. The wait ends as soon as the run does, so
+    # a run of milliseconds does not wait out a poll interval.
     while not done.is_set():
         try:
-            clock.sleep(POLL_SECONDS)
+            done.wait(POLL_SECONDS)
         except KeyboardInterrupt:
             interrupt.value = 1
         if progress is not None:
@@ -167,6 +195,10 @@ def load_module(source: GeneratedSource):
     key = hashlib.sha256(source.text.encode()).hexdigest()[:20]
     path = cache_directory() / f"{source.suggested_name}_{key}.py"
     if not path.exists():
+        try:
+            compile(source.text, str(path), "exec")     # never cache a module that cannot load
+        except SyntaxError as error:
+            raise InternalError(f"the generated Python does not parse: {error}") from None
         write_atomically(path, source.text)
     spec = importlib.util.spec_from_file_location(f"lagdsl_generated_{key}", path)
     module = importlib.util.module_from_spec(spec)
@@ -174,13 +206,14 @@ def load_module(source: GeneratedSource):
     return module
 
 
-def run_numpy(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress: Progress | None = None) -> Result:
+def run_numpy(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress: Progress | None = None,
+              loaded=None) -> Result:
     if plan.integrator.name == "auto" and plan.constraints:
         # the solver restarts after every projection, and LSODA restarts at order 1
         raise LagError("auto on the NumPy backend is scipy's LSODA, which restarts at order 1 after every "
                        "projection onto the constraints and crawls; use --backend c, or --integrator dop853 "
                        "or radau5", plan.integrator.span)
-    module = load_module(source)
+    module = loaded if loaded is not None else load(source)
     par = np.array(plan.parameters, dtype=float)
     times = output_times(plan)
     y0 = np.array(plan.initial_state, dtype=float)
@@ -198,7 +231,9 @@ def run_numpy(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress
                            plan, counts, elapsed, projection)
     if failure is not None:
         status, t_fail, y_fail = failure
-        raise _failure(plan, status, t_fail, y_fail, result)
+        with np.errstate(all="ignore"):
+            rcond = float(module.reciprocal_condition(t_fail, y_fail, par))
+        raise _failure(plan, status, t_fail, y_fail, result, rcond)
     return result
 
 
@@ -214,10 +249,10 @@ def _numpy_result(module, par, times, states, plan, counts, elapsed, projection)
     if plan.constraints and len(times):
         g, c, _ = module.constraint_rows(par, times, Y)
         residual = float(max(np.max(np.abs(g), initial=0.0), np.max(np.abs(c), initial=0.0)))
-    summary = RunSummary("numpy", plan.integrator.name, counts.get("accepted"), counts.get("rejected"),
-                         counts.get("rhs_evals", 0), counts.get("jac_evals", 0), counts.get("lu_decomps", 0),
-                         elapsed, invariants, plan.constraints, residual, projection if plan.constraints else None,
-                         counts.get("stiffness"), counts.get("switches"))
+    kept = tuple((name, int(counts[name])) for name in COUNTERS[plan.integrator.name]
+                 if counts.get(name) is not None)
+    summary = RunSummary("numpy", plan.integrator.name, kept, elapsed, invariants, plan.constraints, residual,
+                         projection if plan.constraints else None, counts.get("stiffness"), counts.get("switches"))
     return Result(np.asarray(times, dtype=float), plan.columns, np.asarray(values, dtype=float), summary)
 
 
@@ -245,10 +280,11 @@ def _run_scipy(module, par, times, y0, plan, progress):
     counts = {"accepted": 0, "rejected": None, "rhs_evals": 0, "jac_evals": 0, "lu_decomps": 0}
     watch = _StepWatch(method.__name__, counts)
     states = [y0]
-    solver = start(times[0], y0)
+    solver = None
     span = times[-1] - times[0]
     k = 1
     try:
+        solver = start(times[0], y0)            # evaluates the right-hand side at y0
         while k < len(times):
             if counts["accepted"] >= plan.max_steps:
                 return states, watch.finish(_tally(counts, solver)), (4, solver.t, solver.y)
@@ -275,6 +311,8 @@ def _run_scipy(module, par, times, y0, plan, progress):
                 proposed = getattr(solver, "h_abs", solver.step_size)
                 solver = start(solver.t, projected, first_step=min(proposed, times[-1] - solver.t))
     except np.linalg.LinAlgError:
+        if solver is None:
+            return states, counts, (1, times[0], y0)
         return states, watch.finish(_tally(counts, solver)), (1, solver.t, solver.y)
     except KeyboardInterrupt:
         return states, watch.finish(_tally(counts, solver)), (INTERRUPTED, solver.t, solver.y)

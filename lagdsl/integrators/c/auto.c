@@ -34,6 +34,11 @@
 
 enum lag_auto_method { LAG_AUTO_EXPLICIT, LAG_AUTO_IMPLICIT };
 
+/* The counters of both methods together. */
+typedef struct lag_stats {
+    long accepted, rejected, rhs_evals, jac_evals, lu_decomps, newton_iters;
+} lag_stats;
+
 typedef struct lag_switches {
     long count;
     real at[LAG_AUTO_LOGGED];      /* times of the first switches; even entries are to radau5 */
@@ -61,7 +66,14 @@ typedef struct lag_stepper {
     radau5_stepper implicit_method;
 } lag_stepper;
 
-static void auto_add_counters(lag_stats *sum, const lag_stats *part)
+static void auto_add_explicit(lag_stats *sum, const dop853_stats *part)
+{
+    sum->accepted += part->accepted;
+    sum->rejected += part->rejected;
+    sum->rhs_evals += part->rhs_evals;
+}
+
+static void auto_add_implicit(lag_stats *sum, const radau5_stats *part)
 {
     sum->accepted += part->accepted;
     sum->rejected += part->rejected;
@@ -74,7 +86,6 @@ static void auto_add_counters(lag_stats *sum, const lag_stats *part)
 /* The public fields from the method that took the last step, the counters of both. */
 static void auto_sync(lag_stepper *s)
 {
-    const lag_stats *explicit_stats = &s->explicit_method.stats, *implicit_stats = &s->implicit_method.stats;
     if (s->last == LAG_AUTO_EXPLICIT) {
         s->t = s->explicit_method.t;
         s->t_old = s->explicit_method.t_old;
@@ -86,8 +97,8 @@ static void auto_sync(lag_stepper *s)
     }
     s->h = s->method == LAG_AUTO_EXPLICIT ? s->explicit_method.h : s->implicit_method.h;
     s->stats = s->finished;
-    auto_add_counters(&s->stats, explicit_stats);
-    auto_add_counters(&s->stats, implicit_stats);
+    auto_add_explicit(&s->stats, &s->explicit_method.stats);
+    auto_add_implicit(&s->stats, &s->implicit_method.stats);
 }
 
 /* Start `method` at (s->t, s->y) with the first step h0, within what is left of max_steps. */
@@ -100,10 +111,10 @@ static int auto_start(lag_stepper *s, int method, real h0)
         options.max_steps = options.max_steps > used ? options.max_steps - used : 1;
     s->method = method;
     if (method == LAG_AUTO_EXPLICIT) {
-        auto_add_counters(&s->finished, &s->explicit_method.stats);
+        auto_add_explicit(&s->finished, &s->explicit_method.stats);
         return dop853_stepper_init(&s->explicit_method, s->sys, s->t, s->y, s->t_end, &options);
     }
-    auto_add_counters(&s->finished, &s->implicit_method.stats);
+    auto_add_implicit(&s->finished, &s->implicit_method.stats);
     s->calm_steps = 0;
     return radau5_stepper_init(&s->implicit_method, s->sys, s->t, s->y, s->t_end, &options);
 }

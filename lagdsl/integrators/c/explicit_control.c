@@ -13,6 +13,16 @@
  * Integration runs forward only (t_end > t0), as the driver does.
  */
 
+/* Work counters of dopri5 and dop853, printed by the run summary; and the stiffness test's
+ * verdict: stiff = 1 once it has fired, at stiff_time, when the counters stood at
+ * stiff_accepted, stiff_rejected, stiff_rhs_evals (lag_stiffness_record below). */
+typedef struct lag_stats {
+    long accepted, rejected, rhs_evals;
+    int stiff;
+    real stiff_time;
+    long stiff_accepted, stiff_rejected, stiff_rhs_evals;
+} lag_stats;
+
 typedef struct lag_control {
     real rtol, atol;
     real t_end;      /* no step goes past it; the last one lands on it exactly */
