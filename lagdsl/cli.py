@@ -9,13 +9,12 @@ import argparse
 import os
 import sys
 
-from pathlib import Path
 
 from . import __version__
 from .api import load
 from .errors import LagError, SimulationError
 from .present import describe_model, format_equations
-from .run.output import write_atomically
+from .run.output import check_writable, write_output
 from .scene import Overrides
 
 
@@ -77,7 +76,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--atol", type=float, help="absolute tolerance (adaptive integrators)")
     run.add_argument("--step", type=float, help="step size (rk4, gauss)")
     run.add_argument("--stages", type=int, help="number of stages (gauss)")
-    run.add_argument("-o", "--output", help="write the CSV here (atomically) instead of standard output")
+    run.add_argument("-o", "--output", help="write the CSV here instead of standard output")
     run.set_defaults(handler=_run)
 
     emit = commands.add_parser("emit", help="write the generated source: lagc MODEL --emit c|numpy [-o FILE]")
@@ -113,6 +112,8 @@ def _overrides(arguments) -> Overrides:
 
 def _run(arguments) -> int:
     model = load(arguments.model)
+    if arguments.output:
+        check_writable(arguments.output)      # refuse before the run, not after it
     try:
         result = model.simulate_plan(arguments.scene, arguments.backend, _overrides(arguments))
     except SimulationError as error:
@@ -130,9 +131,9 @@ def _emit(arguments) -> int:
 
 
 def _deliver(text: str, output: str | None) -> None:
-    """To the -o file (atomically), or to standard output."""
+    """To the -o file (see `write_output`), or to standard output."""
     if output:
-        write_atomically(Path(output), text)
+        write_output(output, text)
     else:
         sys.stdout.write(text)
 

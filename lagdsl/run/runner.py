@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import ctypes
 import hashlib
+import importlib.abc
 import importlib.util
 import time as clock
 from pathlib import Path
@@ -16,11 +17,12 @@ import numpy as np
 
 from ..codegen import GeneratedSource
 from ..codegen.kernel import Kernel
-from ..errors import SimulationError
+from ..errors import LagError, SimulationError
 from ..integrators.python.fixed_step import IntegrationFailure, integrate_gauss, integrate_rk4
 from ..scene import ScenePlan
-from .output import Result, RunSummary, write_atomically
-from .toolchain import cache_directory, shared_library
+from .cache import cached_entry
+from .output import Result, RunSummary
+from .toolchain import shared_library
 
 STATUS = {
     1: ("the mass matrix is singular at this state",
@@ -62,7 +64,7 @@ def _failure(plan: ScenePlan, status: int, t_fail: float, y_fail, partial: Resul
 
 # ---- C ---------------------------------------------------------------------------------------
 def run_c(kernel: Kernel, source: GeneratedSource, plan: ScenePlan) -> Result:
-    library = ctypes.CDLL(str(shared_library(source.text, source.suggested_name)))
+    library = _load_library(shared_library(source.text, source.suggested_name))
     entry = library.lag_run
     double_p = ctypes.POINTER(ctypes.c_double)
     entry.argtypes = [double_p, double_p, double_p, double_p, ctypes.c_long, double_p]
@@ -94,17 +96,43 @@ def run_c(kernel: Kernel, source: GeneratedSource, plan: ScenePlan) -> Result:
     return result
 
 
+def _load_library(path: Path) -> ctypes.CDLL:
+    try:
+        return ctypes.CDLL(str(path))
+    except OSError as error:
+        # The cache entry was verified, so this is the system refusing it (a cache directory on a
+        # file system mounted noexec, say); ctypes gives dlopen's message without an errno.
+        raise LagError(f"cannot load the compiled model '{path}': {error}") from None
+
+
 # ---- NumPy -----------------------------------------------------------------------------------
 def load_module(source: GeneratedSource):
-    """Import generated NumPy code from the cache (written once per content hash)."""
-    key = hashlib.sha256(source.text.encode()).hexdigest()[:20]
-    path = cache_directory() / f"{source.suggested_name}_{key}.py"
-    if not path.exists():
-        write_atomically(path, source.text)
-    spec = importlib.util.spec_from_file_location(f"lagdsl_generated_{key}", path)
+    """Import generated NumPy code; it is kept in the build cache so that tracebacks point at a file.
+
+    The module is executed from the generated text itself (the cache entry is verified to hold the
+    same bytes), and no bytecode is written beside it: a damaged .pyc could not be told apart.
+    """
+    key = hashlib.sha256(source.text.encode()).hexdigest()
+    path = cached_entry(f"{source.suggested_name}_{key[:20]}.py", key,
+                        lambda entry: entry.write_text(source.text, encoding="utf-8"))
+    spec = importlib.util.spec_from_file_location(f"lagdsl_generated_{key[:20]}", path,
+                                                  loader=_GeneratedLoader(source.text, path))
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+class _GeneratedLoader(importlib.abc.InspectLoader):
+    """Loads a module from text held in memory, compiled under the name of its file in the cache."""
+
+    def __init__(self, text: str, path: Path):
+        self.text, self.path = text, path
+
+    def get_source(self, fullname: str) -> str:
+        return self.text
+
+    def get_code(self, fullname: str):
+        return self.source_to_code(self.text, str(self.path))
 
 
 def run_numpy(kernel: Kernel, source: GeneratedSource, plan: ScenePlan) -> Result:
