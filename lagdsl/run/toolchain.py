@@ -14,7 +14,7 @@ import subprocess
 import tempfile
 from pathlib import Path
 
-from ..errors import LagError
+from ..errors import InternalError, LagError
 from .cache import cached_entry
 
 STRICT_FLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic")
@@ -38,8 +38,7 @@ def compile_c(source: str, output: Path, flags=STRICT_FLAGS, compiler: str | Non
         result = subprocess.run([compiler, *flags, str(source_path), "-o", str(output), "-lm"],
                                 capture_output=True, text=True)
         if result.returncode != 0:
-            raise RuntimeError(f"internal error in lagdsl, please report: the generated C did not compile\n"
-                               f"{result.stderr}")
+            raise InternalError(f"the generated C did not compile\n{result.stderr}")
 
 
 def shared_library(source: str, stem: str) -> Path:
