@@ -22,6 +22,11 @@ IMPLICIT_INTEGRATORS = ("radau5",)
 BUILTIN_OBSERVABLES = ("energy", "momentum", "multiplier", "residual")
 
 
+def multiplier_symbol(constraint: str) -> sympy.Symbol:
+    """λ of a constraint, as it stands in output expressions and in the equations' display."""
+    return sympy.Symbol(f"λ[{constraint}]", real=True)
+
+
 @dataclass(frozen=True)
 class Unit:
     """A physical unit as written, `[m/s^2]`, and as base factors {m: 1, s: -2}."""

@@ -169,8 +169,12 @@ def _initial_state(model: ir.Model, parameters, initial: dict) -> tuple[float, .
 
 
 def _check_outputs(outputs, equations: Equations) -> None:
-    active = {c.name for c in equations.active_constraints}
+    """multiplier(c), alone or in an expression, needs c to be active (it has a multiplier)."""
+    dropped = {ir.multiplier_symbol(c.name): c.name for c in equations.constraints if c.dropped}
     for request in outputs:
-        if request.kind == "multiplier" and request.target not in active:
-            raise LagError(f"constraint '{request.target}' is identically satisfied by the coordinates "
+        used = {request.target} if request.kind == "multiplier" else set()
+        if request.kind == "expression":
+            used |= {dropped[s] for s in request.expression.free_symbols & dropped.keys()}
+        for name in sorted(used & set(dropped.values())):
+            raise LagError(f"constraint '{name}' is identically satisfied by the coordinates "
                            "and was dropped, so it has no multiplier", request.span)

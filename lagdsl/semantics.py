@@ -56,6 +56,8 @@ def expressions_of(node: lark.Tree) -> list:
 
 
 class _ScopeWithPoison(Scope):
+    """A scope in which names whose declaration failed, and outputs not yet built, are refused."""
+
     def lookup(self, name, span):
         binding = super().lookup(name, span)
         if binding.kind == "invalid":
@@ -64,11 +66,6 @@ class _ScopeWithPoison(Scope):
             raise LagError(f"'{name}' is an output (line {binding.span.line}); only later outputs and "
                            "scenes can use it", span)
         return binding
-
-    def child(self, **loops):
-        scope = _ScopeWithPoison(self.bindings)
-        scope.bindings.update({k: Binding("loop", None, sympy.Integer(v)) for k, v in loops.items()})
-        return scope
 
 
 class _ModelBuilder:
@@ -110,9 +107,10 @@ class _ModelBuilder:
                 self.errors.attempt(first_pass[declaration.data], declaration)
             elif declaration.data in later:
                 self.declare_later_name(declaration)
-        for declaration in declarations:
-            if declaration.data in later:
-                self.errors.attempt(later[declaration.data], declaration)
+        # Outputs last: they may use multiplier(c) of every constraint, and the equations may
+        # not use an output (it could hold a multiplier).
+        for declaration in sorted((d for d in declarations if d.data in later), key=lambda d: d.data == "output"):
+            self.errors.attempt(later[declaration.data], declaration)
         lagrangian = self.errors.attempt(self.lagrangian, node, name)
         self.resolve_structural()
         for declaration in declarations:
@@ -426,7 +424,7 @@ class _ModelBuilder:
     def output(self, node):
         token = tokens(node, "NAME")[0]
         body = expressions_of(node)[0]
-        value = self.guarded(token, lambda: self.expr.scalar(body, self.scope, "a scalar output"))
+        value = self.guarded(token, lambda: self.expr.scalar(body, self.output_scope(), "a scalar output"))
         self.scope.bindings[str(token)] = Binding("output", self.span(token), value)
         self.outputs.append(ir.Output(str(token), value, self.unit(node), self.description(node),
                                       self.span(token)))
@@ -545,8 +543,20 @@ class _ModelBuilder:
             if len(items) != 1 or items[0].data not in ("name", "index"):
                 raise LagError(f"{kind}() takes one {'coordinate' if kind == 'momentum' else 'constraint'} name", span)
             return ir.OutputRequest(column, kind, None, self.target_name(kind, items[0]), span)
-        value = self.expr.scalar(node, self.scope, "a scalar output")
+        value = self.expr.scalar(node, self.output_scope(), "a scalar output")
         return ir.OutputRequest(column, "expression", value, None, span)
+
+    def output_scope(self) -> Scope:
+        """The model's names, and multiplier(c) of its constraints: λ, solved for with q''."""
+        return _ScopeWithPoison(self.scope.bindings, self.observable)
+
+    def observable(self, kind: str, arguments: list, span: Span) -> sympy.Symbol:
+        if kind != "multiplier":
+            raise LagError(f"{kind}(...) is output on its own in a scene's output list (output x, {kind}(...);); "
+                           "it cannot be part of an expression", span)
+        if len(arguments) != 1 or arguments[0].data not in ("name", "index"):
+            raise LagError("multiplier() takes one constraint name", span)
+        return ir.multiplier_symbol(self.target_name(kind, arguments[0]))
 
     def target_name(self, kind: str, node) -> str:
         token = node.children[0]
