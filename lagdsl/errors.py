@@ -16,13 +16,23 @@ from .source import Span
 
 
 @dataclass(frozen=True)
+class Setting:
+    """Where a value given outside the model file came from: a `lagc run` option such as
+    "--rtol" or "--integrator gauss" (the simulate() arguments of the same names)."""
+
+    option: str
+
+
+@dataclass(frozen=True)
 class Diagnostic:
     message: str
-    span: Span | None
+    span: Span | Setting | None
 
     def render(self) -> str:
         if self.span is None:
             return f"error: {self.message}"
+        if isinstance(self.span, Setting):
+            return f"lagc: error: {self.span.option}: {self.message}"
         span = self.span
         line = span.source.line(span.line)
         width = max(1, min(span.end - span.start, len(line) - span.column + 1))
@@ -34,7 +44,7 @@ class Diagnostic:
 class LagError(Exception):
     """One or more errors in a model, each with its location."""
 
-    def __init__(self, message: str, span: Span | None = None):
+    def __init__(self, message: str, span: Span | Setting | None = None):
         self.diagnostics: tuple[Diagnostic, ...] = (Diagnostic(message, span),)
         super().__init__(message)
 

@@ -14,6 +14,7 @@ from fractions import Fraction
 
 import sympy
 
+from .errors import Setting
 from .source import Span
 
 TIME = sympy.Symbol("t", real=True)
@@ -132,7 +133,7 @@ class TimeGrid:
 class IntegratorChoice:
     name: str
     options: tuple[tuple[str, float], ...]
-    span: Span | None
+    span: Span | Setting | None        # Setting: chosen on the command line (--integrator)
 
 
 @dataclass(frozen=True)

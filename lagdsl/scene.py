@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 import sympy
 
 from . import ir
-from .errors import LagError
+from .errors import LagError, Setting
 from .expressions import suggest
 from .mechanics import Equations
 from .semantics import DEFAULT_INTEGRATOR, DEFAULT_TIME, INTEGRATOR_OPTIONS, validate_integrator
@@ -110,17 +110,26 @@ def _time(time: ir.TimeGrid, overrides: Overrides) -> ir.TimeGrid:
 
 
 def _integrator(choice: ir.IntegratorChoice, overrides: Overrides) -> ir.IntegratorChoice:
+    """The scene's integrator with the overrides applied.
+
+    Another method (`--integrator`) keeps the scene's settings that it has too: the tolerances
+    of dop853 carry over to radau5, the step of gauss to rk4. Errors in a value given as an
+    override point at its option, not at the scene.
+    """
     name = overrides.integrator or choice.name
+    chosen = Setting(f"--integrator {name}") if overrides.integrator else choice.span
     if name not in ir.INTEGRATORS:
         raise LagError(f"unknown integrator '{name}'{suggest(name, ir.INTEGRATORS)} "
-                       f"(available: {', '.join(ir.INTEGRATORS)})")
+                       f"(available: {', '.join(ir.INTEGRATORS)})", chosen)
     allowed = INTEGRATOR_OPTIONS[name]
-    values = {k: v for k, v in choice.options if k in allowed} if name == choice.name else {}
+    values = {k: v for k, v in choice.options if k in allowed}
+    origins: dict[str, Setting] = {}
     for key, value in overrides.options:
+        origins[key] = Setting(f"--{key}")
         if key not in allowed:
-            raise LagError(f"{name} has no option '{key}' (options: {', '.join(allowed)})")
+            raise LagError(f"{name} has no option '{key}' (options: {', '.join(allowed)})", origins[key])
         values[key] = value
-    return validate_integrator(name, values, choice.span)
+    return validate_integrator(name, values, chosen, origins)
 
 
 def _apply_override(model: ir.Model, name: str, value: float, set_values: dict, initial: dict) -> None:

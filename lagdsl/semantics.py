@@ -13,7 +13,7 @@ import sympy
 
 from . import ir
 from .calculus import TIME_DIRECTION, Differentiator
-from .errors import ErrorCollector, InternalError, LagError
+from .errors import ErrorCollector, InternalError, LagError, Setting
 from .expressions import KIND_WORDS, MAX_MEMBERS, Binding, ExpressionBuilder, Scope, Vector, number_value, suggest
 from .source import SourceFile, Span
 from .units import parse_unit
@@ -500,7 +500,7 @@ class _ModelBuilder:
                            f"(available: {', '.join(ir.INTEGRATORS)})", self.span(token))
         options = self.modifiers(node, INTEGRATOR_OPTIONS[name], f"integrator {name}")
         values = {k: self.parameter_value(v, k) for k, v in options.items()}
-        return validate_integrator(name, values, self.span(node))
+        return validate_integrator(name, values, self.span(node), {k: self.span(v) for k, v in options.items()})
 
     def scene_set(self, node):
         token = tokens(node, "NAME")[0]
@@ -590,17 +590,24 @@ def _position(diagnostic) -> tuple[int, int]:
     return (0, diagnostic.span.start) if diagnostic.span is not None else (1, 0)
 
 
-def validate_integrator(name: str, values: dict[str, float], span: Span | None) -> ir.IntegratorChoice:
-    """Check and complete an integrator's options (defaults: rtol 1e-8, atol 1e-10, 2 stages)."""
+def validate_integrator(name: str, values: dict[str, float], span: Span | Setting | None,
+                        origins: dict[str, Span | Setting] | None = None) -> ir.IntegratorChoice:
+    """Check and complete an integrator's options (defaults: rtol 1e-8, atol 1e-10, 2 stages).
+
+    `span` is where the integrator was chosen, `origins` where each option's value was given
+    (in the scene, or a command-line option): errors point there.
+    """
+    origins = origins or {}
     for key, value in values.items():
         if not value > 0:
-            raise LagError(f"{name}({key} = ...) must be positive", span)
+            raise LagError(f"{name}({key} = {value:g}) must be positive", origins.get(key, span))
     if name in ("rk4", "gauss") and "step" not in values:
-        raise LagError(f"{name} is a fixed-step method and needs a step: {name}(step = 0.001)", span)
+        example = "--step 0.001" if isinstance(span, Setting) else f"{name}(step = 0.001)"
+        raise LagError(f"{name} is a fixed-step method and needs a step: {example}", span)
     if name == "gauss":
         stages = values.setdefault("stages", 2)
         if stages != int(stages) or not 1 <= stages <= 6:
-            raise LagError("gauss(stages = s) takes s = 1 to 6", span)
+            raise LagError("gauss(stages = s) takes s = 1 to 6", origins.get("stages", span))
     if name in ("dopri5", "dop853", "radau5"):
         values.setdefault("rtol", 1e-8)
         values.setdefault("atol", 1e-10)

@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
+SETTINGS_ORDER = ("rtol", "atol", "step", "max_step", "stages")
+
 
 @dataclass(frozen=True)
 class RunSummary:
@@ -25,6 +27,7 @@ class RunSummary:
     constraints: tuple[str, ...]
     residual_max: float | None
     projection_start: float | None                      # how far the initial state was projected
+    settings: tuple[tuple[str, float], ...] = ()        # the integrator's options as used
 
     def render(self) -> str:
         counts = [f"{self.accepted} steps accepted" if self.accepted is not None else None,
@@ -32,7 +35,7 @@ class RunSummary:
                   f"{self.rhs_evals} right-hand sides"]
         if self.jac_evals:
             counts.append(f"{self.jac_evals} Jacobians, {self.lu_decomps} LU")
-        lines = [f"integrator {self.integrator} ({self.backend}): "
+        lines = [f"integrator {self.integrator}({self.settings_text()}) ({self.backend}): "
                  + ", ".join(c for c in counts if c) + f", {self.wall_time:.3g} s"]
         for name, start, drift in self.invariants:
             relative = f", relative {drift / abs(start):.3g}" if start != 0 else ""
@@ -42,6 +45,11 @@ class RunSummary:
             if self.projection_start:
                 lines.append(f"the initial state was moved by {self.projection_start:.3g} onto the constraints")
         return "\n".join(lines)
+
+    def settings_text(self) -> str:
+        """"rtol = 1e-10, atol = 1e-12" or "step = 0.01, stages = 2", as in a scene."""
+        values = dict(self.settings)
+        return ", ".join(f"{key} = {values[key]:g}" for key in SETTINGS_ORDER if key in values)
 
 
 @dataclass(frozen=True)

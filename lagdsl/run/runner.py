@@ -19,7 +19,7 @@ from ..codegen.kernel import Kernel
 from ..errors import SimulationError
 from ..integrators.python.fixed_step import IntegrationFailure, integrate_gauss, integrate_rk4
 from ..scene import ScenePlan
-from .output import Result, RunSummary, write_atomically
+from .output import SETTINGS_ORDER, Result, RunSummary, write_atomically
 from .toolchain import cache_directory, shared_library
 
 STATUS = {
@@ -38,7 +38,6 @@ STATUS = {
     6: ("projection onto the constraints did not converge",
         "the constraints may be singular at this state; check the initial values"),
 }
-SETTINGS_ORDER = ("rtol", "atol", "step", "max_step", "stages")
 SCIPY_METHODS = {"dopri5": "RK45", "dop853": "DOP853", "radau5": "Radau"}
 
 
@@ -87,7 +86,7 @@ def run_c(kernel: Kernel, source: GeneratedSource, plan: ScenePlan) -> Result:
     report = RunSummary("c", plan.integrator.name, int(summary[3]), int(summary[4]), int(summary[5]),
                         int(summary[6]), int(summary[7]), elapsed, invariants, plan.constraints,
                         float(summary[9]) if plan.constraints else None,
-                        float(summary[10]) if plan.constraints else None)
+                        float(summary[10]) if plan.constraints else None, plan.integrator.options)
     result = Result(rows[:used, 0].copy(), plan.columns, rows[:used, 1:].copy(), report)
     if status != 0:
         raise _failure(plan, status, float(summary[2]), summary[11 + 2 * len(plan.invariants):], result)
@@ -144,7 +143,8 @@ def _numpy_result(module, par, times, states, plan, counts, elapsed, projection)
         residual = float(max(np.max(np.abs(g), initial=0.0), np.max(np.abs(c), initial=0.0)))
     summary = RunSummary("numpy", plan.integrator.name, counts.get("accepted"), counts.get("rejected"),
                          counts.get("rhs_evals", 0), counts.get("jac_evals", 0), counts.get("lu_decomps", 0),
-                         elapsed, invariants, plan.constraints, residual, projection if plan.constraints else None)
+                         elapsed, invariants, plan.constraints, residual, projection if plan.constraints else None,
+                         plan.integrator.options)
     return Result(np.asarray(times, dtype=float), plan.columns, np.asarray(values, dtype=float), summary)
 
 

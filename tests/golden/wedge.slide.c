@@ -668,8 +668,10 @@ int main(int argc, char **argv)
     fputc('\n', stdout);
     clock_start = clock();
     status = lag_integrate(&sys, y0, t0, t1, dt, &options, lag_print_row, NULL, &report);
-    fprintf(stderr, "integrator %s: %ld steps accepted, %ld rejected, %ld right-hand sides",
-            LAG_INTEGRATOR_NAME, report.stats.accepted, report.stats.rejected, report.stats.rhs_evals);
+    fprintf(stderr, "integrator %s(", LAG_INTEGRATOR_NAME);    /* the options as used, as in a scene */
+    fprintf(stderr, "step = %g", (double)options.step);
+    fprintf(stderr, "): %ld steps accepted, %ld rejected, %ld right-hand sides",
+            report.stats.accepted, report.stats.rejected, report.stats.rhs_evals);
     if (report.stats.jac_evals > 0)
         fprintf(stderr, ", %ld Jacobians, %ld LU", report.stats.jac_evals, report.stats.lu_decomps);
     fprintf(stderr, ", %.3g s CPU\n", (double)(clock() - clock_start) / CLOCKS_PER_SEC);
