@@ -8,6 +8,8 @@ later uses of it do not produce follow-on errors.
 """
 from __future__ import annotations
 
+import math
+
 import lark
 import sympy
 
@@ -599,8 +601,8 @@ def validate_integrator(name: str, values: dict[str, float], span: Span | Settin
     """
     origins = origins or {}
     for key, value in values.items():
-        if not value > 0:
-            raise LagError(f"{name}({key} = {value:g}) must be positive", origins.get(key, span))
+        if not 0 < value < math.inf:
+            raise LagError(f"{name}({key} = {value:g}) must be positive and finite", origins.get(key, span))
     if name in ("rk4", "gauss") and "step" not in values:
         example = "--step 0.001" if isinstance(span, Setting) else f"{name}(step = 0.001)"
         raise LagError(f"{name} is a fixed-step method and needs a step: {example}", span)

@@ -40,7 +40,7 @@ class RunSummary:
         for name, start, drift in self.invariants:
             relative = f", relative {drift / abs(start):.3g}" if start != 0 else ""
             lines.append(f"drift of {name}: {drift:.3g} (from {start:.17g}{relative})")
-        if self.constraints:
+        if self.constraints and self.residual_max is not None:      # None: no row was computed
             lines.append(f"largest constraint residual ({', '.join(self.constraints)}): {self.residual_max:.3g}")
             if self.projection_start:
                 lines.append(f"the initial state was moved by {self.projection_start:.3g} onto the constraints")

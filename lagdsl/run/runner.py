@@ -10,6 +10,7 @@ import ctypes
 import hashlib
 import importlib.util
 import time as clock
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -38,6 +39,7 @@ STATUS = {
     6: ("projection onto the constraints did not converge",
         "the constraints may be singular at this state; check the initial values"),
 }
+PROJECTION_FAILED = 6
 SCIPY_METHODS = {"dopri5": "RK45", "dop853": "DOP853", "radau5": "Radau"}
 
 
@@ -107,26 +109,52 @@ def load_module(source: GeneratedSource):
 
 
 def run_numpy(kernel: Kernel, source: GeneratedSource, plan: ScenePlan) -> Result:
+    """Integrate with the generated module; it fails as the C driver does (the same statuses).
+
+    numpy's floating-point warnings are silenced: overflow and NaN are found by checking the
+    states, and reported as a SimulationError like every other failure.
+    """
     module = load_module(source)
     par = np.array(plan.parameters, dtype=float)
     times = output_times(plan)
-    y0 = np.array(plan.initial_state, dtype=float)
-    projection = 0.0
-    if plan.constraints:
-        y0, projection = project(module, par, times[0], y0)
-    started = clock.perf_counter()
-    name = plan.integrator.name
-    if name in SCIPY_METHODS:
-        states, counts, failure = _run_scipy(module, par, times, y0, plan)
-    else:
-        states, counts, failure = _run_fixed_step(module, par, times, y0, plan)
-    elapsed = clock.perf_counter() - started
-    result = _numpy_result(module, par, times[:len(states)], np.array(states).reshape(len(states), -1),
-                           plan, counts, elapsed, projection)
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        y0, projection, failure = _start(module, par, times[0], np.array(plan.initial_state, dtype=float), plan)
+        # As in the C driver, the initial row is written unless y0 could not be projected.
+        states = [y0] if failure is not None and failure[0] != PROJECTION_FAILED else []
+        counts, elapsed = {}, 0.0
+        if failure is None:
+            integrate = _run_scipy if plan.integrator.name in SCIPY_METHODS else _run_fixed_step
+            started = clock.perf_counter()
+            states, counts, failure = integrate(module, par, times, y0, plan)
+            elapsed = clock.perf_counter() - started
+        result = _numpy_result(module, par, times[:len(states)], np.array(states).reshape(len(states), len(y0)),
+                               plan, counts, elapsed, projection)
     if failure is not None:
         status, t_fail, y_fail = failure
         raise _failure(plan, status, t_fail, y_fail, result)
     return result
+
+
+def _start(module, par, t0, y0, plan):
+    """(y0 projected onto the constraints, how far it moved, failure or None): the initial
+    state must be finite, the constraints regular and the system for q'' regular there."""
+    if not np.all(np.isfinite(y0)):
+        return y0, 0.0, (2, t0, y0)
+    moved = 0.0
+    try:
+        if plan.constraints:
+            y0, moved = project(module, par, t0, y0)
+    except np.linalg.LinAlgError:
+        return y0, 0.0, (PROJECTION_FAILED, t0, y0)
+    try:
+        derivative = module.hamilton_rhs(t0, module.to_canonical(t0, y0, par), par) if plan.canonical \
+            else module.rhs(t0, y0, par)
+    except np.linalg.LinAlgError:
+        return y0, moved, (1, t0, y0)
+    if not (np.all(np.isfinite(y0)) and np.all(np.isfinite(derivative))):
+        return y0, moved, (2, t0, y0)
+    return y0, moved, None
 
 
 def _numpy_result(module, par, times, states, plan, counts, elapsed, projection) -> Result:
@@ -164,10 +192,9 @@ def _run_scipy(module, par, times, y0, plan):
                       first_step=first_step, **extra)
 
     counts = {"accepted": 0, "rejected": None, "rhs_evals": 0, "jac_evals": 0, "lu_decomps": 0}
-    states = [y0]
-    solver = start(times[0], y0)
-    k = 1
+    states, solver, k = [y0], None, 1
     try:
+        solver = start(times[0], y0)        # its choice of the first step evaluates the model too
         while k < len(times):
             solver.step()
             if solver.status == "failed":
@@ -188,6 +215,8 @@ def _run_scipy(module, par, times, y0, plan):
                 proposed = getattr(solver, "h_abs", solver.step_size)
                 solver = start(solver.t, projected, first_step=min(proposed, times[-1] - solver.t))
     except np.linalg.LinAlgError:
+        if solver is None:
+            return states, counts, (1, times[0], y0)
         return states, _tally(counts, solver), (1, solver.t, solver.y)
     return states, _tally(counts, solver), None
 
@@ -214,8 +243,6 @@ def _run_fixed_step(module, par, times, y0, plan):
                                        times, y0, options["step"], int(options["stages"]))
     except IntegrationFailure as failure:
         return list(failure.Y[:failure.completed]), {}, (failure.status, failure.t, failure.y)
-    except np.linalg.LinAlgError:
-        return [y0], {}, (1, times[0], y0)
     return list(Y), stats, None
 
 
@@ -227,11 +254,19 @@ def _rk4_projected(module, par, times, y0, step, stop):
         start, end = times[0] + n * step, min(times[0] + (n + 1) * step, stop)
         inside = [t for t in times[k:] if t <= end]
         grid = np.array([start, *inside] + ([] if inside and inside[-1] == end else [end]))
-        Y, counts = integrate_rk4(lambda t, x: module.rhs(t, x, par), grid, y, end - start)
-        rows.extend(project(module, par, t, row)[0] for t, row in zip(inside, Y[1:1 + len(inside)]))
+        try:
+            Y, counts = integrate_rk4(lambda t, x: module.rhs(t, x, par), grid, y, end - start)
+            projected = [project(module, par, t, row)[0] for t, row in zip(inside, Y[1:1 + len(inside)])]
+            y_end, _ = project(module, par, end, Y[-1])
+        except IntegrationFailure as failure:       # with the rows of this run, not of the one step
+            raise IntegrationFailure(str(failure), failure.t, failure.y, np.array(rows), len(rows),
+                                     failure.status) from None
+        except np.linalg.LinAlgError:
+            raise IntegrationFailure("projection failed", start, y, np.array(rows), len(rows), 6) from None
+        rows.extend(projected)
         for key in stats:
             stats[key] += counts.get(key, 0)
-        y, _ = project(module, par, end, Y[-1])
+        y = y_end
         k, n = k + len(inside), n + 1
     return np.array(rows), stats
 
