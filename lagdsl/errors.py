@@ -3,8 +3,9 @@
 - `LagError`: the model is wrong. It carries one or more located diagnostics and is rendered
   as `file:line:column: error: message`, the source line and a caret. The command line prints
   it and exits 1, never with a traceback.
-- `SimulationError`: the numbers failed (singular mass matrix, step-size collapse, NaN). It
-  names the time, the state and a remedy, and keeps the results computed so far.
+- `SimulationError`: the numbers failed (singular mass matrix, step-size collapse, NaN, the
+  step limit). It names the time, the state and a remedy, and keeps the results computed so
+  far. `SimulationInterrupted` is the same for a run stopped by Ctrl-C.
 - `InternalError`: a bug in lagdsl. It keeps its traceback and asks to be reported.
 """
 from __future__ import annotations
@@ -12,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from .escape import visible
 from .source import Span
 
 
@@ -29,16 +31,22 @@ class Diagnostic:
     span: Span | Setting | None
 
     def render(self) -> str:
+        """The diagnostic for the terminal: control characters of the file's name, the message
+        and the source line are shown as escapes (`\\x1b`), the caret under them."""
+        message = "\n".join(visible(line) for line in self.message.split("\n"))
         if self.span is None:
-            return f"error: {self.message}"
+            return f"error: {message}"
         if isinstance(self.span, Setting):
-            return f"lagc: error: {self.span.option}: {self.message}"
+            return f"lagc: error: {self.span.option}: {message}"
         span = self.span
         line = span.source.line(span.line)
+        before = line[:span.column - 1]
         width = max(1, min(span.end - span.start, len(line) - span.column + 1))
-        indent = "".join(c if c == "\t" else " " for c in line[:span.column - 1])   # tabs stay aligned
-        caret = indent.ljust(span.column - 1) + "^" + "~" * (width - 1)
-        return f"{span.source.name}:{span.line}:{span.column}: error: {self.message}\n{line}\n{caret}"
+        marked = visible(line[span.column - 1:span.column - 1 + width])
+        indent = "".join(c if c == "\t" else " " for c in visible(before))   # tabs stay aligned
+        caret = indent + " " * (span.column - 1 - len(before)) + "^" + "~" * (len(marked) - 1)
+        return (f"{visible(span.source.name)}:{span.line}:{span.column}: error: {message}\n"
+                f"{visible(line)}\n{caret}")
 
 
 class LagError(Exception):
@@ -95,6 +103,17 @@ class SimulationError(Exception):
         state = ", ".join(f"{name} = {value:.17g}" for name, value in self.state.items())
         return (f"simulation failed at t = {self.time:.17g}: {self.message}\n"
                 f"  state: {state}\n  remedy: {self.remedy}")
+
+
+class SimulationInterrupted(SimulationError):
+    """The run was stopped by Ctrl-C; `partial` holds the rows computed until then."""
+
+    def render(self) -> str:
+        return f"interrupted at t = {self.time:.17g}"
+
+
+class LagWarning(UserWarning):
+    """A setting lagdsl changed or doubts, e.g. an rtol below what double precision resolves."""
 
 
 class InternalError(Exception):

@@ -28,7 +28,7 @@ def test_another_method_keeps_the_scenes_tolerances():
 def test_option_errors_point_at_the_option():
     cases = [(dict(integrator="gauss", options=(("step", 0.01),)), "lagc: error: --integrator gauss: "
               "the symplectic gauss integrator does not handle constraints; use radau5 or dop853"),
-             (dict(options=(("rtol", -1.0),)), "lagc: error: --rtol: dop853(rtol = -1) must be positive and finite"),
+             (dict(options=(("rtol", -1.0),)), "lagc: error: --rtol: dop853(rtol = ...) must be a finite number >= 0"),
              (dict(integrator="rk4"), "lagc: error: --integrator rk4: rk4 is a fixed-step method and needs "
               "a step: --step 0.001"),
              (dict(options=(("stages", 3.0),)), "lagc: error: --stages: dop853 has no option 'stages' "
