@@ -216,13 +216,15 @@ class ExpressionBuilder:
         return value
 
     def _require_real_number(self, value, node) -> None:
+        self._require_real_constants(value, self.span(node), node.data in FOLDING_NODES)
+
+    def _require_real_constants(self, value, span: Span, folds: bool) -> None:
         """A constant part of an expression must be a finite real double (tan(pi/2) is not, nor
-        the factor 1/1e-310 = 1e310 that m/1e-310 folds into)."""
-        span = self.span(node)
+        the factor 1/1e-310 = 1e310 that m/1e-310 folds into: `folds`, where constants combine)."""
         text = " ".join(span.text.split())
         this = text if len(text) <= 40 else "this constant"
         if not value.is_number:
-            if node.data in FOLDING_NODES and any(abs(n) > MAX_DOUBLE for n in value.atoms(sympy.Rational)):
+            if folds and any(abs(n) > MAX_DOUBLE for n in value.atoms(sympy.Rational)):
                 raise LagError(f"{this} has a constant factor out of the range of double precision", span)
             return
         if value.has(*NON_FINITE):
@@ -301,15 +303,19 @@ class ExpressionBuilder:
 
     def _mul(self, node, scope):
         """A product chain a*b/c*d: at most one factor a vector, no divisor a vector or zero."""
-        numerators, denominators = [], []
+        numerators, denominators, partial = [], [], sympy.S.One
         for factor, divides in _factors(node):
             if divides:
                 divisor = self.scalar(factor, scope, "a scalar divisor")
                 if divisor == 0:
                     raise LagError("division by zero", self.span(factor))
                 denominators.append(divisor)
+                partial /= divisor
             else:
                 numerators.append(self.build(factor, scope))
+                partial *= numerators[-1] if not isinstance(numerators[-1], Vector) else 1
+            # The constants folded so far, reported where they overflow (the tree would: a*b/c is (a*b)/c).
+            self._require_real_constants(partial, self._through(node, factor), True)
         vectors = [value for value in numerators if isinstance(value, Vector)]
         if len(vectors) > 1:
             raise LagError("the product of two vectors is ambiguous; use dot(a, b) or cross(a, b)",
@@ -319,6 +325,11 @@ class ExpressionBuilder:
         return _map(vectors[0], lambda c: c * scale) if vectors else scale
 
     _div = _mul
+
+    def _through(self, node, last) -> Span:
+        """The span from the start of `node` to the end of `last`, a part of it."""
+        start, end = self.span(node), self.span(last)
+        return Span(self.source, start.line, start.column, start.start, end.end)
 
     def _pow(self, node, scope):
         left, _, right = node.children

@@ -32,7 +32,7 @@ def test_option_errors_point_at_the_option():
              (dict(integrator="rk4"), "lagc: error: --integrator rk4: rk4 is a fixed-step method and needs "
               "a step: --step 0.001"),
              (dict(options=(("stages", 3.0),)), "lagc: error: --stages: dop853 has no option 'stages' "
-              "(options: rtol, atol, max_step)"),
+              "(options: rtol, atol, max_step, max_steps)"),
              (dict(integrator="rk5"), "lagc: error: --integrator rk5: unknown integrator 'rk5'; did you "
               "mean 'rk4'? (available: rk4, dopri5, dop853, radau5, gauss)")]
     for overrides, message in cases:
