@@ -59,9 +59,9 @@ def failure(model, backend, **settings) -> SimulationError:
 @pytest.mark.parametrize("backend", ["c", "numpy"])
 def test_singular_mass_matrix_at_the_start(tmp_path, backend):
     error = failure(load(tmp_path, SINGULAR_START), backend)
-    assert error.message == "the mass matrix is singular at this state"
+    assert error.message.startswith("the mass matrix is singular at this state")
     assert error.time == 0 and error.state == {"x": 0, "y": 0, "x'": 1, "y'": 1}
-    assert "start away from the singular configuration" in error.remedy
+    assert "start away from it" in error.remedy
     assert list(error.partial.t) == [0] and list(error.partial.values[0]) == [0, 0]
 
 
@@ -73,7 +73,7 @@ def test_singular_mass_matrix_later_keeps_the_rows_before(tmp_path, backend, int
         assert model.simulate(None, backend, integrator="gauss").t[-1] == 2.0
         return
     error = failure(model, backend)
-    assert error.message == "the mass matrix is singular at this state"
+    assert error.message.startswith("the mass matrix is singular at this state")
     assert error.time == 0.875 and error.state["x"] == pytest.approx(0.125)
     assert list(error.partial.t) == [0, 0.25, 0.5, 0.75]
     assert error.partial["x"] == pytest.approx([1, 0.75, 0.5, 0.25])
@@ -118,7 +118,7 @@ def test_the_command_line_shows_no_warning_or_traceback(tmp_path):
     assert done.returncode == 1
     assert "simulation failed at t = 0.14" in done.stderr
     assert "Warning" not in done.stderr and "Traceback" not in done.stderr
-    assert not (tmp_path / "out.csv").exists()
+    assert (tmp_path / "out.csv").read_text().startswith("t,x,r\n0,1,")     # the rows before are written
 
 
 @pytest.mark.parametrize("option", ["--rtol", "--atol"])
