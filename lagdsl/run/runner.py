@@ -84,8 +84,20 @@ def _failure(plan: ScenePlan, status: int, t_fail: float, y_fail, partial: Resul
 
 
 # ---- C ---------------------------------------------------------------------------------------
-def run_c(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress: Progress | None = None) -> Result:
-    library = ctypes.CDLL(str(shared_library(source.text, source.suggested_name)))
+def load(source: GeneratedSource):
+    """What runs `source`: its shared library (C, compiled on first use) or its module (NumPy).
+
+    A caller that keeps it passes it back as `loaded` to run_c or run_numpy, which then go
+    straight to the integration: no hashing of the source, no compiler, no dlopen or import.
+    """
+    if source.language == "c":
+        return ctypes.CDLL(str(shared_library(source.text, source.suggested_name)))
+    return load_module(source)
+
+
+def run_c(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress: Progress | None = None,
+          loaded: ctypes.CDLL | None = None) -> Result:
+    library = loaded if loaded is not None else load(source)
     entry = library.lag_run
     double_p = ctypes.POINTER(ctypes.c_double)
     entry.argtypes = [double_p, double_p, double_p, double_p, ctypes.c_long, double_p]
@@ -142,11 +154,12 @@ def _interruptible(library: ctypes.CDLL, call: Callable[[], int], plan: ScenePla
             done.set()
 
     threading.Thread(target=work, name="lagdsl-c-run", daemon=True).start()
-    # Plain sleeps, not join(timeout): a KeyboardInterrupt inside Thread.join can leave the
-    # thread looking finished while it still runs.
+    # Waits on the event, not join(timeout): a KeyboardInterrupt inside Thread.join can leave
+    # the thread looking finished while it still runs. The wait ends as soon as the run does, so
+    # a run of milliseconds does not wait out a poll interval.
     while not done.is_set():
         try:
-            clock.sleep(POLL_SECONDS)
+            done.wait(POLL_SECONDS)
         except KeyboardInterrupt:
             interrupt.value = 1
         if progress is not None:
@@ -173,13 +186,14 @@ def load_module(source: GeneratedSource):
     return module
 
 
-def run_numpy(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress: Progress | None = None) -> Result:
+def run_numpy(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress: Progress | None = None,
+              loaded=None) -> Result:
     """Integrate with the generated module; it fails as the C driver does (the same statuses).
 
     numpy's floating-point warnings are silenced: overflow and NaN are found by checking the
     states, and reported as a SimulationError like every other failure.
     """
-    module = load_module(source)
+    module = loaded if loaded is not None else load(source)
     par = np.array(plan.parameters, dtype=float)
     times = output_times(plan)
     with np.errstate(all="ignore"), warnings.catch_warnings():
