@@ -17,7 +17,11 @@ Two problems, each solved by every method in the same run, on one core:
   equations (the saddle-point system [[M, -A^T], [A, 0]] solved by numpy.linalg.solve in every
   call), without projection onto the constraints, with finite-difference Jacobians.
 
-Equal error: each SciPy method is run at rtol = 1e-3, 1e-4, ... (atol = rtol * 1e-3); the
+CasADi's cvodes (SUNDIALS' BDF code), when CasADi is installed, integrates the same equations
+written as CasADi SX expressions (with the automatic Jacobian; the car axis's saddle-point
+system solved symbolically).
+
+Equal error: each SciPy method (and cvodes) is run at rtol = 1e-3, 1e-4, ... (atol = rtol * 1e-3); the
 loosest rtol whose error is at most radau5's is the one compared. Radau and BDF are slow on the
 stiff spring, so every SciPy run is first made on the first --short-span seconds (and compared
 with radau5's error over the same span); when the chosen run would take longer than --budget
@@ -35,9 +39,15 @@ import stabilitytools  # noqa: F401  (first: one BLAS thread)
 
 import math
 import sys
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.integrate import solve_ivp
+
+try:
+    import casadi
+except ImportError:        # optional: the CasADi row is left out
+    casadi = None
 
 import lagdsl
 from stabilitytools import command_line, MODELS, cpu_seconds, lagdsl_seconds, markdown_table
@@ -50,10 +60,11 @@ SPRING = dict(m=1.0, l=1.0, k=1e8, g=9.81, phi0=1.0)
 SPRING_STOP, SPRING_INTERVAL = 10.0, 0.1
 
 
-def spring_rhs(t, y, m=SPRING["m"], l=SPRING["l"], k=SPRING["k"], g=SPRING["g"]):
-    s, phi, ds, dphi = y
-    return [ds, dphi, (l + s) * dphi * dphi - k / m * s + g * math.cos(phi),
-            -(2 * ds * dphi + g * math.sin(phi)) / (l + s)]
+def spring_rhs(t, y, m=SPRING["m"], l=SPRING["l"], k=SPRING["k"], g=SPRING["g"], lib=math):
+    """The equations of motion in (s, phi); `lib` gives sin and cos (math, or casadi for CasADi)."""
+    s, phi, ds, dphi = (y[i] for i in range(4))
+    return [ds, dphi, (l + s) * dphi * dphi - k / m * s + g * lib.cos(phi),
+            -(2 * ds * dphi + g * lib.sin(phi)) / (l + s)]
 
 
 def spring_jacobian(t, y, m=SPRING["m"], l=SPRING["l"], k=SPRING["k"], g=SPRING["g"]):
@@ -80,25 +91,29 @@ CAR_STOP = 3.0
 CAR_REFERENCE = np.array([0.04934557842755629, 0.4969894602303324, 1.041742524885400, 0.3739110272652214])
 
 
-def car_rhs(t, y, p=CAR):
-    xl, yl, xr, yr, vxl, vyl, vxr, vyr = y
-    yb, dyb, ddyb = p["r"] * math.sin(p["w"] * t), p["r"] * p["w"] * math.cos(p["w"] * t), \
-        -p["r"] * p["w"] ** 2 * math.sin(p["w"] * t)
-    xb = math.sqrt(p["l"] ** 2 - yb * yb)
+def car_saddle_point(t, y, p=CAR, lib=math):
+    """The index-1 equations: the matrix [[m I, -A^T], [A, 0]] (as rows) and the right-hand side
+    [f; gamma] whose solution is (q'', lambda); `lib` gives sin, cos and sqrt."""
+    xl, yl, xr, yr, vxl, vyl, vxr, vyr = (y[i] for i in range(8))
+    wt = p["w"] * t
+    yb, dyb, ddyb = p["r"] * lib.sin(wt), p["r"] * p["w"] * lib.cos(wt), -p["r"] * p["w"] ** 2 * lib.sin(wt)
+    xb = lib.sqrt(p["l"] ** 2 - yb * yb)
     dxb = -yb * dyb / xb
     ddxb = -(dyb * dyb + yb * ddyb + dxb * dxb) / xb
-    left, right = math.hypot(xl, yl), math.hypot(xr - xb, yr - yb)
+    left, right = lib.sqrt(xl * xl + yl * yl), lib.sqrt((xr - xb) ** 2 + (yr - yb) ** 2)
     force = [(p["l0"] - left) * xl / left, (p["l0"] - left) * yl / left - p["m"] * p["g"],
              (p["l0"] - right) * (xr - xb) / right, (p["l0"] - right) * (yr - yb) / right - p["m"] * p["g"]]
-    rows = np.array([[xb, yb, 0, 0], [2 * (xl - xr), 2 * (yl - yr), -2 * (xl - xr), -2 * (yl - yr)]])
+    rows = [[xb, yb, 0, 0], [2 * (xl - xr), 2 * (yl - yr), -2 * (xl - xr), -2 * (yl - yr)]]
     gamma = [-(2 * (dxb * vxl + dyb * vyl) + ddxb * xl + ddyb * yl),
              -2 * ((vxl - vxr) ** 2 + (vyl - vyr) ** 2)]
-    system = np.zeros((6, 6))
-    system[:4, :4] = p["m"] * np.eye(4)
-    system[:4, 4:] = -rows.T
-    system[4:, :4] = rows
-    accelerations = np.linalg.solve(system, np.concatenate([force, gamma]))[:4]
-    return [vxl, vyl, vxr, vyr, *accelerations]
+    matrix = [[p["m"] * (i == j) for j in range(4)] + [-rows[0][i], -rows[1][i]] for i in range(4)]
+    matrix += [row + [0, 0] for row in rows]
+    return matrix, force + gamma, [vxl, vyl, vxr, vyr]
+
+
+def car_rhs(t, y):
+    matrix, right, velocities = car_saddle_point(t, y)
+    return [*velocities, *np.linalg.solve(np.array(matrix, dtype=float), right)[:4]]
 
 
 def car_start(p=CAR):
@@ -121,61 +136,108 @@ def best_lagdsl(run, repeat=5):
     return lagdsl_seconds(best), best
 
 
-def scipy_run(problem, method, rtol, stop):
-    """(CPU seconds, solution) of solve_ivp on `problem` up to `stop`."""
-    options = dict(method=method, rtol=rtol, atol=rtol * 1e-3, t_eval=problem["grid"](stop))
-    if problem.get("jac") and method != "RK45":
-        options["jac"] = problem["jac"]
+@dataclass
+class Run:
+    """One integration: CPU seconds, the states on the output grid (one column per time),
+    and the work: right-hand sides, Jacobians, LU decompositions (None where not reported)."""
+    seconds: float
+    success: bool
+    states: np.ndarray
+    fevals: int | None
+    jacobians: int | None
+    lus: int | None
+
+
+def scipy_solver(method):
+    def run(problem, rtol, stop):
+        options = dict(method=method, rtol=rtol, atol=rtol * 1e-3, t_eval=problem["grid"](stop))
+        if problem["jac"]:
+            options["jac"] = problem["jac"]
+        started = cpu_seconds()
+        solution = solve_ivp(problem["rhs"], (0.0, stop), problem["start"](), **options)
+        return Run(cpu_seconds() - started, solution.success, solution.y, solution.nfev, solution.njev,
+                   solution.nlu)
+    return run
+
+
+def cvodes_solver(problem, rtol, stop):
+    """CasADi's cvodes (SUNDIALS BDF with Newton) on the same equations as SX expressions; the
+    symbolic set-up is not timed."""
+    y, t = casadi.SX.sym("y", len(problem["start"]())), casadi.SX.sym("t")
+    grid = problem["grid"](stop)
+    integrator = casadi.integrator("F", "cvodes", {"x": y, "t": t, "ode": problem["casadi_rhs"](t, y)},
+                                   0.0, list(grid[1:]),
+                                   {"reltol": rtol, "abstol": rtol * 1e-3, "max_num_steps": 10 ** 8})
+    start = problem["start"]()
     started = cpu_seconds()
-    solution = solve_ivp(problem["rhs"], (0.0, stop), problem["start"](), **options)
-    return cpu_seconds() - started, solution
+    try:
+        final = integrator(x0=start)["xf"]
+    except RuntimeError:
+        return Run(cpu_seconds() - started, False, np.empty((0, 0)), None, None, None)
+    seconds = cpu_seconds() - started
+    stats = integrator.stats()
+    states = np.hstack([np.array(start)[:, None], np.array(final)])
+    return Run(seconds, True, states, stats["nfevals"], stats["n_call_jacF"], stats["nlinsetups"])
 
 
-def equal_error_row(problem, method, target_short, short_span, budget):
-    """Find the loosest rtol of the ladder at which `method` reaches radau5's error over the
+def solvers():
+    table = [(f"SciPy {method}", scipy_solver(method)) for method in SCIPY_METHODS]
+    if casadi is not None:
+        table.append(("CasADi cvodes", cvodes_solver))
+    return table
+
+
+def equal_error_row(problem, name, solver, target_short, short_span, budget):
+    """Find the loosest rtol of the ladder at which the solver reaches radau5's error over the
     short span; time it over the whole span, or scale the short-span time when over budget."""
     for rtol in LADDER:
-        seconds, solution = scipy_run(problem, method, rtol, short_span)
-        if not solution.success:
+        run = solver(problem, rtol, short_span)
+        if not run.success:
             continue
-        error = problem["error"](solution, short_span)
-        print(f"  {problem['name']} {method} rtol {rtol:.0e}: error {error:.3g} on {short_span:g} s, "
-              f"{seconds:.3g} s", file=sys.stderr)
+        error = problem["error"](run.states)
+        print(f"  {problem['name']} {name} rtol {rtol:.0e}: error {error:.3g} on {short_span:g} s, "
+              f"{run.seconds:.3g} s", file=sys.stderr)
         if error > target_short:
             continue
-        scaled = seconds * problem["stop"] / short_span
-        if short_span >= problem["stop"] or scaled > budget:
-            how = "measured" if short_span >= problem["stop"] else f"scaled from {short_span:g} s"
-            return dict(method=method, rtol=rtol, error=error, seconds=scaled, how=how,
-                        steps=solution.nfev, njev=solution.njev, nlu=solution.nlu)
-        seconds, solution = scipy_run(problem, method, rtol, problem["stop"])
-        return dict(method=method, rtol=rtol, error=problem["error"](solution, problem["stop"]),
-                    seconds=seconds, how="measured", steps=solution.nfev, njev=solution.njev, nlu=solution.nlu)
-    return dict(method=method, rtol=None, error=None, seconds=None, how="no rtol down to 1e-11 reached it",
-                steps=None, njev=None, nlu=None)
+        scaled = run.seconds * problem["stop"] / short_span
+        how = "measured"
+        if short_span < problem["stop"] and scaled > budget:
+            how = f"scaled from {short_span:g} s"
+        elif short_span < problem["stop"]:
+            run = solver(problem, rtol, problem["stop"])
+            error, scaled = problem["error"](run.states), run.seconds
+        return dict(name=name, rtol=rtol, error=error, seconds=scaled, how=how, run=run)
+    return dict(name=name, rtol=None, error=None, seconds=None, how="no rtol down to 1e-11 reached it",
+                run=None)
 
 
 def spring_problem(reference):
-    grid = lambda stop: np.linspace(0.0, stop, int(round(stop / SPRING_INTERVAL)) + 1)  # noqa: E731
+    return dict(name="stiff spring", rhs=spring_rhs, jac=spring_jacobian, start=spring_start,
+                grid=lambda stop: np.linspace(0.0, stop, int(round(stop / SPRING_INTERVAL)) + 1),
+                casadi_rhs=lambda t, y: casadi.vertcat(*spring_rhs(t, y, lib=casadi)),
+                error=lambda states: float(np.max(np.abs(states[1] - reference[:states.shape[1]]))),
+                stop=SPRING_STOP)
 
-    def error(solution, stop):
-        return float(np.max(np.abs(solution.y[1] - reference[:len(solution.t)])))
 
-    return dict(name="stiff spring", rhs=spring_rhs, jac=spring_jacobian, start=spring_start, grid=grid,
-                error=error, stop=SPRING_STOP)
+def car_casadi_rhs(t, y):
+    matrix, right, velocities = car_saddle_point(t, y, lib=casadi)
+    solution = casadi.solve(casadi.blockcat([[casadi.SX(entry) for entry in row] for row in matrix]),
+                            casadi.vertcat(*right))
+    return casadi.vertcat(*velocities, solution[:4])
 
 
 def car_problem():
-    return dict(name="car axis", rhs=car_rhs, jac=None, start=car_start, grid=lambda stop: [0.0, stop],
-                error=lambda solution, stop: car_error(solution.y[:4, -1]), stop=CAR_STOP)
+    return dict(name="car axis", rhs=car_rhs, jac=None, start=car_start, grid=lambda stop: np.array([0.0, stop]),
+                casadi_rhs=car_casadi_rhs, error=lambda states: car_error(states[:4, -1]), stop=CAR_STOP)
 
 
-def format_row(name, row, radau):
+def format_row(row, radau):
     def num(x, fmt):
         return "n/a" if x is None else format(x, fmt)
+    run = row["run"]
+    work = [num(run.fevals, "d"), num(run.jacobians, "d"), num(run.lus, "d")] if run else ["n/a"] * 3
     speed = f"{row['seconds'] / radau:.0f}x" if row["seconds"] else "n/a"
-    return [name, num(row["rtol"], ".0e"), num(row["error"], ".2g"), num(row["steps"], "d"),
-            num(row["njev"], "d"), num(row["nlu"], "d"),
+    return [row["name"], num(row["rtol"], ".0e"), num(row["error"], ".2g"), *work,
             num(row["seconds"], ".3g") + " s" if row["seconds"] else "n/a", row["how"], speed]
 
 
@@ -201,47 +263,49 @@ def stiff_spring_section(short_span, budget) -> str:
           file=sys.stderr)
     problem = spring_problem(reference)
     rows = [lagdsl_row("lagdsl radau5 (C)", rtol, radau_error, radau_time, radau)]
-    results = [equal_error_row(problem, method, target_short, short_span, budget) for method in SCIPY_METHODS]
-    rows += [format_row(f"SciPy {r['method']}", r, radau_time) for r in results]
-    fastest = min((r["seconds"] for r in results if r["seconds"]), default=None)
-    lines = [f"Reference: radau5 at rtol 1e-12 (differs from rtol 1e-11 by "
-             f"{np.max(np.abs(reference - check)):.2g}). radau5's error over the first {short_span:g} s, "
-             f"the target of the SciPy ladder: {target_short:.2g}.", "", markdown_table(HEADERS, rows), ""]
-    if fastest:
-        lines.append(f"radau5 is {fastest / radau_time:.0f}x faster than the fastest SciPy method at equal "
-                     f"error (goal: 100x).")
-    return "\n".join(lines)
+    results = [equal_error_row(problem, name, solver, target_short, short_span, budget)
+               for name, solver in solvers()]
+    rows += [format_row(r, radau_time) for r in results]
+    return "\n".join([f"Reference: radau5 at rtol 1e-12 (differs from rtol 1e-11 by "
+                      f"{np.max(np.abs(reference - check)):.2g}). radau5's error over the first {short_span:g} s, "
+                      f"the target of the ladders: {target_short:.2g}.", "", markdown_table(HEADERS, rows), "",
+                      verdict(results, {"radau5": radau_time})])
 
 
 def car_axis_section(short_span, budget) -> str:
     rtol = 1e-6
-    rows, times = [], {}
+    rows, times, errors = [], {}, {}
     for integrator in ("radau5", "dop853"):
         seconds, result = best_lagdsl(lambda: car_lagdsl(integrator, rtol=rtol, atol=1e-8))
-        error = car_error(result.values[-1, :4])
-        rows.append(lagdsl_row(f"lagdsl {integrator} (C)", rtol, error, seconds, result))
+        errors[integrator] = car_error(result.values[-1, :4])
+        rows.append(lagdsl_row(f"lagdsl {integrator} (C)", rtol, errors[integrator], seconds, result))
         times[integrator] = seconds
-        if integrator == "radau5":
-            radau_time, radau_error = seconds, error
+    radau_time, radau_error = times["radau5"], errors["radau5"]
     print(f"car axis: radau5 error {radau_error:.3g}", file=sys.stderr)
     problem = car_problem()
-    results = [equal_error_row(problem, method, radau_error, CAR_STOP, budget) for method in SCIPY_METHODS]
-    rows += [format_row(f"SciPy {r['method']}", r, radau_time) for r in results]
-    fastest = min((r["seconds"] for r in results if r["seconds"]), default=None)
-    lines = [markdown_table(HEADERS, rows), ""]
-    if fastest:
-        lines.append(f"radau5 is {fastest / radau_time:.0f}x faster than the fastest SciPy method at equal "
-                     f"error (goal: 100x); lagdsl's dop853, at a smaller error still, "
-                     f"{fastest / times['dop853']:.0f}x.")
-    return "\n".join(lines)
+    results = [equal_error_row(problem, name, solver, radau_error, CAR_STOP, budget) for name, solver in solvers()]
+    rows += [format_row(r, radau_time) for r in results]
+    return "\n".join([markdown_table(HEADERS, rows), "", verdict(results, times)])
+
+
+def verdict(results, lagdsl_times) -> str:
+    """How many times faster each lagdsl method is than the fastest SciPy method and than cvodes."""
+    scipy = min((r["seconds"] for r in results if r["seconds"] and r["name"].startswith("SciPy")), default=None)
+    cvodes = next((r["seconds"] for r in results if r["seconds"] and r["name"] == "CasADi cvodes"), None)
+    sentences = []
+    for integrator, seconds in lagdsl_times.items():
+        against = [f"{scipy / seconds:.0f}x faster than the fastest SciPy method"] if scipy else []
+        against += [f"{cvodes / seconds:.0f}x faster than cvodes"] if cvodes else []
+        if against:
+            sentences.append(f"lagdsl's {integrator} is " + " and ".join(against) + ".")
+    return " ".join(sentences) + " Goal: radau5 at least 100x faster than the fastest SciPy method."
 
 
 def casadi_note() -> str:
-    try:
-        import casadi  # noqa: F401
-    except ImportError:
+    if casadi is None:
         return "CasADi is not installed here, so there is no cvodes row (`pip install casadi` to add one)."
-    return "CasADi is installed, but this script has no cvodes row yet."
+    return (f"CasADi {casadi.__version__}: cvodes runs SX expressions of the same equations in CasADi's "
+            "virtual machine (not compiled to C); its set-up is not timed.")
 
 
 def section(short_span=1.0, budget=60.0) -> str:
@@ -256,8 +320,8 @@ def section(short_span=1.0, budget=60.0) -> str:
         car_axis_section(short_span, budget), "",
         "The car axis is only mildly stiff at this tolerance: its springs vibrate at 45 rad/s, about "
         "20 periods in 3 s, which every method has to follow, and LSODA runs it in its non-stiff "
-        "(Adams) mode without a single Jacobian. An implicit method has no advantage there, so "
-        "radau5 misses the 100x goal against LSODA; lagdsl's explicit dop853 reaches it.", "",
+        "(Adams) mode without a single Jacobian. An implicit method has little advantage there, and "
+        "LSODA, with few but expensive (Python) steps, is the SciPy method to beat.", "",
         casadi_note(),
     ])
 
