@@ -14,7 +14,7 @@ on one core (CPU seconds of the process, best of --repeat, except where lagdsl r
   (b) scipy.integrate.solve_ivp(method="DOP853") on a right-hand side from sympy.lambdify:
       LagrangesMethod gives M and F, each call evaluates them and solves M q'' = F with
       numpy.linalg.solve, the way a SymPy user would write it;
-  (c) solve_ivp DOP853 on a hand-written right-hand side (the worksheet's closed-form
+  (c) solve_ivp DOP853 on a hand-written right-hand side (the textbook closed-form
       accelerations, math.sin/math.cos);
   (e) CyRK's nbsolve_ivp (DOP853) with a numba right-hand side, if CyRK is installed;
   (d) the cost of ONE generated right-hand-side call (lag_rhs of the emitted C file) against a
@@ -72,7 +72,7 @@ class Problem:
 
 # ---- right-hand sides ------------------------------------------------------------------------
 def hand_rhs(t, y, m1, m2, l1, l2, g):
-    """The worksheet's equations (seeds 002, problem 8.2) solved for the accelerations by hand."""
+    """The textbook equations of the plane double pendulum solved for the accelerations by hand."""
     th1, th2, w1, w2 = y
     d = th1 - th2
     c, s = math.cos(d), math.sin(d)

@@ -9,8 +9,9 @@ and ds/dx is itself kept as a new intermediate ("∂s/∂x") unless it is tiny, 
 intermediate and each of its derivatives is computed once and shared. A directional
 derivative Σ_x (dE/dx) r_x along given rates r (the time derivative along (q', 1) is
 `der`) is built the same way. This keeps expressions the size the user wrote them: the
-derivation cost grows with the physics instead of with the expanded formula (see
-shared/notes/derivation-scaling.md).
+derivation cost grows with the physics instead of with the expanded formula. (Differentiating
+the expanded Lagrangian of an n-link pendulum takes time growing like n^3, and the common-
+subexpression elimination after it dominates; benchmarks/README.md measures both ways.)
 
 The Differentiator is a memo table, not shared state: one is made per pass and its
 definitions are read out with `definitions()`.

@@ -14,6 +14,7 @@ from pathlib import Path
 from . import __version__
 from .api import load
 from .errors import LagError, SimulationError
+from .escape import visible
 from .present import describe_model, format_equations
 from .run.output import write_atomically
 from .scene import Overrides
@@ -34,7 +35,7 @@ def main(argv: list[str] | None = None) -> int:
         sys.stdout = open(os.devnull, "w")
         return 0
     except OSError as error:
-        where = f": {error.filename}" if error.filename else ""
+        where = f": {visible(str(error.filename))}" if error.filename else ""
         print(f"lagc: error: {error.strerror}{where}", file=sys.stderr)
         return 1
 

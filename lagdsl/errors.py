@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from .escape import visible
 from .source import Span
 
 
@@ -21,14 +22,20 @@ class Diagnostic:
     span: Span | None
 
     def render(self) -> str:
+        """The diagnostic for the terminal: control characters of the file's name, the message
+        and the source line are shown as escapes (`\\x1b`), the caret under them."""
+        message = "\n".join(visible(line) for line in self.message.split("\n"))
         if self.span is None:
-            return f"error: {self.message}"
+            return f"error: {message}"
         span = self.span
         line = span.source.line(span.line)
+        before = line[:span.column - 1]
         width = max(1, min(span.end - span.start, len(line) - span.column + 1))
-        indent = "".join(c if c == "\t" else " " for c in line[:span.column - 1])   # tabs stay aligned
-        caret = indent.ljust(span.column - 1) + "^" + "~" * (width - 1)
-        return f"{span.source.name}:{span.line}:{span.column}: error: {self.message}\n{line}\n{caret}"
+        marked = visible(line[span.column - 1:span.column - 1 + width])
+        indent = "".join(c if c == "\t" else " " for c in visible(before))   # tabs stay aligned
+        caret = indent + " " * (span.column - 1 - len(before)) + "^" + "~" * (len(marked) - 1)
+        return (f"{visible(span.source.name)}:{span.line}:{span.column}: error: {message}\n"
+                f"{visible(line)}\n{caret}")
 
 
 class LagError(Exception):

@@ -11,6 +11,7 @@ import sympy
 
 from . import ir
 from .calculus import Differentiator, tree_size
+from .escape import visible
 from .mechanics import Equations
 
 TIDY_LIMIT = 400     # tree nodes; larger expressions are printed without trigsimp
@@ -52,7 +53,7 @@ def describe_model(model: ir.Model, equations: Equations) -> str:
                      + f": t = {format_number(s.time.start)} .. {format_number(s.time.stop)}"
                      f" every {format_number(s.time.interval)}, {s.integrator.name}({options}); "
                      f"outputs: {', '.join(o.column for o in s.outputs) or 'the coordinates'}")
-    return "\n".join(lines)
+    return "\n".join(visible(line) for line in lines)      # descriptions and units are free text
 
 
 def degrees_of_freedom(equations: Equations) -> str:
@@ -118,7 +119,7 @@ def format_equations(equations: Equations, latex: bool = False) -> str:
     for k, (label, lhs, rhs) in enumerate(rows):
         kind = "" if k < n else " (constraint)"
         lines.append(f"  {label.ljust(width)}{kind}:  {_text(lhs)} = {_text(rhs)}")
-    return "\n".join(lines)
+    return "\n".join(visible(line) for line in lines)
 
 
 def _text(expr: sympy.Expr) -> str:

@@ -1,6 +1,6 @@
 /* The plane double pendulum's right-hand side written by hand, for benchmarks/double_pendulum_speed.py.
  *
- * The worksheet's equations (shared seeds, 002, problem 8.2), with d = theta1 - theta2:
+ * The textbook equations of the plane double pendulum, with d = theta1 - theta2:
  *   (m1 + m2) l1^2 th1'' + m2 l1 l2 cos(d) th2'' = -m2 l1 l2 sin(d) th2'^2 - (m1 + m2) g l1 sin(th1)
  *   m2 l1 l2 cos(d) th1'' + m2 l2^2 th2''         =  m2 l1 l2 sin(d) th1'^2 - m2 g l2 sin(th2)
  * solved by Cramer's rule. Same calling convention as the generated model: par = (m1, m2, l1,

@@ -7,6 +7,8 @@ from importlib import resources
 
 import jinja2
 
+from .. import escape
+
 
 @dataclass(frozen=True)
 class GeneratedSource:
@@ -17,11 +19,22 @@ class GeneratedSource:
 
 @lru_cache(maxsize=1)
 def template_environment() -> jinja2.Environment:
-    """Strict templates: a missing variable is an error, never an empty string."""
-    return jinja2.Environment(
+    """Strict templates: a missing variable is an error, never an empty string.
+
+    User text (paths, column names, descriptions, names) is written only through the filters
+    `c_comment`, `c_string`, `py_string` and `py_docstring` (lagdsl/escape.py), one per context;
+    tests/codegen/test_escaping.py checks that every template does so.
+    """
+    environment = jinja2.Environment(
         loader=jinja2.PackageLoader("lagdsl.codegen", "templates"),
         undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True,
         keep_trailing_newline=True, autoescape=False)
+    environment.filters.update(ESCAPE_FILTERS)
+    return environment
+
+
+ESCAPE_FILTERS = {"c_comment": escape.c_comment, "c_string": escape.c_string,
+                  "py_string": escape.py_string, "py_docstring": escape.py_docstring}
 
 
 def c_source(name: str) -> str:

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from .. import __version__
+from ..escape import c_comment, csv_field
 from ..integrators import integrator_files
 from ..semantics import INTEGRATOR_OPTIONS
 from . import GeneratedSource, c_source, template_environment
@@ -38,12 +39,9 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
         "n": kernel.n, "size": kernel.size, "parameters": kernel.parameters,
         "columns": kernel.columns, "constraints": kernel.constraints, "holonomic": kernel.holonomic,
         "invariants": bool(kernel.invariant_names), "invariant_names": kernel.invariant_names,
-        "parameter_names": _strings(name for name, _ in kernel.parameters) or "\"\"",
-        "coordinate_names": _strings(kernel.coordinates),
-        "column_names": _strings(kernel.columns),
-        "invariant_list": _strings(kernel.invariant_names),
-        "constraint_list": _strings(kernel.constraints),
-        "defaults": [f"par[{i}] = {_literal(value)};  /* {name} */"
+        "parameter_names": [name for name, _ in kernel.parameters], "coordinates": kernel.coordinates,
+        "csv_columns": [csv_field(column) for column in kernel.columns],
+        "defaults": [f"par[{i}] = {_literal(value)};  /* {c_comment(name)} */"
                      for i, (name, value) in enumerate(kernel.parameters)],
         "derived": [f"if (!fixed[{i}])\n        par[{i}] = {printer.doprint(expr)};"
                     for i, expr in kernel.derived_parameters],
@@ -92,10 +90,6 @@ def _options_initializer(options: dict[str, float]) -> str:
 
 def _literal(value: float) -> str:
     return f"LAG_LIT({value!r})"
-
-
-def _strings(names) -> str:
-    return ", ".join('"' + name.replace("\\", "\\\\").replace('"', '\\"') + '"' for name in names)
 
 
 def _print_block(block: Block, kind: str, kernel: Kernel, printer: CPrinter) -> dict:

@@ -12,16 +12,14 @@ def render_numpy(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSou
     printer = PythonPrinter()
     blocks = {name: _print_block(getattr(kernel, name), printer)
               for name in FUNCTION_PARAMETERS if getattr(kernel, name) is not None}
-    quoted = lambda names: ", ".join(repr(n) for n in names)   # noqa: E731
     context = {
         "title": f"{kernel.model_name}, scene {kernel.scene_name}: generated NumPy functions",
         "version": __version__, "source_name": source_name, "scene": kernel.scene_name,
         "model": kernel.model_name, "n": kernel.n, "size": kernel.size,
         "parameters": kernel.parameters, "columns": kernel.columns,
-        "coordinate_names": quoted(kernel.coordinates), "column_names": quoted(kernel.columns),
-        "constraints": kernel.constraints, "constraint_list": quoted(kernel.constraints),
+        "coordinates": kernel.coordinates, "constraints": kernel.constraints,
         "holonomic": kernel.holonomic, "invariant_names": kernel.invariant_names,
-        "invariant_list": quoted(kernel.invariant_names), "invariants": bool(kernel.invariant_names),
+        "invariants": bool(kernel.invariant_names),
         "integrator": kernel.integrator.name, "options": kernel.integrator.options,
         "t_start": repr(kernel.time.start), "t_stop": repr(kernel.time.stop),
         "t_interval": repr(kernel.time.interval), "solver": kernel.solver,

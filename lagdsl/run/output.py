@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..escape import csv_field
+
 
 @dataclass(frozen=True)
 class RunSummary:
@@ -62,10 +64,16 @@ class Result:
             raise KeyError(f"no column '{column}' (columns: {', '.join(self.columns)})") from None
 
     def csv(self) -> str:
+        """The header `t,<columns>` (RFC 4180 fields) and one row per output time.
+
+        Numbers are written as C's printf("%.17g") writes a double, so that `lagc run`,
+        `to_csv` and the standalone C program write the same bytes: 17 significant digits
+        (they read back to the same double), no trailing zeros, `-0`, `inf`, `-inf`, `nan`.
+        """
         buffer = io.StringIO()
-        buffer.write(",".join(("t", *self.columns)) + "\n")
+        buffer.write(",".join(csv_field(name) for name in ("t", *self.columns)) + "\n")
         for time, row in zip(self.t, self.values):
-            buffer.write(",".join(repr(float(x)) for x in (time, *row)) + "\n")
+            buffer.write(",".join(format(float(x), ".17g") for x in (time, *row)) + "\n")
         return buffer.getvalue()
 
     def to_csv(self, path: str | os.PathLike) -> None:

@@ -8,18 +8,18 @@ of B states is evaluated in one call. Parameters `par` are in the order of PARAM
 """
 import numpy
 
-MODEL = "ChargedParticle"
-SCENE = "helix"
+MODEL = 'ChargedParticle'
+SCENE = 'helix'
 COORDINATES = ('x', 'y', 'z',)
-PARAMETERS = (("m", 1.0), ("e", 1.0), ("B", 2.0), )
+PARAMETERS = (('m', 1.0), ('e', 1.0), ('B', 2.0), )
 COLUMNS = ('x', 'y', 'z', 'energy', 'momentum(z)',)
 CONSTRAINTS = ()
 HOLONOMIC = 0
 INVARIANTS = ('momentum(z)', 'energy',)
-INTEGRATOR = "radau5"
-OPTIONS = { "atol": 1e-12, "rtol": 1e-10, }
+INTEGRATOR = 'radau5'
+OPTIONS = { 'atol': 1e-12, 'rtol': 1e-10, }
 TIME = (0.0, 15.707963267948966, 0.01)
-SOLVER = "lu"
+SOLVER = 'lu'
 NQ = 3
 NK = 3
 

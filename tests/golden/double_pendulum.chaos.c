@@ -106,7 +106,7 @@ typedef struct lag_stats {
 /* Reading and writing numbers in the working precision (the CSV and the command line). */
 #if defined(LAG_FLOAT128)
 #define r_strtod(text, end) strtoflt128((text), (end))
-static void lag_print_real(FILE *file, real x)
+static void lag_print_number(FILE *file, real x)
 {
     char buffer[64];
     quadmath_snprintf(buffer, sizeof buffer, "%.36Qg", x);
@@ -114,11 +114,20 @@ static void lag_print_real(FILE *file, real x)
 }
 #elif defined(LAG_LONG_DOUBLE)
 #define r_strtod(text, end) strtold((text), (end))
-static void lag_print_real(FILE *file, real x) { fprintf(file, "%.21Lg", x); }
+static void lag_print_number(FILE *file, real x) { fprintf(file, "%.21Lg", x); }
 #else
 #define r_strtod(text, end) strtod((text), (end))
-static void lag_print_real(FILE *file, real x) { fprintf(file, "%.17g", x); }
+static void lag_print_number(FILE *file, real x) { fprintf(file, "%.17g", x); }
 #endif
+
+/* A NaN is written "nan" whatever its sign bit (printf may write "-nan"), as lagc run writes it. */
+static void lag_print_real(FILE *file, real x)
+{
+    if (x != x)
+        fputs("nan", file);
+    else
+        lag_print_number(file, x);
+}
 
 /* ---- dense linear algebra ---- */
 /* Cholesky factorisation for the symmetric positive definite mass matrix of a natural
@@ -181,7 +190,7 @@ typedef struct lag_system {
 
 static const char *const lag_parameter_names[] = { "m1", "m2", "l1", "l2", "g" };
 static const char *const lag_coordinate_names[] = { "theta1", "theta2" };
-static const char *const lag_column_names[] = { "theta1", "theta2", "energy" };
+static const char *const lag_column_names[] = { "theta1", "theta2", "energy" };     /* CSV header fields */
 static const char *const lag_invariant_names[] = { "energy" };
 
 /* Parameter values of scene chaos. */

@@ -8,18 +8,18 @@ of B states is evaluated in one call. Parameters `par` are in the order of PARAM
 """
 import numpy
 
-MODEL = "DoublePendulum"
-SCENE = "chaos"
+MODEL = 'DoublePendulum'
+SCENE = 'chaos'
 COORDINATES = ('theta1', 'theta2',)
-PARAMETERS = (("m1", 1.0), ("m2", 1.0), ("l1", 1.0), ("l2", 1.0), ("g", 9.81), )
+PARAMETERS = (('m1', 1.0), ('m2', 1.0), ('l1', 1.0), ('l2', 1.0), ('g', 9.81), )
 COLUMNS = ('theta1', 'theta2', 'energy',)
 CONSTRAINTS = ()
 HOLONOMIC = 0
 INVARIANTS = ('energy',)
-INTEGRATOR = "dop853"
-OPTIONS = { "atol": 1e-12, "rtol": 1e-10, }
+INTEGRATOR = 'dop853'
+OPTIONS = { 'atol': 1e-12, 'rtol': 1e-10, }
 TIME = (0.0, 20.0, 0.01)
-SOLVER = "cholesky"
+SOLVER = 'cholesky'
 NQ = 2
 NK = 2
 

@@ -8,18 +8,18 @@ of B states is evaluated in one call. Parameters `par` are in the order of PARAM
 """
 import numpy
 
-MODEL = "Kepler"
-SCENE = "symplectic"
+MODEL = 'Kepler'
+SCENE = 'symplectic'
 COORDINATES = ('r', 'theta',)
-PARAMETERS = (("G", 1.0), ("M0", 1.0), ("m", 1.0), )
+PARAMETERS = (('G', 1.0), ('M0', 1.0), ('m', 1.0), )
 COLUMNS = ('r', 'theta', 'energy', 'momentum(theta)',)
 CONSTRAINTS = ()
 HOLONOMIC = 0
 INVARIANTS = ('momentum(theta)', 'energy',)
-INTEGRATOR = "gauss"
-OPTIONS = { "stages": 3.0, "step": 0.01, }
+INTEGRATOR = 'gauss'
+OPTIONS = { 'stages': 3.0, 'step': 0.01, }
 TIME = (0.0, 60.0, 0.05)
-SOLVER = "cholesky"
+SOLVER = 'cholesky'
 NQ = 2
 NK = 2
 

@@ -8,18 +8,18 @@ of B states is evaluated in one call. Parameters `par` are in the order of PARAM
 """
 import numpy
 
-MODEL = "RollingPenny"
-SCENE = "roll"
+MODEL = 'RollingPenny'
+SCENE = 'roll'
 COORDINATES = ('x', 'y', 'phi', 'theta',)
-PARAMETERS = (("m", 0.0025), ("a", 0.01), ("g", 9.81), ("alpha", 0.2), )
+PARAMETERS = (('m', 0.0025), ('a', 0.01), ('g', 9.81), ('alpha', 0.2), )
 COLUMNS = ('x', 'y', 'phi', 'theta', 'energy', 'momentum(theta)', 'multiplier(roll_x)', 'multiplier(roll_y)', 'residual(roll_x)', 'residual(roll_y)',)
 CONSTRAINTS = ('roll_x', 'roll_y',)
 HOLONOMIC = 0
 INVARIANTS = ('momentum(theta)', 'energy',)
-INTEGRATOR = "dop853"
-OPTIONS = { "atol": 1e-12, "rtol": 1e-10, }
+INTEGRATOR = 'dop853'
+OPTIONS = { 'atol': 1e-12, 'rtol': 1e-10, }
 TIME = (0.0, 10.0, 0.01)
-SOLVER = "lu"
+SOLVER = 'lu'
 NQ = 4
 NK = 6
 

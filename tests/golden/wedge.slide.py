@@ -8,18 +8,18 @@ of B states is evaluated in one call. Parameters `par` are in the order of PARAM
 """
 import numpy
 
-MODEL = "Wedge"
-SCENE = "slide"
+MODEL = 'Wedge'
+SCENE = 'slide'
 COORDINATES = ('x', 's',)
-PARAMETERS = (("M", 3.0), ("m", 1.0), ("alpha", 0.5), ("H", 1.0), ("g", 9.81), )
+PARAMETERS = (('M', 3.0), ('m', 1.0), ('alpha', 0.5), ('H', 1.0), ('g', 9.81), )
 COLUMNS = ('x', 's', 'der(x)', 'der(s)', 'energy', 'momentum(x)',)
 CONSTRAINTS = ()
 HOLONOMIC = 0
 INVARIANTS = ('momentum(x)', 'energy',)
-INTEGRATOR = "rk4"
-OPTIONS = { "step": 0.001, }
+INTEGRATOR = 'rk4'
+OPTIONS = { 'step': 0.001, }
 TIME = (0.0, 0.5, 0.01)
-SOLVER = "cholesky"
+SOLVER = 'cholesky'
 NQ = 2
 NK = 2
 
