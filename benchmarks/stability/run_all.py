@@ -53,7 +53,7 @@ nice python benchmarks/stability/run_all.py --quick    # shorter runs of (b) and
 ```
 
 Every script pins itself to one core. lagdsl's times are its own `summary.wall_time` (the
-integration and the output rows, best of 5 runs where stated; the compiled library is cached),
+integration and the output rows, best of several runs where stated; the compiled library is cached),
 SciPy's are CPU seconds of `solve_ivp`. The machine is shared, so single times vary by 10-20 %;
 ratios within one run are the numbers to quote.
 

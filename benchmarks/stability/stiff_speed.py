@@ -30,7 +30,7 @@ linearly to the whole span (the solution is periodic, the work per second of sim
 about constant) and the table says so. Otherwise it is rerun and timed over the whole span, and
 must reach radau5's error over the whole span too (else the ladder goes on).
 
-Times: lagdsl's own `summary.wall_time` (integration and output rows, best of 5; the build is
+Times: lagdsl's own `summary.wall_time` (integration and output rows, best of 15; the build is
 cached), SciPy's CPU time of solve_ivp. Goal: radau5 at least 100x faster than the fastest SciPy
 method at equal error.
 """
@@ -130,7 +130,7 @@ def car_error(positions) -> float:
 
 
 # ---- measuring ----------------------------------------------------------------------------
-def best_lagdsl(run, repeat=5):
+def best_lagdsl(run, repeat=15):
     """(best wall time, result) of `repeat` runs of a lagdsl simulation."""
     results = [run() for _ in range(repeat)]
     best = min(results, key=lagdsl_seconds)
