@@ -1,6 +1,7 @@
 """The Python API: `lagdsl.load("model.lag").simulate()`. The command line is a thin layer over it."""
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 from . import ir
@@ -43,25 +44,30 @@ class Model:
     def simulate(self, scene: str | None = None, backend: str = "c", *, set: dict | None = None,
                  start: float | None = None, stop: float | None = None, interval: float | None = None,
                  integrator: str | None = None, rtol: float | None = None, atol: float | None = None,
-                 step: float | None = None, stages: int | None = None, **parameters: float) -> Result:
+                 step: float | None = None, stages: int | None = None, max_step: float | None = None,
+                 max_steps: int | None = None, **parameters: float) -> Result:
         """Run a scene and return its outputs.
 
         `set` maps parameter names, "q.start" and "q.velocity" to values; parameters may also be
         given as keyword arguments (`simulate(m2=3)`). The other arguments override the scene's
-        time grid and integrator. Raises SimulationError (with `.partial`, the rows computed so
-        far) when the integration fails.
+        time grid and integrator; `max_steps` bounds the steps (default: 100000, or 100 per
+        output row). Raises SimulationError (with `.partial`, the rows computed so far) when the
+        integration fails, SimulationInterrupted (a SimulationError) when Ctrl-C stops it.
         """
         _check_backend(backend)
         values = dict(set or {})
         values.update(parameters)
         options = tuple((k, float(v)) for k, v in (("rtol", rtol), ("atol", atol), ("step", step),
-                                                     ("stages", stages)) if v is not None)
+                                                     ("stages", stages), ("max_step", max_step),
+                                                     ("max_steps", max_steps)) if v is not None)
         overrides = Overrides(tuple((k, float(v)) for k, v in values.items()), start, stop, interval,
                               integrator, options)
         return self.simulate_plan(scene, backend, overrides)
 
-    def simulate_plan(self, scene: str | None, backend: str, overrides: Overrides) -> Result:
-        """`simulate` with the overrides already gathered (what `lagc run` calls)."""
+    def simulate_plan(self, scene: str | None, backend: str, overrides: Overrides,
+                      progress: Callable[[float, float, float], None] | None = None) -> Result:
+        """`simulate` with the overrides already gathered (what `lagc run` calls); `progress` is
+        called as progress(t reached, start, stop) every so often."""
         _check_backend(backend)
         scene_plan = self.plan(scene, overrides)
         # Parameters, initial values, the time grid and tolerances are run-time inputs of the
@@ -69,7 +75,7 @@ class Model:
         # written keeps one compiled library per scene and integrator, whatever is overridden.
         code_plan = self.plan(scene, Overrides(integrator=overrides.integrator, options=overrides.options))
         kernel, source = generate(self.equations, code_plan, backend, self.source.name)
-        return execute(kernel, source, scene_plan)
+        return execute(kernel, source, scene_plan, progress)
 
 
 def load(path: str | Path) -> Model:

@@ -2,28 +2,41 @@
 
 This is the only place that catches LagError: it prints `file:line:column: error: ...`
 with the source line and a caret, and exits 1. Anything else escaping is a bug in lagdsl.
+Ctrl-C exits 130 (128 + SIGINT, as shells report it) without a traceback; during `lagc run`
+the rows computed so far are written and the summary says where the run stopped.
 """
 from __future__ import annotations
 
 import argparse
 import os
 import sys
+import time as clock
+import warnings
 
 from pathlib import Path
 
 from . import __version__
 from .api import load
-from .errors import LagError, SimulationError
+from .errors import LagError, LagWarning, SimulationError, SimulationInterrupted
 from .escape import visible
 from .present import describe_model, format_equations
 from .run.output import write_atomically
 from .scene import Overrides
 
 
+INTERRUPTED_EXIT = 130
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
-        return _dispatch(argv)
+        with warnings.catch_warnings():
+            warnings.simplefilter("default", LagWarning)
+            warnings.showwarning = _show_warning
+            return _dispatch(argv)
+    except KeyboardInterrupt:
+        print("lagc: interrupted", file=sys.stderr)
+        return INTERRUPTED_EXIT
     except LagError as error:
         print(error.render(), file=sys.stderr)
         return 1
@@ -38,6 +51,10 @@ def main(argv: list[str] | None = None) -> int:
         where = f": {visible(str(error.filename))}" if error.filename else ""
         print(f"lagc: error: {error.strerror}{where}", file=sys.stderr)
         return 1
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    print(f"lagc: warning: {message}", file=sys.stderr)
 
 
 def _dispatch(argv: list[str]) -> int:
@@ -78,6 +95,9 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--atol", type=float, help="absolute tolerance (adaptive integrators)")
     run.add_argument("--step", type=float, help="step size (rk4, gauss)")
     run.add_argument("--stages", type=int, help="number of stages (gauss)")
+    run.add_argument("--max-step", type=float, help="largest step (dopri5, dop853, radau5)")
+    run.add_argument("--max-steps", type=int, help="step limit, accepted + rejected "
+                     "(default: 100000, or 100 per output row if that is more)")
     run.add_argument("-o", "--output", help="write the CSV here (atomically) instead of standard output")
     run.set_defaults(handler=_run)
 
@@ -106,7 +126,9 @@ def _overrides(arguments) -> Overrides:
             raise LagError(f"--set takes NAME=VALUE with a number, got '{item}'")
         values.append((name.strip(), value))
     options = tuple((k, float(v)) for k, v in (("rtol", arguments.rtol), ("atol", arguments.atol),
-                                                 ("step", arguments.step), ("stages", arguments.stages))
+                                                 ("step", arguments.step), ("stages", arguments.stages),
+                                                 ("max_step", arguments.max_step),
+                                                 ("max_steps", arguments.max_steps))
                     if v is not None)
     return Overrides(tuple(values), arguments.start, arguments.stop, arguments.interval,
                      arguments.integrator, options)
@@ -114,15 +136,57 @@ def _overrides(arguments) -> Overrides:
 
 def _run(arguments) -> int:
     model = load(arguments.model)
+    overrides = _overrides(arguments)
+    progress = ProgressLine(sys.stderr)
     try:
-        result = model.simulate_plan(arguments.scene, arguments.backend, _overrides(arguments))
+        result = model.simulate_plan(arguments.scene, arguments.backend, overrides, progress.show)
+    except SimulationInterrupted as stopped:
+        progress.clear()
+        _deliver(stopped.partial.csv(), arguments.output)
+        print(stopped.partial.summary.render(), file=sys.stderr)
+        print(f"lagc: {stopped.render()}, after {len(stopped.partial.t)} rows", file=sys.stderr)
+        return INTERRUPTED_EXIT
     except SimulationError as error:
+        progress.clear()
         if error.partial is not None:
             print(error.partial.summary.render(), file=sys.stderr)
         raise
+    progress.clear()
     _deliver(result.csv(), arguments.output)
     print(result.summary.render(), file=sys.stderr)
     return 0
+
+
+class ProgressLine:
+    """`lagc: t = 12.5 of 50 (25%), 3.1 s` on a terminal's standard error, rewritten in place with \r
+    at most every REFRESH seconds once a run has taken DELAY seconds; nothing on a file or pipe
+    (logs stay clean). `clear` erases it before the summary."""
+
+    DELAY = 2.0
+    REFRESH = 0.25
+
+    def __init__(self, stream):
+        self.stream = stream
+        self.active = hasattr(stream, "isatty") and stream.isatty()
+        self.started = clock.monotonic()
+        self.shown = 0.0          # when the line was last written, 0: never
+        self.width = 0
+
+    def show(self, t: float, start: float, stop: float) -> None:
+        now = clock.monotonic()
+        if not self.active or now - self.started < self.DELAY or now - self.shown < self.REFRESH:
+            return
+        share = 100 * (t - start) / (stop - start)
+        text = f"lagc: t = {t:.6g} of {stop:.6g} ({share:.0f}%), {now - self.started:.1f} s"
+        self.stream.write("\r" + text.ljust(self.width))
+        self.stream.flush()
+        self.width, self.shown = len(text), now
+
+    def clear(self) -> None:
+        if self.shown:
+            self.stream.write("\r" + " " * self.width + "\r")
+            self.stream.flush()
+            self.shown = 0.0
 
 
 def _emit(arguments) -> int:

@@ -3,8 +3,9 @@
 - `LagError`: the model is wrong. It carries one or more located diagnostics and is rendered
   as `file:line:column: error: message`, the source line and a caret. The command line prints
   it and exits 1, never with a traceback.
-- `SimulationError`: the numbers failed (singular mass matrix, step-size collapse, NaN). It
-  names the time, the state and a remedy, and keeps the results computed so far.
+- `SimulationError`: the numbers failed (singular mass matrix, step-size collapse, NaN, the
+  step limit). It names the time, the state and a remedy, and keeps the results computed so
+  far. `SimulationInterrupted` is the same for a run stopped by Ctrl-C.
 - `InternalError`: a bug in lagdsl. It keeps its traceback and asks to be reported.
 """
 from __future__ import annotations
@@ -92,6 +93,17 @@ class SimulationError(Exception):
         state = ", ".join(f"{name} = {value:.17g}" for name, value in self.state.items())
         return (f"simulation failed at t = {self.time:.17g}: {self.message}\n"
                 f"  state: {state}\n  remedy: {self.remedy}")
+
+
+class SimulationInterrupted(SimulationError):
+    """The run was stopped by Ctrl-C; `partial` holds the rows computed until then."""
+
+    def render(self) -> str:
+        return f"interrupted at t = {self.time:.17g}"
+
+
+class LagWarning(UserWarning):
+    """A setting lagdsl changed or doubts, e.g. an rtol below what double precision resolves."""
 
 
 class InternalError(Exception):

@@ -35,6 +35,7 @@ BUILTIN_CALLS = {"momentum", "multiplier", "residual"}
 ALL_FUNCTION_NAMES = sorted(set(FUNCTIONS) | set(VECTOR_FUNCTIONS) | set(SPECIAL_FORMS))
 MAX_DOUBLE = sympy.Rational(1.7976931348623157e308)
 NON_FINITE = (sympy.zoo, sympy.nan, sympy.oo, sympy.S.NegativeInfinity)
+FOLDING_NODES = ("mul", "div", "pow", "neg", "add", "sub")   # where exact constants combine and may overflow
 MAX_MEMBERS = 10000         # largest index range or indexed family: sizes are unrolled at compile time
 MAX_UNROLLED = 100000       # all sums and indexed lets of a model together
 KIND_WORDS = {"parameter": "a parameter", "coordinate": "a coordinate", "let": "a let",
@@ -189,12 +190,15 @@ class ExpressionBuilder:
         return value
 
     def _require_real_number(self, value, node) -> None:
-        """A constant part of an expression must be a finite real double (tan(pi/2) is not)."""
-        if not value.is_number:
-            return
+        """A constant part of an expression must be a finite real double (tan(pi/2) is not, nor
+        the factor 1/1e-310 = 1e310 that m/1e-310 folds into)."""
         span = self.span(node)
         text = " ".join(span.text.split())
         this = text if len(text) <= 40 else "this constant"
+        if not value.is_number:
+            if node.data in FOLDING_NODES and any(abs(n) > MAX_DOUBLE for n in value.atoms(sympy.Rational)):
+                raise LagError(f"{this} has a constant factor out of the range of double precision", span)
+            return
         if value.has(*NON_FINITE):
             raise LagError(f"{this} has no finite value", span)
         if value.is_real is False:

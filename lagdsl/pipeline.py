@@ -15,6 +15,7 @@ run              source -> trajectories                run/
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 from . import ir
@@ -26,7 +27,7 @@ from .mechanics import Equations, derive_equations
 from .parser import parse
 from .run.output import Result
 from .run.runner import run_c, run_numpy
-from .scene import Overrides, ScenePlan, plan_scene
+from .scene import Overrides, ScenePlan, check_step_count, plan_scene
 from .semantics import build_model
 from .source import SourceFile
 
@@ -56,6 +57,8 @@ def generate(equations: Equations, scene_plan: ScenePlan, backend: str, source_n
     return kernel, render(kernel, source_name)                      # -> C or NumPy source
 
 
-def execute(kernel: Kernel, source: GeneratedSource, scene_plan: ScenePlan) -> Result:
+def execute(kernel: Kernel, source: GeneratedSource, scene_plan: ScenePlan,
+            progress: Callable[[float, float, float], None] | None = None) -> Result:
+    check_step_count(scene_plan)
     run = {"c": run_c, "numpy": run_numpy}[source.language]
-    return run(kernel, source, scene_plan)                          # -> Result
+    return run(kernel, source, scene_plan, progress)                # -> Result

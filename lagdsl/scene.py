@@ -9,12 +9,15 @@ for the symplectic `gauss`.
 """
 from __future__ import annotations
 
+import math
+import sys
+import warnings
 from dataclasses import dataclass, replace
 
 import sympy
 
 from . import ir
-from .errors import LagError
+from .errors import LagError, LagWarning
 from .expressions import suggest
 from .mechanics import Equations
 from .semantics import DEFAULT_INTEGRATOR, DEFAULT_TIME, INTEGRATOR_OPTIONS, validate_integrator
@@ -32,7 +35,29 @@ class Overrides:
     stop: float | None = None
     interval: float | None = None
     integrator: str | None = None
-    options: tuple[tuple[str, float], ...] = ()     # rtol, atol, step, stages, max_step
+    options: tuple[tuple[str, float], ...] = ()     # rtol, atol, step, stages, max_step, max_steps
+
+
+MAX_ROWS = 10**7              # the largest output grid
+DEFAULT_MAX_STEPS = 100000    # the step limit unless the grid asks for more (ScenePlan.max_steps)
+GRID_SLACK = 1e-9             # a grid time within this many intervals of stop is stop
+RTOL_FLOOR = 10 * sys.float_info.epsilon   # no error control is finer than the rounding of y
+
+
+def grid_rows(start: float, stop: float, interval: float) -> int:
+    """Rows of the output grid: start + k*interval while below stop, then stop itself (so a stop
+    that is not on the grid still ends the table, and an interval longer than the run gives the
+    two rows start and stop). The C driver's lag_last_row is the same rule."""
+    ratio = (stop - start) / interval
+    last = math.floor(ratio + GRID_SLACK)
+    return last + 2 if ratio - last > GRID_SLACK or last == 0 else last + 1
+
+
+def step_limit(integrator: ir.IntegratorChoice, time: ir.TimeGrid) -> int:
+    """The most steps (accepted + rejected) a run may take: the integrator's max_steps, or by
+    default 100000 (as in Hairer's codes) or 100 per output row, whichever is larger."""
+    given = dict(integrator.options).get("max_steps")
+    return int(given) if given else max(DEFAULT_MAX_STEPS, 100 * grid_rows(time.start, time.stop, time.interval))
 
 
 @dataclass(frozen=True)
@@ -53,6 +78,10 @@ class ScenePlan:
     @property
     def columns(self) -> tuple[str, ...]:
         return tuple(o.column for o in self.outputs)
+
+    @property
+    def max_steps(self) -> int:
+        return step_limit(self.integrator, self.time)
 
     @property
     def implicit(self) -> bool:
@@ -102,10 +131,17 @@ def _time(time: ir.TimeGrid, overrides: Overrides) -> ir.TimeGrid:
     start = overrides.start if overrides.start is not None else time.start
     stop = overrides.stop if overrides.stop is not None else time.stop
     interval = overrides.interval if overrides.interval is not None else time.interval
+    for what, value in (("start time", start), ("stop time", stop), ("output interval", interval)):
+        if not math.isfinite(value):
+            raise LagError(f"the {what} must be a finite number, not {value}")
     if not stop > start:
         raise LagError(f"the stop time {stop:g} is not after the start time {start:g}")
     if not interval > 0:
         raise LagError("the output interval must be positive")
+    if not (stop - start) / interval < MAX_ROWS or grid_rows(start, stop, interval) > MAX_ROWS:
+        raise LagError(f"the output grid from {start:g} to {stop:g} every {interval:g} would have "
+                       f"{(stop - start) / interval + 1:.3g} rows, more than the limit of {MAX_ROWS:.0e}; "
+                       "choose a larger --interval")
     return replace(time, start=start, stop=stop, interval=interval)
 
 
@@ -120,10 +156,41 @@ def _integrator(choice: ir.IntegratorChoice, overrides: Overrides) -> ir.Integra
         if key not in allowed:
             raise LagError(f"{name} has no option '{key}' (options: {', '.join(allowed)})")
         values[key] = value
-    return validate_integrator(name, values, choice.span)
+    # The scene's own options were checked when the model was read: a failure now comes from the
+    # command line (or simulate()), where the scene's integrator statement is the wrong place to point.
+    span = choice.span if name == choice.name and not overrides.options else None
+    return _raise_rtol_to_floor(validate_integrator(name, values, span))
+
+
+def _raise_rtol_to_floor(choice: ir.IntegratorChoice) -> ir.IntegratorChoice:
+    """rtol below 10 eps asks for more than double precision can deliver: the step size would
+    collapse or the run crawl. Raise it, as Hairer's codes do, and say so once."""
+    options = dict(choice.options)
+    if "rtol" not in options or options["rtol"] >= RTOL_FLOOR:
+        return choice
+    warnings.warn(f"rtol = {options['rtol']:g} is below 10 eps; raised to {RTOL_FLOOR:.3g}", LagWarning,
+                  stacklevel=2)
+    options["rtol"] = RTOL_FLOOR
+    return replace(choice, options=tuple(sorted(options.items())))
+
+
+def check_step_count(plan: ScenePlan) -> None:
+    """A fixed-step method knows its number of steps before it runs: refuse a run over the limit
+    (the C integrators would stop at once with LAG_ERR_MAX_STEPS)."""
+    integrator, time = plan.integrator, plan.time
+    step = dict(integrator.options).get("step")
+    if integrator.name not in ("rk4", "gauss") or step is None:
+        return
+    steps = (time.stop - time.start) / step
+    if steps > plan.max_steps:
+        raise LagError(f"{integrator.name} with step {step:g} would take {steps:.3g} steps from {time.start:g} to "
+                       f"{time.stop:g}, more than the step limit of {plan.max_steps}; take a larger step or "
+                       "raise --max-steps", integrator.span)
 
 
 def _apply_override(model: ir.Model, name: str, value: float, set_values: dict, initial: dict) -> None:
+    if not math.isfinite(value):
+        raise LagError(f"cannot set '{name}' to {value}: values must be finite numbers")
     coordinate, _, part = name.rpartition(".")
     if part in ("start", "velocity") and coordinate:
         names = [c.name for c in model.coordinates]
@@ -153,6 +220,7 @@ def _parameter_values(model: ir.Model, set_values: dict[str, float]) -> tuple[fl
         else:
             value = float(parameter.expression.xreplace(values).evalf(30)) if parameter.expression.free_symbols \
                 else parameter.value
+            _require_finite(value, f"the parameter {parameter.name}, computed from the others,")
         values[parameter.symbol] = sympy.Float(value, 30)
         result.append(value)
     return tuple(result)
@@ -165,7 +233,15 @@ def _initial_state(model: ir.Model, parameters, initial: dict) -> tuple[float, .
         start, velocity = initial.get(c.name, (None, None))
         starts.append(start if start is not None else float(c.start.xreplace(values).evalf(30)))
         velocities.append(velocity if velocity is not None else float(c.velocity.xreplace(values).evalf(30)))
+        _require_finite(starts[-1], f"the start value of {c.name}")
+        _require_finite(velocities[-1], f"the start velocity of {c.name}")
     return tuple(starts + velocities)
+
+
+def _require_finite(value: float, what: str) -> None:
+    """float() of an expression in overridden parameters may overflow or be NaN (m/0 with m = 0)."""
+    if not math.isfinite(value):
+        raise LagError(f"{what} is {value}, not a finite number (check the values set)")
 
 
 def _check_outputs(outputs, equations: Equations) -> None:

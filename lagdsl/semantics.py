@@ -8,6 +8,8 @@ later uses of it do not produce follow-on errors.
 """
 from __future__ import annotations
 
+import math
+
 import lark
 import sympy
 
@@ -21,8 +23,9 @@ from .units import parse_unit
 RESERVED = {"model", "end", "parameter", "coordinate", "let", "constraint", "force", "dissipation",
             "output", "scene", "time", "integrator", "set", "t", "T", "U", "L", "der", "pi", "sum", "in"}
 INTEGRATOR_OPTIONS = {
-    "rk4": ("step",), "dopri5": ("rtol", "atol", "max_step"), "dop853": ("rtol", "atol", "max_step"),
-    "radau5": ("rtol", "atol", "max_step"), "gauss": ("stages", "step"),
+    "rk4": ("step", "max_steps"), "dopri5": ("rtol", "atol", "max_step", "max_steps"),
+    "dop853": ("rtol", "atol", "max_step", "max_steps"), "radau5": ("rtol", "atol", "max_step", "max_steps"),
+    "gauss": ("stages", "step", "max_steps"),
 }
 DEFAULT_INTEGRATOR = ir.IntegratorChoice("dop853", (("rtol", 1e-8), ("atol", 1e-10)), None)
 DEFAULT_TIME = ir.TimeGrid(0.0, 10.0, 0.01, None)
@@ -581,10 +584,21 @@ def _position(diagnostic) -> tuple[int, int]:
 
 
 def validate_integrator(name: str, values: dict[str, float], span: Span | None) -> ir.IntegratorChoice:
-    """Check and complete an integrator's options (defaults: rtol 1e-8, atol 1e-10, 2 stages)."""
+    """Check and complete an integrator's options (defaults: rtol 1e-8, atol 1e-10, 2 stages).
+
+    Every option is a finite number: step and max_step positive, rtol and atol >= 0 and not both
+    0, stages and max_steps whole numbers (max_steps from 1 to 1e15). rtol below 10 eps is
+    raised by the scene plan, not here."""
     for key, value in values.items():
-        if not value > 0:
-            raise LagError(f"{name}({key} = ...) must be positive", span)
+        if key in ("rtol", "atol"):
+            if not 0 <= value < math.inf:
+                raise LagError(f"{name}({key} = ...) must be a finite number >= 0", span)
+        elif not 0 < value < math.inf:
+            raise LagError(f"{name}({key} = ...) must be a positive finite number", span)
+    if values.get("rtol") == 0 and values.get("atol") == 0:
+        raise LagError(f"{name}(rtol = ..., atol = ...) cannot both be 0", span)
+    if "max_steps" in values and (values["max_steps"] != int(values["max_steps"]) or values["max_steps"] > 1e15):
+        raise LagError(f"{name}(max_steps = ...) must be a whole number from 1 to 1e15", span)
     if name in ("rk4", "gauss") and "step" not in values:
         raise LagError(f"{name} is a fixed-step method and needs a step: {name}(step = 0.001)", span)
     if name == "gauss":

@@ -1,12 +1,21 @@
 """The command line end to end: exit codes, output formats, no output file on failure."""
 from __future__ import annotations
 
+import io
+import os
+import re
+import shutil
+import signal
 import subprocess
 import sys
+import time
+from pathlib import Path
 
 import pytest
 
+from lagdsl.cli import ProgressLine
 from tests.conftest import MODELS
+from tests.run.test_bounds import OSCILLATOR
 
 
 def lagc(*arguments, cwd=None):
@@ -78,3 +87,138 @@ def test_emit_writes_source(tmp_path, language):
     done = lagc(MODELS / "kepler.lag", "--emit", language, "-o", out)
     assert done.returncode == 0, done.stderr
     assert "Kepler" in out.read_text()
+
+
+# ---- bounded, interruptible runs; checked inputs (tests/run/test_bounds.py has the API side) ----
+
+@pytest.fixture
+def oscillator(tmp_path):
+    path = tmp_path / "oscillator.lag"
+    path.write_text(OSCILLATOR)
+    return path
+
+
+@pytest.mark.parametrize("arguments, words", [
+    (["--stop", "inf"], "error: the stop time must be a finite number, not inf"),
+    (["--set", "k=nan"], "error: cannot set 'k' to nan: values must be finite numbers"),
+    (["--interval", "1e-300"], "would have 1e+300 rows, more than the limit of 1e+07; choose a larger --interval"),
+    (["--max-step", "-1"], "error: dop853(max_step = ...) must be a positive finite number"),
+    (["--atol", "nan"], "error: dop853(atol = ...) must be a finite number >= 0"),
+])
+def test_run_refuses_bad_inputs(oscillator, arguments, words):
+    done = lagc("run", oscillator, *arguments)
+    assert done.returncode == 1 and words in done.stderr and "Traceback" not in done.stderr
+
+
+def test_run_raises_a_tiny_rtol_with_one_warning(oscillator):
+    done = lagc("run", oscillator, "--rtol", "1e-300")
+    assert done.returncode == 0, done.stderr
+    assert [line for line in done.stderr.splitlines() if "warning" in line] == [
+        "lagc: warning: rtol = 1e-300 is below 10 eps; raised to 2.22e-15"]
+
+
+def test_run_stops_at_the_step_limit(oscillator):
+    done = lagc("run", oscillator, "--stop", "100", "--max-steps", "10")
+    assert done.returncode == 1
+    assert "steps accepted" in done.stderr and "the step limit of 10 steps was reached" in done.stderr
+    assert "remedy: raise --max-steps" in done.stderr
+
+
+def _wait_for_the_library(process, cache) -> bool:
+    """True once the process has loaded a compiled model from `cache` (Linux: /proc/PID/maps):
+    then the integration runs, and Ctrl-C reaches it rather than the compiler."""
+    maps = Path(f"/proc/{process.pid}/maps")
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and process.poll() is None:
+        if str(cache) in maps.read_text():
+            return True
+        time.sleep(0.05)
+    return False
+
+
+def _assert_valid_partial_csv(text: str, columns: str) -> list[list[float]]:
+    lines = text.splitlines()
+    assert lines[0] == columns
+    rows = [[float(x) for x in line.split(",")] for line in lines[1:]]
+    assert rows and all(len(row) == len(columns.split(",")) for row in rows)
+    assert all(b[0] > a[0] for a, b in zip(rows, rows[1:]))
+    return rows
+
+
+@pytest.mark.skipif(not Path("/proc/self/maps").exists(), reason="needs /proc to see the run start")
+def test_ctrl_c_stops_lagc_run_with_the_rows_so_far(oscillator, tmp_path):
+    cache = tmp_path / "cache"
+    environment = {**os.environ, "LAGDSL_CACHE": str(cache)}
+    out = tmp_path / "out.csv"
+    process = subprocess.Popen([sys.executable, "-m", "lagdsl", "run", str(oscillator), "--stop", "1e6",
+                                "--interval", "1", "--rtol", "1e-13", "--max-steps", "1000000000000", "-o", str(out)],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=environment)
+    assert _wait_for_the_library(process, cache)
+    time.sleep(0.5)
+    process.send_signal(signal.SIGINT)
+    _, stderr = process.communicate(timeout=30)
+    assert process.returncode == 130, stderr
+    assert "Traceback" not in stderr and "steps accepted" in stderr
+    assert re.search(r"lagc: interrupted at t = [0-9.e+]+, after \d+ rows", stderr)
+    rows = _assert_valid_partial_csv(out.read_text(), "t,x,energy")
+    assert 1 < len(rows) < 1000001
+
+
+def _standalone(oscillator, tmp_path) -> Path:
+    cc = shutil.which("cc") or pytest.skip("no C compiler")
+    source, program = tmp_path / "oscillator.c", tmp_path / "oscillator"
+    assert lagc(oscillator, "--emit", "c", "-o", source).returncode == 0
+    subprocess.run([cc, "-std=c99", "-O2", "-o", program, source, "-lm"], check=True)
+    return program
+
+
+def test_the_standalone_program_checks_its_arguments(oscillator, tmp_path):
+    program = _standalone(oscillator, tmp_path)
+    for argument, words in [("rtol=-1", "rtol must be a finite number >= 0"),
+                            ("atol=nan", "atol must be a finite number >= 0"),
+                            ("max_step=-1", "max_step must be a finite number > 0"),
+                            ("max_steps=0.5", "max_steps must be a whole number"),
+                            ("t.stop=inf", "must be finite numbers"),
+                            ("t.interval=1e-300", "more than the limit of 10000000"),
+                            ("k=inf", "the parameter k is inf"),
+                            ("m=1e-320", "the parameter w is inf"),
+                            ("x.start=nan", "the initial value of x is nan")]:
+        done = subprocess.run([program, argument], capture_output=True, text=True, timeout=30)
+        assert done.returncode == 2 and words in done.stderr, (argument, done.stderr)
+    warned = subprocess.run([program, "rtol=1e-300"], capture_output=True, text=True, timeout=30)
+    assert warned.returncode == 0 and "warning: rtol = 1e-300 is below 10 eps" in warned.stderr
+    limited = subprocess.run([program, "t.stop=100", "max_steps=10"], capture_output=True, text=True, timeout=30)
+    assert limited.returncode == 1 and "the step limit (max_steps) was reached" in limited.stderr
+    grid = subprocess.run([program, "t.interval=0.3"], capture_output=True, text=True, timeout=30)
+    times = [row[0] for row in _assert_valid_partial_csv(grid.stdout, "t,x,energy")]
+    assert times == pytest.approx([0.0, 0.3, 0.6, 0.9, 1.0], abs=1e-15) and times[-1] == 1.0
+
+
+def test_ctrl_c_stops_the_standalone_program_with_a_valid_csv(oscillator, tmp_path):
+    program = _standalone(oscillator, tmp_path)
+    process = subprocess.Popen([program, "t.stop=5e6", "t.interval=1", "rtol=1e-13", "max_steps=1e15"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(1.0)
+    process.send_signal(signal.SIGINT)
+    stdout, stderr = process.communicate(timeout=30)
+    assert process.returncode == 130, stderr
+    assert re.search(r"interrupted at t = [0-9.e+]+ after \d+ rows", stderr)
+    rows = _assert_valid_partial_csv(stdout, "t,x,energy")
+    assert 1 < len(rows) < 5000001
+
+
+def test_the_progress_line_is_rewritten_in_place_on_a_terminal_only():
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    terminal, log = Terminal(), io.StringIO()
+    for stream in (terminal, log):
+        line = ProgressLine(stream)
+        line.started -= 10                  # a run that has taken 10 s
+        line.show(12.5, 0.0, 50.0)
+        line.show(13.0, 0.0, 50.0)          # within REFRESH seconds: not rewritten
+        line.clear()
+    assert terminal.getvalue().startswith("\rlagc: t = 12.5 of 50 (25%), 10.0 s")
+    assert "13" not in terminal.getvalue() and terminal.getvalue().endswith("\r")
+    assert log.getvalue() == ""

@@ -21,7 +21,19 @@ FUNCTION_PARAMETERS = {
     "outputs": ("par", "t", "y", "out", "inv"),
 }
 # Command-line names of the integrator options, and the lag_options field each sets.
-OPTION_FIELDS = {"rtol": "rtol", "atol": "atol", "step": "step", "max_step": "max_step", "stages": "stages"}
+OPTION_FIELDS = {"rtol": "rtol", "atol": "atol", "step": "step", "max_step": "max_step", "stages": "stages",
+                 "max_steps": "max_steps"}
+# What the standalone program accepts for each option (the checks of validate_integrator):
+# a C condition on the parsed `value`, the requirement in words, and the cast to the field's type.
+OPTION_CHECKS = {
+    "rtol": ("r_isfinite(value) && value >= 0", "a finite number >= 0", ""),
+    "atol": ("r_isfinite(value) && value >= 0", "a finite number >= 0", ""),
+    "step": ("r_isfinite(value) && value > 0", "a finite number > 0", ""),
+    "max_step": ("r_isfinite(value) && value > 0", "a finite number > 0", ""),
+    "stages": ("value >= 1 && value <= 6 && value == r_floor(value)", "a whole number from 1 to 6", "(int)"),
+    "max_steps": ("value >= 1 && value <= LAG_LIT(1e15) && value == r_floor(value)",
+                  "a whole number from 1 to 1e15", "(long)"),
+}
 
 
 def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
@@ -52,7 +64,8 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
         "t_start": _literal(kernel.time.start), "t_stop": _literal(kernel.time.stop),
         "t_interval": _literal(kernel.time.interval),
         "options_init": _options_initializer(options),
-        "option_fields": [(k, f) for k, f in OPTION_FIELDS.items() if k in _allowed_options(kernel)],
+        "option_fields": _option_fields(kernel),
+        "tolerances": "rtol" in _allowed_options(kernel),
         **blocks,
     }
     context["driver"] = template_environment().get_template("c/driver.c.j2").render(context)
@@ -81,11 +94,22 @@ def _allowed_options(kernel: Kernel) -> tuple[str, ...]:
     return INTEGRATOR_OPTIONS[kernel.integrator.name]
 
 
+def _option_fields(kernel: Kernel) -> list[dict[str, str]]:
+    """The options the standalone program accepts, with their checks."""
+    fields = []
+    for key, field in OPTION_FIELDS.items():
+        if key in _allowed_options(kernel):
+            check, requirement, cast = OPTION_CHECKS[key]
+            fields.append({"key": key, "field": field, "check": check, "requirement": requirement, "cast": cast})
+    return fields
+
+
 def _options_initializer(options: dict[str, float]) -> str:
-    """lag_options in field order: rtol, atol, step, max_step, stages, max_steps."""
+    """lag_options in field order: rtol, atol, step, max_step, stages, max_steps (0: the default)."""
     values = [options.get("rtol", 0.0), options.get("atol", 0.0), options.get("step", 0.0),
               options.get("max_step", 0.0)]
-    return ", ".join([_literal(v) for v in values] + [str(int(options.get("stages", 0))), "0"])
+    counts = [str(int(options.get("stages", 0))), f"{int(options.get('max_steps', 0))}L"]
+    return ", ".join([_literal(v) for v in values] + counts)
 
 
 def _literal(value: float) -> str:

@@ -1,24 +1,30 @@
 """Run a scene: the C backend through ctypes, the NumPy backend with scipy or our Python methods.
 
-Both deliver the same `Result`: rows at the output grid t0, t0 + dt, ... <= t1, the scene's
-columns, and a `RunSummary`. A numerical failure raises SimulationError naming the time, the
-state and a remedy, with the rows computed so far in `error.partial`.
+Both deliver the same `Result`: rows at the output grid t0, t0 + dt, ... < t1 and t1 itself
+(`scene.grid_rows`), the scene's columns, and a `RunSummary`. A numerical failure raises
+SimulationError naming the time, the state and a remedy, with the rows computed so far in
+`error.partial`. Every run is bounded by the plan's step limit, and Ctrl-C stops it between two
+steps with SimulationInterrupted, which keeps the rows computed so far as well. `progress`, if
+given, is called as progress(t reached, start, stop) every POLL_SECONDS in the C backend, after
+every step of scipy's solvers in the NumPy backend.
 """
 from __future__ import annotations
 
 import ctypes
 import hashlib
 import importlib.util
+import threading
 import time as clock
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from ..codegen import GeneratedSource
 from ..codegen.kernel import Kernel
-from ..errors import SimulationError
+from ..errors import InternalError, SimulationError, SimulationInterrupted
 from ..integrators.python.fixed_step import IntegrationFailure, integrate_gauss, integrate_rk4
-from ..scene import ScenePlan
+from ..scene import ScenePlan, grid_rows
 from .output import Result, RunSummary, write_atomically
 from .toolchain import cache_directory, shared_library
 
@@ -31,22 +37,26 @@ STATUS = {
     3: ("the step size collapsed below the resolution of t",
         "the solution may be singular near this time (a collision, a coordinate singularity), "
         "or the problem is stiff: try --integrator radau5 or a looser --rtol"),
-    4: ("the maximum number of steps was reached",
-        "loosen --rtol, or use --integrator radau5 if the problem is stiff"),
+    4: ("the step limit of {max_steps} steps was reached",
+        "raise --max-steps, or the problem is stiff: try --integrator radau5 (or loosen --rtol)"),
     5: ("the implicit iteration did not converge",
         "reduce the step (gauss: step = ...), or loosen the tolerances"),
     6: ("projection onto the constraints did not converge",
         "the constraints may be singular at this state; check the initial values"),
+    7: ("interrupted", ""),
 }
+INTERRUPTED = 7
 SETTINGS_ORDER = ("rtol", "atol", "step", "max_step", "stages")
 SCIPY_METHODS = {"dopri5": "RK45", "dop853": "DOP853", "radau5": "Radau"}
+POLL_SECONDS = 0.1      # how often the main thread looks at a C run: Ctrl-C and progress
+Progress = Callable[[float, float, float], None]     # (t reached, start, stop)
 
 
 def output_times(plan: ScenePlan) -> np.ndarray:
+    """start + k*interval while below stop, then stop (the rule of scene.grid_rows)."""
     start, stop, interval = plan.time.start, plan.time.stop, plan.time.interval
-    last = int(np.floor((stop - start) / interval + 1e-9))
-    times = start + interval * np.arange(last + 1)
-    times[-1] = min(times[-1], stop)
+    times = start + interval * np.arange(grid_rows(start, stop, interval))
+    times[-1] = stop
     return times
 
 
@@ -57,11 +67,13 @@ def _state_names(plan: ScenePlan) -> list[str]:
 
 def _failure(plan: ScenePlan, status: int, t_fail: float, y_fail, partial: Result) -> SimulationError:
     message, remedy = STATUS.get(status, ("unknown failure", "please report this"))
-    return SimulationError(message, t_fail, dict(zip(_state_names(plan), map(float, y_fail))), remedy, partial)
+    kind = SimulationInterrupted if status == INTERRUPTED else SimulationError
+    state = dict(zip(_state_names(plan), map(float, y_fail)))
+    return kind(message.format(max_steps=plan.max_steps), t_fail, state, remedy, partial)
 
 
 # ---- C ---------------------------------------------------------------------------------------
-def run_c(kernel: Kernel, source: GeneratedSource, plan: ScenePlan) -> Result:
+def run_c(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress: Progress | None = None) -> Result:
     library = ctypes.CDLL(str(shared_library(source.text, source.suggested_name)))
     entry = library.lag_run
     double_p = ctypes.POINTER(ctypes.c_double)
@@ -70,7 +82,7 @@ def run_c(kernel: Kernel, source: GeneratedSource, plan: ScenePlan) -> Result:
     times = output_times(plan)
     options = dict(plan.integrator.options)
     settings = np.array([plan.time.start, plan.time.stop, plan.time.interval,
-                         *(float(options.get(k, 0.0)) for k in SETTINGS_ORDER), 0.0])
+                         *(float(options.get(k, 0.0)) for k in SETTINGS_ORDER), float(plan.max_steps)])
     parameters = np.array(plan.parameters or (0.0,), dtype=float)
     initial = np.array(plan.initial_state, dtype=float)
     ncols = len(plan.columns)
@@ -78,8 +90,8 @@ def run_c(kernel: Kernel, source: GeneratedSource, plan: ScenePlan) -> Result:
     summary = np.zeros(11 + 2 * len(plan.invariants) + len(initial))
     pointer = lambda a: a.ctypes.data_as(double_p)   # noqa: E731
     started = clock.perf_counter()
-    status = entry(pointer(parameters), pointer(initial), pointer(settings), pointer(rows),
-                   len(times), pointer(summary))
+    status = _interruptible(library, lambda: entry(pointer(parameters), pointer(initial), pointer(settings),
+                                                   pointer(rows), len(times), pointer(summary)), plan, progress)
     elapsed = clock.perf_counter() - started
     used = int(summary[1])
     invariants = tuple((name, float(summary[11 + 2 * i]), float(summary[12 + 2 * i]))
@@ -92,6 +104,42 @@ def run_c(kernel: Kernel, source: GeneratedSource, plan: ScenePlan) -> Result:
     if status != 0:
         raise _failure(plan, status, float(summary[2]), summary[11 + 2 * len(plan.invariants):], result)
     return result
+
+
+def _interruptible(library: ctypes.CDLL, call: Callable[[], int], plan: ScenePlan,
+                   progress: Progress | None) -> int:
+    """Make the C call in a worker thread, so that the main thread stays free for Ctrl-C and progress.
+
+    ctypes releases the GIL during the call, and a blocked foreign call would otherwise hold back
+    KeyboardInterrupt until the whole run is over. Ctrl-C sets the library's lag_interrupt flag,
+    which the driver reads after each step (status LAG_ERR_INTERRUPTED, the rows so far kept);
+    further Ctrl-Cs while it winds down change nothing.
+    """
+    interrupt = ctypes.c_int.in_dll(library, "lag_interrupt")
+    reached = ctypes.c_double.in_dll(library, "lag_progress_t")
+    interrupt.value = 0
+    outcome: list[int] = []
+    done = threading.Event()
+
+    def work() -> None:
+        try:
+            outcome.append(call())
+        finally:
+            done.set()
+
+    threading.Thread(target=work, name="lagdsl-c-run", daemon=True).start()
+    # Plain sleeps, not join(timeout): a KeyboardInterrupt inside Thread.join can leave the
+    # thread looking finished while it still runs.
+    while not done.is_set():
+        try:
+            clock.sleep(POLL_SECONDS)
+        except KeyboardInterrupt:
+            interrupt.value = 1
+        if progress is not None:
+            progress(reached.value, plan.time.start, plan.time.stop)
+    if not outcome:
+        raise InternalError("the C run ended without a status")
+    return outcome[0]
 
 
 # ---- NumPy -----------------------------------------------------------------------------------
@@ -107,7 +155,7 @@ def load_module(source: GeneratedSource):
     return module
 
 
-def run_numpy(kernel: Kernel, source: GeneratedSource, plan: ScenePlan) -> Result:
+def run_numpy(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress: Progress | None = None) -> Result:
     module = load_module(source)
     par = np.array(plan.parameters, dtype=float)
     times = output_times(plan)
@@ -118,7 +166,7 @@ def run_numpy(kernel: Kernel, source: GeneratedSource, plan: ScenePlan) -> Resul
     started = clock.perf_counter()
     name = plan.integrator.name
     if name in SCIPY_METHODS:
-        states, counts, failure = _run_scipy(module, par, times, y0, plan)
+        states, counts, failure = _run_scipy(module, par, times, y0, plan, progress or _no_progress)
     else:
         states, counts, failure = _run_fixed_step(module, par, times, y0, plan)
     elapsed = clock.perf_counter() - started
@@ -148,7 +196,13 @@ def _numpy_result(module, par, times, states, plan, counts, elapsed, projection)
     return Result(np.asarray(times, dtype=float), plan.columns, np.asarray(values, dtype=float), summary)
 
 
-def _run_scipy(module, par, times, y0, plan):
+def _no_progress(t: float, start: float, stop: float) -> None:
+    pass
+
+
+def _run_scipy(module, par, times, y0, plan, progress):
+    """scipy's solver step by step: rows from its dense output, the step limit and a step-size floor
+    counted here (scipy's own floor, 10 ulp of t, is no floor at t = 0), Ctrl-C between steps."""
     from scipy import integrate
     options = dict(plan.integrator.options)
     method = getattr(integrate, SCIPY_METHODS[plan.integrator.name])
@@ -166,12 +220,18 @@ def _run_scipy(module, par, times, y0, plan):
     counts = {"accepted": 0, "rejected": None, "rhs_evals": 0, "jac_evals": 0, "lu_decomps": 0}
     states = [y0]
     solver = start(times[0], y0)
+    span = times[-1] - times[0]
     k = 1
     try:
         while k < len(times):
+            if counts["accepted"] >= plan.max_steps:
+                return states, _tally(counts, solver), (4, solver.t, solver.y)
+            t_before, y_before = solver.t, solver.y
             solver.step()
-            if solver.status == "failed":
-                return states, _tally(counts, solver), (3, solver.t, solver.y)
+            progress(solver.t, times[0], times[-1])
+            collapsed = solver.status == "running" and solver.t - t_before < _min_step(solver.t, span)
+            if solver.status == "failed" or collapsed:
+                return states, _tally(counts, solver), (3, t_before, y_before)
             counts["accepted"] += 1
             if not np.all(np.isfinite(solver.y)):
                 return states, _tally(counts, solver), (2, solver.t, solver.y)
@@ -189,7 +249,14 @@ def _run_scipy(module, par, times, y0, plan):
                 solver = start(solver.t, projected, first_step=min(proposed, times[-1] - solver.t))
     except np.linalg.LinAlgError:
         return states, _tally(counts, solver), (1, solver.t, solver.y)
+    except KeyboardInterrupt:
+        return states, _tally(counts, solver), (INTERRUPTED, solver.t, solver.y)
     return states, _tally(counts, solver), None
+
+
+def _min_step(t: float, span: float) -> float:
+    """The C integrators' LAG_MIN_STEP: 10 eps max(|t|, length of the run)."""
+    return 10 * np.finfo(float).eps * max(abs(t), span)
 
 
 def _tally(counts, solver):
@@ -223,16 +290,20 @@ def _rk4_projected(module, par, times, y0, step, stop):
     """rk4 step by step, projecting onto the constraints after each step as the C driver does;
     output rows inside a step come from that step's dense output."""
     rows, stats, k, n, y = [y0], {"accepted": 0, "rejected": 0, "rhs_evals": 0}, 1, 0, y0
-    while k < len(times):
-        start, end = times[0] + n * step, min(times[0] + (n + 1) * step, stop)
-        inside = [t for t in times[k:] if t <= end]
-        grid = np.array([start, *inside] + ([] if inside and inside[-1] == end else [end]))
-        Y, counts = integrate_rk4(lambda t, x: module.rhs(t, x, par), grid, y, end - start)
-        rows.extend(project(module, par, t, row)[0] for t, row in zip(inside, Y[1:1 + len(inside)]))
-        for key in stats:
-            stats[key] += counts.get(key, 0)
-        y, _ = project(module, par, end, Y[-1])
-        k, n = k + len(inside), n + 1
+    try:
+        while k < len(times):
+            start, end = times[0] + n * step, min(times[0] + (n + 1) * step, stop)
+            inside = [t for t in times[k:] if t <= end]
+            grid = np.array([start, *inside] + ([] if inside and inside[-1] == end else [end]))
+            Y, counts = integrate_rk4(lambda t, x: module.rhs(t, x, par), grid, y, end - start)
+            rows.extend(project(module, par, t, row)[0] for t, row in zip(inside, Y[1:1 + len(inside)]))
+            for key in stats:
+                stats[key] += counts.get(key, 0)
+            y, _ = project(module, par, end, Y[-1])
+            k, n = k + len(inside), n + 1
+    except KeyboardInterrupt:
+        raise IntegrationFailure("rk4: interrupted", times[0] + n * step, y, np.array(rows),
+                                 status=INTERRUPTED) from None
     return np.array(rows), stats
 
 

@@ -7,12 +7,13 @@
  * Run:    ./ChargedParticle_helix [NAME=VALUE ...] > ChargedParticle_helix.csv
  *   NAME is a parameter (m, e, B),
  *   COORDINATE.start or COORDINATE.velocity (initial values),
- *   t.start, t.stop, t.interval (the output grid), or rtol, atol, max_step (radau5).
+ *   t.start, t.stop, t.interval (the output grid), or rtol, atol, max_step, max_steps (radau5).
  *   The CSV goes to standard output, the run summary to standard error.
  * Precision: -DLAG_LONG_DOUBLE, or -DLAG_FLOAT128 with -lquadmath, for reference runs.
  */
 #include <math.h>
 #include <float.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -85,8 +86,15 @@ enum lag_status {
     LAG_ERR_STEP_TOO_SMALL = 3,/* the adaptive step size fell below the resolution of t */
     LAG_ERR_MAX_STEPS = 4,     /* more steps than lag_options.max_steps */
     LAG_ERR_NO_CONVERGENCE = 5,/* Newton or fixed-point iteration failed even after step reductions */
-    LAG_ERR_PROJECTION = 6     /* projection onto the constraint manifold did not converge */
+    LAG_ERR_PROJECTION = 6,    /* projection onto the constraint manifold did not converge */
+    LAG_ERR_INTERRUPTED = 7    /* the driver was asked to stop (Ctrl-C), between two steps */
 };
+
+/* The smallest step an adaptive method may take from t on a run of length `span`: 10 eps |t|
+ * (below it t + h == t, HNW I, II.4), and at least 10 eps times the length of the run, so that
+ * the test also fires near t = 0, where eps |t| is no bound at all (it would take more than
+ * 10^14 such steps to cross the run). */
+#define LAG_MIN_STEP(t, span) (10 * REAL_EPSILON * r_fmax(r_fabs(t), (span)))
 
 /* What the driver asks of an integrator; unused fields are ignored by each method. */
 typedef struct lag_options {
@@ -94,7 +102,8 @@ typedef struct lag_options {
     real step;         /* fixed-step methods (rk4, gauss): the step; adaptive: initial step, 0 = automatic */
     real max_step;     /* adaptive: largest step, 0 = no limit */
     int stages;        /* gauss: number of stages s (order 2s) */
-    long max_steps;    /* give up after this many attempted steps, 0 = no limit */
+    long max_steps;    /* give up after this many attempted steps (accepted + rejected), 0 = no limit;
+                        * the driver always sets a limit */
 } lag_options;
 
 /* Work counters every integrator keeps up to date (the run summary prints them). */
@@ -416,8 +425,9 @@ static int lag_outputs(const lag_system *sys, real t, const real *y, real *out, 
  * A rejected first step is retried with h/10; a right-hand side that fails in a stage (the
  * trial left the domain of the model) or gives non-finite values, with h/10 as well (interface
  * README).  The first step is opt->step, or 1e-6 as in RADAU5 (it adapts within a few steps).
- * When h falls below 10 eps |t| the reason of the last failure is returned: the right-hand
- * side's status, LAG_ERR_NO_CONVERGENCE for Newton, LAG_ERR_STEP_TOO_SMALL for the error test.
+ * When h falls below LAG_MIN_STEP = 10 eps max(|t|, t_end - t0) the reason of the last failure
+ * is returned: the right-hand side's status, LAG_ERR_NO_CONVERGENCE for Newton,
+ * LAG_ERR_STEP_TOO_SMALL for the error test.
  *
  * Tolerances.  The estimate is O(h^4) while the method has order 5, so, as RADAU5 does, the
  * user's tolerances are transformed to rtol' = 0.1 rtol^(2/3), atol' = rtol' atol / rtol,
@@ -452,7 +462,7 @@ typedef struct lag_stepper {
     lag_stats stats;
     /* the problem */
     const lag_system *sys;
-    real t_end, h_max, rtol, atol, fnewt;
+    real t_end, span, h_max, rtol, atol, fnewt;
     long max_steps;
     /* the method: nodes, eigenvalues of A^-1, the eigenbasis T with
      * T^-1 A^-1 T = [[gamma, 0, 0], [0, alpha, -beta], [0, beta, alpha]], error weights dd = e/gamma0 */
@@ -910,6 +920,7 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
     s->sys = sys;
     s->t = s->t_old = t0;
     s->t_end = t_end;
+    s->span = t_end - t0;
     for (i = 0; i < LAG_NY; ++i)
         s->y[i] = y0[i];
     radau_coefficients(s);
@@ -955,7 +966,7 @@ static int lag_stepper_step(lag_stepper *s)
         real err, shrink, fac, quot;
         if (s->max_steps > 0 && s->stats.accepted + s->stats.rejected >= s->max_steps)
             return LAG_ERR_MAX_STEPS;
-        if (!(s->h >= 10 * REAL_EPSILON * r_fabs(s->t)) || s->h <= 0)
+        if (!(s->h >= LAG_MIN_STEP(s->t, s->span)) || s->h <= 0)
             return failure;
         if (s->need_jac) {
             status = lag_jacobian(s->sys, s->t, s->y, s->jac);
@@ -1052,28 +1063,55 @@ static int lag_deliver(const lag_system *sys, real t, const real *y, lag_sink si
     return sink(context, t, out) ? LAG_ERR_MAX_STEPS : LAG_OK;
 }
 
-/* Integrate from (t0, y0) to t1 and deliver the outputs at t0, t0 + dt, ... <= t1. */
+/* Set to 1 to stop the run between two steps (LAG_ERR_INTERRUPTED): by the standalone program's
+ * SIGINT handler, or through ctypes by the Python side when Ctrl-C reaches it. */
+volatile sig_atomic_t lag_interrupt = 0;
+/* The time the integration has reached, for the progress line of `lagc run` (read through ctypes). */
+volatile double lag_progress_t = 0;
+
+#define LAG_MAX_ROWS 10000000L         /* the largest output grid: 10^7 rows */
+#define LAG_DEFAULT_MAX_STEPS 100000L  /* the step limit (as in Hairer's codes), or 100 per output row */
+
+/* The output grid: rows t0 + k dt for k = 0 .. last - 1, then t1 (a grid time within 1e-9 dt of t1
+ * is t1, so that 10 / 0.01 gives 1001 rows, not 1002); an interval longer than the run gives the
+ * two rows t0 and t1. Returns `last`, the index of the final row. */
+static long lag_last_row(real t0, real t1, real dt)
+{
+    real ratio = (t1 - t0) / dt;
+    long last = (long)r_floor(ratio + LAG_LIT(1e-9));
+    return ratio - last > LAG_LIT(1e-9) || last == 0 ? last + 1 : last;
+}
+
+/* Integrate from (t0, y0) to t1 and deliver the outputs on the grid of lag_last_row. The caller
+ * has checked the grid (finite, t1 > t0, dt > 0, at most LAG_MAX_ROWS rows). */
 static int lag_integrate(const lag_system *sys, const real *y0, real t0, real t1, real dt,
                          const lag_options *options, lag_sink sink, void *context, lag_report *report)
 {
     lag_stepper *stepper = malloc(sizeof *stepper);
+    lag_options limited = *options;
     real y[LAG_NY];
-    long k, last = (long)r_floor((t1 - t0) / dt + LAG_LIT(1e-9));
+    long k, last = lag_last_row(t0, t1, dt);
     int status = LAG_OK;
     memset(report, 0, sizeof *report);
     memcpy(y, y0, sizeof y);
     if (stepper == NULL)
         return report->status = LAG_ERR_MAX_STEPS;
     memset(stepper, 0, sizeof *stepper);
+    if (limited.max_steps <= 0)
+        limited.max_steps = last + 1 > LAG_DEFAULT_MAX_STEPS / 100 ? 100 * (last + 1) : LAG_DEFAULT_MAX_STEPS;
+    lag_progress_t = (double)t0;
     (void)lag_stepper_restart;     /* only constrained scenes project the state and restart */
     if (status == LAG_OK)
         status = lag_deliver(sys, t0, y, sink, context, report);
     if (status == LAG_OK)
-        status = lag_stepper_init(stepper, sys, t0, y, t1, options);
+        status = lag_stepper_init(stepper, sys, t0, y, t1, &limited);
     for (k = 1; k <= last && status == LAG_OK; ++k) {
-        real tk = k == last && t0 + k * dt > t1 ? t1 : t0 + k * dt;
+        real tk = k == last ? t1 : t0 + k * dt;
         while (stepper->t < tk && status == LAG_OK) {
             status = lag_stepper_step(stepper);
+            lag_progress_t = (double)stepper->t;
+            if (status == LAG_OK && lag_interrupt)
+                status = LAG_ERR_INTERRUPTED;
         }
         if (status != LAG_OK)
             break;
@@ -1100,9 +1138,10 @@ static const char *lag_status_message(int status)
     case LAG_ERR_SINGULAR: return "the mass matrix is singular at this state";
     case LAG_ERR_NONFINITE: return "the state or its derivative became infinite or NaN";
     case LAG_ERR_STEP_TOO_SMALL: return "the step size collapsed below the resolution of t";
-    case LAG_ERR_MAX_STEPS: return "the maximum number of steps was reached";
+    case LAG_ERR_MAX_STEPS: return "the step limit (max_steps) was reached";
     case LAG_ERR_NO_CONVERGENCE: return "the implicit iteration did not converge";
     case LAG_ERR_PROJECTION: return "projection onto the constraints did not converge";
+    case LAG_ERR_INTERRUPTED: return "interrupted";
     default: return "no error";
     }
 }
@@ -1126,7 +1165,8 @@ static int lag_buffer_row(void *context, real t, const real *out)
     return 0;
 }
 
-/* settings: t0, t1, dt, rtol, atol, step, max_step, stages, max_steps.
+/* settings: t0, t1, dt, rtol, atol, step, max_step, stages, max_steps (0: the default limit).
+ * The caller has checked them as `lagc run` does; it resets lag_interrupt before the call.
  * summary: status, rows, t_fail, accepted, rejected, rhs_evals, jac_evals, lu_decomps,
  *          newton_iters, residual_max, projection_start, then the invariants' start values
  *          and drifts, then the state at failure. */
@@ -1202,10 +1242,56 @@ static int lag_parse_value(const char *text, real *value)
     return end != text && *end == '\0';
 }
 
+static void lag_on_interrupt(int signal_number)
+{
+    (void)signal_number;
+    lag_interrupt = 1;
+}
+
+/* The checks of `lagc run`: a finite grid of at most LAG_MAX_ROWS rows. */
+static int lag_check_grid(const char *program, real t0, real t1, real dt)
+{
+    real ratio = (t1 - t0) / dt;
+    if (!r_isfinite(t0) || !r_isfinite(t1) || !r_isfinite(dt)) {
+        fprintf(stderr, "%s: t.start, t.stop and t.interval must be finite numbers\n", program);
+        return 0;
+    }
+    if (!(t1 > t0) || !(dt > 0)) {
+        fprintf(stderr, "%s: need t.stop > t.start and t.interval > 0\n", program);
+        return 0;
+    }
+    if (!(ratio < LAG_MAX_ROWS - 1) || lag_last_row(t0, t1, dt) + 1 > LAG_MAX_ROWS) {
+        fprintf(stderr, "%s: the output grid from %.17g to %.17g every %.17g would have %.3g rows, more than "
+                "the limit of %ld; choose a larger t.interval\n", program, (double)t0, (double)t1, (double)dt,
+                (double)ratio + 1, LAG_MAX_ROWS);
+        return 0;
+    }
+    return 1;
+}
+
+/* Every parameter (given or derived) and every initial value must be a finite number. */
+static int lag_check_inputs(const char *program, const real *par, const real *y0)
+{
+    int i;
+    for (i = 0; i < LAG_NP; ++i)
+        if (!r_isfinite(par[i])) {
+            fprintf(stderr, "%s: the parameter %s is %g, not a finite number\n", program, lag_parameter_names[i],
+                    (double)par[i]);
+            return 0;
+        }
+    for (i = 0; i < LAG_NY; ++i)
+        if (!r_isfinite(y0[i])) {
+            fprintf(stderr, "%s: the initial %s of %s is %g, not a finite number\n", program,
+                    i < LAG_NQ ? "value" : "velocity", lag_coordinate_names[i % LAG_NQ], (double)y0[i]);
+            return 0;
+        }
+    return 1;
+}
+
 int main(int argc, char **argv)
 {
     lag_system sys;
-    lag_options options = { LAG_LIT(1e-10), LAG_LIT(1e-12), LAG_LIT(0.0), LAG_LIT(0.0), 0, 0 };
+    lag_options options = { LAG_LIT(1e-10), LAG_LIT(1e-12), LAG_LIT(0.0), LAG_LIT(0.0), 0, 0L };
     lag_report report;
     real y0[LAG_NY], start[LAG_NY], t0 = LAG_LIT(0.0), t1 = LAG_LIT(15.707963267948966), dt = LAG_LIT(0.01);
     int fixed[3] = {0}, overridden[LAG_NY] = {0};
@@ -1235,11 +1321,33 @@ int main(int argc, char **argv)
         } else if (strncmp(argv[i], "t.interval=", 11) == 0) {
             dt = value;
         } else if (strncmp(argv[i], "rtol=", 5) == 0) {
+            if (!(r_isfinite(value) && value >= 0)) {
+                fprintf(stderr, "%s: rtol must be a finite number >= 0, got '%s'\n",
+                        argv[0], equals + 1);
+                return 2;
+            }
             options.rtol = value;
         } else if (strncmp(argv[i], "atol=", 5) == 0) {
+            if (!(r_isfinite(value) && value >= 0)) {
+                fprintf(stderr, "%s: atol must be a finite number >= 0, got '%s'\n",
+                        argv[0], equals + 1);
+                return 2;
+            }
             options.atol = value;
         } else if (strncmp(argv[i], "max_step=", 9) == 0) {
+            if (!(r_isfinite(value) && value > 0)) {
+                fprintf(stderr, "%s: max_step must be a finite number > 0, got '%s'\n",
+                        argv[0], equals + 1);
+                return 2;
+            }
             options.max_step = value;
+        } else if (strncmp(argv[i], "max_steps=", 10) == 0) {
+            if (!(value >= 1 && value <= LAG_LIT(1e15) && value == r_floor(value))) {
+                fprintf(stderr, "%s: max_steps must be a whole number from 1 to 1e15, got '%s'\n",
+                        argv[0], equals + 1);
+                return 2;
+            }
+            options.max_steps = (long)value;
         } else if (dot != NULL
                    && (index = lag_index_of(lag_coordinate_names, LAG_NQ, argv[i], (size_t)(dot - argv[i]))) >= 0
                    && (strncmp(dot, ".start=", 7) == 0 || strncmp(dot, ".velocity=", 10) == 0)) {
@@ -1251,19 +1359,29 @@ int main(int argc, char **argv)
             return 2;
         }
     }
-    if (!(t1 > t0) || !(dt > 0)) {
-        fprintf(stderr, "%s: need t.stop > t.start and t.interval > 0\n", argv[0]);
+    if (!lag_check_grid(argv[0], t0, t1, dt))
         return 2;
+    if (!(options.rtol > 0 || options.atol > 0)) {
+        fprintf(stderr, "%s: rtol and atol cannot both be 0\n", argv[0]);
+        return 2;
+    }
+    if (options.rtol < 10 * REAL_EPSILON) {    /* no error control is finer than the rounding */
+        fprintf(stderr, "%s: warning: rtol = %g is below 10 eps; raised to %g\n", argv[0], (double)options.rtol,
+                (double)(10 * REAL_EPSILON));
+        options.rtol = 10 * REAL_EPSILON;
     }
     lag_derive_parameters(sys.par, fixed);
     lag_initial_state(sys.par, y0);
     for (i = 0; i < LAG_NY; ++i)
         if (overridden[i])
             y0[i] = start[i];
+    if (!lag_check_inputs(argv[0], sys.par, y0))
+        return 2;
     fputs("t", stdout);
     for (i = 0; i < LAG_NOUT; ++i)
         fprintf(stdout, ",%s", lag_column_names[i]);
     fputc('\n', stdout);
+    signal(SIGINT, lag_on_interrupt);    /* stop between two steps, keeping the rows written so far */
     clock_start = clock();
     status = lag_integrate(&sys, y0, t0, t1, dt, &options, lag_print_row, NULL, &report);
     fprintf(stderr, "integrator %s: %ld steps accepted, %ld rejected, %ld right-hand sides",
@@ -1274,6 +1392,10 @@ int main(int argc, char **argv)
     for (i = 0; i < LAG_NINV; ++i)
         fprintf(stderr, "drift of %s: %.3g (from %.17g)\n", lag_invariant_names[i],
                 (double)report.invariant_drift[i], (double)report.invariant_start[i]);
+    if (status == LAG_ERR_INTERRUPTED) {
+        fprintf(stderr, "interrupted at t = %.17g after %ld rows\n", (double)report.t_fail, report.rows);
+        return 130;    /* 128 + SIGINT, as a shell reports a run stopped by Ctrl-C */
+    }
     if (status != LAG_OK) {
         fprintf(stderr, "simulation failed at t = %.17g: %s\n  state:", (double)report.t_fail,
                 lag_status_message(status));

@@ -447,7 +447,9 @@ def test_end_of_the_domain(tmp_path, method):
 @pytest.mark.parametrize("method", METHODS)
 def test_max_steps(tmp_path, method):
     [r] = simulate(tmp_path, method, "oscillator", [Run(rtol=1e-8, atol=1e-8, step=0.01, max_steps=7)])
-    assert r["status"] == LAG_ERR_MAX_STEPS and r["accepted"] + r["rejected"] == 7
+    assert r["status"] == LAG_ERR_MAX_STEPS
+    # rk4 knows its number of steps in advance and refuses the run before the first step
+    assert r["accepted"] + r["rejected"] == (0 if method == "rk4" else 7)
 
 
 # the driver's restart

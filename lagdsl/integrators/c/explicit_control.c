@@ -16,6 +16,7 @@
 typedef struct lag_control {
     real rtol, atol;
     real t_end;      /* no step goes past it; the last one lands on it exactly */
+    real span;       /* t_end - t0, the scale of the smallest step (LAG_MIN_STEP) */
     real hmax;
     long max_steps;  /* accepted + rejected trials allowed, 0 = no limit */
     real alpha, beta, facmin, facmax;  /* the method's controller constants */
@@ -31,6 +32,7 @@ static void lag_control_init(lag_control *c, const lag_options *opt, real t0, re
     c->rtol = opt->rtol;
     c->atol = opt->atol;
     c->t_end = t_end;
+    c->span = t_end - t0;
     c->hmax = opt->max_step > 0 ? opt->max_step : t_end - t0;
     c->max_steps = opt->max_steps;
     c->alpha = alpha;
@@ -100,7 +102,7 @@ static int lag_control_trial(const lag_control *c, const lag_stats *stats, real 
     real hh = r_fmin(h_proposed, c->hmax);
     if (c->max_steps > 0 && stats->accepted + stats->rejected >= c->max_steps)
         return LAG_ERR_MAX_STEPS;
-    if (!(hh >= 10 * REAL_EPSILON * r_fabs(t)))
+    if (!(hh >= LAG_MIN_STEP(t, c->span)))
         return LAG_ERR_STEP_TOO_SMALL;
     if (t + LAG_LIT(1.01) * hh >= c->t_end) {
         *h = c->t_end - t;

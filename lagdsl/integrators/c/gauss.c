@@ -53,7 +53,6 @@ typedef struct lag_stepper {
     real mu[LAG_GAUSS_MAX_STAGES][LAG_GAUSS_MAX_STAGES];   /* a_ij / b_j, mu_ij + mu_ji = 1 exactly */
     real t0, t_end, step;
     long steps;        /* number of steps from t0 to t_end, the last one possibly shorter */
-    long max_steps;    /* 0 = no limit */
     real z[LAG_NY];                  /* canonical state at t */
     real z_error[LAG_NY];            /* compensated summation: the part of z lost to rounding */
     real z_old[LAG_NY];              /* canonical state at t_old */
@@ -260,7 +259,6 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
     s->t = s->t_old = s->t0 = t0;
     s->t_end = t_end;
     s->h = s->step = opt->step;
-    s->max_steps = opt->max_steps;
     s->stages = opt->stages;
     memcpy(s->y, y0, sizeof s->y);
     if (!(opt->step >= 10 * REAL_EPSILON * r_fmax(r_fabs(t0), r_fabs(t_end))) || !(opt->step > 0))
@@ -268,7 +266,8 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
     if (s->stages < 1 || s->stages > LAG_GAUSS_MAX_STAGES)
         return LAG_ERR_NO_CONVERGENCE;   /* no status fits better; the front end checks 1..6 */
     gauss_tableau(s);
-    s->steps = lag_step_count(t0, t_end, opt->step);
+    if ((s->steps = lag_step_count(t0, t_end, opt->step, opt->max_steps)) < 0)
+        return LAG_ERR_MAX_STEPS;      /* known before the first step: the step is too small */
     if (s->steps == 1)
         s->h = t_end - t0;
     return lag_to_canonical(sys, t0, s->y, s->z);
@@ -295,8 +294,6 @@ static int lag_stepper_step(lag_stepper *s)
     int i, status;
     if (n > s->steps)
         return LAG_OK;
-    if (s->max_steps > 0 && n > s->max_steps)
-        return LAG_ERR_MAX_STEPS;
     /* times from t0 rather than by accumulation, so the grid does not drift; the nominal step
      * (not t_new - t, which varies in the last bit) keeps the starting values' ratio at 1 */
     t_new = n == s->steps ? s->t_end : s->t0 + n * s->step;

@@ -35,8 +35,9 @@
  * A rejected first step is retried with h/10; a right-hand side that fails in a stage (the
  * trial left the domain of the model) or gives non-finite values, with h/10 as well (interface
  * README).  The first step is opt->step, or 1e-6 as in RADAU5 (it adapts within a few steps).
- * When h falls below 10 eps |t| the reason of the last failure is returned: the right-hand
- * side's status, LAG_ERR_NO_CONVERGENCE for Newton, LAG_ERR_STEP_TOO_SMALL for the error test.
+ * When h falls below LAG_MIN_STEP = 10 eps max(|t|, t_end - t0) the reason of the last failure
+ * is returned: the right-hand side's status, LAG_ERR_NO_CONVERGENCE for Newton,
+ * LAG_ERR_STEP_TOO_SMALL for the error test.
  *
  * Tolerances.  The estimate is O(h^4) while the method has order 5, so, as RADAU5 does, the
  * user's tolerances are transformed to rtol' = 0.1 rtol^(2/3), atol' = rtol' atol / rtol,
@@ -71,7 +72,7 @@ typedef struct lag_stepper {
     lag_stats stats;
     /* the problem */
     const lag_system *sys;
-    real t_end, h_max, rtol, atol, fnewt;
+    real t_end, span, h_max, rtol, atol, fnewt;
     long max_steps;
     /* the method: nodes, eigenvalues of A^-1, the eigenbasis T with
      * T^-1 A^-1 T = [[gamma, 0, 0], [0, alpha, -beta], [0, beta, alpha]], error weights dd = e/gamma0 */
@@ -529,6 +530,7 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
     s->sys = sys;
     s->t = s->t_old = t0;
     s->t_end = t_end;
+    s->span = t_end - t0;
     for (i = 0; i < LAG_NY; ++i)
         s->y[i] = y0[i];
     radau_coefficients(s);
@@ -574,7 +576,7 @@ static int lag_stepper_step(lag_stepper *s)
         real err, shrink, fac, quot;
         if (s->max_steps > 0 && s->stats.accepted + s->stats.rejected >= s->max_steps)
             return LAG_ERR_MAX_STEPS;
-        if (!(s->h >= 10 * REAL_EPSILON * r_fabs(s->t)) || s->h <= 0)
+        if (!(s->h >= LAG_MIN_STEP(s->t, s->span)) || s->h <= 0)
             return failure;
         if (s->need_jac) {
             status = lag_jacobian(s->sys, s->t, s->y, s->jac);

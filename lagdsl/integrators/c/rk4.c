@@ -19,7 +19,6 @@ typedef struct lag_stepper {
     const lag_system *sys;
     real t0, t_end;
     long steps;        /* number of steps from t0 to t_end, the last one possibly shorter */
-    long max_steps;    /* 0 = no limit */
     real f[LAG_NY];    /* f(t, y) */
     real y_old[LAG_NY], f_old[LAG_NY];  /* y and f at t_old, for the dense output */
 } lag_stepper;
@@ -38,12 +37,12 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
     s->t = s->t_old = s->t0 = t0;
     s->t_end = t_end;
     s->h = opt->step;
-    s->max_steps = opt->max_steps;
     memcpy(s->y, y0, sizeof s->y);
     memcpy(s->y_old, y0, sizeof s->y_old);
     if (!(opt->step > 0))
         return LAG_ERR_STEP_TOO_SMALL;
-    s->steps = lag_step_count(t0, t_end, opt->step);
+    if ((s->steps = lag_step_count(t0, t_end, opt->step, opt->max_steps)) < 0)
+        return LAG_ERR_MAX_STEPS;      /* known before the first step: the step is too small */
     return rk4_rhs(s, t0, s->y, s->f);
 }
 
@@ -77,8 +76,6 @@ static int lag_stepper_step(lag_stepper *s)
     int status;
     if (n > s->steps)
         return LAG_OK;
-    if (s->max_steps > 0 && n > s->max_steps)
-        return LAG_ERR_MAX_STEPS;
     /* from t0 rather than by accumulation, so the grid does not drift */
     t_new = n == s->steps ? s->t_end : s->t0 + (real)n * s->h;
     if ((status = rk4_advance(s, t_new, y_new, f_new)) != LAG_OK)

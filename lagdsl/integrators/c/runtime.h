@@ -64,8 +64,15 @@ enum lag_status {
     LAG_ERR_STEP_TOO_SMALL = 3,/* the adaptive step size fell below the resolution of t */
     LAG_ERR_MAX_STEPS = 4,     /* more steps than lag_options.max_steps */
     LAG_ERR_NO_CONVERGENCE = 5,/* Newton or fixed-point iteration failed even after step reductions */
-    LAG_ERR_PROJECTION = 6     /* projection onto the constraint manifold did not converge */
+    LAG_ERR_PROJECTION = 6,    /* projection onto the constraint manifold did not converge */
+    LAG_ERR_INTERRUPTED = 7    /* the driver was asked to stop (Ctrl-C), between two steps */
 };
+
+/* The smallest step an adaptive method may take from t on a run of length `span`: 10 eps |t|
+ * (below it t + h == t, HNW I, II.4), and at least 10 eps times the length of the run, so that
+ * the test also fires near t = 0, where eps |t| is no bound at all (it would take more than
+ * 10^14 such steps to cross the run). */
+#define LAG_MIN_STEP(t, span) (10 * REAL_EPSILON * r_fmax(r_fabs(t), (span)))
 
 /* What the driver asks of an integrator; unused fields are ignored by each method. */
 typedef struct lag_options {
@@ -73,7 +80,8 @@ typedef struct lag_options {
     real step;         /* fixed-step methods (rk4, gauss): the step; adaptive: initial step, 0 = automatic */
     real max_step;     /* adaptive: largest step, 0 = no limit */
     int stages;        /* gauss: number of stages s (order 2s) */
-    long max_steps;    /* give up after this many attempted steps, 0 = no limit */
+    long max_steps;    /* give up after this many attempted steps (accepted + rejected), 0 = no limit;
+                        * the driver always sets a limit */
 } lag_options;
 
 /* Work counters every integrator keeps up to date (the run summary prints them). */

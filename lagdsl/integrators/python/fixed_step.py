@@ -36,7 +36,7 @@ MAX_ITERATIONS = 100
 # (as in gauss.c); above it a stagnating iteration keeps iterating.
 NOISE = 65536
 # The C status codes (runtime.h) a failure corresponds to.
-NONFINITE, STEP_TOO_SMALL, NO_CONVERGENCE = 2, 3, 5
+NONFINITE, STEP_TOO_SMALL, NO_CONVERGENCE, INTERRUPTED = 2, 3, 5, 7
 
 STATS_KEYS = ("accepted", "rejected", "rhs_evals", "jac_evals", "lu_decomps", "newton_iters")
 
@@ -105,14 +105,17 @@ def integrate_rk4(rhs, t_grid, y0, step):
     t = t_grid[0]
     f = rhs(t, y)
     stats["rhs_evals"] = 1
-    for _, t_new in _steps(output, step):
-        y_new, f_new = _rk4_step(rhs, t, y, f, t_new)
-        stats["rhs_evals"] += 4
-        if not (np.all(np.isfinite(y_new)) and np.all(np.isfinite(f_new))):
-            raise output.failure(f"rk4: the state became infinite or NaN in the step from t = {t}", t, y)
-        output.deliver(t_new, y_new, lambda s: _hermite(t, y, f, t_new, y_new, f_new, s))
-        t, y, f = t_new, y_new, f_new
-        stats["accepted"] += 1
+    try:
+        for _, t_new in _steps(output, step):
+            y_new, f_new = _rk4_step(rhs, t, y, f, t_new)
+            stats["rhs_evals"] += 4
+            if not (np.all(np.isfinite(y_new)) and np.all(np.isfinite(f_new))):
+                raise output.failure(f"rk4: the state became infinite or NaN in the step from t = {t}", t, y)
+            output.deliver(t_new, y_new, lambda s: _hermite(t, y, f, t_new, y_new, f_new, s))
+            t, y, f = t_new, y_new, f_new
+            stats["accepted"] += 1
+    except KeyboardInterrupt:
+        raise output.failure("rk4: interrupted", t, y, INTERRUPTED) from None
     return output.Y, stats
 
 
@@ -157,18 +160,21 @@ def integrate_gauss(hamilton_rhs, to_canonical, from_canonical, t_grid, y0, step
     t = t_grid[0]
     z = as_batch(to_canonical(t, y))
     error = np.zeros_like(z)          # compensated summation: the part of z lost to rounding
-    for last, t_new in _steps(output, step):
-        h = t_grid[-1] - t if last else step
-        status = method.solve_stages(t, z, h)
-        if status is not None:
-            raise output.failure(f"gauss: {status} in the step from t = {t}; reduce the step",
-                                 t, y, NO_CONVERGENCE)
-        z_new, error = method.update(z, error)
-        if not np.all(np.isfinite(z_new)):
-            raise output.failure(f"gauss: the state became infinite or NaN in the step from t = {t}", t, y)
-        y_new = from_canonical(t_new, as_given(z_new))
-        output.deliver(t_new, y_new, lambda s: from_canonical(s, as_given(method.dense(z, t, s))))
-        t, z, y = t_new, z_new, y_new
+    try:
+        for last, t_new in _steps(output, step):
+            h = t_grid[-1] - t if last else step
+            status = method.solve_stages(t, z, h)
+            if status is not None:
+                raise output.failure(f"gauss: {status} in the step from t = {t}; reduce the step",
+                                     t, y, NO_CONVERGENCE)
+            z_new, error = method.update(z, error)
+            if not np.all(np.isfinite(z_new)):
+                raise output.failure(f"gauss: the state became infinite or NaN in the step from t = {t}", t, y)
+            y_new = from_canonical(t_new, as_given(z_new))
+            output.deliver(t_new, y_new, lambda s: from_canonical(s, as_given(method.dense(z, t, s))))
+            t, z, y = t_new, z_new, y_new
+    except KeyboardInterrupt:
+        raise output.failure("gauss: interrupted", t, y, INTERRUPTED) from None
     return output.Y, method.stats
 
 

@@ -1,0 +1,207 @@
+"""Every run is bounded and interruptible; its inputs and its time grid are checked first.
+
+The model is a harmonic oscillator x'' = -(k/m) x, x(0) = 1: cheap to build and to run, and
+its frequency is a parameter, so a huge k makes the step size collapse at t = 0.
+"""
+from __future__ import annotations
+
+import _thread
+import math
+import threading
+import time
+import warnings
+
+import numpy as np
+import pytest
+
+import lagdsl
+from lagdsl.errors import LagError, LagWarning, SimulationError, SimulationInterrupted
+from lagdsl.scene import MAX_ROWS, RTOL_FLOOR, Overrides, grid_rows
+
+OSCILLATOR = """
+model Oscillator
+  parameter m = 1.0;
+  parameter k = 1.0;
+  parameter w = sqrt(k/m);
+  coordinate x(start = 1.0);
+  T = m/2*der(x)^2;
+  U = k/2*x^2;
+  scene swing
+    time(stop = 1, interval = 0.25);
+    integrator dop853(rtol = 1e-10, atol = 1e-12);
+    output x, energy;
+  end swing;
+end Oscillator;
+"""
+BACKENDS = ("c", "numpy")
+
+
+@pytest.fixture(scope="module")
+def oscillator(tmp_path_factory):
+    path = tmp_path_factory.mktemp("bounds") / "oscillator.lag"
+    path.write_text(OSCILLATOR)
+    return lagdsl.load(path)
+
+
+# ---- the time grid ---------------------------------------------------------------------------
+
+@pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize("stop, interval, expected", [
+    (1.0, 0.3, [0.0, 0.3, 0.6, 0.9, 1.0]),       # stop off the grid: it is still the last row
+    (1.0, 5.0, [0.0, 1.0]),                       # an interval longer than the run
+    (1.0, 0.25, [0.0, 0.25, 0.5, 0.75, 1.0]),     # stop on the grid: no extra row
+])
+def test_the_last_row_is_at_stop(oscillator, backend, stop, interval, expected):
+    result = oscillator.simulate(backend=backend, stop=stop, interval=interval)
+    assert result.t.tolist() == pytest.approx(expected, abs=1e-15)
+    assert result.t[-1] == stop
+    assert result["x"][-1] == pytest.approx(math.cos(stop), abs=1e-8)
+
+
+@pytest.mark.parametrize("integrator, options", [("rk4", {"step": 0.01}), ("gauss", {"step": 0.01})])
+def test_fixed_step_methods_end_at_stop_too(oscillator, integrator, options):
+    for backend in BACKENDS:
+        result = oscillator.simulate(backend=backend, stop=1.0, interval=0.3, integrator=integrator, **options)
+        assert result.t[-1] == 1.0 and len(result.t) == 5
+        assert result["x"][-1] == pytest.approx(math.cos(1.0), abs=1e-6)
+
+
+def test_grid_rows_counts_a_rounded_multiple_once():
+    assert grid_rows(0.0, 10.0, 0.01) == 1001
+    assert grid_rows(0.1, 0.3, 0.1) == 3          # (0.3 - 0.1)/0.1 = 1.9999999999999998
+    assert grid_rows(0.0, 1e-12, 1.0) == 2
+
+
+@pytest.mark.parametrize("times, words", [
+    ({"stop": math.inf}, "stop time must be a finite number"),
+    ({"start": math.nan}, "start time must be a finite number"),
+    ({"interval": 1e-300}, "1e+300 rows"),
+    ({"stop": 1e9, "interval": 1e-6}, "1e+15 rows"),
+])
+def test_a_grid_that_does_not_fit_is_refused(oscillator, times, words):
+    with pytest.raises(LagError) as error:
+        oscillator.plan(overrides=Overrides(**times))
+    assert words in str(error.value)
+    if "rows" in words:
+        assert f"limit of {MAX_ROWS:.0e}" in str(error.value) and "larger --interval" in str(error.value)
+
+
+# ---- inputs ----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("values, words", [
+    ({"m": math.inf}, "cannot set 'm' to inf"),
+    ({"k": math.nan}, "cannot set 'k' to nan"),
+    ({"x.start": math.inf}, "cannot set 'x.start' to inf"),
+    ({"m": 1e-320, "k": 1e300}, "the parameter w, computed from the others, is inf"),
+])
+def test_non_finite_inputs_are_refused(oscillator, values, words):
+    with pytest.raises(LagError, match=words.replace("(", r"\(")):
+        oscillator.simulate(set=values)
+
+
+@pytest.mark.parametrize("options, words", [
+    ({"rtol": -1.0}, "rtol = ...) must be a finite number >= 0"),
+    ({"atol": math.nan}, "atol = ...) must be a finite number >= 0"),
+    ({"rtol": math.inf}, "rtol = ...) must be a finite number >= 0"),
+    ({"rtol": 0.0, "atol": 0.0}, "cannot both be 0"),
+    ({"max_step": -1.0}, "max_step = ...) must be a positive finite number"),
+    ({"max_steps": 2.5}, "max_steps = ...) must be a whole number"),
+])
+def test_bad_tolerances_and_limits_are_refused(oscillator, options, words):
+    with pytest.raises(LagError) as error:
+        oscillator.simulate(**options)
+    assert words in str(error.value)
+    assert error.value.diagnostics[0].span is None      # the command line's fault, not the scene's
+
+
+def test_a_tolerance_below_the_rounding_is_raised_with_a_warning(oscillator):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        plan = oscillator.plan(overrides=Overrides(options=(("rtol", 1e-300),)))
+    assert dict(plan.integrator.options)["rtol"] == RTOL_FLOOR
+    assert [str(w.message) for w in caught if w.category is LagWarning] == [
+        f"rtol = 1e-300 is below 10 eps; raised to {RTOL_FLOOR:.3g}"]
+
+
+def test_pure_absolute_or_relative_error_control_is_allowed(oscillator):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", LagWarning)
+        absolute = oscillator.simulate(rtol=0.0, atol=1e-10)
+    relative = oscillator.simulate(atol=0.0, rtol=1e-10)
+    for result in (absolute, relative):
+        assert result["x"][-1] == pytest.approx(math.cos(1.0), abs=1e-8)
+
+
+# ---- step limits -----------------------------------------------------------------------------
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_the_step_limit_stops_a_run_with_its_rows(oscillator, backend):
+    with pytest.raises(SimulationError) as error:
+        oscillator.simulate(backend=backend, stop=100.0, max_steps=20)
+    failure = error.value
+    assert "step limit of 20 steps" in failure.message and "--max-steps" in failure.remedy
+    assert "radau5" in failure.remedy
+    assert 0 < failure.time < 100 and set(failure.state) == {"x", "x'"}
+    assert 1 <= len(failure.partial.t) and failure.partial.t[-1] <= failure.time
+
+
+def test_the_default_step_limit_bounds_every_run(oscillator):
+    plan = oscillator.plan()
+    assert plan.max_steps == 100000
+    assert oscillator.plan(overrides=Overrides(stop=10000.0, interval=0.01)).max_steps == 100 * 1000001
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")      # scipy's first-step estimate overflows
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_a_step_size_collapse_at_t0_fails_at_once(oscillator, backend):
+    """k = 1e300: the period is 6e-150, so the step collapses at t = 0, where 10 eps |t| is 0."""
+    started = time.monotonic()
+    with pytest.raises(SimulationError) as error:
+        oscillator.simulate(backend=backend, k=1e300)
+    assert "step size collapsed" in error.value.message
+    assert error.value.time < 1e-13
+    assert time.monotonic() - started < 60     # not a bound on speed: the run used to go on for hours
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_max_step_is_honoured(oscillator, backend):
+    result = oscillator.simulate(backend=backend, integrator="dopri5", max_step=0.01)
+    assert result.summary.accepted >= 100
+
+
+def test_a_fixed_step_run_over_the_limit_is_refused_before_it_starts(oscillator):
+    with pytest.raises(LagError, match="would take 1e\\+06 steps .* more than the step limit of 100000"):
+        oscillator.simulate(integrator="rk4", step=1e-6)
+    assert len(oscillator.simulate(integrator="rk4", step=1e-3, max_steps=1000).t) == 5
+
+
+# ---- Ctrl-C ----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_ctrl_c_stops_a_run_and_keeps_its_rows(oscillator, backend):
+    """Ctrl-C (KeyboardInterrupt in the main thread) half a second into the integration itself:
+    the first progress report says it has begun."""
+    interrupted_at, timers = [], []
+
+    def press_ctrl_c():
+        interrupted_at.append(time.monotonic())
+        _thread.interrupt_main()
+
+    def progress(t, start, stop):
+        if not timers:
+            timers.append(threading.Timer(0.5, press_ctrl_c))
+            timers[0].start()
+
+    long_run = Overrides(stop=1e6, interval=1.0, options=(("rtol", 1e-13), ("max_steps", 1e12)))
+    try:
+        with pytest.raises(SimulationInterrupted) as stopped:
+            oscillator.simulate_plan(None, backend, long_run, progress)
+    finally:
+        for timer in timers:
+            timer.cancel()
+    waited = time.monotonic() - interrupted_at[0]
+    partial = stopped.value.partial
+    assert waited < 10, waited                                # within a fraction of a second, unloaded
+    assert 1 < len(partial.t) < 1000001 and partial.t[-1] <= stopped.value.time
+    assert np.all(np.diff(partial.t) == 1.0)
+    assert np.allclose(partial["x"], np.cos(partial.t), atol=1e-6)
