@@ -135,6 +135,8 @@ def _overrides(arguments) -> Overrides:
 
 
 def _run(arguments) -> int:
+    """Simulate; on a numerical failure deliver the rows computed so far, say where the run
+    stopped, and exit 1 (with the error, which `main` prints)."""
     model = load(arguments.model)
     overrides = _overrides(arguments)
     progress = ProgressLine(sys.stderr)
@@ -149,7 +151,9 @@ def _run(arguments) -> int:
     except SimulationError as error:
         progress.clear()
         if error.partial is not None:
+            _deliver(error.partial.csv(), arguments.output)
             print(error.partial.summary.render(), file=sys.stderr)
+            print(_incomplete(error.partial, error.time, arguments.output), file=sys.stderr)
         raise
     progress.clear()
     _deliver(result.csv(), arguments.output)
@@ -187,6 +191,12 @@ class ProgressLine:
             self.stream.write("\r" + " " * self.width + "\r")
             self.stream.flush()
             self.shown = 0.0
+
+
+def _incomplete(partial, time: float, output: str | None) -> str:
+    where = output or "standard output"
+    rows = f"{len(partial.t)} rows up to t = {partial.t[-1]:.17g}" if len(partial.t) else "no rows"
+    return f"the run is incomplete: it stopped at t = {time:.17g}; {rows} written to {where}"
 
 
 def _emit(arguments) -> int:

@@ -67,7 +67,7 @@ def test_model_errors_exit_1_without_traceback(tmp_path):
     assert "Traceback" not in done.stderr
 
 
-def test_numerical_failure_names_time_state_and_remedy_and_writes_nothing(tmp_path):
+def test_numerical_failure_names_time_state_and_remedy_and_keeps_the_rows(tmp_path):
     model = tmp_path / "collapse.lag"
     # T = r^2 r'^2 / 2: r^2 = 1 - 2t reaches 0 at t = 1/2, where the mass matrix r^2 is singular.
     model.write_text("model Collapse\n  coordinate r(start = 1, velocity = -1);\n"
@@ -78,7 +78,10 @@ def test_numerical_failure_names_time_state_and_remedy_and_writes_nothing(tmp_pa
     assert "simulation failed at t = 0.4" in done.stderr or "simulation failed at t = 0.5" in done.stderr
     assert "state: r = " in done.stderr and "remedy:" in done.stderr
     assert "Traceback" not in done.stderr
-    assert not out.exists()
+    lines = out.read_text().splitlines()                 # the rows before the failure, a valid CSV
+    assert lines[0] == "t,r" and 2 <= len(lines) <= 52 and [float(x) for x in lines[1].split(",")] == [0, 1]
+    assert "the run is incomplete: it stopped at t = 0.4" in done.stderr or \
+        "the run is incomplete: it stopped at t = 0.5" in done.stderr
 
 
 @pytest.mark.parametrize("language", ["c", "numpy"])

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from .. import __version__
 from ..escape import c_comment, csv_field
-from ..integrators import integrator_files
+from ..integrators import COUNTER_LABELS, COUNTERS, integrator_files
 from ..semantics import INTEGRATOR_OPTIONS
 from . import GeneratedSource, c_source, template_environment
 from .kernel import Block, Kernel
@@ -61,6 +61,9 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
         "canonical": kernel.momenta is not None,
         "outputs_need_multipliers": kernel.outputs_need_multipliers,
         "integrator_source": _integrator_source(kernel.integrator.name),
+        "counters": COUNTERS[kernel.integrator.name],
+        "counter_format": ", ".join(f"%ld {COUNTER_LABELS[c]}" for c in COUNTERS[kernel.integrator.name]),
+        "counter_fields": ", ".join(f"report.stats.{c}" for c in COUNTERS[kernel.integrator.name]),
         "t_start": _literal(kernel.time.start), "t_stop": _literal(kernel.time.stop),
         "t_interval": _literal(kernel.time.interval),
         "options_init": _options_initializer(options),
@@ -82,8 +85,8 @@ def _linear_algebra(kernel: Kernel) -> str:
     """Only the factorisations the scene calls: unused static functions are warnings."""
     needs_lu = kernel.solver == "lu" or kernel.jacobian is not None or bool(kernel.constraints)
     needs_cholesky = kernel.solver == "cholesky"
-    return "".join(c_source(name) + "\n" for name, needed in (("cholesky.c", needs_cholesky), ("lu.c", needs_lu))
-                   if needed)
+    files = (("cholesky.c", needs_cholesky), ("lu.c", needs_lu), ("lu_condition.c", kernel.solver == "lu"))
+    return "".join(c_source(name) + "\n" for name, needed in files if needed)
 
 
 def stem(kernel: Kernel) -> str:

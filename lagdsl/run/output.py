@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ..escape import csv_field
+from ..integrators import COUNTER_LABELS
 
 
 @dataclass(frozen=True)
@@ -17,25 +18,21 @@ class RunSummary:
 
     backend: str
     integrator: str
-    accepted: int | None
-    rejected: int | None
-    rhs_evals: int
-    jac_evals: int
-    lu_decomps: int
+    counters: tuple[tuple[str, int], ...]               # the work the integrator counts (accepted, ...)
     wall_time: float                                    # seconds, the integration alone
     invariants: tuple[tuple[str, float, float], ...]    # name, initial value, max |drift|
     constraints: tuple[str, ...]
     residual_max: float | None
     projection_start: float | None                      # how far the initial state was projected
 
+    def count(self, counter: str) -> int | None:
+        """A work counter ("accepted", "rhs_evals", ...), None when the integrator does not keep it."""
+        return dict(self.counters).get(counter)
+
     def render(self) -> str:
-        counts = [f"{self.accepted} steps accepted" if self.accepted is not None else None,
-                  f"{self.rejected} rejected" if self.rejected is not None else None,
-                  f"{self.rhs_evals} right-hand sides"]
-        if self.jac_evals:
-            counts.append(f"{self.jac_evals} Jacobians, {self.lu_decomps} LU")
-        lines = [f"integrator {self.integrator} ({self.backend}): "
-                 + ", ".join(c for c in counts if c) + f", {self.wall_time:.3g} s"]
+        counts = [f"{value} {COUNTER_LABELS[name]}" for name, value in self.counters]
+        lines = [f"integrator {self.integrator} ({self.backend}): " + ", ".join(counts)
+                 + f", {self.wall_time:.3g} s"]
         for name, start, drift in self.invariants:
             relative = f", relative {drift / abs(start):.3g}" if start != 0 else ""
             lines.append(f"drift of {name}: {drift:.3g} (from {start:.17g}{relative})")

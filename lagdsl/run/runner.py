@@ -23,15 +23,21 @@ import numpy as np
 from ..codegen import GeneratedSource
 from ..codegen.kernel import Kernel
 from ..errors import InternalError, SimulationError, SimulationInterrupted
+from ..integrators import COUNTERS
 from ..integrators.python.fixed_step import IntegrationFailure, integrate_gauss, integrate_rk4
 from ..scene import ScenePlan, grid_rows
 from .output import Result, RunSummary, write_atomically
 from .toolchain import cache_directory, shared_library
 
+# K (M, or the saddle-point matrix of a constrained system) counts as singular below this
+# reciprocal condition estimate: q'' would keep fewer than about 3 correct digits. The generated
+# code of both backends uses the same threshold (LAG_RCOND_MIN, RCOND_MIN).
+RCOND_MIN = 1000 * float(np.finfo(float).eps)
 STATUS = {
     1: ("the mass matrix is singular at this state",
-        "the coordinates are singular here (e.g. Euler angles at theta = 0, a link of zero length) or "
-        "the constraints are dependent; start away from the singular configuration or choose other coordinates"),
+        "the coordinates are singular here (e.g. Euler angles at theta = 0, spherical coordinates at a "
+        "pole, a link of zero length) or the constraints are dependent; use coordinates that do not pass "
+        "through this configuration, or start away from it"),
     2: ("the state or its derivative became infinite or NaN",
         "check the parameters and initial values; a stiff model may need --integrator radau5"),
     3: ("the step size collapsed below the resolution of t",
@@ -65,8 +71,12 @@ def _state_names(plan: ScenePlan) -> list[str]:
     return names + [f"{n}'" for n in names]
 
 
-def _failure(plan: ScenePlan, status: int, t_fail: float, y_fail, partial: Result) -> SimulationError:
+def _failure(plan: ScenePlan, status: int, t_fail: float, y_fail, partial: Result,
+             rcond: float) -> SimulationError:
+    """The error for a failed run; `rcond` is the reciprocal condition estimate of K at y_fail."""
     message, remedy = STATUS.get(status, ("unknown failure", "please report this"))
+    if status == 1:
+        message += f" (reciprocal condition estimate {rcond:.3g}, below {RCOND_MIN:.3g})"
     kind = SimulationInterrupted if status == INTERRUPTED else SimulationError
     state = dict(zip(_state_names(plan), map(float, y_fail)))
     return kind(message.format(max_steps=plan.max_steps), t_fail, state, remedy, partial)
@@ -87,22 +97,24 @@ def run_c(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress: Pr
     initial = np.array(plan.initial_state, dtype=float)
     ncols = len(plan.columns)
     rows = np.zeros((len(times), ncols + 1))
-    summary = np.zeros(11 + 2 * len(plan.invariants) + len(initial))
+    counters = COUNTERS[plan.integrator.name]
+    head = 6 + len(counters)        # status, rows, t_fail, rcond_fail, residual, projection, counters
+    summary = np.zeros(head + 2 * len(plan.invariants) + len(initial))
     pointer = lambda a: a.ctypes.data_as(double_p)   # noqa: E731
     started = clock.perf_counter()
     status = _interruptible(library, lambda: entry(pointer(parameters), pointer(initial), pointer(settings),
                                                    pointer(rows), len(times), pointer(summary)), plan, progress)
     elapsed = clock.perf_counter() - started
     used = int(summary[1])
-    invariants = tuple((name, float(summary[11 + 2 * i]), float(summary[12 + 2 * i]))
+    invariants = tuple((name, float(summary[head + 2 * i]), float(summary[head + 1 + 2 * i]))
                        for i, name in enumerate(plan.invariants))
-    report = RunSummary("c", plan.integrator.name, int(summary[3]), int(summary[4]), int(summary[5]),
-                        int(summary[6]), int(summary[7]), elapsed, invariants, plan.constraints,
-                        float(summary[9]) if plan.constraints else None,
-                        float(summary[10]) if plan.constraints else None)
+    report = RunSummary("c", plan.integrator.name, tuple(zip(counters, map(int, summary[6:head]))), elapsed,
+                        invariants, plan.constraints, float(summary[4]) if plan.constraints else None,
+                        float(summary[5]) if plan.constraints else None)
     result = Result(rows[:used, 0].copy(), plan.columns, rows[:used, 1:].copy(), report)
     if status != 0:
-        raise _failure(plan, status, float(summary[2]), summary[11 + 2 * len(plan.invariants):], result)
+        raise _failure(plan, status, float(summary[2]), summary[head + 2 * len(plan.invariants):], result,
+                       float(summary[3]))
     return result
 
 
@@ -148,6 +160,10 @@ def load_module(source: GeneratedSource):
     key = hashlib.sha256(source.text.encode()).hexdigest()[:20]
     path = cache_directory() / f"{source.suggested_name}_{key}.py"
     if not path.exists():
+        try:
+            compile(source.text, str(path), "exec")     # never cache a module that cannot load
+        except SyntaxError as error:
+            raise InternalError(f"the generated Python does not parse: {error}") from None
         write_atomically(path, source.text)
     spec = importlib.util.spec_from_file_location(f"lagdsl_generated_{key}", path)
     module = importlib.util.module_from_spec(spec)
@@ -174,7 +190,9 @@ def run_numpy(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress
                            plan, counts, elapsed, projection)
     if failure is not None:
         status, t_fail, y_fail = failure
-        raise _failure(plan, status, t_fail, y_fail, result)
+        with np.errstate(all="ignore"):
+            rcond = float(module.reciprocal_condition(t_fail, y_fail, par))
+        raise _failure(plan, status, t_fail, y_fail, result, rcond)
     return result
 
 
@@ -190,9 +208,10 @@ def _numpy_result(module, par, times, states, plan, counts, elapsed, projection)
     if plan.constraints and len(times):
         g, c, _ = module.constraint_rows(par, times, Y)
         residual = float(max(np.max(np.abs(g), initial=0.0), np.max(np.abs(c), initial=0.0)))
-    summary = RunSummary("numpy", plan.integrator.name, counts.get("accepted"), counts.get("rejected"),
-                         counts.get("rhs_evals", 0), counts.get("jac_evals", 0), counts.get("lu_decomps", 0),
-                         elapsed, invariants, plan.constraints, residual, projection if plan.constraints else None)
+    kept = tuple((name, int(counts[name])) for name in COUNTERS[plan.integrator.name]
+                 if counts.get(name) is not None)
+    summary = RunSummary("numpy", plan.integrator.name, kept, elapsed, invariants, plan.constraints, residual,
+                         projection if plan.constraints else None)
     return Result(np.asarray(times, dtype=float), plan.columns, np.asarray(values, dtype=float), summary)
 
 
@@ -219,10 +238,11 @@ def _run_scipy(module, par, times, y0, plan, progress):
 
     counts = {"accepted": 0, "rejected": None, "rhs_evals": 0, "jac_evals": 0, "lu_decomps": 0}
     states = [y0]
-    solver = start(times[0], y0)
+    solver = None
     span = times[-1] - times[0]
     k = 1
     try:
+        solver = start(times[0], y0)            # evaluates the right-hand side at y0
         while k < len(times):
             if counts["accepted"] >= plan.max_steps:
                 return states, _tally(counts, solver), (4, solver.t, solver.y)
@@ -248,6 +268,8 @@ def _run_scipy(module, par, times, y0, plan, progress):
                 proposed = getattr(solver, "h_abs", solver.step_size)
                 solver = start(solver.t, projected, first_step=min(proposed, times[-1] - solver.t))
     except np.linalg.LinAlgError:
+        if solver is None:
+            return states, counts, (1, times[0], y0)
         return states, _tally(counts, solver), (1, solver.t, solver.y)
     except KeyboardInterrupt:
         return states, _tally(counts, solver), (INTERRUPTED, solver.t, solver.y)

@@ -15,7 +15,7 @@ import subprocess
 import tempfile
 from pathlib import Path
 
-from ..errors import LagError
+from ..errors import InternalError, LagError
 
 STRICT_FLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic")
 LIBRARY_FLAGS = ("-std=c99", "-O2", "-fPIC", "-shared")
@@ -47,8 +47,7 @@ def compile_c(source: str, output: Path, flags=STRICT_FLAGS, compiler: str | Non
                                 capture_output=True, text=True)
         if result.returncode != 0:
             partial.unlink(missing_ok=True)
-            raise RuntimeError(f"internal error in lagdsl, please report: the generated C did not compile\n"
-                               f"{result.stderr}")
+            raise InternalError(f"the generated C did not compile\n{result.stderr}")
         os.replace(partial, output)
 
 

@@ -102,15 +102,9 @@ typedef struct lag_options {
     real step;         /* fixed-step methods (rk4, gauss): the step; adaptive: initial step, 0 = automatic */
     real max_step;     /* adaptive: largest step, 0 = no limit */
     int stages;        /* gauss: number of stages s (order 2s) */
-    long max_steps;    /* give up after this many attempted steps (accepted + rejected), 0 = no limit;
+    long max_steps;    /* give up after this many attempted steps (every try counts), 0 = no limit;
                         * the driver always sets a limit */
 } lag_options;
-
-/* Work counters every integrator keeps up to date (the run summary prints them). */
-typedef struct lag_stats {
-    long accepted, rejected;
-    long rhs_evals, jac_evals, lu_decomps, newton_iters;
-} lag_stats;
 
 /* Reading and writing numbers in the working precision (the CSV and the command line). */
 #if defined(LAG_FLOAT128)
@@ -202,6 +196,98 @@ static void lag_lu_solve(int n, const real *lu, const int *piv, real *b)
     }
 }
 
+/* A condition estimate from the LU factors of lu.c: pasted after lu.c in the scenes that solve
+ * for q'' by LU (a general Lagrangian, constraints), where a nearly singular system must be
+ * caught before its solution is trusted.
+ */
+
+/* Solve A^T x = b with the factors of P A = L U (A^T = U^T L^T P); x overwrites b. */
+static void lag_lu_solve_transposed(int n, const real *lu, const int *piv, real *b)
+{
+    int i, k;
+    for (i = 0; i < n; ++i) {
+        real s = b[i];
+        for (k = 0; k < i; ++k)
+            s -= lu[k * n + i] * b[k];
+        b[i] = s / lu[i * n + i];
+    }
+    for (i = n - 2; i >= 0; --i) {
+        real s = b[i];
+        for (k = i + 1; k < n; ++k)
+            s -= lu[k * n + i] * b[k];
+        b[i] = s;
+    }
+    for (k = n - 1; k >= 0; --k)
+        if (piv[k] != k) {
+            real tmp = b[k];
+            b[k] = b[piv[k]];
+            b[piv[k]] = tmp;
+        }
+}
+
+/* ||A||_1, the largest column sum of |a_ij|; taken before lag_lu_factor overwrites A. */
+static real lag_norm1(int n, const real *a)
+{
+    real largest = 0;
+    int i, j;
+    for (j = 0; j < n; ++j) {
+        real sum = 0;
+        for (i = 0; i < n; ++i)
+            sum += r_fabs(a[i * n + j]);
+        largest = r_fmax(largest, sum);
+    }
+    return largest;
+}
+
+/* Reciprocal condition estimate 1 / (||A||_1 ||A^-1||_1) from the LU factors, ||A^-1||_1 by
+ * Hager's method as refined by Higham (N. J. Higham, Accuracy and Stability of Numerical
+ * Algorithms, 2nd ed., algorithm 15.4, LAPACK's xLACON): a few solves with A and A^T instead of
+ * the inverse.  The estimate of ||A^-1||_1 is a lower bound (almost always within a factor 3),
+ * so a well-conditioned A is never reported as ill-conditioned.  A with entries that are not
+ * finite is not estimated (1 is returned): its solution is caught as non-finite instead.
+ * work holds 2n reals. */
+static real lag_lu_rcond(int n, const real *lu, const int *piv, real norm, real *work)
+{
+    real *x = work, *z = work + n, estimate = 0, alternative = 0;
+    int i, j = 0, iteration;
+    if (!r_isfinite(norm))
+        return 1;
+    for (i = 0; i < n; ++i)
+        x[i] = LAG_LIT(1.0) / n;
+    for (iteration = 0; iteration < 5; ++iteration) {
+        real sum = 0, largest = -1, inner = 0;
+        int next = 0;
+        lag_lu_solve(n, lu, piv, x);                              /* x = A^-1 x */
+        for (i = 0; i < n; ++i) {
+            sum += r_fabs(x[i]);
+            z[i] = x[i] >= 0 ? 1 : -1;
+        }
+        if (iteration > 0 && sum <= estimate)
+            break;
+        estimate = sum;
+        lag_lu_solve_transposed(n, lu, piv, z);                   /* z = A^-T sign(x) */
+        for (i = 0; i < n; ++i)
+            if (r_fabs(z[i]) > largest) {
+                largest = r_fabs(z[i]);
+                next = i;
+            }
+        inner = z[j];
+        if (iteration > 0 && largest <= inner)
+            break;
+        j = next;
+        for (i = 0; i < n; ++i)
+            x[i] = i == j ? 1 : 0;
+    }
+    /* Higham's safeguard against the estimator's blind spots: x_i = (-1)^i (1 + i/(n-1)). */
+    for (i = 0; i < n; ++i)
+        x[i] = (i % 2 ? -1 : 1) * (1 + (n > 1 ? (real)i / (n - 1) : 0));
+    lag_lu_solve(n, lu, piv, x);
+    for (i = 0; i < n; ++i)
+        alternative += r_fabs(x[i]);
+    estimate = r_fmax(estimate, 2 * alternative / (3 * n));
+    return r_isfinite(estimate) && estimate > 0 ? 1 / (norm * estimate) : 0;
+}
+
 
 /* ---- the model: RollingPenny ---- */
 #define LAG_NQ 4     /* generalized coordinates */
@@ -250,6 +336,59 @@ static void lag_initial_state(const real *par, real *y0)
     y0[6] = 0;
     y0[3] = LAG_LIT(0.3);
     y0[7] = 1;
+}
+
+/* Below this reciprocal condition estimate the linear system for q'' counts as singular: its
+ * solution would keep fewer than about 3 correct digits (relative error ~ eps / rcond). The
+ * estimate is taken after lag_equilibrate, so it does not depend on units: it measures how
+ * nearly dependent the coordinates (and constraints) are, as at the singular configurations of
+ * Euler angles (theta = 0, where two angles turn the body about the same axis), where q'' is
+ * not determined. */
+#define LAG_RCOND_MIN (1000 * REAL_EPSILON)
+
+/* Symmetric equilibration K' = S K S, b' = S b (the solution is then x = S x'): unit diagonal
+ * for the mass matrix, and for a row whose diagonal is zero (a constraint's) a largest scaled
+ * entry of 1, so that the condition of K' measures dependence, not units. */
+static void lag_equilibrate(int n, real *K, real *b, real *scale)
+{
+    int i, j;
+    for (i = 0; i < n; ++i)
+        scale[i] = K[i * n + i] > 0 && r_isfinite(K[i * n + i]) ? 1 / r_sqrt(K[i * n + i]) : 0;
+    for (i = 0; i < n; ++i)
+        if (scale[i] == 0) {
+            real largest = 0;
+            for (j = 0; j < n; ++j)
+                largest = r_fmax(largest, r_fabs(K[i * n + j] * scale[j]));
+            scale[i] = largest > 0 && r_isfinite(largest) ? 1 / largest : 1;
+        }
+    for (i = 0; i < n; ++i) {
+        for (j = 0; j < n; ++j)
+            K[i * n + j] *= scale[i] * scale[j];
+        b[i] *= scale[i];
+    }
+}
+
+/* Solve K x = b in place (K of order n <= LAG_NK, destroyed), equilibrated, by LU with
+ * partial pivoting. *rcond receives the reciprocal condition estimate of the equilibrated K; LAG_ERR_SINGULAR when
+ * it is below LAG_RCOND_MIN or a pivot vanishes (then *rcond is 0). */
+static int lag_solve(int n, real *K, real *b, real *rcond)
+{
+    real scale[LAG_NK];
+    real norm, work[2 * LAG_NK];
+    int pivots[LAG_NK];
+    int i;
+    *rcond = 0;
+    lag_equilibrate(n, K, b, scale);
+    norm = lag_norm1(n, K);
+    if (lag_lu_factor(n, K, pivots) != 0)
+        return LAG_ERR_SINGULAR;
+    *rcond = lag_lu_rcond(n, K, pivots, norm, work);
+    if (!(*rcond >= LAG_RCOND_MIN))
+        return LAG_ERR_SINGULAR;
+    lag_lu_solve(n, K, pivots, b);
+    for (i = 0; i < n; ++i)
+        b[i] *= scale[i];
+    return LAG_OK;
 }
 
 /* The linear system K x = b for x = (q'', λ):
@@ -312,16 +451,14 @@ static void lag_assemble(const real *par, real t, const real *y, real *K, real *
     b[5] = -c1*c3;
 }
 
-/* q'' and the multipliers λ at (t, y): assemble and solve by LU with partial pivoting. */
+/* q'' and the multipliers λ at (t, y): assemble K and b, and solve. */
 static int lag_accelerations(const lag_system *sys, real t, const real *y, real *acc, real *lam)
 {
-    real K[LAG_NK * LAG_NK], b[LAG_NK];
-    int pivots[LAG_NK];
-    int i;
+    real K[LAG_NK * LAG_NK], b[LAG_NK], rcond;
+    int i, status;
     lag_assemble(sys->par, t, y, K, b);
-    if (lag_lu_factor(LAG_NK, K, pivots) != 0)
-        return LAG_ERR_SINGULAR;
-    lag_lu_solve(LAG_NK, K, pivots, b);
+    if ((status = lag_solve(LAG_NK, K, b, &rcond)) != LAG_OK)
+        return status;
     for (i = 0; i < LAG_NQ; ++i)
         acc[i] = b[i];
     for (i = 0; i < LAG_NC; ++i)
@@ -340,6 +477,15 @@ static int lag_rhs(const lag_system *sys, real t, const real *y, real *dydt)
     for (i = 0; i < LAG_NQ; ++i)
         dydt[i] = y[LAG_NQ + i];
     return lag_accelerations(sys, t, y, dydt + LAG_NQ, lam);
+}
+
+/* The reciprocal condition estimate of K at (t, y), reported when a run fails. */
+static real lag_condition(const lag_system *sys, real t, const real *y)
+{
+    real K[LAG_NK * LAG_NK], b[LAG_NK], rcond;
+    lag_assemble(sys->par, t, y, K, b);
+    (void)lag_solve(LAG_NK, K, b, &rcond);
+    return rcond;
 }
 
 /* Constraint residuals and rows: g (holonomic, position level), c = A q' + b (velocity level), A. */
@@ -430,6 +576,11 @@ static int lag_outputs(const lag_system *sys, real t, const real *y, real *out, 
  *   right-hand side evaluation.
  * Integration runs forward only (t_end > t0), as the driver does.
  */
+
+/* Work counters of dopri5 and dop853, printed by the run summary. */
+typedef struct lag_stats {
+    long accepted, rejected, rhs_evals;
+} lag_stats;
 
 typedef struct lag_control {
     real rtol, atol;
@@ -980,6 +1131,7 @@ typedef struct lag_report {
     int status;                    /* LAG_OK or the failure */
     real t_fail;                   /* on failure: the last time reached */
     real y_fail[LAG_NY];           /* on failure: the state there */
+    real rcond_fail;               /* on failure: the reciprocal condition estimate of K there */
     long rows;                     /* output rows delivered */
     lag_stats stats;
     real invariant_start[LAG_NINV];
@@ -1127,6 +1279,7 @@ static int lag_integrate(const lag_system *sys, const real *y0, real t0, real t1
     if (status != LAG_OK) {
         report->t_fail = stepper->t;
         memcpy(report->y_fail, stepper->y, sizeof report->y_fail);
+        report->rcond_fail = lag_condition(sys, report->t_fail, report->y_fail);
     }
     free(stepper);
     return status;
@@ -1167,9 +1320,9 @@ static int lag_buffer_row(void *context, real t, const real *out)
 
 /* settings: t0, t1, dt, rtol, atol, step, max_step, stages, max_steps (0: the default limit).
  * The caller has checked them as `lagc run` does; it resets lag_interrupt before the call.
- * summary: status, rows, t_fail, accepted, rejected, rhs_evals, jac_evals, lu_decomps,
- *          newton_iters, residual_max, projection_start, then the invariants' start values
- *          and drifts, then the state at failure. */
+ * summary: status, rows, t_fail, rcond_fail, residual_max, projection_start, the counters
+ *          accepted, rejected, rhs_evals, then the invariants' start values and drifts, then the
+ *          state at failure. */
 int lag_run(const double *parameters, const double *initial, const double *settings,
             double *rows, long capacity, double *summary)
 {
@@ -1178,7 +1331,7 @@ int lag_run(const double *parameters, const double *initial, const double *setti
     lag_report report;
     lag_buffer buffer;
     real y0[LAG_NY];
-    int i, n = 11;
+    int i, n = 9;
     for (i = 0; i < LAG_NP; ++i)
         sys.par[i] = parameters[i];
     for (i = 0; i < LAG_NY; ++i)
@@ -1196,14 +1349,12 @@ int lag_run(const double *parameters, const double *initial, const double *setti
     summary[0] = report.status;
     summary[1] = (double)report.rows;
     summary[2] = (double)report.t_fail;
-    summary[3] = report.stats.accepted;
-    summary[4] = report.stats.rejected;
-    summary[5] = report.stats.rhs_evals;
-    summary[6] = report.stats.jac_evals;
-    summary[7] = report.stats.lu_decomps;
-    summary[8] = report.stats.newton_iters;
-    summary[9] = (double)report.residual_max;
-    summary[10] = (double)report.projection_start;
+    summary[3] = (double)report.rcond_fail;
+    summary[4] = (double)report.residual_max;
+    summary[5] = (double)report.projection_start;
+    summary[6] = report.stats.accepted;
+    summary[7] = report.stats.rejected;
+    summary[8] = report.stats.rhs_evals;
     for (i = 0; i < LAG_NINV; ++i) {
         summary[n++] = (double)report.invariant_start[i];
         summary[n++] = (double)report.invariant_drift[i];
@@ -1385,10 +1536,8 @@ int main(int argc, char **argv)
     signal(SIGINT, lag_on_interrupt);    /* stop between two steps, keeping the rows written so far */
     clock_start = clock();
     status = lag_integrate(&sys, y0, t0, t1, dt, &options, lag_print_row, NULL, &report);
-    fprintf(stderr, "integrator %s: %ld steps accepted, %ld rejected, %ld right-hand sides",
-            LAG_INTEGRATOR_NAME, report.stats.accepted, report.stats.rejected, report.stats.rhs_evals);
-    if (report.stats.jac_evals > 0)
-        fprintf(stderr, ", %ld Jacobians, %ld LU", report.stats.jac_evals, report.stats.lu_decomps);
+    fprintf(stderr, "integrator %s: %ld steps accepted, %ld rejected, %ld right-hand sides", LAG_INTEGRATOR_NAME,
+            report.stats.accepted, report.stats.rejected, report.stats.rhs_evals);
     fprintf(stderr, ", %.3g s CPU\n", (double)(clock() - clock_start) / CLOCKS_PER_SEC);
     for (i = 0; i < LAG_NINV; ++i)
         fprintf(stderr, "drift of %s: %.3g (from %.17g)\n", lag_invariant_names[i],
@@ -1402,8 +1551,12 @@ int main(int argc, char **argv)
         return 130;    /* 128 + SIGINT, as a shell reports a run stopped by Ctrl-C */
     }
     if (status != LAG_OK) {
-        fprintf(stderr, "simulation failed at t = %.17g: %s\n  state:", (double)report.t_fail,
-                lag_status_message(status));
+        fprintf(stderr, "the run is incomplete: %ld rows written\n", report.rows);
+        fprintf(stderr, "simulation failed at t = %.17g: %s", (double)report.t_fail, lag_status_message(status));
+        if (status == LAG_ERR_SINGULAR)
+            fprintf(stderr, " (reciprocal condition estimate %.3g, below %.3g)", (double)report.rcond_fail,
+                    (double)LAG_RCOND_MIN);
+        fputs("\n  state:", stderr);
         for (i = 0; i < LAG_NQ; ++i)
             fprintf(stderr, " %s = %.17g, %s' = %.17g", lag_coordinate_names[i], (double)report.y_fail[i],
                     lag_coordinate_names[i], (double)report.y_fail[LAG_NQ + i]);

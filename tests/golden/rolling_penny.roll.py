@@ -22,6 +22,10 @@ TIME = (0.0, 10.0, 0.01)
 SOLVER = 'lu'
 NQ = 4
 NK = 6
+# Below this reciprocal condition number of the equilibrated K (see equilibrated) K counts as
+# singular: q'' would keep fewer than about 3 correct digits. The C backend uses the same
+# threshold (LAG_RCOND_MIN) and scaling.
+RCOND_MIN = 1000 * numpy.finfo(float).eps
 
 
 def default_parameters():
@@ -110,8 +114,33 @@ def assemble(par, t, y):
     return K, b
 
 
+def equilibrated(K):
+    """S K S as a stack (..., NK, NK): unit diagonal for the mass matrix, and for a row whose
+    diagonal is zero (a constraint's) a largest scaled entry of 1, so that its condition
+    measures how nearly dependent the coordinates are, not their units."""
+    stack = numpy.moveaxis(K, (0, 1), (-2, -1))
+    diagonal = numpy.diagonal(stack, axis1=-2, axis2=-1)
+    with numpy.errstate(all="ignore"):
+        scale = numpy.where((diagonal > 0) & numpy.isfinite(diagonal), 1 / numpy.sqrt(numpy.abs(diagonal)), 0.0)
+        rows = numpy.max(numpy.abs(stack * scale[..., None, :]), axis=-1)
+        scale = numpy.where(scale > 0, scale, numpy.where((rows > 0) & numpy.isfinite(rows), 1 / rows, 1.0))
+    return stack * scale[..., :, None] * scale[..., None, :]
+
+
+def reciprocal_condition_of(K):
+    """1 / cond_1 of the equilibrated K (the smallest over a batch); nan when K is not finite."""
+    with numpy.errstate(all="ignore"):
+        return numpy.min(1 / numpy.linalg.cond(equilibrated(K), 1))
+
+
 def solve(K, b):
-    """Solve K x = b for one system (NK, NK) or a batch (NK, NK, B)."""
+    """Solve K x = b for one system (NK, NK) or a batch (NK, NK, B).
+
+    Raises numpy.linalg.LinAlgError when the reciprocal condition number of the equilibrated K
+    is below RCOND_MIN (a K with non-finite entries is left to the solve: its x is not finite).
+    """
+    if reciprocal_condition_of(K) < RCOND_MIN:
+        raise numpy.linalg.LinAlgError("the linear system for q'' is singular to working precision")
     if K.ndim == 2:
         return numpy.linalg.solve(K, b)
     x = numpy.linalg.solve(numpy.moveaxis(K, (0, 1), (-2, -1)), numpy.moveaxis(b, 0, -1)[..., None])
@@ -128,6 +157,12 @@ def rhs(t, y, par):
     """dy/dt = (q', q'')."""
     y = numpy.asarray(y, dtype=float)
     return numpy.concatenate([y[NQ:], accelerations(par, t, y)[0]])
+
+
+def reciprocal_condition(t, y, par):
+    """1 / cond_1 of K at one state y, reported when a run fails."""
+    y = numpy.asarray(y, dtype=float)
+    return reciprocal_condition_of(assemble(par, t, y)[0])
 
 
 def constraint_rows(par, t, y):

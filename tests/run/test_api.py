@@ -34,7 +34,7 @@ def test_simulate_returns_named_columns_and_summary(tmp_path):
     assert result.t[0] == 0.0 and result.t[-1] == pytest.approx(1.0)
     assert result["r"].shape == result.t.shape
     assert result.columns == ("r", "theta", "energy", "momentum(theta)")
-    assert result.summary.accepted > 0 and "drift of energy" in result.summary.render()
+    assert result.summary.count("accepted") > 0 and "drift of energy" in result.summary.render()
     result.to_csv(tmp_path / "kepler.csv")
     assert (tmp_path / "kepler.csv").read_text().startswith("t,r,theta,energy,momentum(theta)\n")
 

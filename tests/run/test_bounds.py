@@ -166,7 +166,7 @@ def test_a_step_size_collapse_at_t0_fails_at_once(oscillator, backend):
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_max_step_is_honoured(oscillator, backend):
     result = oscillator.simulate(backend=backend, integrator="dopri5", max_step=0.01)
-    assert result.summary.accepted >= 100
+    assert result.summary.count("accepted") >= 100
 
 
 def test_a_fixed_step_run_over_the_limit_is_refused_before_it_starts(oscillator):

@@ -181,6 +181,7 @@ int main(int argc, char **argv)
     int samples, restart, k, status = LAG_OK;
     (void)lag_cholesky_factor;
     (void)lag_cholesky_solve;
+    (void)lag_cholesky_rcond;
     if (argc != 7)
         return 2;
     memset(&opt, 0, sizeof opt);

@@ -42,3 +42,19 @@ static void lag_cholesky_solve(int n, const real *l, real *b)
         b[i] = s / l[i * n + i];
     }
 }
+
+/* Reciprocal condition estimate of A = L L^T from its factor: (min_j l_jj / max_j l_jj)^2.
+ * Since cond_2(A) = cond_2(L)^2 >= (max_j l_jj / min_j l_jj)^2, the estimate is never below the
+ * true 1/cond_2(A): a well-conditioned A is never reported as ill-conditioned.  For A with unit
+ * diagonal, l_jj^2 is the part of column j that the columns before it do not explain, so nearly
+ * dependent coordinates show up as a vanishing pivot. */
+static real lag_cholesky_rcond(int n, const real *l)
+{
+    real smallest = l[0], largest = l[0];
+    int j;
+    for (j = 1; j < n; ++j) {
+        smallest = r_fmin(smallest, l[j * n + j]);
+        largest = r_fmax(largest, l[j * n + j]);
+    }
+    return (smallest / largest) * (smallest / largest);
+}

@@ -13,6 +13,11 @@
  * Integration runs forward only (t_end > t0), as the driver does.
  */
 
+/* Work counters of dopri5 and dop853, printed by the run summary. */
+typedef struct lag_stats {
+    long accepted, rejected, rhs_evals;
+} lag_stats;
+
 typedef struct lag_control {
     real rtol, atol;
     real t_end;      /* no step goes past it; the last one lands on it exactly */

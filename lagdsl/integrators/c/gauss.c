@@ -41,6 +41,11 @@
  * matrix M); above, it is not trusted as converged and the iteration goes on. */
 #define LAG_GAUSS_NOISE 65536
 
+/* Work counters, printed by the run summary (a fixed step has no rejections to count). */
+typedef struct lag_stats {
+    long accepted, rhs_evals, newton_iters;
+} lag_stats;
+
 typedef struct lag_stepper {
     real t;            /* time reached by the last accepted step */
     real t_old;        /* start of the last accepted step */

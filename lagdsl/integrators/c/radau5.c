@@ -63,6 +63,11 @@
 #define RADAU_QUOT2 LAG_LIT(1.2)     /* keep h and the LU factors when 1 <= h_new/h <= 1.2 */
 #define RADAU_MAX_SINGULAR 5         /* singular iteration matrices in a row before giving up */
 
+/* Work counters, printed by the run summary (see "Work counters" above). */
+typedef struct lag_stats {
+    long accepted, rejected, rhs_evals, jac_evals, lu_decomps, newton_iters;
+} lag_stats;
+
 typedef struct lag_stepper {
     /* public, read by the driver */
     real t;

@@ -10,6 +10,11 @@
 
 #define LAG_INTEGRATOR_NAME "rk4"
 
+/* Work counters, printed by the run summary (a fixed step has no rejections to count). */
+typedef struct lag_stats {
+    long accepted, rhs_evals;
+} lag_stats;
+
 typedef struct lag_stepper {
     real t;            /* time reached by the last accepted step */
     real t_old;        /* start of the last accepted step */

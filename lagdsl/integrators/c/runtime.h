@@ -80,15 +80,9 @@ typedef struct lag_options {
     real step;         /* fixed-step methods (rk4, gauss): the step; adaptive: initial step, 0 = automatic */
     real max_step;     /* adaptive: largest step, 0 = no limit */
     int stages;        /* gauss: number of stages s (order 2s) */
-    long max_steps;    /* give up after this many attempted steps (accepted + rejected), 0 = no limit;
+    long max_steps;    /* give up after this many attempted steps (every try counts), 0 = no limit;
                         * the driver always sets a limit */
 } lag_options;
-
-/* Work counters every integrator keeps up to date (the run summary prints them). */
-typedef struct lag_stats {
-    long accepted, rejected;
-    long rhs_evals, jac_evals, lu_decomps, newton_iters;
-} lag_stats;
 
 /* Reading and writing numbers in the working precision (the CSV and the command line). */
 #if defined(LAG_FLOAT128)

@@ -1,0 +1,81 @@
+"""Honest failure: nearly singular mass matrices are caught, and a failed run keeps its rows.
+
+A heavy top at theta = 1e-7 has Euler angles phi and psi turning it about almost the same axis:
+its mass matrix is positive definite in exact arithmetic, but the accelerations would have no
+correct digits. A free particle moving through the origin of polar coordinates reaches r = 0
+exactly (rk4 with a step of 1/4 from r = -1 at speed 1 computes in exact dyadic arithmetic),
+where M = diag(1, r^2) is singular: the run stops there and keeps the rows before.
+"""
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pytest
+
+import lagdsl
+from lagdsl.cli import main
+from lagdsl.run.runner import RCOND_MIN
+from tests.conftest import MODELS
+
+THROUGH_THE_POLE = """model Straight "a free particle on a line through the origin, in polar coordinates"
+  coordinate r(start = -1, velocity = 1);
+  coordinate phi(start = 0.3);
+  T = der(r)^2/2 + r^2*der(phi)^2/2;
+end Straight;
+"""
+HINT = "use coordinates that do not pass through this configuration"
+
+
+@pytest.mark.parametrize("backend", ["c", "numpy"])
+def test_heavy_top_near_theta_zero_stops_with_the_condition_estimate(backend):
+    top = lagdsl.load(MODELS / "heavy_top.lag")
+    with pytest.raises(lagdsl.SimulationError) as failure:
+        top.simulate(backend=backend, stop=0.1, set={"theta.start": 1e-7})
+    error = failure.value
+    assert "singular" in error.message and "reciprocal condition estimate" in error.message
+    estimate = float(error.message.split("estimate ")[1].split(",")[0])
+    assert 0 < estimate < RCOND_MIN
+    assert error.time == 0 and error.state["theta"] == 1e-7 and HINT in error.remedy
+    assert len(error.partial.t) == 1                     # the row at t = 0
+
+
+@pytest.mark.parametrize("backend", ["c", "numpy"])
+def test_heavy_top_a_little_further_from_the_pole_runs(backend):
+    top = lagdsl.load(MODELS / "heavy_top.lag")
+    result = top.simulate(backend=backend, stop=0.05, set={"theta.start": 1e-4})
+    assert np.all(np.isfinite(result.values))
+
+
+def test_rows_before_a_singular_state_are_written_to_the_output(tmp_path, capsys):
+    model = tmp_path / "straight.lag"
+    model.write_text(THROUGH_THE_POLE)
+    output = tmp_path / "out.csv"
+    status = main(["run", str(model), "--integrator", "rk4", "--step", "0.25", "--stop", "2",
+                   "--interval", "0.25", "-o", str(output)])
+    err = capsys.readouterr().err
+    assert status == 1
+    rows = list(csv.reader(output.read_text().splitlines()))
+    assert rows[0] == ["t", "r", "phi"]
+    times = [float(row[0]) for row in rows[1:]]
+    assert times == [0.0, 0.25, 0.5, 0.75][:len(times)] and len(times) >= 3
+    assert all(float(row[1]) == pytest.approx(-1 + t) for row, t in zip(rows[1:], times))
+    assert "the run is incomplete: it stopped at t = " in err and str(output) in err
+    assert "singular" in err and HINT in err
+    assert not list(tmp_path.glob(".*tmp"))              # written atomically, nothing left behind
+
+
+@pytest.mark.parametrize("backend", ["c", "numpy"])
+def test_a_collapsing_step_keeps_the_rows_and_exits_1(tmp_path, capsys, backend):
+    """Radial fall into 1/r: r reaches 0 at t = pi/(2 sqrt 2) = 1.11; the step size collapses."""
+    model = tmp_path / "fall.lag"
+    model.write_text("model Fall\n  coordinate r(start = 1);\n  T = der(r)^2/2;\n  U = -1/r;\nend Fall;\n")
+    output = tmp_path / "fall.csv"
+    status = main(["run", str(model), "--backend", backend, "--stop", "2", "--interval", "0.1",
+                   "-o", str(output)])
+    err = capsys.readouterr().err
+    assert status == 1 and "simulation failed at t = 1.1" in err
+    rows = list(csv.reader(output.read_text().splitlines()))
+    assert rows[0] == ["t", "r"] and len(rows) == 1 + 12     # t = 0, 0.1, ..., 1.1
+    assert float(rows[-1][0]) == pytest.approx(1.1)
+    assert "the run is incomplete: it stopped at t = 1.1" in err
