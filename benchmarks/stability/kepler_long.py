@@ -48,7 +48,7 @@ def section(orbits=10000) -> str:
         error = np.abs(energy - energy[0]) / abs(energy[0])
         tenth = len(error) // 10
         slope = np.polyfit(result.t / PERIOD, error, 1)[0]
-        rows.append([label, str(result.summary.accepted), f"{lagdsl_seconds(result):.3g} s",
+        rows.append([label, str(result.summary.count("accepted")), f"{lagdsl_seconds(result):.3g} s",
                      f"{error[:tenth].max():.2g}", f"{error[-tenth:].max():.2g}", f"{slope:.2g}"])
         axes.loglog(result.t[1:] / PERIOD, np.maximum(error[1:], 1e-17), label=label, linewidth=0.7)
     axes.set_xlabel("orbits")

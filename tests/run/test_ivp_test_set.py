@@ -62,7 +62,7 @@ def test_radau5_steps_stay_flat_as_the_spring_stiffens():
     for exponent in range(2, 13, 2):
         result = elastic_pendulum(10.0 ** exponent)
         assert result.t[-1] == pytest.approx(10.0)
-        accepted[exponent] = result.summary.accepted
+        accepted[exponent] = result.summary.count("accepted")
     assert all(accepted[e] < 300 for e in (6, 8, 10, 12)), accepted
     stiff = [accepted[e] for e in (8, 10, 12)]
     assert max(stiff) <= 1.1 * min(stiff), accepted
