@@ -9,6 +9,7 @@ process on one core, each measurement starting from an empty SymPy cache, in CPU
 the process (the machine is shared; see benchtools.cpu_seconds):
 
   lagdsl derive   parse + build_model + derive_equations, from the .lag text (best of --repeat)
+  lagdsl eom      the same, then format_equations: the text `lagc eom` prints (best of --repeat)
   lagdsl .lag->C  the same, then plan_scene + lower_to_kernel (CSE) + render_c: the generated C
                   text (best of --repeat)
   Lagrange        sympy.physics.mechanics.LagrangesMethod on the same positions (x_i = sum of
@@ -29,8 +30,8 @@ and the size of the right-hand side after common-subexpression elimination:
 
 Each SymPy method has a time limit per n (--timeout); once it runs over, larger n are skipped.
 
-Targets (issue: derivation that scales): n = 12 derived at least 20x faster than
-LagrangesMethod; n = 32 from .lag to C "in seconds" (read here as under 10 s); no more
+Targets (issue: derivation that scales): n = 12 derived, and its equations printed by
+`lagc eom`, at least 20x faster than LagrangesMethod; n = 32 from .lag to C "in seconds" (read here as under 10 s); no more
 operations after CSE than KanesMethod's equations.
 """
 from __future__ import annotations
@@ -71,6 +72,12 @@ def lagdsl_derive(text: str, n: int):
     from lagdsl.source import SourceFile
     model = model_from_source(SourceFile(f"pendulum_chain_{n}.lag", text))
     return model, derive_equations(model)
+
+
+def lagdsl_eom(text: str, n: int) -> str:
+    """.lag text -> the equations of motion as `lagc eom` prints them."""
+    from lagdsl.present import format_equations
+    return format_equations(lagdsl_derive(text, n)[1])
 
 
 def lagdsl_to_c(text: str, n: int) -> dict:
@@ -175,6 +182,7 @@ def kane_operations(equations) -> int:
 class Row:
     n: int
     derive: float | None = None
+    eom: float | None = None
     to_c: float | None = None
     stages: dict = field(default_factory=dict)
     lagdsl_ops: int | None = None
@@ -208,6 +216,7 @@ def warm_up() -> None:
     """Run every method once at n = 2, untimed, so that no measurement pays for imports or lark's tables."""
     text = chain_source(2)
     lagdsl_derive(text, 2)
+    lagdsl_eom(text, 2)
     lagdsl_to_c(text, 2)
     kane_operations(kanes_equations(2))
     kane_operations(kanes_equations(2, cartesian=True))
@@ -218,6 +227,7 @@ def measure(n: int, repeat: int, limits: Limits, kane_cartesian: bool) -> Row:
     text = chain_source(n)
     row = Row(n)
     row.derive, _ = best_of(repeat, lagdsl_derive, text, n)
+    row.eom, _ = best_of(repeat, lagdsl_eom, text, n)
     row.to_c, stages = best_of(repeat, lagdsl_to_c, text, n)
     row.stages = stages
     row.lagdsl_ops = kernel_operations(stages["kernel"])
@@ -232,10 +242,11 @@ def measure(n: int, repeat: int, limits: Limits, kane_cartesian: bool) -> Row:
 
 # ---- the report ------------------------------------------------------------------------------
 def main_table(rows) -> str:
-    body = [[r.n, seconds(r.derive), seconds(r.to_c),
-             seconds(r.lagrange), ratio(r.lagrange, r.derive), seconds(r.kane), ratio(r.kane, r.derive),
+    body = [[r.n, seconds(r.derive), seconds(r.eom), seconds(r.to_c),
+             seconds(r.lagrange), ratio(r.lagrange, r.derive), ratio(r.lagrange, r.eom), seconds(r.kane), ratio(r.kane, r.derive),
              r.lagdsl_ops, r.kane_ops, ratio(r.kane_ops, r.lagdsl_ops)] for r in rows]
-    return markdown_table(["n", "lagdsl derive", "lagdsl .lag->C", "LagrangesMethod", "Lagrange / lagdsl",
+    return markdown_table(["n", "lagdsl derive", "lagdsl eom", "lagdsl .lag->C", "LagrangesMethod",
+                           "Lagrange / lagdsl", "Lagrange / lagdsl eom",
                            "KanesMethod", "Kane / lagdsl", "lagdsl ops", "Kane ops", "Kane ops / lagdsl ops"],
                           body)
 
@@ -255,6 +266,9 @@ def targets(rows) -> list[str]:
     if r12 and isinstance(r12.lagrange, float):
         x = r12.lagrange / r12.derive
         lines.append(f"n = 12 derived >= 20x faster than LagrangesMethod: {x:.0f}x, {'met' if x >= 20 else 'NOT met'}")
+        x = r12.lagrange / r12.eom
+        lines.append(f"n = 12 equations printed (lagc eom) >= 20x faster than LagrangesMethod: {x:.0f}x, "
+                     f"{'met' if x >= 20 else 'NOT met'}")
     else:
         lines.append("n = 12 derived >= 20x faster than LagrangesMethod: not measured")
     r32 = by_n.get(32)
@@ -308,7 +322,7 @@ def main(argv=None) -> int:
     for n in args.sizes:
         rows.append(measure(n, args.repeat, limits, args.kane_cartesian))
         r = rows[-1]
-        print(f"n = {n}: lagdsl {seconds(r.derive)} (to C {seconds(r.to_c)}), Lagrange {seconds(r.lagrange)}, "
+        print(f"n = {n}: lagdsl {seconds(r.derive)} (eom {seconds(r.eom)}, to C {seconds(r.to_c)}), Lagrange {seconds(r.lagrange)}, "
               f"Kane {seconds(r.kane)}, ops lagdsl {r.lagdsl_ops} / Kane {r.kane_ops}", file=sys.stderr, flush=True)
     print(main_table(rows))
     print()

@@ -2,14 +2,17 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 from . import ir
 from .codegen import GeneratedSource
+from .codegen.kernel import Kernel
 from .errors import LagError
 from .mechanics import Equations
 from .pipeline import compile_model, execute, generate, plan
 from .run.output import Result
+from .run.runner import load as load_program
 from .scene import Overrides, ScenePlan
 from .source import SourceFile
 
@@ -24,6 +27,7 @@ class Model:
         self.ir: ir.Model
         self.equations: Equations
         self.ir, self.equations = compile_model(source)
+        self._programs: dict[tuple[str, str, str], Program] = {}
 
     @property
     def name(self) -> str:
@@ -70,12 +74,31 @@ class Model:
         called as progress(t reached, start, stop) every so often."""
         _check_backend(backend)
         scene_plan = self.plan(scene, overrides)
-        # Parameters, initial values, the time grid and tolerances are run-time inputs of the
-        # generated code; only the integrator changes the code. Generating from the scene as
-        # written keeps one compiled library per scene and integrator, whatever is overridden.
-        code_plan = self.plan(scene, Overrides(integrator=overrides.integrator, options=overrides.options))
-        kernel, source = generate(self.equations, code_plan, backend, self.source.name)
-        return execute(kernel, source, scene_plan, progress)
+        program = self._program(scene, scene_plan, backend, overrides)
+        return execute(program.kernel, program.source, scene_plan, progress, program.loaded)
+
+    def _program(self, scene: str | None, scene_plan: ScenePlan, backend: str, overrides: Overrides) -> Program:
+        """The generated, loaded code for a scene, integrator and backend: built on first use, then kept.
+
+        Parameters, initial values, the time grid, tolerances, steps and step limits are run-time
+        inputs of the generated code; only the scene and the integrator change the code. So a
+        repeated simulate() with other inputs only fills the input arrays and calls the code.
+        """
+        key = (scene_plan.scene_name, scene_plan.integrator.name, backend)
+        if key not in self._programs:
+            code_plan = self.plan(scene, Overrides(integrator=scene_plan.integrator.name, options=overrides.options))
+            kernel, source = generate(self.equations, code_plan, backend, self.source.name)
+            self._programs[key] = Program(kernel, source, load_program(source))
+        return self._programs[key]
+
+
+@dataclass(frozen=True)
+class Program:
+    """What a Model keeps per scene, integrator and backend: the kernel, its source, and the
+    loaded shared library (C) or imported module (NumPy) that runs it."""
+    kernel: Kernel
+    source: GeneratedSource
+    loaded: object
 
 
 def load(path: str | Path) -> Model:

@@ -13,14 +13,13 @@ import sys
 import time as clock
 import warnings
 
-from pathlib import Path
 
 from . import __version__
 from .api import load
 from .errors import LagError, LagWarning, SimulationError, SimulationInterrupted
 from .escape import visible
 from .present import describe_model, format_equations
-from .run.output import write_atomically
+from .run.output import check_writable, write_output
 from .scene import Overrides
 
 
@@ -98,7 +97,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--max-step", type=float, help="largest step (dopri5, dop853, radau5)")
     run.add_argument("--max-steps", type=int, help="step limit, accepted + rejected "
                      "(default: 100000, or 100 per output row if that is more)")
-    run.add_argument("-o", "--output", help="write the CSV here (atomically) instead of standard output")
+    run.add_argument("-o", "--output", help="write the CSV here instead of standard output")
     run.set_defaults(handler=_run)
 
     emit = commands.add_parser("emit", help="write the generated source: lagc MODEL --emit c|numpy [-o FILE]")
@@ -138,6 +137,8 @@ def _run(arguments) -> int:
     """Simulate; on a numerical failure deliver the rows computed so far, say where the run
     stopped, and exit 1 (with the error, which `main` prints)."""
     model = load(arguments.model)
+    if arguments.output:
+        check_writable(arguments.output)      # refuse before the run, not after it
     overrides = _overrides(arguments)
     progress = ProgressLine(sys.stderr)
     try:
@@ -205,9 +206,9 @@ def _emit(arguments) -> int:
 
 
 def _deliver(text: str, output: str | None) -> None:
-    """To the -o file (atomically), or to standard output."""
+    """To the -o file (see `write_output`), or to standard output."""
     if output:
-        write_atomically(Path(output), text)
+        write_output(output, text)
     else:
         sys.stdout.write(text)
 

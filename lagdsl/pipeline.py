@@ -58,7 +58,8 @@ def generate(equations: Equations, scene_plan: ScenePlan, backend: str, source_n
 
 
 def execute(kernel: Kernel, source: GeneratedSource, scene_plan: ScenePlan,
-            progress: Callable[[float, float, float], None] | None = None) -> Result:
+            progress: Callable[[float, float, float], None] | None = None, loaded=None) -> Result:
+    """Run the scene; `loaded` is runner.load(source) when the caller kept it from an earlier run."""
     check_step_count(scene_plan)
     run = {"c": run_c, "numpy": run_numpy}[source.language]
-    return run(kernel, source, scene_plan, progress)                # -> Result
+    return run(kernel, source, scene_plan, progress, loaded)       # -> Result

@@ -1,20 +1,29 @@
 """Human-readable output of `lagc check` and `lagc eom` (plain text and LaTeX).
 
-Display is the one place where expressions are expanded: intermediates are inlined and
-small results are tidied with trigsimp, so that a textbook system reads like the textbook
-(m2*l1*l2*cos(theta1 - theta2), not a sum of products of sines and cosines). Large
-expressions are shown as derived, since simplifying them does not scale.
+Display is the one place where expressions are expanded: intermediates are inlined and small
+results are tidied, so that a textbook system reads like the textbook (m2*l1*l2*cos(theta1 -
+theta2), not a sum of products of sines and cosines). The tidying is a fixed sequence of cheap
+rewrites (expand, sin² + cos² = 1, the sum and difference formulas read backwards, common
+factors pulled out), not trigsimp: trigsimp factors polynomials, which costs seconds per
+expression on a 12-link chain. An expression too large to inline readably is shown as derived,
+in terms of its named intermediates, which are listed after the equations (`where`), each after
+the ones it uses, as the generated code computes them.
 """
 from __future__ import annotations
 
+import re
+from collections import Counter
+
 import sympy
+from sympy.simplify.fu import TR10i
 
 from . import ir
 from .calculus import Differentiator, tree_size
 from .escape import visible
 from .mechanics import Equations
 
-TIDY_LIMIT = 400     # tree nodes; larger expressions are printed without trigsimp
+TIDY_LIMIT = 400          # tree nodes once inlined; larger expressions are shown as derived
+EXPANSION_LIMIT = 2000    # terms of the expanded form; more and an expression is shown untidied
 
 
 def format_number(value: float) -> str:
@@ -72,11 +81,52 @@ def degrees_of_freedom(equations: Equations) -> str:
     return f"{n - holonomic} ({', '.join(parts)})"
 
 
-def tidy(expr: sympy.Expr, calculus: Differentiator) -> sympy.Expr:
-    expr = calculus.inline(expr)
-    if tree_size(expr, TIDY_LIMIT) <= TIDY_LIMIT:
-        expr = sympy.trigsimp(expr)
-    return expr
+def shown(expr: sympy.Expr, calculus: Differentiator) -> sympy.Expr:
+    """`expr` inlined and tidied when that is small, else as derived (through intermediates)."""
+    inlined = calculus.inline(expr)
+    if tree_size(inlined, TIDY_LIMIT) > TIDY_LIMIT:
+        return expr
+    return tidy(inlined)
+
+
+def tidy(expr: sympy.Expr) -> sympy.Expr:
+    """Cheap trigonometric tidying: every step is polynomial in the size of the expanded form.
+
+    expand → sin(x)² + cos(x)² = 1 → cos a cos b + sin a sin b = cos(a - b) and its kin (fu's
+    TR10i) → common factors out. Skipped when expanding would multiply out too many terms.
+    """
+    if expanded_terms(expr) > EXPANSION_LIMIT:
+        return expr
+    return sympy.factor_terms(TR10i(pythagoras(sympy.expand(expr))))
+
+
+def expanded_terms(expr: sympy.Expr) -> int:
+    """An upper bound on the number of terms of sympy.expand(expr) (at its top level)."""
+    if expr.is_Add:
+        return sum(expanded_terms(a) for a in expr.args)
+    if expr.is_Mul:
+        count = 1
+        for factor in expr.args:
+            count *= expanded_terms(factor)
+        return count
+    if expr.is_Pow and expr.exp.is_Integer and expr.exp > 0:
+        return expanded_terms(expr.base) ** int(expr.exp)
+    return 1
+
+
+def pythagoras(expr: sympy.Expr) -> sympy.Expr:
+    """In an expanded sum, each pair c·sin(x)² + c·cos(x)² replaced by c."""
+    terms = Counter(sympy.Add.make_args(expr))
+    for term in list(terms):
+        for factor in sympy.Mul.make_args(term):
+            if factor.is_Pow and factor.exp == 2 and isinstance(factor.base, sympy.sin):
+                rest = term / factor
+                partner = rest * sympy.cos(factor.base.args[0]) ** 2
+                pairs = min(terms[term], terms[partner])
+                terms[term] -= pairs
+                terms[partner] -= pairs
+                terms[rest] += pairs
+    return sympy.Add(*(term * count for term, count in terms.items() if count))
 
 
 def accelerations(equations: Equations) -> list[sympy.Symbol]:
@@ -87,31 +137,41 @@ def multipliers(equations: Equations) -> list[sympy.Symbol]:
     return [sympy.Symbol(f"λ[{c.name}]", real=True) for c in equations.active_constraints]
 
 
-def equation_rows(equations: Equations) -> list[tuple[str, sympy.Expr, sympy.Expr]]:
+def equation_rows(equations: Equations, calculus: Differentiator) -> list[tuple[str, sympy.Expr, sympy.Expr]]:
     """(label, lhs, rhs) per coordinate, M q'' = f + Aᵀλ, then A q'' = gamma per constraint."""
-    calculus = equations.calculus()
     a = accelerations(equations)
     lam = multipliers(equations)
     active = equations.active_constraints
+    tidied: dict[sympy.Expr, sympy.Expr] = {}
+
+    def show(expr: sympy.Expr) -> sympy.Expr:       # M is symmetric: each entry tidied once
+        if expr not in tidied:
+            tidied[expr] = shown(expr, calculus)
+        return tidied[expr]
+
     rows = []
     for k, q in enumerate(equations.coordinates):
-        lhs = sum((tidy(m, calculus) * a[j] for j, m in enumerate(equations.mass_matrix[k])), sympy.S.Zero)
-        rhs = tidy(equations.forcing[k], calculus) + sum(
-            (lam[i] * tidy(c.jacobian[k], calculus) for i, c in enumerate(active)), sympy.S.Zero)
+        lhs = sympy.Add(*(show(m) * a[j] for j, m in enumerate(equations.mass_matrix[k])))
+        rhs = sympy.Add(show(equations.forcing[k]), *(lam[i] * show(c.jacobian[k]) for i, c in enumerate(active)))
         rows.append((q.name, lhs, rhs))
     for c in active:
-        lhs = sum((tidy(x, calculus) * a[j] for j, x in enumerate(c.jacobian)), sympy.S.Zero)
-        rows.append((c.name, lhs, tidy(c.gamma, calculus)))
+        lhs = sympy.Add(*(show(x) * a[j] for j, x in enumerate(c.jacobian)))
+        rows.append((c.name, lhs, show(c.gamma)))
     return rows
 
 
 def format_equations(equations: Equations, latex: bool = False) -> str:
-    """The report of `lagc eom`."""
-    rows = equation_rows(equations)
+    """The report of `lagc eom`: the equations, then the intermediates they are shown with."""
+    calculus = equations.calculus()
+    rows = equation_rows(equations, calculus)
+    where = calculus.needed(side for _, lhs, rhs in rows for side in (lhs, rhs))
     n = equations.size
     if latex:
-        names = latex_names(equations)
+        names = latex_names(equations, (s for s, _ in where))
         body = [rf"{_latex(lhs, names)} &= {_latex(rhs, names)} \\" for _, lhs, rhs in rows]
+        if where:
+            body.append(r"&\text{where} \\")
+            body.extend(rf"{names[s]} &= {_latex(e, names)} \\" for s, e in where)
         return "\\begin{aligned}\n" + "\n".join(body) + "\n\\end{aligned}"
     lines = [f"equations of motion of {equations.model.name}"
              + (" (M q'' = f + A^T λ, then the constraint rows A q'' = γ)" if len(rows) > n else "")]
@@ -119,6 +179,9 @@ def format_equations(equations: Equations, latex: bool = False) -> str:
     for k, (label, lhs, rhs) in enumerate(rows):
         kind = "" if k < n else " (constraint)"
         lines.append(f"  {label.ljust(width)}{kind}:  {_text(lhs)} = {_text(rhs)}")
+    if where:
+        lines.append("where")
+        lines.extend(f"  {symbol} = {_text(e)}" for symbol, e in where)
     return "\n".join(visible(line) for line in lines)
 
 
@@ -130,14 +193,31 @@ def _latex(expr: sympy.Expr, names: dict) -> str:
     return sympy.latex(expr, symbol_names=names)
 
 
-def latex_names(equations: Equations) -> dict[sympy.Symbol, str]:
-    """theta1 -> \\theta_{1}, theta1' -> \\dot{\\theta}_{1}, theta[2]'' -> \\ddot{\\theta}_{2}."""
+def latex_names(equations: Equations, intermediates=()) -> dict[sympy.Symbol, str]:
+    """theta1 -> \\theta_{1}, theta1' -> \\dot{\\theta}_{1}, theta[2]'' -> \\ddot{\\theta}_{2};
+    an intermediate der(x[2]) -> \\operatorname{der}(x_{2}), δL/δtheta[1] -> \\delta L/\\delta \\theta_{1}."""
     names = {}
     for q, a in zip(equations.coordinates, accelerations(equations)):
-        base = sympy.latex(sympy.Symbol(q.name.replace("[", "_").replace("]", "")))
+        base = _latex_identifier(q.name)
         names[q] = base
         names[sympy.Symbol(q.name + "'", real=True)] = rf"\dot{{{base}}}"
         names[a] = rf"\ddot{{{base}}}"
     for lam in multipliers(equations):
         names[lam] = rf"\lambda_{{\mathrm{{{lam.name[2:-1]}}}}}".replace("_", r"\_").replace(r"\lambda\_", r"\lambda_")
+    for symbol in intermediates:
+        names[symbol] = _LATEX_NAME_PART.sub(_latex_name_part, symbol.name)
     return names
+
+
+_LATEX_NAME_PART = re.compile(r"der\(|[δ∂]|[A-Za-z_][A-Za-z0-9_]*(?:\[[0-9, ]*\])?")
+_LATEX_MARKS = {"der(": r"\operatorname{der}(", "δ": r"\delta ", "∂": r"\partial "}
+
+
+def _latex_name_part(match: re.Match) -> str:
+    part = match.group()
+    return _LATEX_MARKS.get(part) or _latex_identifier(part)
+
+
+def _latex_identifier(name: str) -> str:
+    """x -> x, theta[2] -> \\theta_{2}, theta1 -> \\theta_{1} (sympy's reading of a trailing number)."""
+    return sympy.latex(sympy.Symbol(name.replace("[", "_").replace("]", "")))

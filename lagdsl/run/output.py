@@ -1,8 +1,11 @@
 """Results of a run: the table of outputs, the run summary, and writing them safely."""
 from __future__ import annotations
 
+import errno
 import io
 import os
+import secrets
+import stat
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -74,14 +77,77 @@ class Result:
         return buffer.getvalue()
 
     def to_csv(self, path: str | os.PathLike) -> None:
-        write_atomically(Path(path), self.csv())
+        write_output(path, self.csv())
 
 
-def write_atomically(path: Path, text: str) -> None:
-    """Write to a temporary file beside `path` and rename it: readers never see half a file."""
-    partial = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+class CannotWrite(OSError):
+    """An output file that cannot be written; the message names the path as the user gave it."""
+
+    def __init__(self, path: str | os.PathLike, reason: OSError):
+        super().__init__(reason.errno, f"cannot write '{os.fspath(path)}': {_describe(reason)}")
+
+
+def check_writable(path: str | os.PathLike) -> None:
+    """Raise CannotWrite now if `write_output(path, ...)` is bound to fail (before a long run, say)."""
     try:
-        partial.write_text(text, encoding="utf-8")
-        os.replace(partial, path)
-    finally:
+        _destination(path)
+    except OSError as error:
+        raise CannotWrite(path, error) from None
+
+
+def write_output(path: str | os.PathLike, text: str) -> None:
+    """Write `text` to `path` without damaging what is there.
+
+    A regular file (new, or existing and writable) is written to a temporary file beside it and
+    renamed over it, so readers never see half a file; an existing file keeps its mode, a new one
+    gets the default mode (umask). A symbolic link is followed: its target is written and the link
+    stays. A device or FIFO (/dev/null, a pipe) is written in place, never replaced. A directory,
+    a read-only file or a missing directory is refused with CannotWrite, and no temporary file is
+    left behind.
+    """
+    try:
+        target, existing = _destination(path)
+        if existing is not None and not stat.S_ISREG(existing.st_mode):
+            with open(target, "w", encoding="utf-8") as stream:
+                stream.write(text)
+        else:
+            _replace(target, text, stat.S_IMODE(existing.st_mode) if existing is not None else None)
+    except OSError as error:
+        raise CannotWrite(path, error) from None
+
+
+def _destination(path: str | os.PathLike) -> tuple[Path, os.stat_result | None]:
+    """The file to write (symbolic links resolved) and its status, None if it does not exist yet."""
+    target = Path(os.path.realpath(path))
+    try:
+        existing = target.stat()
+    except FileNotFoundError:
+        if not target.parent.is_dir():
+            raise FileNotFoundError(errno.ENOENT, f"the directory '{target.parent}' does not exist") from None
+        return target, None
+    if stat.S_ISDIR(existing.st_mode):
+        raise IsADirectoryError(errno.EISDIR, "it is a directory")
+    # Root may write anything, so os.access alone would let root replace a file marked read-only.
+    if stat.S_ISREG(existing.st_mode) and (not existing.st_mode & 0o222 or not os.access(target, os.W_OK)):
+        raise PermissionError(errno.EACCES, "the file is read-only")
+    return target, existing
+
+
+def _replace(target: Path, text: str, mode: int | None) -> None:
+    """Write a temporary file beside `target` (unique per process and thread) and rename it over `target`."""
+    partial = target.with_name(f".{target.name}.{secrets.token_hex(8)}.tmp")
+    descriptor = os.open(partial, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)   # 0o666 & ~umask
+    try:
+        with os.fdopen(descriptor, "w", encoding="utf-8") as stream:
+            stream.write(text)
+            if mode is not None:
+                os.fchmod(stream.fileno(), mode)
+        os.replace(partial, target)
+    except BaseException:
         partial.unlink(missing_ok=True)
+        raise
+
+
+def _describe(error: OSError) -> str:
+    reason = error.strerror or str(error)
+    return reason[:1].lower() + reason[1:]

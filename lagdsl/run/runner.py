@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import ctypes
 import hashlib
+import importlib.abc
 import importlib.util
 import threading
 import time as clock
@@ -22,12 +23,13 @@ import numpy as np
 
 from ..codegen import GeneratedSource
 from ..codegen.kernel import Kernel
-from ..errors import InternalError, SimulationError, SimulationInterrupted
+from ..errors import InternalError, LagError, SimulationError, SimulationInterrupted
 from ..integrators import COUNTERS
 from ..integrators.python.fixed_step import IntegrationFailure, integrate_gauss, integrate_rk4
 from ..scene import ScenePlan, grid_rows
-from .output import Result, RunSummary, write_atomically
-from .toolchain import cache_directory, shared_library
+from .cache import cached_entry
+from .output import Result, RunSummary
+from .toolchain import shared_library
 
 # K (M, or the saddle-point matrix of a constrained system) counts as singular below this
 # reciprocal condition estimate: q'' would keep fewer than about 3 correct digits. The generated
@@ -83,8 +85,20 @@ def _failure(plan: ScenePlan, status: int, t_fail: float, y_fail, partial: Resul
 
 
 # ---- C ---------------------------------------------------------------------------------------
-def run_c(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress: Progress | None = None) -> Result:
-    library = ctypes.CDLL(str(shared_library(source.text, source.suggested_name)))
+def load(source: GeneratedSource):
+    """What runs `source`: its shared library (C, compiled on first use) or its module (NumPy).
+
+    A caller that keeps it passes it back as `loaded` to run_c or run_numpy, which then go
+    straight to the integration: no hashing of the source, no compiler, no dlopen or import.
+    """
+    if source.language == "c":
+        return _load_library(shared_library(source.text, source.suggested_name))
+    return load_module(source)
+
+
+def run_c(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress: Progress | None = None,
+          loaded: ctypes.CDLL | None = None) -> Result:
+    library = loaded if loaded is not None else load(source)
     entry = library.lag_run
     double_p = ctypes.POINTER(ctypes.c_double)
     entry.argtypes = [double_p, double_p, double_p, double_p, ctypes.c_long, double_p]
@@ -117,6 +131,15 @@ def run_c(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress: Pr
     return result
 
 
+def _load_library(path: Path) -> ctypes.CDLL:
+    try:
+        return ctypes.CDLL(str(path))
+    except OSError as error:
+        # The cache entry was verified, so this is the system refusing it (a cache directory on a
+        # file system mounted noexec, say); ctypes gives dlopen's message without an errno.
+        raise LagError(f"cannot load the compiled model '{path}': {error}") from None
+
+
 def _interruptible(library: ctypes.CDLL, call: Callable[[], int], plan: ScenePlan,
                    progress: Progress | None) -> tuple[int, float]:
     """Make the C call in a worker thread, so that the main thread stays free for Ctrl-C and progress.
@@ -143,11 +166,12 @@ def _interruptible(library: ctypes.CDLL, call: Callable[[], int], plan: ScenePla
             done.set()
 
     threading.Thread(target=work, name="lagdsl-c-run", daemon=True).start()
-    # Plain sleeps, not join(timeout): a KeyboardInterrupt inside Thread.join can leave the
-    # thread looking finished while it still runs.
+    # Waits on the event, not join(timeout): a KeyboardInterrupt inside Thread.join can leave
+    # the thread looking finished while it still runs. The wait ends as soon as the run does, so
+    # a run of milliseconds does not wait out a poll interval.
     while not done.is_set():
         try:
-            clock.sleep(POLL_SECONDS)
+            done.wait(POLL_SECONDS)
         except KeyboardInterrupt:
             interrupt.value = 1
         if progress is not None:
@@ -159,23 +183,45 @@ def _interruptible(library: ctypes.CDLL, call: Callable[[], int], plan: ScenePla
 
 # ---- NumPy -----------------------------------------------------------------------------------
 def load_module(source: GeneratedSource):
-    """Import generated NumPy code from the cache (written once per content hash)."""
-    key = hashlib.sha256(source.text.encode()).hexdigest()[:20]
-    path = cache_directory() / f"{source.suggested_name}_{key}.py"
-    if not path.exists():
-        try:
-            compile(source.text, str(path), "exec")     # never cache a module that cannot load
-        except SyntaxError as error:
-            raise InternalError(f"the generated Python does not parse: {error}") from None
-        write_atomically(path, source.text)
-    spec = importlib.util.spec_from_file_location(f"lagdsl_generated_{key}", path)
+    """Import generated NumPy code; it is kept in the build cache so that tracebacks point at a file.
+
+    The module is executed from the generated text itself (the cache entry is verified to hold the
+    same bytes), and no bytecode is written beside it: a damaged .pyc could not be told apart.
+    """
+    key = hashlib.sha256(source.text.encode()).hexdigest()
+    path = cached_entry(f"{source.suggested_name}_{key[:20]}.py", key,
+                        lambda entry: _write_module(source.text, entry))
+    spec = importlib.util.spec_from_file_location(f"lagdsl_generated_{key[:20]}", path,
+                                                  loader=_GeneratedLoader(source.text, path))
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
 
 
-def run_numpy(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress: Progress | None = None) -> Result:
-    module = load_module(source)
+def _write_module(text: str, entry: Path) -> None:
+    try:
+        compile(text, str(entry), "exec")     # never cache a module that cannot load
+    except SyntaxError as error:
+        raise InternalError(f"the generated Python does not parse: {error}") from None
+    entry.write_text(text, encoding="utf-8")
+
+
+class _GeneratedLoader(importlib.abc.InspectLoader):
+    """Loads a module from text held in memory, compiled under the name of its file in the cache."""
+
+    def __init__(self, text: str, path: Path):
+        self.text, self.path = text, path
+
+    def get_source(self, fullname: str) -> str:
+        return self.text
+
+    def get_code(self, fullname: str):
+        return self.source_to_code(self.text, str(self.path))
+
+
+def run_numpy(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress: Progress | None = None,
+              loaded=None) -> Result:
+    module = loaded if loaded is not None else load(source)
     par = np.array(plan.parameters, dtype=float)
     times = output_times(plan)
     y0 = np.array(plan.initial_state, dtype=float)

@@ -2,9 +2,8 @@
 
 A shared library is built once per (source, compiler, flags) and reused: its file name
 carries the SHA-256 of all three, so a second run of the same scene does not recompile and a
-changed model never reuses a stale library. The cache is $LAGDSL_CACHE, or
-~/.cache/lagdsl. Builds are written to a temporary file and renamed into place, so
-concurrent runs never see a half-written library.
+changed model never reuses a stale library. The cache itself (where it lives, how entries are
+verified before use and built without collisions) is `cache.py`.
 """
 from __future__ import annotations
 
@@ -16,6 +15,7 @@ import tempfile
 from pathlib import Path
 
 from ..errors import InternalError, LagError
+from .cache import cached_entry
 
 STRICT_FLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic")
 LIBRARY_FLAGS = ("-std=c99", "-O2", "-fPIC", "-shared")
@@ -29,33 +29,20 @@ def find_compiler() -> str:
                    "or run with --backend numpy")
 
 
-def cache_directory() -> Path:
-    root = os.environ.get("LAGDSL_CACHE") or os.path.join(os.path.expanduser("~"), ".cache", "lagdsl")
-    path = Path(root)
-    path.mkdir(parents=True, exist_ok=True)
-    return path
-
-
 def compile_c(source: str, output: Path, flags=STRICT_FLAGS, compiler: str | None = None) -> None:
     """Compile one C file; a compiler error in generated code is our bug, reported in full."""
     compiler = compiler or find_compiler()
     with tempfile.TemporaryDirectory() as work:
         source_path = Path(work) / f"{output.stem}.c"
         source_path.write_text(source, encoding="utf-8")
-        partial = output.with_name(f".{output.name}.{os.getpid()}.tmp")
-        result = subprocess.run([compiler, *flags, str(source_path), "-o", str(partial), "-lm"],
+        result = subprocess.run([compiler, *flags, str(source_path), "-o", str(output), "-lm"],
                                 capture_output=True, text=True)
         if result.returncode != 0:
-            partial.unlink(missing_ok=True)
             raise InternalError(f"the generated C did not compile\n{result.stderr}")
-        os.replace(partial, output)
 
 
 def shared_library(source: str, stem: str) -> Path:
     """The compiled shared library for `source`, built on first use and cached."""
     compiler = find_compiler()
-    key = hashlib.sha256("\0".join((source, compiler, *LIBRARY_FLAGS)).encode()).hexdigest()[:20]
-    path = cache_directory() / f"{stem}-{key}.so"
-    if not path.exists():
-        compile_c(source, path, LIBRARY_FLAGS, compiler)
-    return path
+    key = hashlib.sha256("\0".join((source, compiler, *LIBRARY_FLAGS)).encode()).hexdigest()
+    return cached_entry(f"{stem}-{key[:20]}.so", key, lambda path: compile_c(source, path, LIBRARY_FLAGS, compiler))

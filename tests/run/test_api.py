@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 import lagdsl
-from lagdsl.run import toolchain
+from lagdsl import api, pipeline
+from lagdsl.run import runner, toolchain
 from tests.conftest import MODELS
 
 COLLIDING = """
@@ -69,6 +70,31 @@ def test_second_run_reuses_the_compiled_library(tmp_path, monkeypatch):
     model.simulate(stop=0.1, M=5.0)           # parameters are run-time inputs: same library
     assert compiled == []
     assert len(list(tmp_path.glob("*.so"))) == 1
+
+
+@pytest.mark.parametrize("backend", ["c", "numpy"])
+def test_a_model_keeps_its_loaded_code(backend, monkeypatch):
+    """A repeated simulate() with other inputs neither lowers, renders, compiles nor loads."""
+    model = lagdsl.load(MODELS / "double_pendulum.lag")
+    first = model.simulate(backend=backend, stop=1.0)
+    calls = []
+
+    def counted(module, name):
+        original = getattr(module, name)
+        monkeypatch.setattr(module, name, lambda *a, **k: calls.append(name) or original(*a, **k))
+
+    for module, name in ((pipeline, "lower_to_kernel"), (pipeline, "render_c"), (pipeline, "render_numpy"),
+                         (runner, "load"), (runner, "shared_library"), (runner, "load_module"),
+                         (toolchain, "compile_c"), (api, "load_program")):
+        counted(module, name)
+    again = model.simulate(backend=backend, stop=1.0)
+    heavier = model.simulate(backend=backend, stop=2.0, interval=0.05, rtol=1e-9, m2=3.0,
+                             set={"theta1.start": 0.5})
+    assert calls == []
+    assert np.array_equal(first.values, again.values) and np.array_equal(first.t, again.t)
+    assert heavier.t[-1] == 2.0 and not np.allclose(heavier.values[:5], first.values[:5])
+    model.simulate(backend=backend, stop=1.0, integrator="rk4", step=0.01)    # another integrator: new code
+    assert "lower_to_kernel" in calls and "load_program" in calls
 
 
 def test_failure_keeps_partial_results():

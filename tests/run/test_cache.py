@@ -1,0 +1,134 @@
+"""The build cache: damaged or foreign entries are rebuilt, an unusable cache is replaced, builders do not collide.
+
+A damaged shared library must never be loaded by a process that had loaded it before (the
+mapping would break), so the C cases run `lagc` in fresh processes.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import lagdsl
+from lagdsl.run import cache
+from tests.run.test_output_files import OSCILLATOR
+
+ANHARMONIC = OSCILLATOR.replace("U = x^2/2;", "U = x^4/4;").replace("Oscillator", "Anharmonic")
+
+
+def counting_builder(built: list, text: str = "entry\n", delay: float = 0.0):
+    def build(path):
+        time.sleep(delay)
+        built.append(path)
+        path.write_text(text)
+    return build
+
+
+@pytest.fixture
+def cache_dir(tmp_path, monkeypatch):
+    monkeypatch.setenv("LAGDSL_CACHE", str(tmp_path / "cache"))
+    return tmp_path / "cache"
+
+
+def test_an_entry_is_built_once_and_reused(cache_dir):
+    built = []
+    first = cache.cached_entry("a-1.txt", "1" * 64, counting_builder(built))
+    second = cache.cached_entry("a-1.txt", "1" * 64, counting_builder(built))
+    assert first == second == cache_dir / "a-1.txt" and len(built) == 1
+    assert sorted(os.listdir(cache_dir)) == ["a-1.txt", "a-1.txt.manifest"]
+
+
+@pytest.mark.parametrize("damage", ["truncate", "no manifest", "garbage manifest", "foreign entry"])
+def test_a_damaged_or_foreign_entry_is_rebuilt(cache_dir, damage):
+    built = []
+    entry = cache.cached_entry("a-1.txt", "1" * 64, counting_builder(built, "the right entry\n"))
+    manifest = entry.with_name(entry.name + ".manifest")
+    if damage == "truncate":
+        entry.write_bytes(entry.read_bytes()[:3])
+    elif damage == "no manifest":
+        manifest.unlink()
+    elif damage == "garbage manifest":
+        manifest.write_bytes(b"\xff{")
+    else:   # another key's entry and manifest copied in under this name
+        other = cache.cached_entry("b-2.txt", "2" * 64, counting_builder(built, "another entry\n"))
+        shutil.copy(other, entry)
+        shutil.copy(other.with_name(other.name + ".manifest"), manifest)
+        built.clear()
+    assert cache.cached_entry("a-1.txt", "1" * 64, counting_builder(built, "the right entry\n")) == entry
+    assert len(built) == (1 if damage == "foreign entry" else 2)
+    assert entry.read_text() == "the right entry\n"
+
+
+def test_concurrent_builders_in_threads_do_not_collide(cache_dir):
+    built, results = [], []
+    threads = [threading.Thread(target=lambda: results.append(
+        cache.cached_entry("a-1.txt", "1" * 64, counting_builder(built, delay=0.05)))) for _ in range(6)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert len(results) == 6 and (cache_dir / "a-1.txt").read_text() == "entry\n"
+    assert not [name for name in os.listdir(cache_dir) if name.startswith(".")]
+
+
+def test_an_unwritable_cache_falls_back_to_a_private_one(tmp_path, monkeypatch, capsys):
+    # As root, mode bits do not stop writes; a cache path below a regular file cannot be created by anyone.
+    (tmp_path / "file").write_text("")
+    monkeypatch.setenv("LAGDSL_CACHE", str(tmp_path / "file" / "cache"))
+    model = tmp_path / "oscillator.lag"
+    model.write_text(OSCILLATOR)
+    result = lagdsl.load(model).simulate(backend="numpy")
+    lagdsl.load(model).simulate(backend="numpy")
+    assert np.allclose(result["x"], np.cos(result.t), atol=1e-5)
+    warnings = capsys.readouterr().err.splitlines()
+    assert len(warnings) == 1 and warnings[0].startswith(f"lagc: warning: cannot use the build cache '{tmp_path}")
+
+
+def test_a_truncated_numpy_module_is_rebuilt(cache_dir, tmp_path):
+    model = tmp_path / "oscillator.lag"
+    model.write_text(OSCILLATOR)
+    first = lagdsl.load(model).simulate(backend="numpy")
+    (module,) = cache_dir.glob("*.py")
+    module.write_text(module.read_text()[:100])
+    second = lagdsl.load(model).simulate(backend="numpy")
+    assert np.array_equal(first.values, second.values)
+    assert "def rhs" in module.read_text()
+
+
+def lagc_run(model, cache_dir):
+    done = subprocess.run([sys.executable, "-m", "lagdsl", "run", str(model)], capture_output=True, text=True,
+                          env={**os.environ, "LAGDSL_CACHE": str(cache_dir)})
+    assert done.returncode == 0, done.stderr
+    return done.stdout
+
+
+def test_damaged_or_foreign_libraries_are_rebuilt_and_run_correctly(cache_dir, tmp_path):
+    model, other = tmp_path / "oscillator.lag", tmp_path / "anharmonic.lag"
+    model.write_text(OSCILLATOR)
+    other.write_text(ANHARMONIC)
+    expected = lagc_run(model, cache_dir)
+    lagc_run(other, cache_dir)
+    (library,) = cache_dir.glob("Oscillator_*.so")
+    (foreign,) = cache_dir.glob("Anharmonic_*.so")
+    library.write_bytes(library.read_bytes()[:1000])                 # truncated
+    assert lagc_run(model, cache_dir) == expected
+    shutil.copy(foreign, library)                                    # another model's library under this key
+    assert lagc_run(model, cache_dir) == expected
+
+
+def test_two_processes_building_the_same_model_both_succeed(cache_dir, tmp_path):
+    model = tmp_path / "oscillator.lag"
+    model.write_text(OSCILLATOR)
+    command = [sys.executable, "-m", "lagdsl", "run", str(model)]
+    environment = {**os.environ, "LAGDSL_CACHE": str(cache_dir)}
+    runs = [subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=environment)
+            for _ in range(2)]
+    outputs = [run.communicate() for run in runs]
+    assert [run.returncode for run in runs] == [0, 0], outputs
+    assert outputs[0][0] == outputs[1][0] and outputs[0][0].startswith("t,x\n")
