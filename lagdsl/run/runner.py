@@ -118,10 +118,9 @@ def run_c(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress: Pr
     extras = head + summary_extras(plan.integrator.name)     # the stiffness verdict, the switches
     summary = np.zeros(extras + 2 * len(plan.invariants) + len(initial))
     pointer = lambda a: a.ctypes.data_as(double_p)   # noqa: E731
-    started = clock.perf_counter()
-    status = _interruptible(library, lambda: entry(pointer(parameters), pointer(initial), pointer(settings),
-                                                   pointer(rows), len(times), pointer(summary)), plan, progress)
-    elapsed = clock.perf_counter() - started
+    status, elapsed = _interruptible(
+        library, lambda: entry(pointer(parameters), pointer(initial), pointer(settings), pointer(rows),
+                               len(times), pointer(summary)), plan, progress)
     used = int(summary[1])
     invariants = tuple((name, float(summary[extras + 2 * i]), float(summary[extras + 1 + 2 * i]))
                        for i, name in enumerate(plan.invariants))
@@ -166,8 +165,10 @@ def _load_library(path: Path) -> ctypes.CDLL:
 
 
 def _interruptible(library: ctypes.CDLL, call: Callable[[], int], plan: ScenePlan,
-                   progress: Progress | None) -> int:
+                   progress: Progress | None) -> tuple[int, float]:
     """Make the C call in a worker thread, so that the main thread stays free for Ctrl-C and progress.
+    Returns its status and its duration, timed in the worker: the main thread notices the end
+    only at its next poll, up to POLL_SECONDS later.
 
     ctypes releases the GIL during the call, and a blocked foreign call would otherwise hold back
     KeyboardInterrupt until the whole run is over. Ctrl-C sets the library's lag_interrupt flag,
@@ -177,12 +178,14 @@ def _interruptible(library: ctypes.CDLL, call: Callable[[], int], plan: ScenePla
     interrupt = ctypes.c_int.in_dll(library, "lag_interrupt")
     reached = ctypes.c_double.in_dll(library, "lag_progress_t")
     interrupt.value = 0
-    outcome: list[int] = []
+    outcome: list[tuple[int, float]] = []
     done = threading.Event()
 
     def work() -> None:
         try:
-            outcome.append(call())
+            started = clock.perf_counter()
+            status = call()
+            outcome.append((status, clock.perf_counter() - started))
         finally:
             done.set()
 
