@@ -110,9 +110,12 @@ class Differentiator:
         if expr not in self._gradients:
             slopes: dict[sympy.Symbol, sympy.Expr] = {}
             if expr.is_Add:
+                parts: dict[sympy.Symbol, list[sympy.Expr]] = {}
                 for term in expr.args:
                     for symbol, slope in self.gradient(term).items():
-                        slopes[symbol] = slopes.get(symbol, sympy.S.Zero) + slope
+                        parts.setdefault(symbol, []).append(slope)
+                # One Add per symbol: adding term by term would re-sort the growing sum each time.
+                slopes = {symbol: sympy.Add(*terms) for symbol, terms in parts.items()}
             else:
                 for symbol in expr.free_symbols:
                     slopes[symbol] = expr.diff(symbol)

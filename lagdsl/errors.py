@@ -18,9 +18,17 @@ from .source import Span
 
 
 @dataclass(frozen=True)
+class Setting:
+    """Where a value given outside the model file came from: a `lagc run` option such as
+    "--rtol" or "--integrator gauss" (the simulate() arguments of the same names)."""
+
+    option: str
+
+
+@dataclass(frozen=True)
 class Diagnostic:
     message: str
-    span: Span | None
+    span: Span | Setting | None
 
     def render(self) -> str:
         """The diagnostic for the terminal: control characters of the file's name, the message
@@ -28,6 +36,8 @@ class Diagnostic:
         message = "\n".join(visible(line) for line in self.message.split("\n"))
         if self.span is None:
             return f"error: {message}"
+        if isinstance(self.span, Setting):
+            return f"lagc: error: {self.span.option}: {message}"
         span = self.span
         line = span.source.line(span.line)
         before = line[:span.column - 1]
@@ -42,7 +52,7 @@ class Diagnostic:
 class LagError(Exception):
     """One or more errors in a model, each with its location."""
 
-    def __init__(self, message: str, span: Span | None = None):
+    def __init__(self, message: str, span: Span | Setting | None = None):
         self.diagnostics: tuple[Diagnostic, ...] = (Diagnostic(message, span),)
         super().__init__(message)
 

@@ -38,6 +38,8 @@ NON_FINITE = (sympy.zoo, sympy.nan, sympy.oo, sympy.S.NegativeInfinity)
 FOLDING_NODES = ("mul", "div", "pow", "neg", "add", "sub")   # where exact constants combine and may overflow
 MAX_MEMBERS = 10000         # largest index range or indexed family: sizes are unrolled at compile time
 MAX_UNROLLED = 100000       # all sums and indexed lets of a model together
+MAX_NUMBER_LENGTH = 100     # characters of a number literal (a double keeps 17 significant digits)
+MAX_NESTING = 100           # nested calls, powers, products in sums...: see ExpressionBuilder.build
 KIND_WORDS = {"parameter": "a parameter", "coordinate": "a coordinate", "let": "a let",
               "output": "an output", "pending output": "an output", "constraint": "a constraint",
               "loop": "an index", "partial": "a let", "invalid": "a name whose declaration failed"}
@@ -61,13 +63,18 @@ class Binding:
 
 
 class Scope:
-    """Names visible at a point of the model, with lookups that suggest close matches."""
+    """Names visible at a point of the model, with lookups that suggest close matches.
 
-    def __init__(self, bindings: dict[str, Binding] | None = None):
+    `observable`, set where outputs are built, gives the value of a built-in observable call
+    such as multiplier(rod): observable(name, arguments, span). Elsewhere it is None.
+    """
+
+    def __init__(self, bindings: dict[str, Binding] | None = None, observable=None):
         self.bindings: dict[str, Binding] = dict(bindings or {})
+        self.observable = observable
 
     def child(self, **loops: int) -> "Scope":
-        scope = Scope(self.bindings)
+        scope = type(self)(self.bindings, self.observable)
         for name, value in loops.items():
             scope.bindings[name] = Binding("loop", None, sympy.Integer(value))
         return scope
@@ -110,6 +117,9 @@ def _edit_distance(a: str, b: str) -> int:
 
 def number_value(text: str, span: Span) -> sympy.Rational:
     """A decimal literal, exactly: 9.81 is 981/100, so no precision is lost before code."""
+    if len(text) > MAX_NUMBER_LENGTH:
+        raise LagError(f"a number of {len(text)} characters; at most {MAX_NUMBER_LENGTH} are read "
+                       "(double precision keeps 17 significant digits)", span)
     mantissa, _, exponent = text.lower().partition("e")
     whole, _, fraction = mantissa.partition(".")
     if exponent and not (whole + fraction).strip("0"):
@@ -141,6 +151,8 @@ class ExpressionBuilder:
         self.exact_parameters: dict[sympy.Symbol, sympy.Expr] = {}   # parameter -> exact value
         self.structural: set[sympy.Symbol] = set()                    # parameters used as sizes
         self.unrolled = 0                                             # terms of sums and indexed lets
+        self.depth = 0                                                # of the build below
+        self.observables: set[sympy.Symbol] = set()                   # multiplier(c) symbols used
 
     def span(self, node) -> Span:
         if isinstance(node, lark.Token):
@@ -170,12 +182,26 @@ class ExpressionBuilder:
 
     # -- the tree walk -------------------------------------------------------------------------
     def build(self, node, scope: Scope):
+        """The value of an expression node.
+
+        Sums and product chains of any length are one level (they are walked iteratively); each
+        call, power, index, vector or factor that is itself a sum nests one level deeper. Deeper
+        than MAX_NESTING is an error: the derivation and the printers recurse through the
+        expression, and Python's recursion limit must not be what stops them.
+        """
         if isinstance(node, lark.Token):
             raise LagError(f"unexpected '{node}'", self.span(node))
         method = getattr(self, f"_{node.data}", None)
         if method is None:
             raise LagError("this is not an expression", self.span(node))
-        value = method(node, scope)
+        if self.depth >= MAX_NESTING:
+            raise LagError(f"the expression is nested more than {MAX_NESTING} levels deep (function calls, "
+                           "powers, parenthesized sums in products); name inner parts with lets", self.span(node))
+        self.depth += 1
+        try:
+            value = method(node, scope)
+        finally:
+            self.depth -= 1
         for component in (value.components if isinstance(value, Vector) else (value,)):
             self._require_real_number(component, node)
         return value
@@ -190,13 +216,15 @@ class ExpressionBuilder:
         return value
 
     def _require_real_number(self, value, node) -> None:
+        self._require_real_constants(value, self.span(node), node.data in FOLDING_NODES)
+
+    def _require_real_constants(self, value, span: Span, folds: bool) -> None:
         """A constant part of an expression must be a finite real double (tan(pi/2) is not, nor
-        the factor 1/1e-310 = 1e310 that m/1e-310 folds into)."""
-        span = self.span(node)
+        the factor 1/1e-310 = 1e310 that m/1e-310 folds into: `folds`, where constants combine)."""
         text = " ".join(span.text.split())
         this = text if len(text) <= 40 else "this constant"
         if not value.is_number:
-            if node.data in FOLDING_NODES and any(abs(n) > MAX_DOUBLE for n in value.atoms(sympy.Rational)):
+            if folds and any(abs(n) > MAX_DOUBLE for n in value.atoms(sympy.Rational)):
                 raise LagError(f"{this} has a constant factor out of the range of double precision", span)
             return
         if value.has(*NON_FINITE):
@@ -222,6 +250,9 @@ class ExpressionBuilder:
             if name in ("T", "U", "L"):
                 raise LagError(f"{name} cannot be used in an expression; name the shared part with a let",
                                self.span(token))
+            if name == "energy":
+                raise LagError("energy is output on its own in a scene's output list (output x, energy;); "
+                               "it cannot be part of an expression", self.span(token))
         binding = scope.lookup(name, self.span(token))
         if binding.family is not None:
             raise LagError(f"'{name}' is an indexed family; write {name}[i]", self.span(token))
@@ -253,50 +284,52 @@ class ExpressionBuilder:
             raise LagError(f"a vector has 3 components, not {len(items)}", self.span(node))
         return Vector(tuple(items))
 
+    # Sums and products are walked iteratively, not by recursion: the grammar makes `a + b + c`
+    # a left-deep tree, so a 330-term sum (or 500 nested parentheses, or 500 unary minuses)
+    # would otherwise be as deep as it is long and exhaust Python's recursion limit.
     def _parenthesized(self, node, scope):
-        return self.build(node.children[1], scope)
+        return self._signed_sum(node, scope)
 
-    def _pos(self, node, scope):
-        return self.build(node.children[1], scope)
+    _pos = _neg = _add = _sub = _parenthesized
 
-    def _neg(self, node, scope):
-        value = self.build(node.children[1], scope)
-        return _map(value, lambda c: -c)
-
-    def _add(self, node, scope):
-        return self._linear(node, scope, 1)
-
-    def _sub(self, node, scope):
-        return self._linear(node, scope, -1)
-
-    def _linear(self, node, scope, sign):
-        left, _, right = node.children
-        a, b = self.build(left, scope), self.build(right, scope)
-        if isinstance(a, Vector) and isinstance(b, Vector):
-            return Vector(tuple(x + sign * y for x, y in zip(a.components, b.components)))
-        if isinstance(a, Vector) or isinstance(b, Vector):
+    def _signed_sum(self, node, scope):
+        """A sum of terms with signs: through +, -, unary signs and parentheses, left to right."""
+        values = [(sign, self.build(term, scope)) for sign, term in _signed_terms(node)]
+        if len({isinstance(value, Vector) for _, value in values}) > 1:
             raise LagError("cannot add a vector and a scalar", self.span(node))
-        return a + sign * b
+        if isinstance(values[0][1], Vector):
+            return Vector(tuple(sympy.Add(*(sign * v.components[k] for sign, v in values)) for k in range(3)))
+        return sympy.Add(*(sign * value for sign, value in values))
 
     def _mul(self, node, scope):
-        left, _, right = node.children
-        a, b = self.build(left, scope), self.build(right, scope)
-        if isinstance(a, Vector) and isinstance(b, Vector):
+        """A product chain a*b/c*d: at most one factor a vector, no divisor a vector or zero."""
+        numerators, denominators, partial = [], [], sympy.S.One
+        for factor, divides in _factors(node):
+            if divides:
+                divisor = self.scalar(factor, scope, "a scalar divisor")
+                if divisor == 0:
+                    raise LagError("division by zero", self.span(factor))
+                denominators.append(divisor)
+                partial /= divisor
+            else:
+                numerators.append(self.build(factor, scope))
+                partial *= numerators[-1] if not isinstance(numerators[-1], Vector) else 1
+            # The constants folded so far, reported where they overflow (the tree would: a*b/c is (a*b)/c).
+            self._require_real_constants(partial, self._through(node, factor), True)
+        vectors = [value for value in numerators if isinstance(value, Vector)]
+        if len(vectors) > 1:
             raise LagError("the product of two vectors is ambiguous; use dot(a, b) or cross(a, b)",
                            self.span(node))
-        if isinstance(a, Vector):
-            return _map(a, lambda c: c * b)
-        if isinstance(b, Vector):
-            return _map(b, lambda c: a * c)
-        return a * b
+        scalars = [value for value in numerators if not isinstance(value, Vector)]
+        scale = sympy.Mul(*scalars) / sympy.Mul(*denominators)
+        return _map(vectors[0], lambda c: c * scale) if vectors else scale
 
-    def _div(self, node, scope):
-        left, _, right = node.children
-        a = self.build(left, scope)
-        b = self.scalar(right, scope, "a scalar divisor")
-        if b == 0:
-            raise LagError("division by zero", self.span(right))
-        return _map(a, lambda c: c / b)
+    _div = _mul
+
+    def _through(self, node, last) -> Span:
+        """The span from the start of `node` to the end of `last`, a part of it."""
+        start, end = self.span(node), self.span(last)
+        return Span(self.source, start.line, start.column, start.start, end.end)
 
     def _pow(self, node, scope):
         left, _, right = node.children
@@ -320,8 +353,12 @@ class ExpressionBuilder:
                           for c in node.children if isinstance(c, lark.Tree) and c.data == "arguments"), [])
         span = self.span(node)
         if name in BUILTIN_CALLS:
-            raise LagError(f"{name}(...) is a built-in observable, only allowed in a scene's output list",
-                           span)
+            if scope.observable is None:
+                raise LagError(f"{name}(...) is a built-in observable: outputs may use it (an output "
+                               "declaration or a scene's output list), the model's equations may not", span)
+            value = scope.observable(name, arguments, span)
+            self.observables.add(value)
+            return value
         expected = {**{k: v[1] for k, v in FUNCTIONS.items()}, **VECTOR_FUNCTIONS,
                     **SPECIAL_FORMS}.get(name)
         if expected is None:
@@ -367,6 +404,8 @@ class ExpressionBuilder:
     def _der(self, argument, scope):
         value = self.build(argument, scope)
         for component in (value.components if isinstance(value, Vector) else (value,)):
+            if component.free_symbols & self.observables:
+                raise LagError("der() of a Lagrange multiplier: its rate is not computed", self.span(argument))
             if self.calculus.dependencies(component) & set(self.velocities.values()):
                 raise LagError("der() of an expression that depends on velocities would need accelerations; "
                                "L, T, U and constraints are functions of q, q' and t", self.span(argument))
@@ -415,6 +454,38 @@ class ExpressionBuilder:
     def _iteration(self, node, scope):
         raise LagError("an 'i in a:b' range is only allowed as the second argument of sum()",
                        self.span(node))
+
+
+def _signed_terms(node) -> list[tuple[int, lark.Tree]]:
+    """The terms of a sum, in source order, each with its sign (+1 or -1)."""
+    terms, pending = [], [(1, node)]
+    while pending:
+        sign, node = pending.pop()
+        kind = node.data if isinstance(node, lark.Tree) else None
+        if kind in ("add", "sub"):
+            left, _, right = node.children
+            pending.append((sign if kind == "add" else -sign, right))
+            pending.append((sign, left))
+        elif kind in ("pos", "neg", "parenthesized"):
+            pending.append((-sign if kind == "neg" else sign, node.children[1]))
+        else:
+            terms.append((sign, node))
+    return terms
+
+
+def _factors(node) -> list[tuple[lark.Tree, bool]]:
+    """The factors of a product chain a*b/c in source order, each with `divides` (it is a divisor).
+
+    Only the chain itself is flattened, not parentheses: in a/(b/c) the c divides b, and a
+    division by zero there must still be reported.
+    """
+    factors = []
+    while node.data in ("mul", "div"):
+        left, _, right = node.children
+        factors.append((right, node.data == "div"))
+        node = left
+    factors.append((node, False))
+    return factors[::-1]
 
 
 def _map(value, function):

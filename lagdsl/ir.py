@@ -14,12 +14,18 @@ from fractions import Fraction
 
 import sympy
 
+from .errors import Setting
 from .source import Span
 
 TIME = sympy.Symbol("t", real=True)
 INTEGRATORS = ("rk4", "dopri5", "dop853", "radau5", "gauss")
 IMPLICIT_INTEGRATORS = ("radau5",)
 BUILTIN_OBSERVABLES = ("energy", "momentum", "multiplier", "residual")
+
+
+def multiplier_symbol(constraint: str) -> sympy.Symbol:
+    """λ of a constraint, as it stands in output expressions and in the equations' display."""
+    return sympy.Symbol(f"λ[{constraint}]", real=True)
 
 
 @dataclass(frozen=True)
@@ -127,7 +133,7 @@ class TimeGrid:
 class IntegratorChoice:
     name: str
     options: tuple[tuple[str, float], ...]
-    span: Span | None
+    span: Span | Setting | None        # Setting: chosen on the command line (--integrator)
 
 
 @dataclass(frozen=True)

@@ -154,7 +154,7 @@ def accelerations(equations: Equations) -> list[sympy.Symbol]:
 
 
 def multipliers(equations: Equations) -> list[sympy.Symbol]:
-    return [sympy.Symbol(f"λ[{c.name}]", real=True) for c in equations.active_constraints]
+    return [ir.multiplier_symbol(c.name) for c in equations.active_constraints]
 
 
 def equation_rows(equations: Equations, calculus: Differentiator) -> list[tuple[str, sympy.Expr, sympy.Expr]]:

@@ -15,7 +15,7 @@ import sympy
 
 from . import ir
 from .calculus import TIME_DIRECTION, Differentiator
-from .errors import ErrorCollector, InternalError, LagError
+from .errors import ErrorCollector, InternalError, LagError, Setting
 from .expressions import KIND_WORDS, MAX_MEMBERS, Binding, ExpressionBuilder, Scope, Vector, number_value, suggest
 from .source import SourceFile, Span
 from .units import parse_unit
@@ -59,6 +59,8 @@ def expressions_of(node: lark.Tree) -> list:
 
 
 class _ScopeWithPoison(Scope):
+    """A scope in which names whose declaration failed, and outputs not yet built, are refused."""
+
     def lookup(self, name, span):
         binding = super().lookup(name, span)
         if binding.kind == "invalid":
@@ -67,11 +69,6 @@ class _ScopeWithPoison(Scope):
             raise LagError(f"'{name}' is an output (line {binding.span.line}); only later outputs and "
                            "scenes can use it", span)
         return binding
-
-    def child(self, **loops):
-        scope = _ScopeWithPoison(self.bindings)
-        scope.bindings.update({k: Binding("loop", None, sympy.Integer(v)) for k, v in loops.items()})
-        return scope
 
 
 class _ModelBuilder:
@@ -113,9 +110,10 @@ class _ModelBuilder:
                 self.errors.attempt(first_pass[declaration.data], declaration)
             elif declaration.data in later:
                 self.declare_later_name(declaration)
-        for declaration in declarations:
-            if declaration.data in later:
-                self.errors.attempt(later[declaration.data], declaration)
+        # Outputs last: they may use multiplier(c) of every constraint, and the equations may
+        # not use an output (it could hold a multiplier).
+        for declaration in sorted((d for d in declarations if d.data in later), key=lambda d: d.data == "output"):
+            self.errors.attempt(later[declaration.data], declaration)
         lagrangian = self.errors.attempt(self.lagrangian, node, name)
         self.resolve_structural()
         for declaration in declarations:
@@ -429,7 +427,7 @@ class _ModelBuilder:
     def output(self, node):
         token = tokens(node, "NAME")[0]
         body = expressions_of(node)[0]
-        value = self.guarded(token, lambda: self.expr.scalar(body, self.scope, "a scalar output"))
+        value = self.guarded(token, lambda: self.expr.scalar(body, self.output_scope(), "a scalar output"))
         self.scope.bindings[str(token)] = Binding("output", self.span(token), value)
         self.outputs.append(ir.Output(str(token), value, self.unit(node), self.description(node),
                                       self.span(token)))
@@ -505,7 +503,7 @@ class _ModelBuilder:
                            f"(available: {', '.join(ir.INTEGRATORS)})", self.span(token))
         options = self.modifiers(node, INTEGRATOR_OPTIONS[name], f"integrator {name}")
         values = {k: self.parameter_value(v, k) for k, v in options.items()}
-        return validate_integrator(name, values, self.span(node))
+        return validate_integrator(name, values, self.span(node), {k: self.span(v) for k, v in options.items()})
 
     def scene_set(self, node):
         token = tokens(node, "NAME")[0]
@@ -548,8 +546,20 @@ class _ModelBuilder:
             if len(items) != 1 or items[0].data not in ("name", "index"):
                 raise LagError(f"{kind}() takes one {'coordinate' if kind == 'momentum' else 'constraint'} name", span)
             return ir.OutputRequest(column, kind, None, self.target_name(kind, items[0]), span)
-        value = self.expr.scalar(node, self.scope, "a scalar output")
+        value = self.expr.scalar(node, self.output_scope(), "a scalar output")
         return ir.OutputRequest(column, "expression", value, None, span)
+
+    def output_scope(self) -> Scope:
+        """The model's names, and multiplier(c) of its constraints: λ, solved for with q''."""
+        return _ScopeWithPoison(self.scope.bindings, self.observable)
+
+    def observable(self, kind: str, arguments: list, span: Span) -> sympy.Symbol:
+        if kind != "multiplier":
+            raise LagError(f"{kind}(...) is output on its own in a scene's output list (output x, {kind}(...);); "
+                           "it cannot be part of an expression", span)
+        if len(arguments) != 1 or arguments[0].data not in ("name", "index"):
+            raise LagError("multiplier() takes one constraint name", span)
+        return ir.multiplier_symbol(self.target_name(kind, arguments[0]))
 
     def target_name(self, kind: str, node) -> str:
         token = node.children[0]
@@ -583,28 +593,33 @@ def _position(diagnostic) -> tuple[int, int]:
     return (0, diagnostic.span.start) if diagnostic.span is not None else (1, 0)
 
 
-def validate_integrator(name: str, values: dict[str, float], span: Span | None) -> ir.IntegratorChoice:
+def validate_integrator(name: str, values: dict[str, float], span: Span | Setting | None,
+                        origins: dict[str, Span | Setting] | None = None) -> ir.IntegratorChoice:
     """Check and complete an integrator's options (defaults: rtol 1e-8, atol 1e-10, 2 stages).
 
     Every option is a finite number: step and max_step positive, rtol and atol >= 0 and not both
     0, stages and max_steps whole numbers (max_steps from 1 to 1e15). rtol below 10 eps is
-    raised by the scene plan, not here."""
+    raised by the scene plan, not here. `span` is where the integrator was chosen, `origins`
+    where each option's value was given (in the scene, or a command-line option): errors point
+    there."""
+    origins = origins or {}
     for key, value in values.items():
         if key in ("rtol", "atol"):
             if not 0 <= value < math.inf:
-                raise LagError(f"{name}({key} = ...) must be a finite number >= 0", span)
+                raise LagError(f"{name}({key} = ...) must be a finite number >= 0", origins.get(key, span))
         elif not 0 < value < math.inf:
-            raise LagError(f"{name}({key} = ...) must be a positive finite number", span)
+            raise LagError(f"{name}({key} = ...) must be a positive finite number", origins.get(key, span))
     if values.get("rtol") == 0 and values.get("atol") == 0:
-        raise LagError(f"{name}(rtol = ..., atol = ...) cannot both be 0", span)
+        raise LagError(f"{name}(rtol = ..., atol = ...) cannot both be 0", origins.get("rtol", span))
     if "max_steps" in values and (values["max_steps"] != int(values["max_steps"]) or values["max_steps"] > 1e15):
-        raise LagError(f"{name}(max_steps = ...) must be a whole number from 1 to 1e15", span)
+        raise LagError(f"{name}(max_steps = ...) must be a whole number from 1 to 1e15", origins.get("max_steps", span))
     if name in ("rk4", "gauss") and "step" not in values:
-        raise LagError(f"{name} is a fixed-step method and needs a step: {name}(step = 0.001)", span)
+        example = "--step 0.001" if isinstance(span, Setting) else f"{name}(step = 0.001)"
+        raise LagError(f"{name} is a fixed-step method and needs a step: {example}", span)
     if name == "gauss":
         stages = values.setdefault("stages", 2)
         if stages != int(stages) or not 1 <= stages <= 6:
-            raise LagError("gauss(stages = s) takes s = 1 to 6", span)
+            raise LagError("gauss(stages = s) takes s = 1 to 6", origins.get("stages", span))
     if name in ("dopri5", "dop853", "radau5"):
         values.setdefault("rtol", 1e-8)
         values.setdefault("atol", 1e-10)

@@ -25,6 +25,7 @@ class SourceFile:
             column = offset - (source.text.rfind("\n", 0, offset) + 1) + 1
             raise LagError(f"the file is not UTF-8 text (byte 0x{data[error.start]:02x})",
                            Span(source, line, column, offset, offset + 1)) from None
+        text = text.removeprefix("\ufeff")      # a byte order mark, as some Windows editors write
         return cls(str(path), text.replace("\r\n", "\n").replace("\r", "\n"))   # as read_text does
 
     def line(self, number: int) -> str:

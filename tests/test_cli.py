@@ -105,8 +105,8 @@ def oscillator(tmp_path):
     (["--stop", "inf"], "error: the stop time must be a finite number, not inf"),
     (["--set", "k=nan"], "error: cannot set 'k' to nan: values must be finite numbers"),
     (["--interval", "1e-300"], "would have 1e+300 rows, more than the limit of 1e+07; choose a larger --interval"),
-    (["--max-step", "-1"], "error: dop853(max_step = ...) must be a positive finite number"),
-    (["--atol", "nan"], "error: dop853(atol = ...) must be a finite number >= 0"),
+    (["--max-step", "-1"], "lagc: error: --max-step: dop853(max_step = ...) must be a positive finite number"),
+    (["--atol", "nan"], "lagc: error: --atol: dop853(atol = ...) must be a finite number >= 0"),
 ])
 def test_run_refuses_bad_inputs(oscillator, arguments, words):
     done = lagc("run", oscillator, *arguments)

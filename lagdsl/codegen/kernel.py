@@ -132,7 +132,7 @@ class _Lowering:
         self.n = equations.size
         q, v = equations.coordinates, equations.velocities
         self.accelerations = [sympy.Symbol(f"{c.name}''", real=True) for c in self.model.coordinates]
-        self.multipliers = [sympy.Symbol(f"λ[{c.name}]", real=True) for c in self.active]
+        self.multipliers = [ir.multiplier_symbol(c.name) for c in self.active]
         self.sources: dict[sympy.Symbol, str] = {ir.TIME: "t"}
         self.sources.update({p.symbol: f"par[{i}]" for i, p in enumerate(self.model.parameters)})
         self.sources.update({s: f"y[{k}]" for k, s in enumerate(q)})
@@ -227,7 +227,8 @@ class _Lowering:
             solver="lu" if self.active or not self.model.lagrangian.is_natural else "cholesky",
             initial=self.initial_block(), system=None if plan.canonical else self.system_block(),
             outputs=self.outputs_block(),
-            outputs_need_multipliers=any(o.kind == "multiplier" for o in plan.outputs),
+            outputs_need_multipliers=any(o.kind == "multiplier" or o.kind == "expression" and
+                                         o.expression.free_symbols & set(self.multipliers) for o in plan.outputs),
             constraint_rows=self.constraint_block() if self.active else None,
             jacobian=self.jacobian_block() if plan.implicit else None,
             **self.canonical_blocks())

@@ -39,6 +39,13 @@ def exact_decimal(value: sympy.Rational) -> str | None:
     return text + "0" if text.endswith(".") else text
 
 
+def significant_digits(value: sympy.Rational, digits: int = 36) -> str:
+    """p/q rounded to `digits` significant digits in exponent notation ("1.234...e-5")."""
+    with localcontext() as context:
+        context.prec = digits
+        return format(Decimal(int(value.p)) / Decimal(int(value.q)), "e")
+
+
 def is_dyadic(value: sympy.Rational) -> bool:
     q = int(value.q)
     return q & (q - 1) == 0
@@ -51,7 +58,9 @@ class CPrinter(C99CodePrinter):
     a rational with a power-of-two denominator prints as its exact decimal (0.5); any other
     terminating decimal prints as LAG_LIT(9.81), which the runtime turns into 9.81, 9.81L or
     9.81Q, so long double and __float128 builds get the constant to their own precision;
-    other rationals print as (LAG_LIT(1.0)/3). pi and e print as LAG_LIT with 36 digits.
+    other rationals print as (LAG_LIT(1.0)/3) when numerator and denominator are exact C
+    integers, else (a sum of 330 fractions has 140-digit ones) as LAG_LIT with 36 significant
+    digits. pi and e print as LAG_LIT with 36 digits, enough for __float128.
 
     Functions go through the runtime's table (r_sin, r_sqrt, ...), never libm names directly.
 
@@ -72,6 +81,8 @@ class CPrinter(C99CodePrinter):
         decimal = exact_decimal(expr)
         if decimal is not None:
             return decimal if is_dyadic(expr) else f"LAG_LIT({decimal})"
+        if max(abs(int(expr.p)), int(expr.q)) > LARGEST_PLAIN_INTEGER:
+            return f"LAG_LIT({significant_digits(expr)})"
         return f"(LAG_LIT({int(expr.p)}.0)/{int(expr.q)})"
 
     def _print_Float(self, expr):

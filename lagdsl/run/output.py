@@ -14,6 +14,8 @@ import numpy as np
 from ..escape import csv_field
 from ..integrators import COUNTER_LABELS
 
+SETTINGS_ORDER = ("rtol", "atol", "step", "max_step", "stages")
+
 
 @dataclass(frozen=True)
 class RunSummary:
@@ -27,6 +29,7 @@ class RunSummary:
     constraints: tuple[str, ...]
     residual_max: float | None
     projection_start: float | None                      # how far the initial state was projected
+    settings: tuple[tuple[str, float], ...] = ()        # the integrator's options as used
 
     def count(self, counter: str) -> int | None:
         """A work counter ("accepted", "rhs_evals", ...), None when the integrator does not keep it."""
@@ -34,16 +37,21 @@ class RunSummary:
 
     def render(self) -> str:
         counts = [f"{value} {COUNTER_LABELS[name]}" for name, value in self.counters]
-        lines = [f"integrator {self.integrator} ({self.backend}): " + ", ".join(counts)
+        lines = [f"integrator {self.integrator}({self.settings_text()}) ({self.backend}): " + ", ".join(counts)
                  + f", {self.wall_time:.3g} s"]
         for name, start, drift in self.invariants:
             relative = f", relative {drift / abs(start):.3g}" if start != 0 else ""
             lines.append(f"drift of {name}: {drift:.3g} (from {start:.17g}{relative})")
-        if self.constraints:
+        if self.constraints and self.residual_max is not None:      # None: no row was computed
             lines.append(f"largest constraint residual ({', '.join(self.constraints)}): {self.residual_max:.3g}")
             if self.projection_start:
                 lines.append(f"the initial state was moved by {self.projection_start:.3g} onto the constraints")
         return "\n".join(lines)
+
+    def settings_text(self) -> str:
+        """"rtol = 1e-10, atol = 1e-12" or "step = 0.01, stages = 2", as in a scene."""
+        values = dict(self.settings)
+        return ", ".join(f"{key} = {values[key]:g}" for key in SETTINGS_ORDER if key in values)
 
 
 @dataclass(frozen=True)

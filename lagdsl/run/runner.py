@@ -16,6 +16,7 @@ import importlib.abc
 import importlib.util
 import threading
 import time as clock
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 
@@ -28,7 +29,7 @@ from ..integrators import COUNTERS
 from ..integrators.python.fixed_step import IntegrationFailure, integrate_gauss, integrate_rk4
 from ..scene import ScenePlan, grid_rows
 from .cache import cached_entry
-from .output import Result, RunSummary
+from .output import SETTINGS_ORDER, Result, RunSummary
 from .toolchain import shared_library
 
 # K (M, or the saddle-point matrix of a constrained system) counts as singular below this
@@ -53,8 +54,8 @@ STATUS = {
         "the constraints may be singular at this state; check the initial values"),
     7: ("interrupted", ""),
 }
+PROJECTION_FAILED = 6
 INTERRUPTED = 7
-SETTINGS_ORDER = ("rtol", "atol", "step", "max_step", "stages")
 SCIPY_METHODS = {"dopri5": "RK45", "dop853": "DOP853", "radau5": "Radau"}
 POLL_SECONDS = 0.1      # how often the main thread looks at a C run: Ctrl-C and progress
 Progress = Callable[[float, float, float], None]     # (t reached, start, stop)
@@ -124,7 +125,8 @@ def run_c(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress: Pr
                        for i, name in enumerate(plan.invariants))
     report = RunSummary("c", plan.integrator.name, tuple(zip(counters, map(int, summary[6:head]))), elapsed,
                         invariants, plan.constraints, float(summary[4]) if plan.constraints else None,
-                        float(summary[5]) if plan.constraints else None)
+                        float(summary[5]) if plan.constraints else None,
+                        plan.integrator.options)
     result = Result(rows[:used, 0].copy(), plan.columns, rows[:used, 1:].copy(), report)
     if status != 0:
         raise _failure(plan, status, float(summary[2]), summary[head + 2 * len(plan.invariants):], result,
@@ -218,28 +220,56 @@ class _GeneratedLoader(importlib.abc.InspectLoader):
 
 def run_numpy(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress: Progress | None = None,
               loaded=None) -> Result:
+    """Integrate with the generated module; it fails as the C driver does (the same statuses).
+
+    numpy's floating-point warnings are silenced: overflow and NaN are found by checking the
+    states, and reported as a SimulationError like every other failure.
+    """
     module = loaded if loaded is not None else load(source)
     par = np.array(plan.parameters, dtype=float)
     times = output_times(plan)
-    y0 = np.array(plan.initial_state, dtype=float)
-    projection = 0.0
-    if plan.constraints:
-        y0, projection = project(module, par, times[0], y0)
-    started = clock.perf_counter()
-    name = plan.integrator.name
-    if name in SCIPY_METHODS:
-        states, counts, failure = _run_scipy(module, par, times, y0, plan, progress or _no_progress)
-    else:
-        states, counts, failure = _run_fixed_step(module, par, times, y0, plan)
-    elapsed = clock.perf_counter() - started
-    result = _numpy_result(module, par, times[:len(states)], np.array(states).reshape(len(states), -1),
-                           plan, counts, elapsed, projection)
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        y0, projection, failure = _start(module, par, times[0], np.array(plan.initial_state, dtype=float), plan)
+        # As in the C driver, the initial row is written unless y0 could not be projected.
+        states = [y0] if failure is not None and failure[0] != PROJECTION_FAILED else []
+        counts, elapsed = {}, 0.0
+        if failure is None:
+            started = clock.perf_counter()
+            if plan.integrator.name in SCIPY_METHODS:
+                states, counts, failure = _run_scipy(module, par, times, y0, plan, progress or _no_progress)
+            else:
+                states, counts, failure = _run_fixed_step(module, par, times, y0, plan)
+            elapsed = clock.perf_counter() - started
+        result = _numpy_result(module, par, times[:len(states)], np.array(states).reshape(len(states), len(y0)),
+                               plan, counts, elapsed, projection)
     if failure is not None:
         status, t_fail, y_fail = failure
         with np.errstate(all="ignore"):
             rcond = float(module.reciprocal_condition(t_fail, y_fail, par))
         raise _failure(plan, status, t_fail, y_fail, result, rcond)
     return result
+
+
+def _start(module, par, t0, y0, plan):
+    """(y0 projected onto the constraints, how far it moved, failure or None): the initial
+    state must be finite, the constraints regular and the system for q'' regular there."""
+    if not np.all(np.isfinite(y0)):
+        return y0, 0.0, (2, t0, y0)
+    moved = 0.0
+    try:
+        if plan.constraints:
+            y0, moved = project(module, par, t0, y0)
+    except np.linalg.LinAlgError:
+        return y0, 0.0, (PROJECTION_FAILED, t0, y0)
+    try:
+        derivative = module.hamilton_rhs(t0, module.to_canonical(t0, y0, par), par) if plan.canonical \
+            else module.rhs(t0, y0, par)
+    except np.linalg.LinAlgError:
+        return y0, moved, (1, t0, y0)
+    if not (np.all(np.isfinite(y0)) and np.all(np.isfinite(derivative))):
+        return y0, moved, (2, t0, y0)
+    return y0, moved, None
 
 
 def _numpy_result(module, par, times, states, plan, counts, elapsed, projection) -> Result:
@@ -257,7 +287,8 @@ def _numpy_result(module, par, times, states, plan, counts, elapsed, projection)
     kept = tuple((name, int(counts[name])) for name in COUNTERS[plan.integrator.name]
                  if counts.get(name) is not None)
     summary = RunSummary("numpy", plan.integrator.name, kept, elapsed, invariants, plan.constraints, residual,
-                         projection if plan.constraints else None)
+                         projection if plan.constraints else None,
+                         plan.integrator.options)
     return Result(np.asarray(times, dtype=float), plan.columns, np.asarray(values, dtype=float), summary)
 
 
@@ -283,12 +314,10 @@ def _run_scipy(module, par, times, y0, plan, progress):
                       first_step=first_step, **extra)
 
     counts = {"accepted": 0, "rejected": None, "rhs_evals": 0, "jac_evals": 0, "lu_decomps": 0}
-    states = [y0]
-    solver = None
+    states, solver, k = [y0], None, 1
     span = times[-1] - times[0]
-    k = 1
     try:
-        solver = start(times[0], y0)            # evaluates the right-hand side at y0
+        solver = start(times[0], y0)        # its choice of the first step evaluates the model too
         while k < len(times):
             if counts["accepted"] >= plan.max_steps:
                 return states, _tally(counts, solver), (4, solver.t, solver.y)
@@ -314,12 +343,17 @@ def _run_scipy(module, par, times, y0, plan, progress):
                 proposed = getattr(solver, "h_abs", solver.step_size)
                 solver = start(solver.t, projected, first_step=min(proposed, times[-1] - solver.t))
     except np.linalg.LinAlgError:
-        if solver is None:
-            return states, counts, (1, times[0], y0)
-        return states, _tally(counts, solver), (1, solver.t, solver.y)
+        return _stopped(states, counts, solver, times[0], y0, 1)
     except KeyboardInterrupt:
-        return states, _tally(counts, solver), (INTERRUPTED, solver.t, solver.y)
+        return _stopped(states, counts, solver, times[0], y0, INTERRUPTED)
     return states, _tally(counts, solver), None
+
+
+def _stopped(states, counts, solver, t0, y0, status):
+    """The run so far, stopped with `status` after the solver's last step (or at the start)."""
+    if solver is None:
+        return states, counts, (status, t0, y0)
+    return states, _tally(counts, solver), (status, solver.t, solver.y)
 
 
 def _min_step(t: float, span: float) -> float:
@@ -349,8 +383,6 @@ def _run_fixed_step(module, par, times, y0, plan):
                                        times, y0, options["step"], int(options["stages"]))
     except IntegrationFailure as failure:
         return list(failure.Y[:failure.completed]), {}, (failure.status, failure.t, failure.y)
-    except np.linalg.LinAlgError:
-        return [y0], {}, (1, times[0], y0)
     return list(Y), stats, None
 
 
@@ -363,11 +395,20 @@ def _rk4_projected(module, par, times, y0, step, stop):
             start, end = times[0] + n * step, min(times[0] + (n + 1) * step, stop)
             inside = [t for t in times[k:] if t <= end]
             grid = np.array([start, *inside] + ([] if inside and inside[-1] == end else [end]))
-            Y, counts = integrate_rk4(lambda t, x: module.rhs(t, x, par), grid, y, end - start)
-            rows.extend(project(module, par, t, row)[0] for t, row in zip(inside, Y[1:1 + len(inside)]))
+            try:
+                Y, counts = integrate_rk4(lambda t, x: module.rhs(t, x, par), grid, y, end - start)
+                projected = [project(module, par, t, row)[0] for t, row in zip(inside, Y[1:1 + len(inside)])]
+                y_end, _ = project(module, par, end, Y[-1])
+            except IntegrationFailure as failure:       # with the rows of this run, not of the one step
+                raise IntegrationFailure(str(failure), failure.t, failure.y, np.array(rows), len(rows),
+                                         failure.status) from None
+            except np.linalg.LinAlgError:
+                raise IntegrationFailure("projection failed", start, y, np.array(rows), len(rows),
+                                         PROJECTION_FAILED) from None
+            rows.extend(projected)
             for key in stats:
                 stats[key] += counts.get(key, 0)
-            y, _ = project(module, par, end, Y[-1])
+            y = y_end
             k, n = k + len(inside), n + 1
     except KeyboardInterrupt:
         raise IntegrationFailure("rk4: interrupted", times[0] + n * step, y, np.array(rows),

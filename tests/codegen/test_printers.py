@@ -20,6 +20,14 @@ def test_numbers_are_exact_in_every_precision():
     assert exact_decimal(sympy.Rational(6674, 10**14)) == "6.674e-11"
 
 
+def test_rationals_beyond_c_integers_print_as_36_digit_literals():
+    # The sum 1 + 1/2 + ... + 1/330 has a 140-digit denominator: not a C integer constant.
+    harmonic = sympy.harmonic(330)
+    assert c(harmonic) == "LAG_LIT(6.37782270564987502558997278415261367e+0)"
+    assert c(sympy.Rational(2**40, 3)) == "LAG_LIT(3.66503875925333333333333333333333333e+11)"
+    assert c(sympy.Rational(2**31 - 1, 3)) == "(LAG_LIT(2147483647.0)/3)"
+
+
 def test_powers():
     assert c(x**2) == "(x*x)"
     assert c(x**4) == "(x*x*x*x)"

@@ -1330,8 +1330,12 @@ int main(int argc, char **argv)
     signal(SIGINT, lag_on_interrupt);    /* stop between two steps, keeping the rows written so far */
     clock_start = clock();
     status = lag_integrate(&sys, y0, t0, t1, dt, &options, lag_print_row, NULL, &report);
-    fprintf(stderr, "integrator %s: %ld steps accepted, %ld rejected, %ld right-hand sides", LAG_INTEGRATOR_NAME,
-            report.stats.accepted, report.stats.rejected, report.stats.rhs_evals);
+    fprintf(stderr, "integrator %s(", LAG_INTEGRATOR_NAME);    /* the options as used, as in a scene */
+    fprintf(stderr, "rtol = %g", (double)options.rtol);
+    fprintf(stderr, ", atol = %g", (double)options.atol);
+    if (options.max_step > 0)
+        fprintf(stderr, ", max_step = %g", (double)options.max_step);
+    fprintf(stderr, "): %ld steps accepted, %ld rejected, %ld right-hand sides", report.stats.accepted, report.stats.rejected, report.stats.rhs_evals);
     fprintf(stderr, ", %.3g s CPU\n", (double)(clock() - clock_start) / CLOCKS_PER_SEC);
     for (i = 0; i < LAG_NINV; ++i)
         fprintf(stderr, "drift of %s: %.3g (from %.17g)\n", lag_invariant_names[i],

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import lagdsl
-from lagdsl.errors import LagError, LagWarning, SimulationError, SimulationInterrupted
+from lagdsl.errors import LagError, LagWarning, Setting, SimulationError, SimulationInterrupted
 from lagdsl.scene import MAX_ROWS, RTOL_FLOOR, Overrides, grid_rows
 
 OSCILLATOR = """
@@ -120,7 +120,7 @@ def test_bad_tolerances_and_limits_are_refused(oscillator, options, words):
     with pytest.raises(LagError) as error:
         oscillator.simulate(**options)
     assert words in str(error.value)
-    assert error.value.diagnostics[0].span is None      # the command line's fault, not the scene's
+    assert isinstance(error.value.diagnostics[0].span, Setting)     # the command line's fault, not the scene's
 
 
 def test_a_tolerance_below_the_rounding_is_raised_with_a_warning(oscillator):

@@ -36,7 +36,7 @@ MAX_ITERATIONS = 100
 # (as in gauss.c); above it a stagnating iteration keeps iterating.
 NOISE = 65536
 # The C status codes (runtime.h) a failure corresponds to.
-NONFINITE, STEP_TOO_SMALL, NO_CONVERGENCE, INTERRUPTED = 2, 3, 5, 7
+SINGULAR, NONFINITE, STEP_TOO_SMALL, NO_CONVERGENCE, INTERRUPTED = 1, 2, 3, 5, 7
 
 STATS_KEYS = ("accepted", "rejected", "rhs_evals", "jac_evals", "lu_decomps", "newton_iters")
 
@@ -114,6 +114,8 @@ def integrate_rk4(rhs, t_grid, y0, step):
             output.deliver(t_new, y_new, lambda s: _hermite(t, y, f, t_new, y_new, f_new, s))
             t, y, f = t_new, y_new, f_new
             stats["accepted"] += 1
+    except np.linalg.LinAlgError:
+        raise output.failure(f"rk4: the mass matrix is singular in the step from t = {t}", t, y, SINGULAR) from None
     except KeyboardInterrupt:
         raise output.failure("rk4: interrupted", t, y, INTERRUPTED) from None
     return output.Y, stats
@@ -162,20 +164,28 @@ def integrate_gauss(hamilton_rhs, to_canonical, from_canonical, t_grid, y0, step
     error = np.zeros_like(z)          # compensated summation: the part of z lost to rounding
     try:
         for last, t_new in _steps(output, step):
-            h = t_grid[-1] - t if last else step
-            status = method.solve_stages(t, z, h)
-            if status is not None:
-                raise output.failure(f"gauss: {status} in the step from t = {t}; reduce the step",
-                                     t, y, NO_CONVERGENCE)
-            z_new, error = method.update(z, error)
-            if not np.all(np.isfinite(z_new)):
-                raise output.failure(f"gauss: the state became infinite or NaN in the step from t = {t}", t, y)
-            y_new = from_canonical(t_new, as_given(z_new))
-            output.deliver(t_new, y_new, lambda s: from_canonical(s, as_given(method.dense(z, t, s))))
+            z_new, error, y_new = _gauss_step(method, output, from_canonical, as_given, t, z, error, y, t_new,
+                                              t_grid[-1] - t if last else step)
             t, z, y = t_new, z_new, y_new
+    except np.linalg.LinAlgError:
+        raise output.failure(f"gauss: the mass matrix is singular in the step from t = {t}", t, y, SINGULAR) from None
     except KeyboardInterrupt:
         raise output.failure("gauss: interrupted", t, y, INTERRUPTED) from None
     return output.Y, method.stats
+
+
+def _gauss_step(method, output, from_canonical, as_given, t, z, error, y, t_new, h):
+    """One step of length h from (t, z): the rows it passes are delivered; returns z, its
+    rounding error and y at t_new."""
+    status = method.solve_stages(t, z, h)
+    if status is not None:
+        raise output.failure(f"gauss: {status} in the step from t = {t}; reduce the step", t, y, NO_CONVERGENCE)
+    z_new, error = method.update(z, error)
+    if not np.all(np.isfinite(z_new)):
+        raise output.failure(f"gauss: the state became infinite or NaN in the step from t = {t}", t, y)
+    y_new = from_canonical(t_new, as_given(z_new))
+    output.deliver(t_new, y_new, lambda s: from_canonical(s, as_given(method.dense(z, t, s))))
+    return z_new, error, y_new
 
 
 def _on_column(function):

@@ -1,0 +1,141 @@
+"""Numerical failures on both backends: a SimulationError with the time, the state and a remedy,
+the rows computed before kept, and no numpy warning or traceback on the way."""
+from __future__ import annotations
+
+import warnings
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+import lagdsl
+from lagdsl.errors import SimulationError
+from lagdsl.pipeline import execute, generate
+from tests.conftest import MODELS
+from tests.test_cli import lagc
+
+SINGULAR_START = """model SingularStart
+  coordinate x(start = 0, velocity = 1);
+  coordinate y(start = 0, velocity = 1);
+  T = (x*der(y))^2/2 + der(x)^2/2;     // M = diag(1, x^2): singular at x = 0
+  scene s
+    time(stop = 1, interval = 0.1);
+  end s;
+end SingularStart;
+"""
+# x = 1 - t exactly (y' = 0 keeps the y momentum zero), so the step landing on t = 1 finds M singular.
+SINGULAR_LATER = SINGULAR_START.replace("start = 0, velocity = 1);\n  coordinate y",
+                                        "start = 1, velocity = -1);\n  coordinate y").replace(
+    "y(start = 0, velocity = 1)", "y(start = 0, velocity = 0)").replace(
+    "time(stop = 1, interval = 0.1);", "time(stop = 2, interval = 0.25);\n    integrator rk4(step = 0.125);")
+BLOW_UP = """model BlowUp
+  parameter a = 1;
+  coordinate x(start = a, velocity = 100);
+  T = der(x)^2/2;
+  U = -x^4;                            // x reaches infinity at t = 0.1459...
+  output r = sqrt(x - 2);              // NaN before x reaches 2: a column, not a failure
+  scene s
+    time(stop = 10, interval = 0.01);
+    output x, r;
+  end s;
+end BlowUp;
+"""
+
+
+def load(tmp_path, text):
+    path = tmp_path / "model.lag"
+    path.write_text(text, encoding="utf-8")
+    return lagdsl.load(path)
+
+
+def failure(model, backend, **settings) -> SimulationError:
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")        # a leaked RuntimeWarning fails the test
+        with pytest.raises(SimulationError) as caught:
+            model.simulate(None, backend, **settings)
+    return caught.value
+
+
+@pytest.mark.parametrize("backend", ["c", "numpy"])
+def test_singular_mass_matrix_at_the_start(tmp_path, backend):
+    error = failure(load(tmp_path, SINGULAR_START), backend)
+    assert error.message.startswith("the mass matrix is singular at this state")
+    assert error.time == 0 and error.state == {"x": 0, "y": 0, "x'": 1, "y'": 1}
+    assert "start away from it" in error.remedy
+    assert list(error.partial.t) == [0] and list(error.partial.values[0]) == [0, 0]
+
+
+@pytest.mark.parametrize("backend", ["c", "numpy"])
+@pytest.mark.parametrize("integrator", ["rk4", "gauss"])
+def test_singular_mass_matrix_later_keeps_the_rows_before(tmp_path, backend, integrator):
+    model = load(tmp_path, SINGULAR_LATER)
+    if integrator == "gauss":          # Hamilton's equations never evaluate M at x = 0 here
+        assert model.simulate(None, backend, integrator="gauss").t[-1] == 2.0
+        return
+    error = failure(model, backend)
+    assert error.message.startswith("the mass matrix is singular at this state")
+    assert error.time == 0.875 and error.state["x"] == pytest.approx(0.125)
+    assert list(error.partial.t) == [0, 0.25, 0.5, 0.75]
+    assert error.partial["x"] == pytest.approx([1, 0.75, 0.5, 0.25])
+
+
+@pytest.mark.parametrize("backend", ["c", "numpy"])
+@pytest.mark.parametrize("integrator", ["dop853", "radau5", "rk4"])
+def test_blow_up(tmp_path, backend, integrator):
+    settings = {"integrator": integrator, **({"step": 0.001} if integrator == "rk4" else {})}
+    error = failure(load(tmp_path, BLOW_UP), backend, **settings)
+    assert error.message in ("the step size collapsed below the resolution of t",
+                             "the state or its derivative became infinite or NaN")
+    assert 0.14 < error.time < 0.15 and error.state["x"] > 1e10
+    assert error.remedy
+    rows = error.partial
+    assert list(rows.t) == pytest.approx(np.arange(15) * 0.01)
+    assert np.isnan(rows["r"][0]) and np.all(np.isfinite(rows["x"]))
+
+
+@pytest.mark.parametrize("backend", ["c", "numpy"])
+def test_non_finite_initial_state(tmp_path, backend):
+    # A start value that is NaN only once the integration has begun would be refused by the plan;
+    # the runners check the state they are given all the same.
+    model = load(tmp_path, BLOW_UP)
+    plan = model.plan(None)
+    state = (float("nan"),) + plan.initial_state[1:]
+    kernel, source = generate(model.equations, plan, backend, "blow_up.lag")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(SimulationError) as caught:
+            execute(kernel, source, replace(plan, initial_state=state))
+    error = caught.value
+    assert error.message == "the state or its derivative became infinite or NaN"
+    assert error.time == 0 and np.isnan(error.state["x"])
+    assert "check the parameters and initial values" in error.remedy
+
+
+def test_the_command_line_shows_no_warning_or_traceback(tmp_path):
+    path = tmp_path / "blow_up.lag"
+    path.write_text(BLOW_UP, encoding="utf-8")
+    done = lagc("run", path, "--backend", "numpy", "-o", tmp_path / "out.csv")
+    assert done.returncode == 1
+    assert "simulation failed at t = 0.14" in done.stderr
+    assert "Warning" not in done.stderr and "Traceback" not in done.stderr
+    assert (tmp_path / "out.csv").read_text().startswith("t,x,r\n0,1,")     # the rows before are written
+
+
+@pytest.mark.parametrize("option", ["--rtol", "--atol"])
+def test_non_finite_tolerances_are_option_errors(tmp_path, option):
+    path = tmp_path / "blow_up.lag"
+    path.write_text(BLOW_UP, encoding="utf-8")
+    done = lagc("run", path, "--backend", "numpy", option, "inf")
+    assert done.returncode == 1
+    assert done.stderr == f"lagc: error: {option}: dop853({option[2:]} = ...) must be a finite number >= 0\n"
+
+
+@pytest.mark.parametrize("backend", ["c", "numpy"])
+def test_initial_state_off_a_singular_constraint(backend):
+    model = lagdsl.load(MODELS / "cartesian_pendulum.lag")
+    error = failure(model, backend, set={"x.start": 0.0, "y.start": 0.0})
+    assert error.message == "projection onto the constraints did not converge"
+    assert error.time == 0 and len(error.partial.t) == 0
+    done = lagc("run", MODELS / "cartesian_pendulum.lag", "--backend", backend, "--set", "x.start=0",
+                "--set", "y.start=0")
+    assert done.returncode == 1 and "Traceback" not in done.stderr

@@ -1,0 +1,163 @@
+"""Long and deeply nested input: it works, or it is a located LagError, never a RecursionError.
+
+Sums and product chains of any length, parentheses and unary signs are walked iteratively; real
+nesting (calls, powers, sums inside products) is limited to MAX_NESTING levels, which the
+derivation, the common-subexpression elimination and both printers must handle.
+"""
+from __future__ import annotations
+
+import math
+
+import pytest
+import sympy
+
+import lagdsl
+from lagdsl.errors import LagError
+from lagdsl.expressions import MAX_NESTING, MAX_NUMBER_LENGTH
+from lagdsl.mechanics import derive_equations
+from lagdsl.pipeline import generate, model_from_source, plan
+from lagdsl.scene import Overrides
+from lagdsl.source import SourceFile
+
+
+def oscillator(potential: str, kinetic: str = "der(x)^2/2") -> str:
+    return f"""model Limits
+  parameter a = 1;
+  coordinate x(start = 0.5, velocity = 0.25);
+  T = {kinetic};
+  U = {potential};
+end Limits;
+"""
+
+
+def potential_of(text: str) -> sympy.Expr:
+    return model_from_source(SourceFile("limits.lag", text)).lagrangian.potential
+
+
+def error_of(text: str) -> LagError:
+    with pytest.raises(LagError) as caught:
+        model_from_source(SourceFile("limits.lag", text))
+    return caught.value
+
+
+x = sympy.Symbol("x", real=True)
+a = sympy.Symbol("a", real=True)
+
+
+def test_sum_of_330_equal_terms():
+    assert potential_of(oscillator(" + ".join(["a*x^2"] * 330))) == 330 * a * x**2
+
+
+def test_sum_and_difference_of_400_distinct_terms_in_order():
+    terms = " - ".join(f"x^{k}/{k}" for k in range(1, 401))
+    expected = sympy.Add(*((1 if k == 1 else -1) * x**k / k for k in range(1, 401)))
+    assert potential_of(oscillator(terms)) == expected
+
+
+def test_product_chain_of_330_factors():
+    assert potential_of(oscillator("*".join(["x"] * 330) + "/a/a")) == x**330 / a**2
+
+
+def test_500_nested_parentheses():
+    assert potential_of(oscillator("(" * 500 + "x^2" + ")" * 500)) == x**2
+
+
+def test_500_and_501_unary_minuses():
+    assert potential_of(oscillator("-" * 500 + "x")) == x
+    assert potential_of(oscillator("- " * 501 + "x")) == -x
+
+
+def test_signs_through_parentheses():
+    assert potential_of(oscillator("a - (x - (a - -(x + a)))")) == 3*a
+    assert potential_of(oscillator("x/(a/x)")) == x**2 / a
+
+
+def test_division_by_zero_inside_a_divisor_is_still_found():
+    error = error_of(oscillator("x/(a/0)"))
+    assert "division by zero" in error.render()
+
+
+def test_vector_sums_and_mixtures_are_checked_over_the_whole_chain():
+    vectors = oscillator("dot({x, 0, 0} - -{0, x, 0} + ({0, 0, x}), {1, 1, 1})")
+    assert potential_of(vectors) == 3 * x
+    assert "cannot add a vector and a scalar" in error_of(oscillator("x + {x, x, x} - x")).render()
+    assert "product of two vectors" in error_of(oscillator("norm(2*{x, 0, 0}*{0, x, 0})")).render()
+
+
+def nested_sines(depth: int) -> str:
+    return "sin(" * depth + "x" + ")" * depth
+
+
+def test_nesting_at_the_limit_derives_and_prints_on_both_backends():
+    """The deepest accepted expression goes through derivation, CSE and both printers."""
+    source = SourceFile("limits.lag", oscillator(nested_sines(MAX_NESTING - 1)))
+    model = model_from_source(source)
+    equations = derive_equations(model)
+    scene = plan(model, equations, None, Overrides())
+    for backend in ("c", "numpy"):
+        assert generate(equations, scene, backend, "limits.lag")[1].text
+
+
+def test_nesting_beyond_the_limit_is_a_located_error():
+    error = error_of(oscillator(nested_sines(MAX_NESTING)))
+    (diagnostic,) = error.diagnostics
+    assert f"nested more than {MAX_NESTING} levels" in diagnostic.message
+    assert diagnostic.span.line == 5
+
+
+def test_deep_horner_form_is_a_located_error_not_a_recursion_error():
+    horner = "x"
+    for _ in range(500):
+        horner = f"({horner}*x + 1)"
+    assert "nested more than" in error_of(oscillator(horner)).render()
+
+
+def test_power_tower_beyond_the_limit_is_a_located_error():
+    assert "nested more than" in error_of(oscillator("^".join(["x"] * 500))).render()
+
+
+def test_long_number_literals():
+    assert potential_of(oscillator("0." + "1" * (MAX_NUMBER_LENGTH - 2) + "*x")) != 0
+    for literal in ("1" * 5000, "0." + "0" * 5000 + "1", "1e" + "0" * 5000 + "1"):
+        error = error_of(oscillator(f"{literal}*x"))
+        (diagnostic,) = error.diagnostics
+        assert f"at most {MAX_NUMBER_LENGTH}" in diagnostic.message and diagnostic.span.column == 7
+
+
+def test_byte_order_mark_is_accepted(tmp_path):
+    path = tmp_path / "bom.lag"
+    path.write_bytes("\ufeff".encode() + oscillator("x^2/2").encode())
+    model = lagdsl.load(path)
+    assert model.name == "Limits"
+
+
+def long_sums_model(n: int = 330) -> str:
+    """T and U each written as a sum of n terms, equal to der(x)^2/2 and (x - mean)^2/2 + c.
+
+    T = Σ_k (cos²(kx) + sin²(kx)) x'²/n: the identity is not applied symbolically, so the
+    derivation, CSE and printers see all n terms. U = Σ_k (x - k/1000)²/(2n) is a harmonic
+    potential about the mean k/1000 = (n + 1)/2000 with ω = 1.
+    """
+    kinetic = " + ".join(f"{f}({k}*x)^2*der(x)^2/{n}" for k in range(1, n // 2 + 1) for f in ("cos", "sin"))
+    potential = " + ".join(f"(x - {k}/1000)^2/{2 * n}" for k in range(1, n + 1))
+    return f"""model LongSums
+  coordinate x(start = 0.5, velocity = 0.25);
+  T = {kinetic};
+  U = {potential};
+  scene s
+    time(stop = 2, interval = 0.5);
+    integrator dop853(rtol = 1e-10, atol = 1e-12);
+  end s;
+end LongSums;
+"""
+
+
+def test_330_term_sums_run_on_both_backends(tmp_path):
+    path = tmp_path / "long.lag"
+    path.write_text(long_sums_model(), encoding="utf-8")
+    model = lagdsl.load(path)
+    mean = 331 / 2000
+    for backend in ("c", "numpy"):
+        result = model.simulate(backend=backend)
+        exact = [mean + (0.5 - mean) * math.cos(t) + 0.25 * math.sin(t) for t in result.t]
+        assert result["x"] == pytest.approx(exact, abs=1e-8)
