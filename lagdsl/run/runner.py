@@ -116,10 +116,9 @@ def run_c(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress: Pr
     head = 6 + len(counters)        # status, rows, t_fail, rcond_fail, residual, projection, counters
     summary = np.zeros(head + 2 * len(plan.invariants) + len(initial))
     pointer = lambda a: a.ctypes.data_as(double_p)   # noqa: E731
-    started = clock.perf_counter()
-    status = _interruptible(library, lambda: entry(pointer(parameters), pointer(initial), pointer(settings),
-                                                   pointer(rows), len(times), pointer(summary)), plan, progress)
-    elapsed = clock.perf_counter() - started
+    status, elapsed = _interruptible(
+        library, lambda: entry(pointer(parameters), pointer(initial), pointer(settings), pointer(rows),
+                               len(times), pointer(summary)), plan, progress)
     used = int(summary[1])
     invariants = tuple((name, float(summary[head + 2 * i]), float(summary[head + 1 + 2 * i]))
                        for i, name in enumerate(plan.invariants))
@@ -144,8 +143,10 @@ def _load_library(path: Path) -> ctypes.CDLL:
 
 
 def _interruptible(library: ctypes.CDLL, call: Callable[[], int], plan: ScenePlan,
-                   progress: Progress | None) -> int:
+                   progress: Progress | None) -> tuple[int, float]:
     """Make the C call in a worker thread, so that the main thread stays free for Ctrl-C and progress.
+    Returns its status and its duration, timed in the worker: the main thread notices the end
+    only at its next poll, up to POLL_SECONDS later.
 
     ctypes releases the GIL during the call, and a blocked foreign call would otherwise hold back
     KeyboardInterrupt until the whole run is over. Ctrl-C sets the library's lag_interrupt flag,
@@ -155,12 +156,14 @@ def _interruptible(library: ctypes.CDLL, call: Callable[[], int], plan: ScenePla
     interrupt = ctypes.c_int.in_dll(library, "lag_interrupt")
     reached = ctypes.c_double.in_dll(library, "lag_progress_t")
     interrupt.value = 0
-    outcome: list[int] = []
+    outcome: list[tuple[int, float]] = []
     done = threading.Event()
 
     def work() -> None:
         try:
-            outcome.append(call())
+            started = clock.perf_counter()
+            status = call()
+            outcome.append((status, clock.perf_counter() - started))
         finally:
             done.set()
 
