@@ -24,6 +24,8 @@ from .mechanics import Equations
 
 TIDY_LIMIT = 400          # tree nodes once inlined; larger expressions are shown as derived
 EXPANSION_LIMIT = 2000    # terms of the expanded form; more and an expression is shown untidied
+NUMBER_LIMIT = 10**100    # numerators and denominators of the numbers tidied (physical constants fit)
+EXPONENT_LIMIT = 100      # numerators and denominators of the numeric exponents tidied
 
 
 def format_number(value: float) -> str:
@@ -93,25 +95,43 @@ def tidy(expr: sympy.Expr) -> sympy.Expr:
     """Cheap trigonometric tidying: every step is polynomial in the size of the expanded form.
 
     expand → sin(x)² + cos(x)² = 1 → cos a cos b + sin a sin b = cos(a - b) and its kin (fu's
-    TR10i) → common factors out. Skipped when expanding would multiply out too many terms.
+    TR10i) → common factors out. Skipped when expanding would multiply out too many terms, and
+    for numbers out of the ordinary (1e-320 or x^(4e9) read exactly), which sympy's expansion and
+    factoring would spend minutes or all memory on.
     """
-    if expanded_terms(expr) > EXPANSION_LIMIT:
+    if not ordinary_numbers(expr) or expanded_terms(expr) > EXPANSION_LIMIT:
         return expr
     return sympy.factor_terms(TR10i(pythagoras(sympy.expand(expr))))
 
 
+def ordinary_numbers(expr: sympy.Expr) -> bool:
+    """Every rational in `expr` has a numerator and denominator below NUMBER_LIMIT, every numeric
+    exponent below EXPONENT_LIMIT (model numbers are exact rationals: 1e-320 is 1/10^320)."""
+    for number in expr.atoms(sympy.Rational):
+        if abs(number.p) >= NUMBER_LIMIT or number.q >= NUMBER_LIMIT:
+            return False
+    for power in expr.atoms(sympy.Pow):
+        if power.exp.is_Rational and (abs(power.exp.p) > EXPONENT_LIMIT or power.exp.q > EXPONENT_LIMIT):
+            return False
+    return True
+
+
 def expanded_terms(expr: sympy.Expr) -> int:
-    """An upper bound on the number of terms of sympy.expand(expr) (at its top level)."""
+    """An upper bound on the number of terms of sympy.expand(expr) (at its top level), counted up
+    to just past EXPANSION_LIMIT (the count of (a + b)^(10^9) is not worth computing)."""
     if expr.is_Add:
-        return sum(expanded_terms(a) for a in expr.args)
-    if expr.is_Mul:
+        count = sum(expanded_terms(a) for a in expr.args)
+    elif expr.is_Mul:
         count = 1
         for factor in expr.args:
-            count *= expanded_terms(factor)
-        return count
-    if expr.is_Pow and expr.exp.is_Integer and expr.exp > 0:
-        return expanded_terms(expr.base) ** int(expr.exp)
-    return 1
+            count = min(count * expanded_terms(factor), EXPANSION_LIMIT + 1)
+    elif expr.is_Pow and expr.exp.is_Integer:     # expand multiplies out 1/(a + b)^n too
+        base, count = expanded_terms(expr.base), 1
+        for _ in range(min(abs(int(expr.exp)), EXPANSION_LIMIT + 1) if base > 1 else 0):
+            count = min(count * base, EXPANSION_LIMIT + 1)
+    else:
+        count = 1
+    return min(count, EXPANSION_LIMIT + 1)
 
 
 def pythagoras(expr: sympy.Expr) -> sympy.Expr:

@@ -139,9 +139,10 @@ def _time(time: ir.TimeGrid, overrides: Overrides) -> ir.TimeGrid:
     if not interval > 0:
         raise LagError("the output interval must be positive")
     if not (stop - start) / interval < MAX_ROWS or grid_rows(start, stop, interval) > MAX_ROWS:
+        # The interval is what to change: point at the scene's time statement when it came from there.
         raise LagError(f"the output grid from {start:g} to {stop:g} every {interval:g} would have "
                        f"{(stop - start) / interval + 1:.3g} rows, more than the limit of {MAX_ROWS:.0e}; "
-                       "choose a larger --interval")
+                       "choose a larger --interval", time.span if overrides.interval is None else None)
     return replace(time, start=start, stop=stop, interval=interval)
 
 

@@ -62,3 +62,28 @@ def test_tidy_leaves_alone_what_would_expand_into_too_many_terms():
     power = (a + b + c + d + sympy.sin(x)) ** 12
     assert tidy(power) == power
     assert tidy(a * sympy.sin(x) ** 2 + a * sympy.cos(x) ** 2) == a
+
+
+def mutated(name: str, old: str, new: str) -> Model:
+    text = (MODELS / name).read_text(encoding="utf-8")
+    assert old in text
+    return Model(SourceFile(name, text.replace(old, new, 1)))
+
+
+@pytest.mark.parametrize("exponent", ["1e-320", "4e9"])
+def test_eom_of_a_kinetic_energy_with_an_extreme_exponent_is_shown_untidied(exponent):
+    # Found by the fuzz campaign: tidying hung on 1/10^320 and ran out of memory on x^(4*10^9).
+    model = mutated("driven_support.lag", "der(x)^2", f"der(x)^{exponent}")
+    shown = format_equations(model.equations)
+    assert shown.startswith("equations of motion of Kapitza") and "theta''" in shown
+
+
+def test_tidy_leaves_alone_numbers_out_of_the_ordinary():
+    a, b, x = sympy.symbols("a b x")
+    pythagorean = sympy.sin(x) ** 2 + sympy.cos(x) ** 2
+    for extreme in (sympy.Rational(1, 10**320) * pythagorean, 10**320 * a * pythagorean,
+                    a ** sympy.Rational(1, 10**320) * pythagorean, (a + b) ** 4000000000,
+                    (a + b) ** -4000000000, a ** 4000000000 * pythagorean):
+        assert tidy(extreme) == extreme
+    assert tidy(sympy.Rational(6626, 10**37) * a * pythagorean) == sympy.Rational(6626, 10**37) * a
+    assert tidy(a ** 3 * (b + 1) ** -2 * pythagorean) == a ** 3 / (b ** 2 + 2 * b + 1)

@@ -86,6 +86,15 @@ def test_a_grid_that_does_not_fit_is_refused(oscillator, times, words):
         assert f"limit of {MAX_ROWS:.0e}" in str(error.value) and "larger --interval" in str(error.value)
 
 
+def test_a_grid_too_fine_for_the_scenes_own_interval_points_at_the_time_statement(tmp_path):
+    path = tmp_path / "fine.lag"
+    path.write_text(OSCILLATOR.replace("interval = 0.25", "interval = 1e-320"))
+    with pytest.raises(LagError) as error:
+        lagdsl.load(path).plan(overrides=Overrides(stop=0.1))
+    assert "rows, more than the limit" in str(error.value)
+    assert error.value.render().startswith(f"{path}:10:5: error: the output grid")
+
+
 # ---- inputs ----------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("values, words", [
