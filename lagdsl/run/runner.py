@@ -376,6 +376,11 @@ def _run_scipy(module, par, times, y0, plan, progress):
                 solver = start(solver.t, projected, first_step=min(proposed, times[-1] - solver.t))
     except np.linalg.LinAlgError:
         return _stopped(states, counts, solver, times[0], y0, 1, watch)
+    except ValueError:
+        # The inputs were checked before the run, so scipy's own finiteness checks (lu_factor of
+        # an iteration matrix with inf or NaN in the Jacobian) fire only on values the model
+        # produced on the way: the same failure as a non-finite state.
+        return _stopped(states, counts, solver, times[0], y0, 2, watch)
     except KeyboardInterrupt:
         return _stopped(states, counts, solver, times[0], y0, INTERRUPTED, watch)
     return states, watch.finish(_tally(counts, solver)), None

@@ -139,3 +139,13 @@ def test_initial_state_off_a_singular_constraint(backend):
     done = lagc("run", MODELS / "cartesian_pendulum.lag", "--backend", backend, "--set", "x.start=0",
                 "--set", "y.start=0")
     assert done.returncode == 1 and "Traceback" not in done.stderr
+
+
+def test_a_non_finite_jacobian_in_scipys_radau_is_a_simulation_error():
+    """m = 1e-300 overflows e B / m in the Jacobian: scipy's LU refuses it with a ValueError,
+    which must become the non-finite failure with the start row kept, not a traceback."""
+    particle = lagdsl.load(MODELS / "charged_particle.lag")
+    with pytest.raises(SimulationError) as failure:
+        particle.simulate(backend="numpy", integrator="radau5", stop=0.1, m=1e-300)
+    assert "infinite or NaN" in str(failure.value)
+    assert len(failure.value.partial.t) == 1
