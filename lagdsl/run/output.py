@@ -76,8 +76,8 @@ class RunSummary:
 
     def render(self) -> str:
         counts = [f"{value} {COUNTER_LABELS[name]}" for name, value in self.counters]
-        lines = [f"integrator {self.integrator}({self.settings_text()}) ({self.backend}): " + ", ".join(counts)
-                 + f", {self.wall_time:.3g} s"]
+        lines = [f"integrator {self.integrator}({self.settings_text()}) ({self.backend}): "
+                 + ", ".join([*counts, f"{self.wall_time:.3g} s"])]
         lines += [part.render() for part in (self.stiffness, self.switches) if part is not None]
         for name, start, drift in self.invariants:
             relative = f", relative {drift / abs(start):.3g}" if start != 0 else ""

@@ -271,8 +271,11 @@ def run_numpy(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress
             else:
                 states, counts, failure = _run_fixed_step(module, par, times, y0, plan)
             elapsed = clock.perf_counter() - started
-        result = _numpy_result(module, par, times[:len(states)], np.array(states).reshape(len(states), len(y0)),
-                               plan, counts, elapsed, projection)
+        states = np.array(states).reshape(len(states), len(y0))
+        rows = _rows_with_outputs(module, par, times, states)
+        if rows < len(states) and failure is None:
+            failure = (1, times[rows], states[rows])
+        result = _numpy_result(module, par, times[:rows], states[:rows], plan, counts, elapsed, projection)
     if failure is not None:
         status, t_fail, y_fail = failure
         with np.errstate(all="ignore"):
@@ -300,6 +303,23 @@ def _start(module, par, t0, y0, plan):
     if not (np.all(np.isfinite(y0)) and np.all(np.isfinite(derivative))):
         return y0, moved, (2, t0, y0)
     return y0, moved, None
+
+
+def _rows_with_outputs(module, par, times, states) -> int:
+    """How many leading rows have outputs. Outputs with multipliers solve the system for q'' at
+    each row; where it is singular (the state at which the run failed) the row has none, and,
+    as in the C driver, which delivers no row it cannot evaluate, it is left out."""
+    try:
+        if len(states):
+            module.observables(times[:len(states)], states.T, par)
+        return len(states)
+    except np.linalg.LinAlgError:
+        for row, state in enumerate(states):
+            try:
+                module.observables(times[row:row + 1], state[:, None], par)
+            except np.linalg.LinAlgError:
+                return row
+        return len(states)
 
 
 def _numpy_result(module, par, times, states, plan, counts, elapsed, projection) -> Result:
