@@ -13,7 +13,7 @@ from .mechanics import Equations
 from .pipeline import compile_model, execute, generate, plan
 from .run.output import Result
 from .run.runner import load as load_program
-from .scene import Overrides, ScenePlan
+from .scene import Overrides, ScenePlan, given_options
 from .source import SourceFile
 
 BACKENDS = ("c", "numpy")
@@ -61,9 +61,8 @@ class Model:
         _check_backend(backend)
         values = dict(set or {})
         values.update(parameters)
-        options = tuple((k, float(v)) for k, v in (("rtol", rtol), ("atol", atol), ("step", step),
-                                                     ("stages", stages), ("max_step", max_step),
-                                                     ("max_steps", max_steps)) if v is not None)
+        options = given_options(dict(rtol=rtol, atol=atol, step=step, stages=stages, max_step=max_step,
+                                     max_steps=max_steps))
         overrides = Overrides(tuple((k, float(v)) for k, v in values.items()), start, stop, interval,
                               integrator, options)
         return self.simulate_plan(scene, backend, overrides)

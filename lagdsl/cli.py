@@ -20,7 +20,7 @@ from .errors import LagError, LagWarning, SimulationError, SimulationInterrupted
 from .escape import visible
 from .present import describe_model, format_equations
 from .run.output import check_writable, write_output
-from .scene import Overrides
+from .scene import Overrides, given_options
 
 
 INTERRUPTED_EXIT = 130
@@ -124,11 +124,7 @@ def _overrides(arguments) -> Overrides:
         if not equals or value is None:
             raise LagError(f"--set takes NAME=VALUE with a number, got '{item}'")
         values.append((name.strip(), value))
-    options = tuple((k, float(v)) for k, v in (("rtol", arguments.rtol), ("atol", arguments.atol),
-                                                 ("step", arguments.step), ("stages", arguments.stages),
-                                                 ("max_step", arguments.max_step),
-                                                 ("max_steps", arguments.max_steps))
-                    if v is not None)
+    options = given_options(vars(arguments))
     return Overrides(tuple(values), arguments.start, arguments.stop, arguments.interval,
                      arguments.integrator, options)
 

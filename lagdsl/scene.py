@@ -23,6 +23,15 @@ from .mechanics import Equations
 from .semantics import DEFAULT_INTEGRATOR, DEFAULT_TIME, INTEGRATOR_OPTIONS, validate_integrator
 
 
+# Integrator settings that can be given outside the model file (`lagc run --rtol`, `simulate(rtol=)`).
+RUN_OPTIONS = ("rtol", "atol", "step", "stages", "max_step", "max_steps")
+
+
+def given_options(values) -> tuple[tuple[str, float], ...]:
+    """The run options among `values` (a mapping of name to value or None) that were given."""
+    return tuple((name, float(values[name])) for name in RUN_OPTIONS if values.get(name) is not None)
+
+
 @dataclass(frozen=True)
 class Overrides:
     """Settings given outside the model file (`lagc run` options, `simulate()` arguments).
