@@ -44,10 +44,8 @@ def main() -> int:
     with tempfile.TemporaryDirectory(prefix="lagdsl-fuzz-") as work:
         os.environ["LAGDSL_CACHE"] = str(Path(work) / "cache")
         started = time.monotonic()
-        tally, offences = _campaign(options, Path(work))
-        elapsed = time.monotonic() - started
-    report = _report(options, tally, offences, elapsed)
-    (options.out / "report.md").write_text(report, encoding="utf-8")
+        tally, offences, done = _campaign(options, Path(work), started)
+    report = _report(options, tally, offences, done, time.monotonic() - started)
     print(report)
     return 0
 
@@ -62,9 +60,10 @@ def _options():
     return parser.parse_args()
 
 
-def _campaign(options, work: Path):
-    """Run the mutants; returns the counts per command and category, and the offences
-    (signature -> [count, reproducer directory or None])."""
+def _campaign(options, work: Path, started: float):
+    """Run the mutants; returns the counts per command and category, the offences
+    (signature -> [count, reproducer directory or None]) and the number of mutants run.
+    The report is rewritten every 50 mutants, so a campaign cut short still has one."""
     tally = collections.Counter()
     offences: dict[str, list] = {}
     seeds = {name: text.replace("n = 12", "n = 3") for name, text in library(benchtools.MODELS).items()}
@@ -85,7 +84,8 @@ def _campaign(options, work: Path):
         if (number + 1) % 50 == 0:
             found = sum(count for count, _ in offences.values())
             print(f"{number + 1} mutants, {found} offending outcomes", file=sys.stderr, flush=True)
-    return tally, offences
+            _report(options, tally, offences, number + 1, time.monotonic() - started)
+    return tally, offences, options.count
 
 
 def _record(offences, name, options, number, mutant, command, category, stderr) -> None:
@@ -103,9 +103,11 @@ def _record(offences, name, options, number, mutant, command, category, stderr) 
         (where / "stderr.txt").write_text(stderr, encoding="utf-8")
 
 
-def _report(options, tally, offences, elapsed: float) -> str:
+def _report(options, tally, offences, done: int, elapsed: float) -> str:
+    """Write DIR/report.md (atomically) and return its text."""
     rows = [[command, *(tally[command, category] for category in CATEGORIES)] for command in COMMANDS]
-    lines = [f"# Fuzz campaign: {options.count} mutants, seed {options.seed}, time limit {options.timeout:g} s",
+    progress = "" if done == options.count else f" (so far: {done} of {options.count})"
+    lines = [f"# Fuzz campaign: {done} mutants{progress}, seed {options.seed}, time limit {options.timeout:g} s",
              "", f"{elapsed:.0f} s on one core. {benchtools.machine_description()}", "",
              benchtools.markdown_table(["command", *CATEGORIES], rows), ""]
     if not offences:
@@ -114,7 +116,11 @@ def _report(options, tally, offences, elapsed: float) -> str:
         lines += ["## Offences (first reproducer saved)", ""]
         lines += [f"- {count} x {name}: {where or 'not saved (--keep)'}"
                   for name, (count, where) in sorted(offences.items(), key=lambda item: -item[1][0])]
-    return "\n".join(lines) + "\n"
+    text = "\n".join(lines) + "\n"
+    partial = options.out / "report.md.partial"
+    partial.write_text(text, encoding="utf-8")
+    partial.replace(options.out / "report.md")
+    return text
 
 
 if __name__ == "__main__":
