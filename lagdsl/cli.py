@@ -150,6 +150,7 @@ def _run(arguments) -> int:
 
 
 def _simulate(arguments) -> int:
+    """`lagc run` in the cache in use: warm from a stored plan if it serves, else the full pipeline."""
     from .run import plans      # numpy and the runner: only `lagc run` needs them
     source = SourceFile.read(arguments.model)
     stored = plans.find(source, arguments.scene, arguments.backend, arguments.integrator)

@@ -105,9 +105,10 @@ def find(source: SourceFile, scene: str | None, backend: str, integrator: str | 
     """The stored plan of this model text, scene, backend and integrator, if the cache holds a valid one."""
     key = _plan_key(source, scene, backend, integrator)
     entry = key and find_entry(_plan_name(key), key)
-    if not entry:
+    try:
+        return _from_json(json.loads(entry.read_text(encoding="utf-8")), source) if entry else None
+    except OSError:         # removed since it was verified (lagc cache clear): build as if it never was
         return None
-    return _from_json(json.loads(entry.read_text(encoding="utf-8")), source)
 
 
 def store(source: SourceFile, scene: str | None, backend: str, integrator: str | None, plan: StoredPlan) -> None:
