@@ -23,9 +23,14 @@ def run(name: str, scene: str | None = None, **options) -> Result:
     return model(name).simulate(scene, set=values, **rest)
 
 
-def drift(result: Result, invariant: str) -> float:
+def invariant(result: Result, name: str) -> tuple[float, float]:
+    """I(0) and max |I(t) - I(0)| of a conserved quantity that lagc found."""
+    return {found: (start, worst) for found, start, worst in result.summary.invariants}[name]
+
+
+def drift(result: Result, name: str) -> float:
     """max |I(t) - I(0)| of a conserved quantity found by lagc, relative to max(1, |I(0)|)."""
-    start, worst = {name: (start, worst) for name, start, worst in result.summary.invariants}[invariant]
+    start, worst = invariant(result, name)
     return worst / max(1.0, abs(start))
 
 
