@@ -83,6 +83,7 @@ class ScenePlan:
     invariants: tuple[str, ...]                     # names of conserved quantities to watch
     constraints: tuple[str, ...]                    # active constraints (projected, monitored)
     initial_state: tuple[float, ...]                # y0 = (q(0), q'(0)) with every override applied
+    stop: ir.StopCondition | None = None            # the scene's `stop when ...`
 
     @property
     def columns(self) -> tuple[str, ...]:
@@ -122,7 +123,7 @@ def plan_scene(model: ir.Model, equations: Equations, scene_name: str | None = N
                      time, integrator, parameters, frozenset(set_values),
                      tuple((name, start, velocity) for name, (start, velocity) in initial.items()),
                      outputs, tuple(q.name for q in equations.conserved), active,
-                     _initial_state(model, parameters, initial))
+                     _initial_state(model, parameters, initial), scene.stop if scene else None)
 
 
 def _find_scene(model: ir.Model, name: str | None) -> ir.Scene | None:
