@@ -562,6 +562,8 @@ class _ModelBuilder:
         token = tokens(node, "NAME")[0]
         binding = self.scope.bindings.get(str(token))
         parts = [c for c in node.children if isinstance(c, lark.Tree) and c.data != "modifiers"]
+        if binding is not None and binding.kind == "invalid":
+            raise PoisonedName()
         if subtree(node, "modifiers") is None:        # set p = value
             if binding is not None and binding.kind == "coordinate":
                 raise LagError(f"'{token}' is a coordinate; set its initial values with "
