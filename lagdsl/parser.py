@@ -22,7 +22,8 @@ TOKEN_WORDS = {
     "ENERGY": "'T', 'U' or 'L'", "NAME": "a name", "NUMBER": "a number",
     "STRING": 'a description in double quotes', "UNIT": "a unit such as [kg]",
     "POW": "'^'", "PLUS": "'+'", "MINUS": "'-'", "STAR": "'*'", "SLASH": "'/'", "EQ": "'='",
-    "SEMI": "';'", "COLON": "':'", "COMMA": "','", "DOT": "'.'", "LESS": "'<'", "GREATER": "'>'", "LPAR": "'('", "RPAR": "')'", "LSQB": "'['",
+    "SEMI": "';'", "COLON": "':'", "COMMA": "','",
+    "DOT": "'.'", "LESS": "'<'", "GREATER": "'>'", "LPAR": "'('", "RPAR": "')'", "LSQB": "'['",
     "RSQB": "']'", "LBRACE": "'{'", "RBRACE": "'}'", "$END": "the end of the file",
 }
 DECLARATION_STARTS = {"PARAMETER", "COORDINATE", "LET", "ENERGY", "DISSIPATION", "FORCE",

@@ -538,7 +538,8 @@ class _ModelBuilder:
     def scene_stop(self, node) -> ir.StopCondition:
         """`stop when a < b;`: e = a - b (for `>`, b - a), a function of q, q', t and parameters."""
         left, right = expressions_of(node)
-        sides = [self.expr.scalar(side, self.output_scope(), "a scalar in the stop condition") for side in (left, right)]
+        sides = [self.expr.scalar(side, self.output_scope(), "a scalar in the stop condition")
+                 for side in (left, right)]
         function = sides[0] - sides[1] if tokens(node, "LESS") else sides[1] - sides[0]
         multipliers = {ir.multiplier_symbol(c.name) for c in self.constraints}
         if function.free_symbols & multipliers:

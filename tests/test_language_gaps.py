@@ -93,11 +93,13 @@ def test_start_values_in_the_index_give_a_mode_shape():
 
 
 @pytest.mark.parametrize("declaration, at, message", [
-    ("coordinate q[3](start = {i, i in 0:3});", "0:3", "the range 0:3 does not cover the members q[1] .. q[3]; write i in 1:3"),
+    ("coordinate q[3](start = {i, i in 0:3});", "0:3",
+     "the range 0:3 does not cover the members q[1] .. q[3]; write i in 1:3"),
     ("coordinate q[3](start = {1, 2, i in 1:3});", "{", "a list given by its index is written {expression, i in 1:n}"),
     ("coordinate q[3](start = {j, i in 1:3});", "j,", "undefined name 'j'"),
     ("coordinate q(start = {i, i in 1:3});", "{", "a list of initial values needs an indexed coordinate"),
-    ("coordinate q; let b = {1, i in 1:3};", "{", "a list '{e, i in a:b}' gives the start values of an indexed coordinate"),
+    ("coordinate q; let b = {1, i in 1:3};", "{",
+     "a list '{e, i in a:b}' gives the start values of an indexed coordinate"),
 ])
 def test_bad_lists_are_located(declaration, at, message):
     assert_located(f"""model M
@@ -153,7 +155,8 @@ def test_parameter_arrays_in_sums_scenes_and_overrides(tmp_path, backend):
 
 
 @pytest.mark.parametrize("declaration, at, message", [
-    ("parameter m[3] = {1, 2};", "{", "2 values for the 3 parameters m[1] .. m[3]; give one value for all, or a list of 3"),
+    ("parameter m[3] = {1, 2};", "{",
+     "2 values for the 3 parameters m[1] .. m[3]; give one value for all, or a list of 3"),
     ("parameter m[2.5] = 1;", "2.5", "the number of parameters must be an integer, not 2.5"),
     ("parameter m[2] = {1, y};", "y}", "undefined name 'y'"),
     ("parameter m[2] = 1; parameter p = m;", "m;", "'m' is an indexed family; write m[i]"),

@@ -128,7 +128,8 @@ def test_the_standalone_program_stops_and_says_where(tmp_path):
             built = subprocess.run([cc, *STRICT_FLAGS, *precision, str(source), "-o", str(program), "-lm"],
                                    capture_output=True, text=True)
             assert built.returncode == 0, built.stderr
-        run = subprocess.run([str(tmp_path / f"{integrator}0"), "y.velocity=10", "t.stop=3"], capture_output=True, text=True)
+        run = subprocess.run([str(tmp_path / f"{integrator}0"), "y.velocity=10", "t.stop=3"],
+                             capture_output=True, text=True)
         assert run.returncode == 0, run.stderr
         last = run.stdout.splitlines()[-1].split(",")
         assert float(last[0]) == pytest.approx(20 / 9.81, abs=1e-9)
