@@ -30,7 +30,7 @@ FUNCTIONS = {
     "min": (sympy.Min, 2), "max": (sympy.Max, 2),
 }
 VECTOR_FUNCTIONS = {"dot": 2, "cross": 2, "norm": 1}
-# Rotations and rigid bodies (docs/language.md, "Vectors, matrices and rigid bodies"): name -> arity.
+# Matrices, rotations and rigid bodies (docs/language.md, "Rigid bodies"): name -> arity.
 MATRIX_FUNCTIONS = {"rotx": 1, "roty": 1, "rotz": 1, "diag": 3, "transpose": 1, "euler_zxz": 3,
                     "euler_zyx": 3, "omega_body": 1, "omega_zxz": 3, "omega_zyx": 3}
 SPECIAL_FORMS = {"der": 1, "sum": 2}
@@ -81,7 +81,7 @@ def kind_of(value) -> str:
 
 @dataclass(frozen=True)
 class Binding:
-    """What a name means: `value` is a scalar or Vector; `family` maps indices to values."""
+    """What a name means: `value` is a scalar, Vector or Matrix; `family` maps indices to values."""
 
     kind: str                       # parameter, coordinate, let, output, loop, time, constant, constraint
     span: Span | None
