@@ -123,7 +123,7 @@ def test_the_standalone_program_stops_and_says_where(tmp_path):
         source = tmp_path / f"{integrator}.c"
         source.write_text(model.emit("c", "flight", lagdsl.scene.Overrides(
             integrator=integrator, options=tuple((k, float(v)) for k, v in INTEGRATORS[integrator].items()))).text)
-        for precision in ([], ["-DLAG_LONG_DOUBLE"]):
+        for precision in ([], ["-DLAG_LONG_DOUBLE"])[:2 if integrator == "rk4" else 1]:   # the driver's part once
             program = tmp_path / f"{integrator}{len(precision)}"
             built = subprocess.run([cc, *STRICT_FLAGS, *precision, str(source), "-o", str(program), "-lm"],
                                    capture_output=True, text=True)
