@@ -301,3 +301,26 @@ def test_one_member_is_set_from_the_command_line(tmp_path):
     header, *rows = run.stdout.splitlines()
     assert header == 't,x[2],m[2]*x[2]'
     assert float(rows[-1].split(",")[1]) == pytest.approx(np.cos(2), abs=1e-9)
+
+
+def test_a_chain_started_in_a_mode_shape_stays_in_that_mode(tmp_path):
+    """n masses between fixed walls: started in mode j, q[i](t) = a sin(pi i j/(n+1)) cos(w t),
+    w = 2 sqrt(k/m) sin(pi j/(2(n+1)))."""
+    path = tmp_path / "chain.lag"
+    path.write_text("""model Chain
+      parameter n = 5;
+      parameter j = 2;
+      parameter k = 4 [N/m];
+      parameter m[n] = 1 [kg];
+      coordinate q[n](start = {0.1*sin(pi*i*j/(n + 1)), i in 1:n}) [m];
+      T = sum(m[i]/2*der(q[i])^2, i in 1:n);
+      U = k/2*(q[1]^2 + sum((q[i] - q[i - 1])^2, i in 2:n) + q[n]^2);
+      scene mode
+        time(stop = 3, interval = 0.5);
+        integrator dop853(rtol = 1e-12, atol = 1e-14);
+      end mode;
+    end Chain;""")
+    result = lagdsl.load(path).simulate("mode")
+    w = 2 * np.sqrt(4) * np.sin(np.pi * 2 / 12)
+    for i in range(1, 6):
+        assert np.allclose(result[f"q[{i}]"], 0.1 * np.sin(np.pi * i * 2 / 6) * np.cos(w * result.t), atol=1e-10)
