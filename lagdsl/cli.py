@@ -97,6 +97,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--max-step", type=float, help="largest step (dopri5, dop853, radau5)")
     run.add_argument("--max-steps", type=int, help="step limit, accepted + rejected "
                      "(default: 100000, or 100 per output row if that is more)")
+    run.add_argument("--units", action="store_true", help="name each column's unit in the CSV header: 'x [m]'")
     run.add_argument("-o", "--output", help="write the CSV here instead of standard output")
     run.set_defaults(handler=_run)
 
@@ -137,23 +138,24 @@ def _run(arguments) -> int:
         check_writable(arguments.output)      # refuse before the run, not after it
     overrides = _overrides(arguments)
     progress = ProgressLine(sys.stderr)
+    units = model.column_units(arguments.scene) if arguments.units else None
     try:
         result = model.simulate_plan(arguments.scene, arguments.backend, overrides, progress.show)
     except SimulationInterrupted as stopped:
         progress.clear()
-        _deliver(stopped.partial.csv(), arguments.output)
+        _deliver(stopped.partial.csv(units), arguments.output)
         print(stopped.partial.summary.render(), file=sys.stderr)
         print(f"lagc: {stopped.render()}, after {len(stopped.partial.t)} rows", file=sys.stderr)
         return INTERRUPTED_EXIT
     except SimulationError as error:
         progress.clear()
         if error.partial is not None:
-            _deliver(error.partial.csv(), arguments.output)
+            _deliver(error.partial.csv(units), arguments.output)
             print(error.partial.summary.render(), file=sys.stderr)
             print(_incomplete(error.partial, error.time, arguments.output), file=sys.stderr)
         raise
     progress.clear()
-    _deliver(result.csv(), arguments.output)
+    _deliver(result.csv(units), arguments.output)
     print(result.summary.render(), file=sys.stderr)
     return 0
 
@@ -211,6 +213,8 @@ def _deliver(text: str, output: str | None) -> None:
 
 def _check(arguments) -> int:
     model = load(arguments.model)
+    for note in model.ir.units.notes if model.ir.units else ():
+        print(note.render(), file=sys.stderr)
     print(describe_model(model.ir, model.equations))
     return 0
 
