@@ -573,10 +573,12 @@ def _constant(node) -> Fraction | None:
     if node.data in ("neg", "pos", "parenthesized"):
         inner = _constant(node.children[1])
         return None if inner is None else (-inner if node.data == "neg" else inner)
-    if node.data in ("add", "sub", "mul", "div"):
+    if node.data in ("add", "sub", "mul", "div", "pow"):
         left, right = _constant(node.children[0]), _constant(node.children[2])
         if left is None or right is None or (node.data == "div" and right == 0):
             return None
+        if node.data == "pow":          # (2^2): a small whole power of a number is still a number
+            return left ** right if right.denominator == 1 and abs(right) <= 64 and left else None
         return {"add": left + right, "sub": left - right, "mul": left * right,
                 "div": left / right if right else None}[node.data]
     return None
