@@ -41,6 +41,13 @@ class Model:
     def plan(self, scene: str | None = None, overrides: Overrides = Overrides()) -> ScenePlan:
         return plan(self.ir, self.equations, scene, overrides)
 
+    def column_units(self, scene: str | None = None) -> tuple[str, ...]:
+        """The unit of each column of a scene ("?" where the model does not say)."""
+        columns = self.plan(scene).columns
+        if self.ir.units is None:
+            return ("?",) * len(columns)
+        return self.ir.units.column_units(self.plan(scene).scene_name, columns)
+
     def emit(self, backend: str = "c", scene: str | None = None, overrides: Overrides = Overrides()) -> GeneratedSource:
         """The standalone generated source of a scene (C99 or a NumPy module)."""
         _check_backend(backend)

@@ -101,6 +101,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--max-step", type=float, help="largest step (dopri5, dop853, radau5)")
     run.add_argument("--max-steps", type=int, help="step limit, accepted + rejected "
                      "(default: 100000, or 100 per output row if that is more)")
+    run.add_argument("--units", action="store_true", help="name each column's unit in the CSV header: 'x [m]'")
     run.add_argument("-o", "--output", help="write the CSV here instead of standard output")
     run.add_argument("--no-cache", action="store_true",
                      help="build in a private temporary directory; use nothing from the build cache")
@@ -153,12 +154,14 @@ def _simulate(arguments) -> int:
     """`lagc run` in the cache in use: warm from a stored plan if it serves, else the full pipeline."""
     from .run import plans      # numpy and the runner: only `lagc run` needs them
     source = SourceFile.read(arguments.model)
-    stored = plans.find(source, arguments.scene, arguments.backend, arguments.integrator)
+    # --units names the columns' units, which only the model knows: the full pipeline
+    stored = None if arguments.units else plans.find(source, arguments.scene, arguments.backend, arguments.integrator)
     model = None if stored else _model(source)      # the model's errors first, as always
     if arguments.output:
         check_writable(arguments.output)      # refuse before the run, not after it
     overrides = _overrides(arguments)
     progress = ProgressLine(sys.stderr)
+    units = model.column_units(arguments.scene) if arguments.units else None
     try:
         plan = stored.resolve(overrides) if stored else None
         result = stored.run(plan, progress.show) if plan else None
@@ -167,19 +170,19 @@ def _simulate(arguments) -> int:
             result = model.simulate_plan(arguments.scene, arguments.backend, overrides, progress.show)
     except SimulationInterrupted as stopped:
         progress.clear()
-        _deliver(stopped.partial.csv(), arguments.output)
+        _deliver(stopped.partial.csv(units), arguments.output)
         print(stopped.partial.summary.render(), file=sys.stderr)
         print(f"lagc: {stopped.render()}, after {len(stopped.partial.t)} rows", file=sys.stderr)
         return INTERRUPTED_EXIT
     except SimulationError as error:
         progress.clear()
         if error.partial is not None:
-            _deliver(error.partial.csv(), arguments.output)
+            _deliver(error.partial.csv(units), arguments.output)
             print(error.partial.summary.render(), file=sys.stderr)
             print(_incomplete(error.partial, error.time, arguments.output), file=sys.stderr)
         raise
     progress.clear()
-    _deliver(result.csv(), arguments.output)
+    _deliver(result.csv(units), arguments.output)
     print(result.summary.render(), file=sys.stderr)
     return 0
 
@@ -245,6 +248,8 @@ def _deliver(text: str, output: str | None) -> None:
 def _check(arguments) -> int:
     from .present import describe_model
     model = _model(SourceFile.read(arguments.model))
+    for note in model.ir.units.notes if model.ir.units else ():
+        print(note.render(), file=sys.stderr)
     print(describe_model(model.ir, model.equations))
     return 0
 

@@ -30,13 +30,14 @@ class Setting:
 class Diagnostic:
     message: str
     span: Span | Setting | None
+    severity: str = "error"         # or "note": something worth knowing, not a mistake
 
     def render(self) -> str:
         """The diagnostic for the terminal: control characters of the file's name, the message
         and the source line are shown as escapes (`\\x1b`), the caret under them."""
         message = "\n".join(visible(line) for line in self.message.split("\n"))
         if self.span is None:
-            return f"error: {message}"
+            return f"{self.severity}: {message}"
         if isinstance(self.span, Setting):
             return f"lagc: error: {self.span.option}: {message}"
         span = self.span
@@ -46,7 +47,7 @@ class Diagnostic:
         marked = visible(line[span.column - 1:span.column - 1 + width])
         indent = "".join(c if c == "\t" else " " for c in visible(before))   # tabs stay aligned
         caret = indent + " " * (span.column - 1 - len(before)) + "^" + "~" * (len(marked) - 1)
-        return (f"{visible(span.source.name)}:{span.line}:{span.column}: error: {message}\n"
+        return (f"{visible(span.source.name)}:{span.line}:{span.column}: {self.severity}: {message}\n"
                 f"{visible(line)}\n{caret}")
 
 

@@ -176,6 +176,29 @@ class Scene:
 
 
 @dataclass(frozen=True)
+class UnitReport:
+    """What the dimensional analysis found (dimensions.py): the unit each quantity is computed in.
+
+    `quantities` are (name, unit, inferred) of parameters, coordinates and outputs; `columns` are
+    (scene, column, unit) of the scenes' output lists. A unit is SI ("kg*m/s^2", "N", "rad"), or
+    the unit an output declares (its column is written in it); "?" where none could be inferred.
+    `notes` are Diagnostics (severity "note") about what could not be checked.
+    """
+
+    quantities: tuple[tuple[str, str, bool], ...]
+    columns: tuple[tuple[str, str, str], ...]
+    notes: tuple = ()
+
+    def unit_of(self, name: str) -> str:
+        return next((unit for quantity, unit, _ in self.quantities if quantity == name), "?")
+
+    def column_units(self, scene: str, columns) -> tuple[str, ...]:
+        """The units of a scene's columns: its output list's, or the coordinates' (the default)."""
+        listed = {column: unit for owner, column, unit in self.columns if owner == scene}
+        return tuple(listed.get(column) or self.unit_of(column) for column in columns)
+
+
+@dataclass(frozen=True)
 class Model:
     name: str
     description: str | None
@@ -190,3 +213,4 @@ class Model:
     scenes: tuple[Scene, ...]
     span: Span
     source_name: str = field(default="")
+    units: UnitReport | None = None     # None: the model has no units, nothing was checked

@@ -37,12 +37,12 @@ def describe_model(model: ir.Model, equations: Equations) -> str:
     title = f'model {model.name}' + (f' "{model.description}"' if model.description else "")
     lines = [f"{title}  ({model.source_name})", f"degrees of freedom: {degrees_of_freedom(equations)}"]
     for c in model.coordinates:
-        unit = f" [{c.unit.text}]" if c.unit else ""
-        lines.append(f"  {c.name}{unit}" + (f"  {c.description}" if c.description else ""))
+        lines.append(f"  {c.name}{shown_unit(model, c.name)}" + (f"  {c.description}" if c.description else ""))
     if model.parameters:
         lines.append("parameters: " + ", ".join(
-            f"{p.name} = {format_number(p.value)}" + (f" [{p.unit.text}]" if p.unit else "")
-            for p in model.parameters))
+            f"{p.name} = {format_number(p.value)}{shown_unit(model, p.name)}" for p in model.parameters))
+    if model.outputs:
+        lines.append("outputs: " + ", ".join(f"{o.name}{shown_unit(model, o.name)}" for o in model.outputs))
     lines.append("energy: " + ("T and U (natural system)" if model.lagrangian.is_natural else "general Lagrangian L"))
     if model.forces or model.dissipation:
         pushed = [f.coordinate for f in model.forces]
@@ -66,6 +66,17 @@ def describe_model(model: ir.Model, equations: Equations) -> str:
                      f"outputs: {', '.join(o.column for o in s.outputs) or 'the coordinates'}"
                      + (f"; stop when {s.stop.text}" if s.stop else ""))
     return "\n".join(visible(line) for line in lines)      # descriptions and units are free text
+
+
+def shown_unit(model: ir.Model, name: str) -> str:
+    """` [kg*m/s^2]`: the unit a quantity is computed in (SI; an output's own), `, inferred` when
+    the dimensional analysis found it, `[?]` when it could not; without units, the unit as written."""
+    if model.units is None:
+        unit = next((q.unit for q in (*model.parameters, *model.coordinates, *model.outputs)
+                     if q.name == name), None)
+        return f" [{unit.text}]" if unit else ""
+    unit, inferred = next((u, i) for q, u, i in model.units.quantities if q == name)
+    return f" [{unit}{', inferred' if inferred and unit != '?' else ''}]"
 
 
 def degrees_of_freedom(equations: Equations) -> str:

@@ -17,7 +17,7 @@ from .errors import ErrorCollector, InternalError, LagError
 from .expressions import KIND_WORDS, MAX_MEMBERS, Binding, ExpressionBuilder, Matrix, Scope, Vector, suggest
 from .settings import DEFAULT_INTEGRATOR, DEFAULT_TIME, INTEGRATOR_OPTIONS, validate_integrator
 from .source import SourceFile, Span
-from .units import parse_unit
+from .units import in_si, parse_unit
 
 RESERVED = {"model", "end", "parameter", "coordinate", "let", "constraint", "force", "dissipation",
             "output", "scene", "time", "integrator", "set", "t", "T", "U", "L", "der", "pi", "sum", "in"}
@@ -192,13 +192,15 @@ class _ModelBuilder:
         stray = value.free_symbols - set(self.expr.exact_parameters)
         if stray:
             raise LagError("a parameter's value may only use numbers and earlier parameters", self.span(value_node))
+        unit = self.unit(node)
+        value = in_si(value, unit)
         exact = value.xreplace(self.expr.exact_parameters)
         number = complex(exact.evalf(20))
         if number.imag != 0 or not abs(number.real) < float("inf"):
             raise LagError("the parameter's value is not a finite real number", self.span(value_node))
         symbol = sympy.Symbol(name, real=True)
         self.expr.exact_parameters[symbol] = exact
-        self.parameters.append(ir.Parameter(name, symbol, value, number.real, self.unit(node),
+        self.parameters.append(ir.Parameter(name, symbol, value, number.real, unit,
                                             self.description(node), self.span(token)))
         return symbol
 
@@ -230,9 +232,10 @@ class _ModelBuilder:
                            f"value for all, or a list of {size}", self.span(node))
         return [(item, self.scope) for item in items]
 
-    def parameter_value(self, node, what: str, scope: Scope | None = None) -> float:
-        """A number in a scene or modifier: parameters allowed, evaluated at their defaults."""
-        value = self.expr.scalar(node, scope or self.scope, what)
+    def parameter_value(self, node, what: str, scope: Scope | None = None, unit: ir.Unit | None = None) -> float:
+        """A number in a scene or modifier: parameters allowed, evaluated at their defaults (in SI;
+        a plain number is in `unit`)."""
+        value = in_si(self.expr.scalar(node, scope or self.scope, what), unit)
         if value.free_symbols - set(self.expr.exact_parameters):
             raise LagError(f"{what} may only use numbers and parameters", self.span(node))
         result = complex(value.xreplace(self.expr.exact_parameters).evalf(20))
@@ -257,8 +260,8 @@ class _ModelBuilder:
         modifiers = self.modifiers(node, ("start", "velocity"), f"coordinate '{name}'")
         unit, description = self.unit(node), self.description(node)
         if dimension is None:
-            start = self.initial_values(modifiers.get("start"), None)
-            velocity = self.initial_values(modifiers.get("velocity"), None)
+            start = in_si(self.initial_values(modifiers.get("start"), None), unit)
+            velocity = in_si(self.initial_values(modifiers.get("velocity"), None), unit)
             coordinate = self.new_coordinate(name, start, velocity, unit, description, self.span(token))
             self.declare(token, Binding("coordinate", self.span(token), coordinate.symbol))
             return
@@ -268,8 +271,8 @@ class _ModelBuilder:
                                          "velocity")
         family = {}
         for i in range(1, size + 1):
-            member = self.new_coordinate(f"{name}[{i}]", starts[i - 1], velocities[i - 1], unit,
-                                         description, self.span(token))
+            member = self.new_coordinate(f"{name}[{i}]", in_si(starts[i - 1], unit),
+                                         in_si(velocities[i - 1], unit), unit, description, self.span(token))
             family[i] = member.symbol
         self.declare(token, Binding("coordinate", self.span(token), family=family))
 
@@ -568,7 +571,8 @@ class _ModelBuilder:
             if parameter.symbol in self.expr.structural:
                 raise LagError(f"'{name}' fixes the size of the model and cannot be changed by a scene",
                                self.span(token))
-            return ir.ParameterOverride(name, self.parameter_value(parts[-1], "the value"), self.span(node))
+            return ir.ParameterOverride(name, self.parameter_value(parts[-1], "the value", unit=parameter.unit),
+                                        self.span(node))
         if binding is not None and binding.kind == "parameter":
             raise LagError(f"'{token}' is a parameter; set it with set {token} = ...", self.span(token))
         if binding is None or binding.kind != "coordinate":
@@ -577,7 +581,8 @@ class _ModelBuilder:
         name = self.coordinate_member(token, binding, parts[0] if parts else None,
                                       f"set {token}[i](start = ...)")
         options = self.modifiers(node, ("start", "velocity"), f"set {name}")
-        values = {k: self.parameter_value(v, f"the {k} value") for k, v in options.items()}
+        unit = next(c.unit for c in self.coordinates if c.name == name)
+        values = {k: self.parameter_value(v, f"the {k} value", unit=unit) for k, v in options.items()}
         return ir.InitialOverride(name, values.get("start"), values.get("velocity"), self.span(node))
 
     def output_request(self, node) -> ir.OutputRequest:

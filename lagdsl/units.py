@@ -1,17 +1,136 @@
-"""Unit annotations: `[kg]`, `[m/s^2]`, `[kg*m^2/s]`, `[1]`.
+"""Unit annotations, `[kg]`, `[m/s^2]`, `[kg*m^2/s]`, `[mJ]`, `[1]`, and the dimensions they carry.
 
-Units are parsed now and kept on the IR (parameters, coordinates, outputs) so that
-dimensional analysis can be added without touching the grammar. A unit is a product of
-named base units with rational exponents; the names are not yet checked against a table.
+A unit is a product of named units with rational exponents. The names are looked up in pint's
+unit registry (SI base and derived units, prefixes, `deg`, `rpm`, ...): it gives each name its
+dimension (a product of powers of mass, length, time, current, temperature, substance and
+luminosity) and its factor to SI (`cm` is 0.01 m). Radians are dimensionless; `is_angle` keeps
+them apart for display. The dimensional analysis of expressions is in `dimensions.py`.
 """
 from __future__ import annotations
 
+import functools
 import re
+from dataclasses import dataclass
 from fractions import Fraction
+
+import sympy
 
 from .errors import LagError
 from .ir import Unit
 from .source import Span
+
+BASE_DIMENSIONS = ("mass", "length", "time", "current", "temperature", "substance", "luminosity")
+SI_SYMBOLS = {"mass": "kg", "length": "m", "time": "s", "current": "A", "temperature": "K",
+              "substance": "mol", "luminosity": "cd"}
+NAMED_SI_UNITS = ("N", "J", "W")        # shown instead of their base units: a force, an energy, a power
+
+
+@dataclass(frozen=True)
+class Dimension:
+    """A product of powers of the base dimensions: {mass: 1, length: 2, time: -2} is an energy."""
+
+    exponents: tuple[tuple[str, Fraction], ...] = ()
+
+    @staticmethod
+    def of(**exponents) -> "Dimension":
+        return Dimension(tuple(sorted((k, Fraction(v)) for k, v in exponents.items() if v != 0)))
+
+    def __mul__(self, other: "Dimension") -> "Dimension":
+        merged = dict(self.exponents)
+        for name, power in other.exponents:
+            merged[name] = merged.get(name, Fraction(0)) + power
+        return Dimension.of(**merged)
+
+    def __pow__(self, power) -> "Dimension":
+        return Dimension.of(**{name: p * Fraction(power) for name, p in self.exponents})
+
+    def __truediv__(self, other: "Dimension") -> "Dimension":
+        return self * other ** -1
+
+    @property
+    def dimensionless(self) -> bool:
+        return not self.exponents
+
+    def words(self) -> str:
+        """mass*length^2/time^2, in base dimensions ("1" when dimensionless)."""
+        return _product(self.exponents, {name: name for name in BASE_DIMENSIONS})
+
+    def si(self) -> str:
+        """The SI unit of this dimension, `kg*m/s^2` or a named one (`N`, `J`, `W`); `1` if none."""
+        for name in NAMED_SI_UNITS:
+            if unit_dimension(name) == self:
+                return name
+        return _product(self.exponents, SI_SYMBOLS)
+
+
+def _product(exponents, names: dict[str, str]) -> str:
+    order = {name: i for i, name in enumerate(BASE_DIMENSIONS)}
+    ordered = sorted(exponents, key=lambda item: order.get(item[0], len(order)))
+    upper = "*".join(_power(names.get(n, n), p) for n, p in ordered if p > 0)
+    lower = [_power(names.get(n, n), -p) for n, p in ordered if p < 0]
+    text = upper or "1"
+    if lower:
+        text += "/" + (lower[0] if len(lower) == 1 else "(" + "*".join(lower) + ")")
+    return text
+
+
+def _power(name: str, power: Fraction) -> str:
+    if power == 1:
+        return name
+    return f"{name}^{power}" if power.denominator == 1 else f"{name}^({power})"
+
+
+@functools.cache
+def _registry():
+    import pint            # loaded when a model has units: it takes a moment
+    return pint.UnitRegistry()
+
+
+@functools.cache
+def _named_unit(name: str) -> tuple[Dimension, Fraction, bool] | None:
+    """(dimension, factor to SI, is an angle) of a unit name such as `cm`, None if unknown.
+
+    Raises ValueError for a unit with an offset (`degC`): it has no factor to SI."""
+    registry = _registry()
+    if not registry.parse_unit_name(name):
+        return None
+    if registry.Quantity(0, name).to_base_units().magnitude != 0:
+        raise ValueError(name)
+    dimension = Dimension.of(**{k.strip("[]"): v for k, v in registry.Unit(name).dimensionality.items()})
+    factor = Fraction(f"{registry.Quantity(1, name).to_base_units().magnitude:.16g}")
+    angle = "radian" in str(registry.Quantity(1, name).to_root_units().units)
+    return dimension, factor, angle
+
+
+def unit_dimension(text: str) -> Dimension:
+    """The dimension of one unit name known to the registry."""
+    return _named_unit(text)[0]
+
+
+def dimension(unit: Unit) -> Dimension:
+    result = Dimension()
+    for name, power in unit.factors:
+        result = result * _named_unit(name)[0] ** power
+    return result
+
+
+def si_factor(unit: Unit) -> sympy.Expr:
+    """What a number in `unit` is multiplied by to be in SI: 0.01 for `[cm]`, exactly."""
+    factor = sympy.S.One
+    for name, power in unit.factors:
+        factor *= sympy.Rational(_named_unit(name)[1]) ** sympy.Rational(power)
+    return factor
+
+
+def in_si(value: sympy.Expr, unit: Unit | None) -> sympy.Expr:
+    """A value given with a unit, in SI: a number is in the unit (`40 [cm]` is 2/5), an expression
+    of parameters is computed in SI already (its dimension is checked against the unit)."""
+    return value * si_factor(unit) if unit is not None and not value.free_symbols else value
+
+
+def is_angle(unit: Unit) -> bool:
+    """`[rad]`, `[deg]`: dimensionless, but an angle (shown as rad)."""
+    return dimension(unit).dimensionless and any(_named_unit(name)[2] for name, _ in unit.factors)
 
 _TOKEN = re.compile(r"\s*(?:(?P<name>[A-Za-z_][A-Za-z_0-9]*)|(?P<number>\d+(?:\.\d+)?)|(?P<op>\*\*|[*/^()\-+.]))")
 
@@ -57,6 +176,17 @@ class _UnitParser:
     def fail(self, message: str):
         offset = self.tokens[self.position][2] if self.position < len(self.tokens) else len(self.span.text) - 2
         raise LagError(message, _inner(self.span, offset))
+
+    def require_known(self, name: str) -> None:
+        self.position -= 1
+        try:
+            known = _named_unit(name) is not None
+        except ValueError:
+            self.fail(f"'{name}' is a unit with an offset; write the temperature in K")
+        if not known:
+            self.fail(f"unknown unit '{name}' (units are SI base and derived units with prefixes: "
+                      "kg, g, m, cm, s, N, J, mJ, rad, deg, ...)")
+        self.position += 1
 
     def peek(self) -> str | None:
         return self.tokens[self.position][1] if self.position < len(self.tokens) else None
@@ -112,6 +242,7 @@ class _UnitParser:
     def atom(self) -> dict[str, Fraction]:
         kind, text, _ = self.take()
         if kind == "name":
+            self.require_known(text)
             return {text: Fraction(1)}
         if kind == "number" and Fraction(text) == 1:
             return {}

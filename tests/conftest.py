@@ -1,12 +1,19 @@
 """Shared fixtures and helpers: model paths, loading, the --update-golden option."""
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "models"
+
+
+def without_units(text: str) -> str:
+    """A model's text with its unit annotations removed: a model without units is not checked
+    dimensionally (for tests that change a model in ways its units would not allow)."""
+    return re.sub(r"(?<=[ \t])\[[^\]\n]*\]", "", text)
 
 
 def pytest_addoption(parser):

@@ -312,7 +312,8 @@ def test_a_chain_started_in_a_mode_shape_stays_in_that_mode(tmp_path):
       parameter j = 2;
       parameter k = 4 [N/m];
       parameter m[n] = 1 [kg];
-      coordinate q[n](start = {0.1*sin(pi*i*j/(n + 1)), i in 1:n}) [m];
+      parameter a = 0.1 [m]         "amplitude";
+      coordinate q[n](start = {a*sin(pi*i*j/(n + 1)), i in 1:n}) [m];
       T = sum(m[i]/2*der(q[i])^2, i in 1:n);
       U = k/2*(q[1]^2 + sum((q[i] - q[i - 1])^2, i in 2:n) + q[n]^2);
       scene mode

@@ -8,8 +8,8 @@ from lagdsl.cli import main as lagc
 
 HIDDEN = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u202a-\u202e\u2066-\u2069]")   # all but tab and newline
 MODEL = """model Spring "\x1b[2Jcleared\u202e"
-  parameter k = 1.0 [N/m] "\x07stiff";
-  coordinate x(start = 1) [m] "\x1b]0;title\x07";
+  parameter k = 1.0 [1/s^2] "\x07stiff";
+  coordinate x(start = 1) [kg^(1/2)*m] "\x1b]0;title\x07";
   T = der(x)^2/2;
   U = k*x^2/2;
   scene s "\x9b31m"

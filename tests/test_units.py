@@ -1,13 +1,22 @@
-"""The unit annotation parser: base factors of well-formed units, located errors otherwise."""
+"""Units: the annotation parser (located errors), the dimensions and SI factors of unit names,
+the dimensional analysis of models, values converted to SI, units in `lagc check` and the CSV."""
 from __future__ import annotations
 
+import math
+import subprocess
+import sys
 from fractions import Fraction
 
 import pytest
 
+from lagdsl.api import Model
+from lagdsl.dimensions import Form, Solver
 from lagdsl.errors import LagError
+from lagdsl.pipeline import load_model, model_from_source
+from lagdsl.scene import Overrides
 from lagdsl.source import SourceFile, Span
-from lagdsl.units import parse_unit
+from lagdsl.units import Dimension, dimension, parse_unit
+from tests.conftest import MODELS
 
 
 def unit_span(unit: str) -> Span:
@@ -52,3 +61,162 @@ def test_malformed_units_give_located_errors(unit, column, message):
     assert diagnostic.message == message
     assert (diagnostic.span.line, diagnostic.span.column) == (1, column)
     assert "^" in diagnostic.render().splitlines()[-1]
+
+
+# -- dimensional analysis and SI values (dimensions.py) ----------------------------------------
+
+PENDULUM = """model Pendulum
+  parameter m = {m};
+  parameter l = {l};
+  parameter g = 9.81 [m/s^2];
+  parameter b = {b};
+  coordinate theta(start = {start}, velocity = {velocity}) [{angle}];
+  T = m*l^2/2*der(theta)^2;
+  U = -m*g*l*cos(theta);
+  dissipation = b/2*der(theta)^2;
+  output x = l*sin(theta) [{x}];
+  scene swing
+    time(stop = 1, interval = 0.25);
+    integrator dop853(rtol = 1e-12, atol = 1e-14);
+    output theta, x, energy;
+  end swing;
+end Pendulum;
+"""
+PENDULUM_SI = PENDULUM.format(m="0.5 [kg]", l="0.4 [m]", b="0.002 [N*m*s]", start=0.5235987755982988,
+                              velocity=0.1, angle="rad", x="m")
+# The same pendulum in grams, centimetres, degrees and millinewtons: it runs in SI inside.
+PENDULUM_PREFIXED = PENDULUM.format(m="500 [g]", l="40 [cm]", b="2 [mN*m*s]", start=30, velocity="0.1/pi*180",
+                                    angle="deg", x="cm")
+
+
+def loaded(text: str, name: str = "units.lag"):
+    return Model(SourceFile(name, text))
+
+
+def test_prefixed_and_derived_units_are_converted_to_si():
+    model = loaded(PENDULUM_PREFIXED).ir
+    values = {p.name: p.value for p in model.parameters}
+    assert values == pytest.approx({"m": 0.5, "l": 0.4, "g": 9.81, "b": 0.002}, rel=1e-15)
+    theta, = model.coordinates
+    assert float(theta.start) == pytest.approx(math.pi / 6, rel=1e-15)
+    assert float(theta.velocity) == pytest.approx(0.1, rel=1e-15)
+    assert model.units.unit_of("b") == "kg*m^2/s" and model.units.unit_of("theta") == "rad"
+
+
+def test_prefixed_units_run_with_si_values_and_outputs_in_their_own_unit():
+    si = loaded(PENDULUM_SI).simulate(backend="numpy")
+    prefixed = loaded(PENDULUM_PREFIXED).simulate(backend="numpy")
+    assert prefixed["theta"] == pytest.approx(si["theta"], rel=1e-10)
+    assert prefixed["energy"] == pytest.approx(si["energy"], rel=1e-10)
+    assert prefixed["x"] == pytest.approx(100 * si["x"], rel=1e-10)        # declared in cm
+
+
+def test_scene_values_are_in_the_declared_unit_and_command_line_values_in_si():
+    text = PENDULUM_PREFIXED.replace("    output theta, x, energy;", "    set l = 30;\n    set theta(start = 60);\n"
+                                     "    output theta, x, energy;")
+    model = loaded(text)
+    plan = model.plan("swing")
+    assert plan.parameters[1] == pytest.approx(0.3, rel=1e-15)
+    assert plan.initial_state[0] == pytest.approx(math.pi / 3, rel=1e-15)
+    overridden = model.plan("swing", Overrides(values=(("l", 0.25),)))
+    assert overridden.parameters[1] == 0.25
+
+
+def test_a_model_without_units_passes_silently(tmp_path):
+    path = tmp_path / "plain.lag"
+    path.write_text("model Plain\n  parameter k = 4;\n  coordinate x(start = 1);\n"
+                    "  T = der(x)^2/2;\n  U = k/2*x^2 + 1 + cos(x*k);\nend Plain;\n")
+    done = subprocess.run([sys.executable, "-m", "lagdsl", "check", str(path)], capture_output=True, text=True)
+    assert done.returncode == 0 and done.stderr == ""
+    assert "[" not in done.stdout.split("parameters:")[1].splitlines()[0]
+    assert load_model(path).units is None
+
+
+def test_quantities_without_units_are_inferred_or_noted():
+    model = model_from_source(SourceFile("units.lag", """model Spring
+  parameter m = 2 [kg];
+  parameter k = 4;
+  parameter c = 1;
+  parameter n = 3;
+  parameter w = 1;
+  coordinate x(start = 0.1) [m];
+  coordinate y;
+  T = m/2*der(x)^2 + w/2*der(y)^2;
+  U = k/2*x^2 + c*x;
+  force x = sum(k*x/n, i in 1:n);
+end Spring;
+"""))
+    units = {name: (unit, inferred) for name, unit, inferred in model.units.quantities}
+    assert units["k"] == ("kg/s^2", True) and units["c"] == ("N", True) and units["n"] == ("1", True)
+    assert units["m"] == ("kg", False) and units["y"] == units["w"] == ("?", True)
+    assert [(n.span.line, n.span.column) for n in model.units.notes] == [(6, 13), (8, 14)]
+    note = model.units.notes[1]
+    assert note.message == "the unit of 'y' could not be inferred, so what uses it was not checked; give it a unit"
+    assert note.render().startswith("units.lag:8:14: note: ")
+
+
+def test_inferred_dimensions_are_checked_where_they_are_used():
+    with pytest.raises(LagError) as raised:
+        model_from_source(SourceFile("units.lag", """model Spring
+  parameter m = 2 [kg];
+  parameter k = 4;
+  coordinate x(start = 0.1) [m];
+  T = m/2*der(x)^2;
+  U = k/2*x^2;
+  output wrong = k*x + m;
+end Spring;
+"""))
+    diagnostic, = raised.value.diagnostics
+    assert (diagnostic.span.line, diagnostic.span.column) == (7, 24)
+    assert diagnostic.message == "'m' has dimension mass but 'k*x' has mass*length/time^2"
+
+
+def test_every_library_model_carries_units_and_passes_the_check():
+    for path in sorted(MODELS.glob("*.lag")):
+        model = load_model(path)
+        assert model.units is not None, path.name
+        assert not model.units.notes, (path.name, [n.message for n in model.units.notes])
+        assert "?" not in {unit for _, unit, _ in model.units.quantities}, path.name
+
+
+def test_run_units_names_the_units_in_the_csv_header(tmp_path):
+    path = tmp_path / "pendulum.lag"
+    path.write_text(PENDULUM_PREFIXED)
+    command = [sys.executable, "-m", "lagdsl", "run", str(path), "--backend", "numpy"]
+    with_units = subprocess.run([*command, "--units"], capture_output=True, text=True)
+    assert with_units.stdout.splitlines()[0] == "t [s],theta [rad],x [cm],energy [J]"
+    plain = subprocess.run(command, capture_output=True, text=True)
+    assert plain.stdout.splitlines()[0] == "t,theta,x,energy"
+    assert with_units.stdout.splitlines()[1:] == plain.stdout.splitlines()[1:]
+
+
+def test_check_shows_each_quantity_with_its_unit(tmp_path):
+    path = tmp_path / "pendulum.lag"
+    path.write_text(PENDULUM_PREFIXED)
+    done = subprocess.run([sys.executable, "-m", "lagdsl", "check", str(path)], capture_output=True, text=True)
+    assert "  theta [rad]" in done.stdout
+    assert "parameters: m = 0.5 [kg], l = 0.4 [m], g = 9.81 [m/s^2], b = 0.002 [kg*m^2/s]" in done.stdout
+    assert "outputs: x [cm]" in done.stdout
+
+
+@pytest.mark.parametrize("unit, words, si", [
+    ("[mJ]", "mass*length^2/time^2", "J"),
+    ("[kN]", "mass*length/time^2", "N"),
+    ("[m^(1/2)/s]", "length^(1/2)/time", "m^(1/2)/s"),
+    ("[kg/(m*s^2)]", "mass/(length*time^2)", "kg/(m*s^2)"),
+    ("[rpm]", "1/time", "1/s"),
+    ("[deg]", "1", "1"),
+])
+def test_unit_dimensions_in_words_and_si(unit, words, si):
+    parsed = dimension(parse_unit(unit_span(unit)))
+    assert (parsed.words(), parsed.si()) == (words, si)
+
+
+def test_the_solver_infers_unknowns_and_refuses_contradictions():
+    solver = Solver()
+    length, time = Form(Dimension.of(length=1)), Form(Dimension.of(time=1))
+    assert solver.equate(Form.unknown("a") * Form.unknown("b"), length * length)   # a*b = m^2
+    assert solver.equate(Form.unknown("a") / Form.unknown("b"), Form())             # a = b
+    assert solver.resolve(Form.unknown("a")) == length
+    assert not solver.equate(Form.unknown("b"), time)
+    assert solver.equate(Form(wild=True), time)

@@ -123,15 +123,20 @@ class Result:
         except ValueError:
             raise KeyError(f"no column '{column}' (columns: {', '.join(self.columns)})") from None
 
-    def csv(self) -> str:
+    def csv(self, units: tuple[str, ...] | None = None) -> str:
         """The header `t,<columns>` (RFC 4180 fields) and one row per output time.
+
+        With `units` (one per column, "?" where unknown), the header names them: `t [s],x [m]`.
 
         Numbers are written as C's printf("%.17g") writes a double, so that `lagc run`,
         `to_csv` and the standalone C program write the same bytes: 17 significant digits
         (they read back to the same double), no trailing zeros, `-0`, `inf`, `-inf`, `nan`.
         """
         buffer = io.StringIO()
-        buffer.write(",".join(csv_field(name) for name in ("t", *self.columns)) + "\n")
+        names = ("t", *self.columns)
+        if units is not None:
+            names = tuple(f"{name} [{unit}]" for name, unit in zip(names, ("s", *units)))
+        buffer.write(",".join(csv_field(name) for name in names) + "\n")
         for time, row in zip(self.t, self.values):
             buffer.write(",".join(format(float(x), ".17g") for x in (time, *row)) + "\n")
         return buffer.getvalue()

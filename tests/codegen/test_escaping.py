@@ -36,8 +36,8 @@ from lagdsl.source import SourceFile
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 
 MODEL = """model Spring {description}
-  parameter k = 1.0 [N/m] {description};
-  coordinate x(start = 1) [m] {description};
+  parameter k = 1.0 [1/s^2] {description};
+  coordinate x(start = 1) [kg^(1/2)*m] {description};
   T = der(x)^2/2;
   U = k*x^2/2;
   scene s {description}

@@ -84,7 +84,7 @@ class Features:
     def text(self) -> str:
         a, b, c = self.coordinates
         lines = ["model Generated",
-                 "  parameter m = 1.5 [kg];",
+                 "  parameter m = 1.5;",
                  "  parameter k = 2.0;",
                  "  parameter omega = 3.0;",
                  "  parameter I = m*k/2;" if self.derived_parameter else "  parameter I = 0.75;",
