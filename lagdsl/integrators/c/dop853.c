@@ -17,8 +17,8 @@
  * degree 7 in theta = (t - t_old)/h is kept in the nested form
  *     r1 + theta (r2 + theta1 (r3 + theta (r4 + theta1 (r5 + theta (r6 + theta1 (r7 + theta r8)))))),
  * theta1 = 1 - theta, which matches y and f at both ends of the step.
- * Step-size control (beta = 0, safety 0.9, facmin 1/3, facmax 6), the starting step and the
- * stiffness test (stability boundary 6.1): explicit_control.c, which must be pasted before
+ * Step-size control (exponent 1/8, safety 0.9, factor within [0.2, 10]), the starting step and
+ * the stiffness test (stability boundary 6.1): explicit_control.c, which must be pasted before
  * this file.
  */
 
@@ -394,11 +394,11 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
     for (i = 0; i < LAG_NY; ++i)
         s->dense[0][i] = y0[i];
     s->dense_built = 1;
-    lag_control_init(&s->control, opt, t0, t_end, (real)1 / 8, 0, (real)1 / 3, 6);
+    lag_control_init(&s->control, opt, t0, t_end, 8);
     lag_stiffness_start(&s->stiffness, LAG_LIT(6.1));
     if ((status = lag_control_rhs(sys, &s->stats, t0, s->y, s->k1)) != LAG_OK)
         return status;
-    s->h = lag_control_first_step(&s->control, opt, sys, &s->stats, t0, s->y, s->k1, 8);
+    s->h = lag_control_first_step(&s->control, opt, sys, &s->stats, t0, s->y, s->k1);
     return LAG_OK;
 }
 

@@ -8,9 +8,9 @@
  * form y_old + theta (r2 + (1-theta) (r3 + theta (r4 + (1-theta) r5))) which matches y and f at
  * both ends of the step.  r3..r5 are formed only for a step that the dense output is asked about
  * (a step that contains an output time), from the stages the step keeps until the next starts.
- * Step-size control (PI, beta = 0.04, safety 0.9, facmin 0.2, facmax 10), error norm,
- * starting step and the stiffness test (stability boundary 3.25): explicit_control.c, which
- * must be pasted before this file.
+ * Step-size control (exponent 1/5, safety 0.9, factor within [0.2, 10]), error norm, starting
+ * step and the stiffness test (stability boundary 3.25): explicit_control.c, which must be
+ * pasted before this file.
  */
 
 #define LAG_INTEGRATOR_NAME "dopri5"
@@ -34,9 +34,6 @@ static const real dp5_e1 = (real)71 / 57600, dp5_e3 = -(real)71 / 16695, dp5_e4 
 static const real dp5_d1 = -(real)12715105075 / 11282082432, dp5_d3 = (real)87487479700 / 32700410799,
                   dp5_d4 = -(real)10690763975 / 1880347072, dp5_d5 = (real)701980252875 / 199316789632,
                   dp5_d6 = -(real)1453857185 / 822651844, dp5_d7 = (real)69997945 / 29380423;
-
-/* The weight of the previous error in the PI step-size controller. */
-static const real dp5_beta = LAG_LIT(0.04);
 
 typedef struct lag_stepper {
     real t;            /* time reached by the last accepted step */
@@ -155,13 +152,11 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
     for (i = 0; i < LAG_NY; ++i)
         s->dense[0][i] = y0[i];
     s->dense_built = 1;
-    /* Hairer's DOPRI5: beta = 0.04 and alpha = 1/5 - 0.75 beta, facmin 0.2, facmax 10 */
-    lag_control_init(&s->control, opt, t0, t_end, (real)1 / 5 - LAG_LIT(0.75) * dp5_beta, dp5_beta,
-                     LAG_LIT(0.2), 10);
+    lag_control_init(&s->control, opt, t0, t_end, 5);
     lag_stiffness_start(&s->stiffness, LAG_LIT(3.25));
     if ((status = lag_control_rhs(sys, &s->stats, t0, s->y, s->k1)) != LAG_OK)
         return status;
-    s->h = lag_control_first_step(&s->control, opt, sys, &s->stats, t0, s->y, s->k1, 5);
+    s->h = lag_control_first_step(&s->control, opt, sys, &s->stats, t0, s->y, s->k1);
     return LAG_OK;
 }
 
