@@ -132,3 +132,12 @@ def test_two_processes_building_the_same_model_both_succeed(cache_dir, tmp_path)
     outputs = [run.communicate() for run in runs]
     assert [run.returncode for run in runs] == [0, 0], outputs
     assert outputs[0][0] == outputs[1][0] and outputs[0][0].startswith("t,x\n")
+
+
+def test_a_compiler_that_refuses_the_tuned_flags_gets_the_portable_ones(cache_dir, monkeypatch, tmp_path):
+    from lagdsl.run import toolchain
+    monkeypatch.setattr(toolchain, "LIBRARY_FLAGS", (*toolchain.LIBRARY_FLAGS, "-fno-such-flag-anywhere"))
+    model = tmp_path / "oscillator.lag"
+    model.write_text(OSCILLATOR)
+    result = lagdsl.load(model).simulate(stop=1.0)
+    assert result.summary.count("accepted") > 0
