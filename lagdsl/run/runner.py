@@ -20,13 +20,14 @@ import threading
 import time as clock
 import warnings
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from ..codegen import GeneratedSource
 from ..codegen.kernel import Kernel
-from ..errors import InternalError, LagError, SimulationError, SimulationInterrupted
+from ..errors import InternalError, LagError, LagWarning, SimulationError, SimulationInterrupted
 from ..integrators import COUNTERS, STIFFNESS_TESTED, SWITCH_TIMES, summary_extras
 from ..integrators.python.fixed_step import IntegrationFailure, integrate_gauss, integrate_rk4
 from ..integrators.python.stiffness import STABILITY_BOUNDARY, StiffnessTest, SwitchLog
@@ -63,6 +64,7 @@ STATUS = {
 PROJECTION_FAILED = 6
 INTERRUPTED = 7
 SCIPY_METHODS = {"dopri5": "RK45", "dop853": "DOP853", "radau5": "Radau", "auto": "LSODA"}
+SCIPY_RTOL_FLOOR = 100 * float(np.finfo(float).eps)    # scipy raises a smaller rtol itself, with a warning
 POLL_SECONDS = 0.1      # how often the main thread looks at a C run: Ctrl-C and progress
 Progress = Callable[[float, float, float], None]     # (t reached, start, stop)
 
@@ -260,6 +262,7 @@ def run_numpy(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress
         raise LagError("auto on the NumPy backend is scipy's LSODA, which restarts at order 1 after every "
                        "projection onto the constraints and crawls; use --backend c, or --integrator dop853 "
                        "or radau5", plan.integrator.span)
+    plan = _within_scipy_tolerances(plan)
     module = loaded if loaded is not None else load(source)
     par = np.array(plan.parameters, dtype=float)
     times = output_times(plan)
@@ -287,6 +290,18 @@ def run_numpy(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress
             rcond = float(module.reciprocal_condition(t_fail, y_fail, par))
         raise _failure(plan, status, t_fail, y_fail, result, rcond)
     return result
+
+
+def _within_scipy_tolerances(plan: ScenePlan) -> ScenePlan:
+    """scipy's solvers raise rtol below 100 eps themselves (with a warning of their own): raise it
+    here, say so in our words, and let the summary print the tolerance the run used."""
+    options = dict(plan.integrator.options)
+    if plan.integrator.name not in SCIPY_METHODS or options["rtol"] >= SCIPY_RTOL_FLOOR:
+        return plan
+    warnings.warn(f"rtol = {options['rtol']:g} is below what scipy's solvers accept; the NumPy backend "
+                  f"runs at rtol = {SCIPY_RTOL_FLOOR:.3g}", LagWarning, stacklevel=3)
+    options["rtol"] = SCIPY_RTOL_FLOOR
+    return replace(plan, integrator=replace(plan.integrator, options=tuple(sorted(options.items()))))
 
 
 def _start(module, par, t0, y0, plan):
@@ -365,8 +380,15 @@ def _run_scipy(module, par, times, y0, plan, progress):
         return module.rhs(t, y, par)
 
     def start(t, y, first_step=None):
-        return method(fun, t, y, times[-1], rtol=options["rtol"], atol=options["atol"],
-                      first_step=first_step, **extra)
+        solver = method(fun, t, y, times[-1], rtol=options["rtol"], atol=options["atol"],
+                        first_step=first_step, **extra)
+        if not np.isfinite(getattr(solver, "h_abs", 0.0)):
+            # scipy's choice of the first step divides by atol + rtol |y|, which is 0 for a
+            # component at 0 under pure relative error control (atol = 0): h is NaN, and the
+            # step loop, which stops when h falls below a floor, never ends. Hairer's fallback.
+            solver = method(fun, t, y, times[-1], rtol=options["rtol"], atol=options["atol"],
+                            first_step=1e-6 * abs(times[-1] - t), **extra)
+        return solver
 
     counts = {"accepted": 0, "rejected": None, "rhs_evals": 0, "jac_evals": 0, "lu_decomps": 0}
     watch = _StepWatch(method.__name__, counts)
@@ -423,7 +445,8 @@ class _WorkForecast:
     is hopeless when two forecasts of the steps still needed both exceed the steps still allowed:
     the average pace since the start, (stop - t) x taken / (t - start), which a passing burst of
     small steps (a close approach) barely moves, and the largest of the last `WINDOW` steps,
-    (stop - t) / h, which forgives a fast transient at the start. (A C step costs microseconds;
+    (stop - t) / h, which forgives a fast transient at the start. Steps that shrink on towards a
+    singularity end here too, before the step-size floor would. (A C step costs microseconds;
     there the step limit itself ends such runs within a second.)
     """
 
@@ -437,9 +460,10 @@ class _WorkForecast:
         self.recent.append(abs(step))
         if taken < self.JUDGED_AFTER:
             return False
+        largest = max(self.recent)
         left, allowed = abs(self.stop - t), self.max_steps - taken
         by_average = left * taken > allowed * abs(t - self.start)
-        by_recent = left > allowed * max(self.recent)
+        by_recent = left > allowed * largest
         return by_average and by_recent
 
 
