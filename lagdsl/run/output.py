@@ -55,6 +55,17 @@ class Switches:
 
 
 @dataclass(frozen=True)
+class Stop:
+    """The scene's stop condition ended the run at `time`, the time of the last row."""
+
+    condition: str          # as written: "y < 0"
+    time: float
+
+    def render(self) -> str:
+        return f"stopped at t = {self.time:.17g}, where {self.condition}"
+
+
+@dataclass(frozen=True)
 class RunSummary:
     """What the run cost and how well it kept its invariants and constraints."""
 
@@ -69,6 +80,7 @@ class RunSummary:
     settings: tuple[tuple[str, float], ...] = ()        # the integrator's options as used
     stiffness: Stiffness | None = None                  # explicit methods: stiffness detected
     switches: Switches | None = None                    # auto: its changes of method
+    stopped: Stop | None = None                         # the scene's stop condition ended the run
 
     def count(self, counter: str) -> int | None:
         """A work counter ("accepted", "rhs_evals", ...), None when the integrator does not keep it."""
@@ -78,7 +90,7 @@ class RunSummary:
         counts = [f"{value} {COUNTER_LABELS[name]}" for name, value in self.counters]
         lines = [f"integrator {self.integrator}({self.settings_text()}) ({self.backend}): "
                  + ", ".join([*counts, f"{self.wall_time:.3g} s"])]
-        lines += [part.render() for part in (self.stiffness, self.switches) if part is not None]
+        lines += [part.render() for part in (self.stiffness, self.switches, self.stopped) if part is not None]
         for name, start, drift in self.invariants:
             relative = f", relative {drift / abs(start):.3g}" if start != 0 else ""
             lines.append(f"drift of {name}: {drift:.3g} (from {start:.17g}{relative})")
