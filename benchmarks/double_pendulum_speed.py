@@ -2,14 +2,20 @@
 
     python benchmarks/double_pendulum_speed.py [--repeat 5] [--calls 10000000] [--skip-c-harness]
 
-Model models/double_pendulum.lag, scene `chaos`: t = 0 .. 20, output every 0.01 (2001 rows),
-dop853 at rtol 1e-10, atol 1e-12, from theta1 = 1, theta2 = 2 at rest. Measured in one process
-on one core (CPU seconds of the process, best of --repeat, except where lagdsl reports the time):
+Model models/double_pendulum.lag, scene `chaos` run over t = 0 .. 50 with an output every 0.5
+(101 rows), dop853 at rtol 1e-10, atol 1e-12, from theta1 = 1, theta2 = 2 at rest (the problem
+of issue 15). Measured on one core (CPU seconds, best of --repeat, except where lagdsl reports
+the time), with the right-hand sides each spends:
 
-  (a) lagdsl C backend: `lagdsl.load(path).simulate("chaos")`, its `summary.wall_time` (the
-      integration and the output rows only, wall-clock, as lagdsl measures it around the call
-      into the compiled library; compiling is cached and not counted), best of --repeat;
-  (a') lagdsl NumPy backend, the same scene (scipy's DOP853 stepping the generated NumPy code),
+  (a) lagdsl C backend: `model.simulate("chaos", stop=50, interval=0.5)`, its
+      `summary.wall_time` (the integration and the output rows only, wall-clock, as lagdsl
+      measures it around the call into the compiled library; compiling is cached and not
+      counted), best of --repeat;
+  (a1) the whole repeated `simulate()` call on the loaded model (CPU seconds of the process:
+      planning, filling the inputs, the call, building the Result);
+  (a2) the whole `lagc run` process with a warm build cache (CPU seconds of the child process,
+      from os.wait4; the CSV goes to a temporary file);
+  (a') lagdsl NumPy backend, the same problem (scipy's DOP853 stepping the generated NumPy code),
       its `summary.wall_time` too;
   (b) scipy.integrate.solve_ivp(method="DOP853") on a right-hand side from sympy.lambdify:
       LagrangesMethod gives M and F, each call evaluates them and solves M q'' = F with
@@ -19,14 +25,16 @@ on one core (CPU seconds of the process, best of --repeat, except where lagdsl r
   (e) CyRK's nbsolve_ivp (DOP853) with a numba right-hand side, if CyRK is installed;
   (d) the cost of ONE generated right-hand-side call (lag_rhs of the emitted C file) against a
       hand-written C function by Cramer's rule (benchmarks/c/double_pendulum_hand.c), both timed
-      by benchmarks/c/rhs_timing_main.c in one binary, at -O2 and at -O3 -march=native.
+      by benchmarks/c/rhs_timing_main.c in one binary, at -O2, at -O3 -march=native and with
+      the flags of lagdsl's build cache.
 
 Every integration uses the same tolerances and output grid; the final angles of each are
 compared with a reference (solve_ivp DOP853 at rtol 1e-13, atol 1e-15 on the hand-written
 right-hand side), so that speeds are compared at the same accuracy.
 
-Goals: lagdsl C at least 100x faster than scipy + lambdify; a generated rhs call within 1.5x of
-the hand-written C.
+Goals: lagdsl C at least 100x faster than scipy + lambdify and at least 2x faster than CyRK;
+a repeated simulate() within 1.25x of its integration; a generated rhs call within 1.5x of the
+hand-written C.
 """
 from __future__ import annotations
 
@@ -34,6 +42,7 @@ import benchtools  # noqa: F401  (first: one BLAS thread before NumPy is importe
 
 import argparse
 import math
+import os
 import re
 import subprocess
 import sys
@@ -47,8 +56,11 @@ from benchtools import (BENCHMARKS, MODELS, best_of, cpu_seconds, machine_descri
 
 MODEL = MODELS / "double_pendulum.lag"
 SCENE = "chaos"
+STOP, INTERVAL = 50.0, 0.5      # the problem of issue 15 (the scene itself runs 0..20 every 0.01)
 REFERENCE_TOLERANCES = (1e-13, 1e-15)
-C_FLAG_SETS = (("-O2",), ("-O3", "-march=native"))
+# -O2, the naive aggressive set, and the flags of lagdsl's build cache (lagdsl.run.toolchain)
+C_FLAG_SETS = (("-O2",), ("-O3", "-march=native"),
+               ("-O3", "-march=native", "-fno-tree-slp-vectorize", "-fno-math-errno"))
 
 
 # ---- the problem, as lagdsl plans it ---------------------------------------------------------
@@ -57,7 +69,8 @@ class Problem:
 
     def __init__(self, model):
         from lagdsl.run.runner import output_times
-        plan = model.plan(SCENE)
+        from lagdsl.scene import Overrides
+        plan = model.plan(SCENE, Overrides(stop=STOP, interval=INTERVAL))
         options = dict(plan.integrator.options)
         self.times = output_times(plan)
         self.rtol, self.atol = options["rtol"], options["atol"]
@@ -117,14 +130,14 @@ def lambdified_rhs(par):
 
 # ---- integrations ----------------------------------------------------------------------------
 def solve_with_scipy(rhs, problem: Problem, rtol=None, atol=None, args=()):
-    """solve_ivp DOP853 on the scene's grid; -> the states on the grid (4 x len(times))."""
+    """solve_ivp DOP853 on the problem's grid; -> (states on the grid (4 x len(times)), nfev)."""
     from scipy.integrate import solve_ivp
     times = problem.times
     solution = solve_ivp(rhs, (times[0], times[-1]), problem.y0, method="DOP853", t_eval=times,
                          rtol=rtol or problem.rtol, atol=atol or problem.atol, args=args)
     if solution.status != 0:
         raise RuntimeError(f"solve_ivp failed: {solution.message}")
-    return solution.y
+    return solution.y, solution.nfev
 
 
 def final_angles_from_states(states) -> np.ndarray:
@@ -132,30 +145,68 @@ def final_angles_from_states(states) -> np.ndarray:
 
 
 def measure_scipy(rhs, problem: Problem, repeat: int, args=()):
-    """(best seconds, final angles) of solve_ivp DOP853 with `rhs`."""
-    elapsed, states = best_of(repeat, solve_with_scipy, rhs, problem, None, None, args)
-    return elapsed, final_angles_from_states(states)
+    """(best seconds, final angles, right-hand sides) of solve_ivp DOP853 with `rhs`."""
+    elapsed, (states, nfev) = best_of(repeat, solve_with_scipy, rhs, problem, None, None, args)
+    return elapsed, final_angles_from_states(states), nfev
+
+
+def simulate(model, backend: str):
+    return model.simulate(SCENE, backend=backend, stop=STOP, interval=INTERVAL)
 
 
 def measure_lagdsl(model, backend: str, repeat: int):
-    """(best summary.wall_time, final angles) of `simulate("chaos")`; the first run compiles."""
-    model.simulate(SCENE, backend=backend)                       # build (cached) outside the timing
-    best, angles = None, None
+    """((best summary.wall_time, final angles, rhs), (best CPU seconds of the whole call, ...))
+    of the problem's `simulate()`; the first run builds (cached) outside the timing. SymPy's
+    cache is kept between the calls, as in a user's loop of simulate() calls."""
+    simulate(model, backend)
+    integration = call = None
     for _ in range(repeat):
-        result = model.simulate(SCENE, backend=backend)
-        if best is None or result.summary.wall_time < best:
-            best = result.summary.wall_time
-            angles = np.array([result["theta1"][-1], result["theta2"][-1]])
-    return best, angles
+        started = cpu_seconds()
+        result = simulate(model, backend)
+        elapsed = cpu_seconds() - started
+        angles = np.array([result["theta1"][-1], result["theta2"][-1]])
+        rhs = result.summary.count("rhs_evals")
+        if integration is None or result.summary.wall_time < integration[0]:
+            integration = (result.summary.wall_time, angles, rhs)
+        if call is None or elapsed < call[0]:
+            call = (elapsed, angles, rhs)
+    return integration, call
+
+
+def lagc_run_once(output: Path) -> tuple[float, str]:
+    """(CPU seconds of the child, its standard error) of one `lagc run` process on the problem."""
+    command = [sys.executable, "-m", "lagdsl", "run", str(MODEL), "--scene", SCENE, "--stop", str(STOP),
+               "--interval", str(INTERVAL), "-o", str(output)]
+    with tempfile.TemporaryFile() as stderr:
+        child = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=stderr)
+        _, status, usage = os.wait4(child.pid, 0)
+        child.returncode = os.waitstatus_to_exitcode(status)
+        stderr.seek(0)
+        text = stderr.read().decode()
+    if child.returncode != 0:
+        raise RuntimeError(f"lagc run failed: {text}")
+    return usage.ru_utime + usage.ru_stime, text
+
+
+def measure_lagc_run(repeat: int):
+    """(best CPU seconds, final angles, rhs) of a whole warm `lagc run` process."""
+    with tempfile.TemporaryDirectory() as work:
+        output = Path(work) / "out.csv"
+        lagc_run_once(output)                                   # warms the build cache
+        best, text = min(lagc_run_once(output) for _ in range(repeat))
+        last = output.read_text().splitlines()[-1].split(",")
+    columns = [float(value) for value in last[1:3]]             # t, theta1, theta2, energy
+    rhs = int(re.search(r"(\d+) right-hand sides", text).group(1))
+    return best, np.array(columns), rhs
 
 
 def measure_cyrk(problem: Problem, repeat: int):
-    """(best seconds, final angles) of CyRK's nbsolve_ivp DOP853 with a numba rhs, or a reason."""
+    """(best seconds, final angles, rhs) of CyRK's nbsolve_ivp DOP853 with a numba rhs, or a reason."""
     try:
         import numba
         from CyRK import nbsolve_ivp
     except ImportError:
-        return "not installed", None
+        return "not installed", None, None
 
     @numba.njit(cache=False)
     def rhs(t, y, m1, m2, l1, l2, g):
@@ -171,10 +222,15 @@ def measure_cyrk(problem: Problem, repeat: int):
         dy[3] = (a11 * b2 - a12 * b1) / det
         return dy
 
+    @numba.njit(cache=False)
+    def counting_rhs(t, y, m1, m2, l1, l2, g, calls):
+        calls[0] += 1
+        return rhs(t, y, m1, m2, l1, l2, g)
+
     times = problem.times
 
-    def solve():
-        result = nbsolve_ivp(rhs, (times[0], times[-1]), problem.y0, args=problem.par,
+    def solve(function=rhs, extra=()):
+        result = nbsolve_ivp(function, (times[0], times[-1]), problem.y0, args=(*problem.par, *extra),
                              rtol=problem.rtol, atol=problem.atol, rk_method=2, t_eval=times,
                              warnings=False)
         if not result.success:
@@ -182,8 +238,10 @@ def measure_cyrk(problem: Problem, repeat: int):
         return result.y
 
     solve()                                                     # numba compiles here, not timed
+    calls = np.zeros(1, dtype=np.int64)
+    solve(counting_rhs, (calls,))                               # a separate run counts the calls
     elapsed, states = best_of(repeat, solve)
-    return elapsed, final_angles_from_states(states)
+    return elapsed, final_angles_from_states(states), int(calls[0])
 
 
 # ---- one right-hand-side call in C -----------------------------------------------------------
@@ -226,16 +284,34 @@ def difference(angles, reference) -> str:
     return f"{np.max(np.abs(angles - reference)):.2e}"
 
 
-def integration_table(rows, reference) -> str:
-    """rows: (name, seconds or reason, final angles or None); ratios are to lagdsl C."""
+def integration_table(rows, reference, times) -> str:
+    """rows: (name, seconds or reason, final angles or None, rhs or None); ratios are to lagdsl C."""
     lagdsl_c = rows[0][1]
     body = []
-    for name, elapsed, angles in rows:
-        body.append([name, seconds(elapsed),
+    for name, elapsed, angles, rhs in rows:
+        body.append([name, seconds(elapsed), f"{rhs:,}" if rhs is not None else "n/a",
                      ratio(elapsed, lagdsl_c) if isinstance(elapsed, float) else "n/a",
                      difference(angles, reference)])
-    return markdown_table(["integration, t = 0..20 (2001 output rows)", "time (best)",
-                           "time / lagdsl C", "final angles: max abs. error (rad)"], body)
+    return markdown_table([f"t = 0..{STOP:g}, output every {INTERVAL:g} ({len(times)} rows)",
+                           "time (best)", "right-hand sides", "time / lagdsl C integration",
+                           "final angles: max abs. error (rad)"], body)
+
+
+def goal(text: str, value: float, met: bool) -> str:
+    return f"goal: {text}: {value:.2f}x, {'met' if met else 'NOT met'}"
+
+
+def goals(rows) -> list[str]:
+    """The issue's goals, from the rows of integration_table (in main's order)."""
+    named = {name.split(")")[0] + ")": elapsed for name, elapsed, _, _ in rows}
+    c, call, lambdify, cyrk = named["(a)"], named["(a1)"], named["(b)"], named["(e)"]
+    lines = [goal("lagdsl C >= 100x faster than scipy + lambdify", lambdify / c, lambdify / c >= 100)]
+    if isinstance(cyrk, float):
+        lines.append(goal("lagdsl C integration >= 2x faster than CyRK", cyrk / c, cyrk / c >= 2))
+    else:
+        lines.append(f"goal: lagdsl C integration >= 2x faster than CyRK: not measured ({cyrk})")
+    lines.append(goal("repeated simulate() <= 1.25x its integration", call / c, call / c <= 1.25))
+    return lines
 
 
 def rhs_table(timings) -> str:
@@ -261,28 +337,25 @@ def main(argv=None) -> int:
     problem = Problem(model)
 
     started = cpu_seconds()
-    reference = final_angles_from_states(
-        solve_with_scipy(hand_rhs, problem, *REFERENCE_TOLERANCES, args=problem.par))
+    states, _ = solve_with_scipy(hand_rhs, problem, *REFERENCE_TOLERANCES, args=problem.par)
+    reference = final_angles_from_states(states)
     print(f"reference (solve_ivp DOP853, rtol {REFERENCE_TOLERANCES[0]:g}, atol {REFERENCE_TOLERANCES[1]:g}): "
-          f"theta1(20) = {reference[0]:.12f}, theta2(20) = {reference[1]:.12f} "
+          f"theta1({STOP:g}) = {reference[0]:.12f}, theta2({STOP:g}) = {reference[1]:.12f} "
           f"({cpu_seconds() - started:.2f} s)\n")
 
-    rows = []
-    rows.append(("(a) lagdsl C backend", *measure_lagdsl(model, "c", args.repeat)))
-    rows.append(("(a') lagdsl NumPy backend (scipy DOP853)", *measure_lagdsl(model, "numpy", args.repeat)))
-    rows.append(("(b) solve_ivp DOP853 + lambdify(M, F) + numpy.linalg.solve",
-                 *measure_scipy(lambdified_rhs(problem.par), problem, max(1, args.repeat // 2))))
-    rows.append(("(c) solve_ivp DOP853 + hand-written rhs (math)",
-                 *measure_scipy(hand_rhs, problem, args.repeat, args=problem.par)))
-    rows.append(("(e) CyRK nbsolve_ivp DOP853 + numba rhs", *measure_cyrk(problem, args.repeat)))
-    print(integration_table(rows, reference))
-
-    lagdsl_c, lambdify_time = rows[0][1], rows[2][1]
-    if isinstance(lagdsl_c, float):
-        verdict = "met" if lambdify_time / lagdsl_c >= 100 else "NOT met"
-        print(f"\ngoal: lagdsl C >= 100x faster than scipy + lambdify: {lambdify_time / lagdsl_c:.0f}x, {verdict}")
-    else:
-        print(f"\ngoal: lagdsl C >= 100x faster than scipy + lambdify: not measured ({lagdsl_c})")
+    c_integration, c_call = measure_lagdsl(model, "c", 10 * args.repeat)     # a few ms each
+    rows = [("(a) lagdsl C backend: integration (summary.wall_time)", *c_integration),
+            ("(a1) lagdsl C backend: the whole repeated simulate() call", *c_call),
+            ("(a2) lagdsl C backend: the whole `lagc run` process, warm cache", *measure_lagc_run(args.repeat)),
+            ("(a') lagdsl NumPy backend (scipy DOP853)", *measure_lagdsl(model, "numpy", args.repeat)[0]),
+            ("(b) solve_ivp DOP853 + lambdify(M, F) + numpy.linalg.solve",
+             *measure_scipy(lambdified_rhs(problem.par), problem, max(1, args.repeat // 2))),
+            ("(c) solve_ivp DOP853 + hand-written rhs (math)",
+             *measure_scipy(hand_rhs, problem, args.repeat, args=problem.par)),
+            ("(e) CyRK nbsolve_ivp DOP853 + numba rhs", *measure_cyrk(problem, args.repeat))]
+    print(integration_table(rows, reference, problem.times))
+    print()
+    print("\n".join(goals(rows)))
 
     if args.skip_c_harness:
         return 0

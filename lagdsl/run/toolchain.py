@@ -18,7 +18,17 @@ from ..errors import InternalError, LagError
 from .cache import cached_entry
 
 STRICT_FLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic")
-LIBRARY_FLAGS = ("-std=c99", "-O2", "-fPIC", "-shared")
+# The libraries of the local build cache run only on this machine, so they are tuned for it.
+# Chosen by measurement (double pendulum, dop853, 50 s at rtol 1e-10: 1.62 ms at -O2, 1.37 ms
+# with these): -march=native alone is slower than -O2 (2.3 ms), because GCC's SLP vectorizer
+# stores a stage's argument as one wide vector that the right-hand side reads back as scalars,
+# a store-forwarding stall on every call; -fno-tree-slp-vectorize removes it. -fno-math-errno
+# lets sqrt be one instruction. None of them changes a result: ISO C mode (-std=c99) keeps
+# a*b + c from being contracted into an fma, and nothing allows reassociation.
+LIBRARY_FLAGS = ("-std=c99", "-O3", "-march=native", "-fno-tree-slp-vectorize", "-fno-math-errno",
+                 "-fPIC", "-shared")
+# For a compiler that refuses one of the above (-march=native is not universal).
+PORTABLE_LIBRARY_FLAGS = ("-std=c99", "-O2", "-fPIC", "-shared")
 
 
 def find_compiler() -> str:
@@ -45,10 +55,18 @@ def shared_library(source: str, stem: str) -> Path:
     """The compiled shared library for `source`, built on first use and cached."""
     compiler = find_compiler()
     name, key = library_entry(source, stem, compiler)
-    return cached_entry(name, key, lambda path: compile_c(source, path, LIBRARY_FLAGS, compiler))
+    return cached_entry(name, key, lambda path: _compile_library(source, path, compiler))
 
 
 def library_entry(source: str, stem: str, compiler: str) -> tuple[str, str]:
     """The cache entry's name and key of the library that `compiler` builds from `source`."""
     key = hashlib.sha256("\0".join((source, compiler, *LIBRARY_FLAGS)).encode()).hexdigest()
     return f"{stem}-{key[:20]}.so", key
+
+
+def _compile_library(source: str, output: Path, compiler: str) -> None:
+    """Build with the tuned flags, or with the portable ones where the compiler refuses those."""
+    try:
+        compile_c(source, output, LIBRARY_FLAGS, compiler)
+    except InternalError:
+        compile_c(source, output, PORTABLE_LIBRARY_FLAGS, compiler)

@@ -1158,19 +1158,20 @@ static int lag_stepper_step(lag_stepper *s)
     }
 }
 
-static void lag_stepper_dense(const lag_stepper *s, real t, real *yout)
+static int lag_stepper_dense(lag_stepper *s, real t, real *yout)
 {
     int i;
     if (s->t == s->t_old) {
         for (i = 0; i < LAG_NY; ++i)
             yout[i] = s->y[i];
-        return;
+        return LAG_OK;
     }
     {
         real u = (t - s->t) / s->h_old, a = u - (s->c2 - 1), b = u - (s->c1 - 1);
         for (i = 0; i < LAG_NY; ++i)
             yout[i] = s->y[i] + u * (s->cont[0][i] + a * (s->cont[1][i] + b * s->cont[2][i]));
     }
+    return LAG_OK;
 }
 
 static int lag_stepper_restart(lag_stepper *s)
@@ -1270,7 +1271,9 @@ static int lag_integrate(const lag_system *sys, const real *y0, real t0, real t1
         if (tk == stepper->t) {
             status = lag_deliver(sys, tk, stepper->y, sink, context, report);
         } else {
-            lag_stepper_dense(stepper, tk, y);
+            status = lag_stepper_dense(stepper, tk, y);
+            if (status != LAG_OK)
+                break;
             status = lag_deliver(sys, tk, y, sink, context, report);
         }
     }

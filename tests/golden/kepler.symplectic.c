@@ -752,7 +752,7 @@ static int lag_stepper_step(lag_stepper *s)
 
 /* Valid on [t_old, t] once a step has been taken.  The interface gives dense output no status:
  * a mass matrix singular inside the step would already have stopped its stage evaluations. */
-static void lag_stepper_dense(const lag_stepper *s, real t, real *yout)
+static int lag_stepper_dense(lag_stepper *s, real t, real *yout)
 {
     real theta = (t - s->t_old) / s->h_done, weight[LAG_GAUSS_MAX_STAGES], z[LAG_NY];
     int i, j;
@@ -763,7 +763,7 @@ static void lag_stepper_dense(const lag_stepper *s, real t, real *yout)
         for (i = 0; i < s->stages; ++i)
             z[j] += weight[i] * s->dz[i][j];
     }
-    (void)lag_from_canonical(s->sys, t, z, yout);
+    return lag_from_canonical(s->sys, t, z, yout);
 }
 
 /* The driver moved y (projection onto the constraints): the canonical state restarts from it,
@@ -864,7 +864,9 @@ static int lag_integrate(const lag_system *sys, const real *y0, real t0, real t1
         if (tk == stepper->t) {
             status = lag_deliver(sys, tk, stepper->y, sink, context, report);
         } else {
-            lag_stepper_dense(stepper, tk, y);
+            status = lag_stepper_dense(stepper, tk, y);
+            if (status != LAG_OK)
+                break;
             status = lag_deliver(sys, tk, y, sink, context, report);
         }
     }

@@ -502,7 +502,7 @@ static int lag_stepper_step(lag_stepper *s)
 
 /* Valid on [t_old, t] once a step has been taken:
  * y_old + theta (dy + (1-theta) (h f_old - dy + theta (2 dy - h f_old - h f))), dy = y - y_old. */
-static void lag_stepper_dense(const lag_stepper *s, real t, real *yout)
+static int lag_stepper_dense(lag_stepper *s, real t, real *yout)
 {
     real h = s->t - s->t_old, theta = (t - s->t_old) / h, theta1 = 1 - theta;
     int i;
@@ -510,6 +510,7 @@ static void lag_stepper_dense(const lag_stepper *s, real t, real *yout)
         real dy = s->y[i] - s->y_old[i], slope0 = h * s->f_old[i] - dy;
         yout[i] = s->y_old[i] + theta * (dy + theta1 * (slope0 + theta * (dy - h * s->f[i] - slope0)));
     }
+    return LAG_OK;
 }
 
 /* The driver moved y (projection): the derivative there starts the next step and ends the
@@ -608,7 +609,9 @@ static int lag_integrate(const lag_system *sys, const real *y0, real t0, real t1
         if (tk == stepper->t) {
             status = lag_deliver(sys, tk, stepper->y, sink, context, report);
         } else {
-            lag_stepper_dense(stepper, tk, y);
+            status = lag_stepper_dense(stepper, tk, y);
+            if (status != LAG_OK)
+                break;
             status = lag_deliver(sys, tk, y, sink, context, report);
         }
     }

@@ -136,3 +136,12 @@ def test_two_processes_building_the_same_model_both_succeed(cache_dir, tmp_path)
     assert len(list(cache_dir.glob("*.so"))) == len(list(cache_dir.glob("plan-*.json"))) == 1
     assert not [path for path in cache_dir.iterdir() if path.name.startswith(".")]
     assert lagc_run(model, cache_dir) == outputs[0][0]
+
+
+def test_a_compiler_that_refuses_the_tuned_flags_gets_the_portable_ones(cache_dir, monkeypatch, tmp_path):
+    from lagdsl.run import toolchain
+    monkeypatch.setattr(toolchain, "LIBRARY_FLAGS", (*toolchain.LIBRARY_FLAGS, "-fno-such-flag-anywhere"))
+    model = tmp_path / "oscillator.lag"
+    model.write_text(OSCILLATOR)
+    result = lagdsl.load(model).simulate(stop=1.0)
+    assert result.summary.count("accepted") > 0

@@ -396,10 +396,11 @@ def test_rk4_step_count(tmp_path):
 
 # (4) statistics
 
-@pytest.mark.parametrize("method, first_step", [("rk4", 0.01), ("dopri5", 0.0), ("dopri5", 0.01),
-                                                ("dop853", 0.0), ("dop853", 0.01)])
-def test_statistics(tmp_path, method, first_step):
-    run = Run(rtol=1e-8, atol=1e-8, step=first_step, t_end=3 * T_END["kepler"])
+@pytest.mark.parametrize("method, first_step, samples", [("rk4", 0.01, 0), ("dopri5", 0.0, 0), ("dopri5", 0.01, 1),
+                                                         ("dop853", 0.0, 0), ("dop853", 0.01, 0),
+                                                         ("dop853", 0.0, 2)])
+def test_statistics(tmp_path, method, first_step, samples):
+    run = Run(rtol=1e-8, atol=1e-8, step=first_step, t_end=3 * T_END["kepler"], samples=samples)
     [r] = simulate(tmp_path, method, "kepler", [run])
     accepted, rejected, rhs = r["accepted"], r["rejected"], r["rhs"]
     assert r["status"] == 0 and accepted == r["steps"] > 0
@@ -409,8 +410,10 @@ def test_statistics(tmp_path, method, first_step):
     elif method == "dopri5":
         assert rhs == start + 6 * (accepted + rejected)   # 7 stages, the last is the next first
     else:
-        # 11 new stages per trial; f at the new point and 3 dense-output stages per accepted step
-        assert rhs == start + 11 * (accepted + rejected) + 4 * accepted
+        # 11 new stages per trial and f at the new point per accepted step; the 3 dense-output
+        # stages only on the steps the dense output is asked about (here every step, or none)
+        dense_steps = accepted if samples else 0
+        assert rhs == start + 11 * (accepted + rejected) + accepted + 3 * dense_steps
     assert rejected < accepted / 2
 
 

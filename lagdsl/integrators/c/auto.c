@@ -208,12 +208,15 @@ static int lag_stepper_step(lag_stepper *s)
     return status;
 }
 
-static void lag_stepper_dense(const lag_stepper *s, real t, real *yout)
+static int lag_stepper_dense(lag_stepper *s, real t, real *yout)
 {
-    if (s->last == LAG_AUTO_EXPLICIT)
-        dop853_stepper_dense(&s->explicit_method, t, yout);
-    else
-        radau5_stepper_dense(&s->implicit_method, t, yout);
+    int status;
+    if (s->last == LAG_AUTO_IMPLICIT)
+        return radau5_stepper_dense(&s->implicit_method, t, yout);
+    /* dop853 may spend its dense-output stages now: count them */
+    status = dop853_stepper_dense(&s->explicit_method, t, yout);
+    auto_sync(s);
+    return status;
 }
 
 /* The driver moved y: hand it to the method that continues and, after a switch, to the one

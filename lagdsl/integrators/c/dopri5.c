@@ -6,10 +6,11 @@
  * Dense output: the continuous extension of order 4 of HNW I, II.6 (Shampine's, built from the
  * same 7 stages at no extra evaluation), a quartic in theta = (t - t_old)/h written in the nested
  * form y_old + theta (r2 + (1-theta) (r3 + theta (r4 + (1-theta) r5))) which matches y and f at
- * both ends of the step.
- * Step-size control (PI, beta = 0.04, safety 0.9, facmin 0.2, facmax 10), error norm,
- * starting step and the stiffness test (stability boundary 3.25): explicit_control.c, which
- * must be pasted before this file.
+ * both ends of the step.  r3..r5 are formed only for a step that the dense output is asked about
+ * (a step that contains an output time), from the stages the step keeps until the next starts.
+ * Step-size control (exponent 1/5, safety 0.9, factor within [0.2, 10]), error norm, starting
+ * step and the stiffness test (stability boundary 3.25): explicit_control.c, which must be
+ * pasted before this file.
  */
 
 #define LAG_INTEGRATOR_NAME "dopri5"
@@ -34,9 +35,6 @@ static const real dp5_d1 = -(real)12715105075 / 11282082432, dp5_d3 = (real)8748
                   dp5_d4 = -(real)10690763975 / 1880347072, dp5_d5 = (real)701980252875 / 199316789632,
                   dp5_d6 = -(real)1453857185 / 822651844, dp5_d7 = (real)69997945 / 29380423;
 
-/* The weight of the previous error in the PI step-size controller. */
-static const real dp5_beta = LAG_LIT(0.04);
-
 typedef struct lag_stepper {
     real t;            /* time reached by the last accepted step */
     real t_old;        /* start of the last accepted step */
@@ -48,10 +46,12 @@ typedef struct lag_stepper {
     lag_stiffness_test stiffness;
     real h_done;                  /* size of the last accepted step */
     real k1[LAG_NY];              /* f(t, y), the first stage of the next step */
+    real k1_done[LAG_NY];         /* the first stage of the last accepted step */
     real k2[LAG_NY], k3[LAG_NY], k4[LAG_NY], k5[LAG_NY], k6[LAG_NY], k7[LAG_NY];
     real y_stage[LAG_NY];         /* argument of the stage being evaluated */
     real y_new[LAG_NY];           /* the order-5 solution of the current trial */
     real dense[5][LAG_NY];        /* r1..r5 of the continuous extension on [t_old, t] */
+    int dense_built;              /* r3..r5 are those of the last accepted step */
 } lag_stepper;
 
 /* k = f(t, y_stage). */
@@ -102,21 +102,34 @@ static int dopri5_trial(lag_stepper *s, real h, real t_new, real *err)
     return LAG_OK;
 }
 
-/* Accept the trial: build the continuous extension on [t, t_new], then move to t_new. */
+/* r3..r5 of the continuous extension of the last accepted step (r1 = y_old and r2 = y_new - y_old
+ * are set when it is accepted, r2 again when the driver moves y). */
+static void dopri5_build_dense(lag_stepper *s)
+{
+    const real h = s->h_done, *k1 = s->k1_done;
+    int i;
+    for (i = 0; i < LAG_NY; ++i) {
+        real dy = s->y_new[i] - s->dense[0][i], slope0 = h * k1[i] - dy;
+        s->dense[2][i] = slope0;
+        s->dense[3][i] = dy - h * s->k7[i] - slope0;
+        s->dense[4][i] = h * (dp5_d1 * k1[i] + dp5_d3 * s->k3[i] + dp5_d4 * s->k4[i]
+                              + dp5_d5 * s->k5[i] + dp5_d6 * s->k6[i] + dp5_d7 * s->k7[i]);
+    }
+    s->dense_built = 1;
+}
+
+/* Accept the trial: keep what the continuous extension on [t, t_new] needs, move to t_new. */
 static void dopri5_accept(lag_stepper *s, real h, real t_new)
 {
     int i;
     for (i = 0; i < LAG_NY; ++i) {
-        real dy = s->y_new[i] - s->y[i], slope0 = h * s->k1[i] - dy;
         s->dense[0][i] = s->y[i];
-        s->dense[1][i] = dy;
-        s->dense[2][i] = slope0;
-        s->dense[3][i] = dy - h * s->k7[i] - slope0;
-        s->dense[4][i] = h * (dp5_d1 * s->k1[i] + dp5_d3 * s->k3[i] + dp5_d4 * s->k4[i]
-                              + dp5_d5 * s->k5[i] + dp5_d6 * s->k6[i] + dp5_d7 * s->k7[i]);
+        s->dense[1][i] = s->y_new[i] - s->y[i];
     }
+    s->dense_built = 0;
     /* stage 6 and stage 7 (FSAL) both evaluate f at t_new */
     lag_stiffness_measure(&s->stiffness, h, s->y_new, s->y_stage, s->k7, s->k6);
+    memcpy(s->k1_done, s->k1, sizeof s->k1);
     memcpy(s->y, s->y_new, sizeof s->y);
     memcpy(s->k1, s->k7, sizeof s->k1);
     s->t_old = s->t;
@@ -138,13 +151,12 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
     memset(s->dense, 0, sizeof s->dense);
     for (i = 0; i < LAG_NY; ++i)
         s->dense[0][i] = y0[i];
-    /* Hairer's DOPRI5: beta = 0.04 and alpha = 1/5 - 0.75 beta, facmin 0.2, facmax 10 */
-    lag_control_init(&s->control, opt, t0, t_end, (real)1 / 5 - LAG_LIT(0.75) * dp5_beta, dp5_beta,
-                     LAG_LIT(0.2), 10);
+    s->dense_built = 1;
+    lag_control_init(&s->control, opt, t0, t_end, 5);
     lag_stiffness_start(&s->stiffness, LAG_LIT(3.25));
     if ((status = lag_control_rhs(sys, &s->stats, t0, s->y, s->k1)) != LAG_OK)
         return status;
-    s->h = lag_control_first_step(&s->control, opt, sys, &s->stats, t0, s->y, s->k1, 5);
+    s->h = lag_control_first_step(&s->control, opt, sys, &s->stats, t0, s->y, s->k1);
     return LAG_OK;
 }
 
@@ -164,14 +176,17 @@ static int lag_stepper_step(lag_stepper *s)
     return LAG_OK;
 }
 
-/* Valid on [t_old, t] once a step has been taken. */
-static void lag_stepper_dense(const lag_stepper *s, real t, real *yout)
+/* Valid on [t_old, t] once a step has been taken; needs no right-hand side (always LAG_OK). */
+static int lag_stepper_dense(lag_stepper *s, real t, real *yout)
 {
     real theta = (t - s->t_old) / s->h_done, theta1 = 1 - theta;
     int i;
+    if (!s->dense_built)
+        dopri5_build_dense(s);
     for (i = 0; i < LAG_NY; ++i)
         yout[i] = s->dense[0][i] + theta * (s->dense[1][i] + theta1 * (s->dense[2][i]
                   + theta * (s->dense[3][i] + theta1 * s->dense[4][i])));
+    return LAG_OK;
 }
 
 /* The driver moved y (projection): refresh the FSAL derivative, and add theta (y - y_end) to the

@@ -97,7 +97,7 @@ static int lag_stepper_step(lag_stepper *s)
 
 /* Valid on [t_old, t] once a step has been taken:
  * y_old + theta (dy + (1-theta) (h f_old - dy + theta (2 dy - h f_old - h f))), dy = y - y_old. */
-static void lag_stepper_dense(const lag_stepper *s, real t, real *yout)
+static int lag_stepper_dense(lag_stepper *s, real t, real *yout)
 {
     real h = s->t - s->t_old, theta = (t - s->t_old) / h, theta1 = 1 - theta;
     int i;
@@ -105,6 +105,7 @@ static void lag_stepper_dense(const lag_stepper *s, real t, real *yout)
         real dy = s->y[i] - s->y_old[i], slope0 = h * s->f_old[i] - dy;
         yout[i] = s->y_old[i] + theta * (dy + theta1 * (slope0 + theta * (dy - h * s->f[i] - slope0)));
     }
+    return LAG_OK;
 }
 
 /* The driver moved y (projection): the derivative there starts the next step and ends the
