@@ -56,6 +56,7 @@ class Differentiator:
         self._memo: dict[tuple, sympy.Expr] = {}
         self._gradients: dict[sympy.Expr, dict[sympy.Symbol, sympy.Expr]] = {}
         self._dependencies: dict[sympy.Basic, frozenset] = {}
+        self._intermediates: dict[sympy.Expr, list[sympy.Symbol]] = {}
         for symbol, expr in definitions:
             self.define(symbol, expr)
 
@@ -106,13 +107,21 @@ class Differentiator:
         """Σ_x (d expr/dx) · rates[x]; `direction` names the rates for the memo table."""
         if not (self.dependencies(expr) & rates.keys()):
             return sympy.S.Zero
-        terms = []
-        for symbol, slope in self.gradient(expr).items():
-            if symbol in rates:
-                terms.append(slope * rates[symbol])
-            elif symbol in self._definitions and self._depends[symbol] & rates.keys():
-                terms.append(slope * self._derivative_of(symbol, direction, rates))
+        gradient = self.gradient(expr)
+        # Look up the few rates rather than scan the whole gradient: a partial derivative of a
+        # Lagrangian with n coordinates would otherwise cost n per coordinate. (The order of
+        # the terms is immaterial: sympy.Add sorts them.)
+        terms = [gradient[symbol] * rate for symbol, rate in rates.items() if symbol in gradient]
+        for symbol in self._intermediates_in(expr):
+            if self._depends[symbol] & rates.keys():
+                terms.append(gradient[symbol] * self._derivative_of(symbol, direction, rates))
         return sympy.Add(*terms)
+
+    def _intermediates_in(self, expr: sympy.Expr) -> list[sympy.Symbol]:
+        """The intermediates among the symbols of expr's gradient, in the gradient's order."""
+        if expr not in self._intermediates:
+            self._intermediates[expr] = [s for s in self.gradient(expr) if s in self._definitions]
+        return self._intermediates[expr]
 
     def gradient(self, expr: sympy.Expr) -> dict[sympy.Symbol, sympy.Expr]:
         """Explicit partial derivatives of `expr` w.r.t. each of its free symbols (cached).
