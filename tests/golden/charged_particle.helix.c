@@ -387,7 +387,6 @@ static int lag_solve(int n, real *K, real *b, real *rcond)
     return LAG_OK;
 }
 
-
 /* The linear system K x = b for x = (q''):
  * K = M, the mass matrix d2L/dq'dq', and b = f, so that M q'' = f. */
 static void lag_assemble(const real *par, real t, const real *y, real *K, real *b)

@@ -392,7 +392,6 @@ static int lag_solve(int n, real *K, real *b, real *rcond)
     return LAG_OK;
 }
 
-
 /* The linear system K x = b for x = (q'', λ):
  * K = [[M, -A^T], [A, 0]], b = [f; gamma], so that M q'' = f + A^T λ and A q'' = gamma. */
 static void lag_assemble(const real *par, real t, const real *y, real *K, real *b)
