@@ -4,10 +4,14 @@ This is the only place that catches LagError: it prints `file:line:column: error
 with the source line and a caret, and exits 1. Anything else escaping is a bug in lagdsl.
 Ctrl-C exits 130 (128 + SIGINT, as shells report it) without a traceback; during `lagc run`
 the rows computed so far are written and the summary says where the run stopped.
+
+`lagc run` first looks for the scene's stored plan (run/plans.py): a warm run imports neither
+sympy nor lark, so the pipeline (api, present) is imported only by the commands that need it.
 """
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 import time as clock
@@ -15,12 +19,12 @@ import warnings
 
 
 from . import __version__
-from .api import load
 from .errors import LagError, LagWarning, SimulationError, SimulationInterrupted
 from .escape import visible
-from .present import describe_model, format_equations
+from .run import cache
 from .run.output import check_writable, write_output
-from .scene import Overrides, given_options
+from .settings import Overrides, given_options
+from .source import SourceFile
 
 
 INTERRUPTED_EXIT = 130
@@ -58,7 +62,7 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 
 def _dispatch(argv: list[str]) -> int:
     parser = _parser()
-    if argv and argv[0] not in ("check", "eom", "run", "-h", "--help", "--version") and "--emit" in argv:
+    if argv and argv[0] not in ("check", "eom", "run", "cache", "-h", "--help", "--version") and "--emit" in argv:
         argv = ["emit", *argv]
     arguments = parser.parse_args(argv)
     return arguments.handler(arguments)
@@ -98,7 +102,13 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--max-steps", type=int, help="step limit, accepted + rejected "
                      "(default: 100000, or 100 per output row if that is more)")
     run.add_argument("-o", "--output", help="write the CSV here instead of standard output")
+    run.add_argument("--no-cache", action="store_true",
+                     help="build in a private temporary directory; use nothing from the build cache")
     run.set_defaults(handler=_run)
+
+    cache_command = commands.add_parser("cache", help="show where the build cache is and its size, or empty it")
+    cache_command.add_argument("action", choices=("info", "clear"))
+    cache_command.set_defaults(handler=_cache)
 
     emit = commands.add_parser("emit", help="write the generated source: lagc MODEL --emit c|numpy [-o FILE]")
     emit.add_argument("model")
@@ -131,14 +141,30 @@ def _overrides(arguments) -> Overrides:
 
 def _run(arguments) -> int:
     """Simulate; on a numerical failure deliver the rows computed so far, say where the run
-    stopped, and exit 1 (with the error, which `main` prints)."""
-    model = load(arguments.model)
+    stopped, and exit 1 (with the error, which `main` prints). --no-cache: in a private cache.
+
+    With a stored plan of the scene (run/plans.py) the model is neither parsed nor derived,
+    unless the plan cannot serve the overrides; the output is the same either way."""
+    with cache.private_cache() if arguments.no_cache else contextlib.nullcontext():
+        return _simulate(arguments)
+
+
+def _simulate(arguments) -> int:
+    """`lagc run` in the cache in use: warm from a stored plan if it serves, else the full pipeline."""
+    from .run import plans      # numpy and the runner: only `lagc run` needs them
+    source = SourceFile.read(arguments.model)
+    stored = plans.find(source, arguments.scene, arguments.backend, arguments.integrator)
+    model = None if stored else _model(source)      # the model's errors first, as always
     if arguments.output:
         check_writable(arguments.output)      # refuse before the run, not after it
     overrides = _overrides(arguments)
     progress = ProgressLine(sys.stderr)
     try:
-        result = model.simulate_plan(arguments.scene, arguments.backend, overrides, progress.show)
+        plan = stored.resolve(overrides) if stored else None
+        result = stored.run(plan, progress.show) if plan else None
+        if result is None:
+            model = model if model is not None else _model(source)
+            result = model.simulate_plan(arguments.scene, arguments.backend, overrides, progress.show)
     except SimulationInterrupted as stopped:
         progress.clear()
         _deliver(stopped.partial.csv(), arguments.output)
@@ -196,8 +222,15 @@ def _incomplete(partial, time: float, output: str | None) -> str:
     return f"the run is incomplete: it stopped at t = {time:.17g}; {rows} written to {where}"
 
 
+def _model(source: SourceFile):
+    """The model parsed and derived: the pipeline (sympy, lark) is imported only here."""
+    from .api import Model
+    return Model(source)
+
+
 def _emit(arguments) -> int:
-    _deliver(load(arguments.model).emit(arguments.language, arguments.scene).text, arguments.output)
+    _deliver(_model(SourceFile.read(arguments.model)).emit(arguments.language, arguments.scene).text,
+             arguments.output)
     return 0
 
 
@@ -210,13 +243,26 @@ def _deliver(text: str, output: str | None) -> None:
 
 
 def _check(arguments) -> int:
-    model = load(arguments.model)
+    from .present import describe_model
+    model = _model(SourceFile.read(arguments.model))
     print(describe_model(model.ir, model.equations))
     return 0
 
 
 def _eom(arguments) -> int:
-    print(format_equations(load(arguments.model).equations, latex=arguments.latex))
+    from .present import format_equations
+    print(format_equations(_model(SourceFile.read(arguments.model)).equations, latex=arguments.latex))
+    return 0
+
+
+def _cache(arguments) -> int:
+    """`lagc cache info`: where the cache is, how many entries and bytes; `lagc cache clear`: empty it."""
+    where = visible(cache.cache_root())
+    if arguments.action == "clear":
+        print(f"removed {cache.clear()} entries from the build cache {where}")
+    else:
+        entries, size = cache.usage()
+        print(f"build cache {where}: {entries} entries, {size / 1e6:.1f} MB")
     return 0
 
 

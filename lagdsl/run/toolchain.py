@@ -44,5 +44,11 @@ def compile_c(source: str, output: Path, flags=STRICT_FLAGS, compiler: str | Non
 def shared_library(source: str, stem: str) -> Path:
     """The compiled shared library for `source`, built on first use and cached."""
     compiler = find_compiler()
+    name, key = library_entry(source, stem, compiler)
+    return cached_entry(name, key, lambda path: compile_c(source, path, LIBRARY_FLAGS, compiler))
+
+
+def library_entry(source: str, stem: str, compiler: str) -> tuple[str, str]:
+    """The cache entry's name and key of the library that `compiler` builds from `source`."""
     key = hashlib.sha256("\0".join((source, compiler, *LIBRARY_FLAGS)).encode()).hexdigest()
-    return cached_entry(f"{stem}-{key[:20]}.so", key, lambda path: compile_c(source, path, LIBRARY_FLAGS, compiler))
+    return f"{stem}-{key[:20]}.so", key
