@@ -23,6 +23,10 @@ from collections.abc import Iterable, Mapping
 import sympy
 
 INLINE_SIZE = 6   # derivatives with at most this many tree nodes are inlined, not named
+# A product or power with more free symbols than this is differentiated through the gradients
+# of its parts (linear in its size); a smaller one by sympy's diff per symbol, whose forms the
+# printed equations of small models keep.
+SPLIT_SYMBOLS = 8
 
 
 def tree_size(expr: sympy.Basic, limit: int = 1 << 30) -> int:
@@ -51,6 +55,8 @@ class Differentiator:
         self._depends: dict[sympy.Symbol, frozenset] = {}
         self._memo: dict[tuple, sympy.Expr] = {}
         self._gradients: dict[sympy.Expr, dict[sympy.Symbol, sympy.Expr]] = {}
+        self._dependencies: dict[sympy.Basic, frozenset] = {}
+        self._intermediates: dict[sympy.Expr, list[sympy.Symbol]] = {}
         for symbol, expr in definitions:
             self.define(symbol, expr)
 
@@ -58,6 +64,7 @@ class Differentiator:
     def add_base(self, *symbols: sympy.Symbol) -> None:
         """Declare more independent symbols (before any intermediate uses them)."""
         self.base.update(symbols)
+        self._dependencies.clear()
 
     def define(self, symbol: sympy.Symbol, expr: sympy.Expr) -> sympy.Symbol:
         self._definitions[symbol] = expr
@@ -74,14 +81,21 @@ class Differentiator:
                 if kind == direction and value in self._definitions}
 
     def dependencies(self, expr: sympy.Basic) -> frozenset:
-        """The base symbols `expr` depends on, directly or through intermediates."""
-        found = set()
-        for symbol in expr.free_symbols:
-            if symbol in self.base:
-                found.add(symbol)
-            elif symbol in self._depends:
-                found |= self._depends[symbol]
-        return frozenset(found)
+        """The base symbols `expr` depends on, directly or through intermediates.
+
+        Cached: sympy walks the whole tree for free_symbols, and the derivation asks about the
+        same Lagrangian once per coordinate, which would make a long sum cost n² (an
+        intermediate is never used before its definition, so a cached answer stays right).
+        """
+        if expr not in self._dependencies:
+            found = set()
+            for symbol in expr.free_symbols:
+                if symbol in self.base:
+                    found.add(symbol)
+                elif symbol in self._depends:
+                    found |= self._depends[symbol]
+            self._dependencies[expr] = frozenset(found)
+        return self._dependencies[expr]
 
     # -- derivatives -------------------------------------------------------------------------
     def partial(self, expr: sympy.Expr, variable: sympy.Symbol) -> sympy.Expr:
@@ -93,13 +107,21 @@ class Differentiator:
         """Σ_x (d expr/dx) · rates[x]; `direction` names the rates for the memo table."""
         if not (self.dependencies(expr) & rates.keys()):
             return sympy.S.Zero
-        terms = []
-        for symbol, slope in self.gradient(expr).items():
-            if symbol in rates:
-                terms.append(slope * rates[symbol])
-            elif symbol in self._definitions and self._depends[symbol] & rates.keys():
-                terms.append(slope * self._derivative_of(symbol, direction, rates))
+        gradient = self.gradient(expr)
+        # Look up the few rates rather than scan the whole gradient: a partial derivative of a
+        # Lagrangian with n coordinates would otherwise cost n per coordinate. (The order of
+        # the terms is immaterial: sympy.Add sorts them.)
+        terms = [gradient[symbol] * rate for symbol, rate in rates.items() if symbol in gradient]
+        for symbol in self._intermediates_in(expr):
+            if self._depends[symbol] & rates.keys():
+                terms.append(gradient[symbol] * self._derivative_of(symbol, direction, rates))
         return sympy.Add(*terms)
+
+    def _intermediates_in(self, expr: sympy.Expr) -> list[sympy.Symbol]:
+        """The intermediates among the symbols of expr's gradient, in the gradient's order."""
+        if expr not in self._intermediates:
+            self._intermediates[expr] = [s for s in self.gradient(expr) if s in self._definitions]
+        return self._intermediates[expr]
 
     def gradient(self, expr: sympy.Expr) -> dict[sympy.Symbol, sympy.Expr]:
         """Explicit partial derivatives of `expr` w.r.t. each of its free symbols (cached).
@@ -116,12 +138,28 @@ class Differentiator:
                         parts.setdefault(symbol, []).append(slope)
                 # One Add per symbol: adding term by term would re-sort the growing sum each time.
                 slopes = {symbol: sympy.Add(*terms) for symbol, terms in parts.items()}
+            elif len(expr.free_symbols) > SPLIT_SYMBOLS and (expr.is_Mul or expr.is_Pow and expr.exp.is_number):
+                slopes = self._split_gradient(expr)
             else:
                 for symbol in expr.free_symbols:
                     slopes[symbol] = expr.diff(symbol)
             self._gradients[expr] = {s: slopes[s] for s in sorted(slopes, key=sympy.default_sort_key)
                                      if slopes[s] != 0}
         return self._gradients[expr]
+
+    def _split_gradient(self, expr: sympy.Expr) -> dict[sympy.Symbol, sympy.Expr]:
+        """The gradient of a product or a constant power from the gradients of its parts:
+        ∂(a b)/∂s = b ∂a/∂s + a ∂b/∂s, ∂(a^e)/∂s = e a^(e-1) ∂a/∂s. A factor that is a long sum
+        (omega^2/4 sum(...)) is then differentiated once, not once per symbol."""
+        if expr.is_Pow:
+            outer = expr.exp * expr.base ** (expr.exp - 1)
+            return {symbol: outer * slope for symbol, slope in self.gradient(expr.base).items()}
+        parts: dict[sympy.Symbol, list[sympy.Expr]] = {}
+        for i, factor in enumerate(expr.args):
+            rest = sympy.Mul(*expr.args[:i], *expr.args[i + 1:])
+            for symbol, slope in self.gradient(factor).items():
+                parts.setdefault(symbol, []).append(rest * slope)
+        return {symbol: sympy.Add(*terms) for symbol, terms in parts.items()}
 
     def _derivative_of(self, symbol: sympy.Symbol, direction: tuple,
                        rates: Mapping[sympy.Symbol, sympy.Expr]) -> sympy.Expr:

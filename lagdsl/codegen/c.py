@@ -7,7 +7,8 @@ from ..integrators import (COMPOSITES, COUNTER_LABELS, COUNTERS, STIFFNESS_TESTE
                            summary_extras)
 from ..settings import INTEGRATOR_OPTIONS
 from . import GeneratedSource, template_environment
-from .kernel import Block, Kernel
+from .c_factor import factorisation_text
+from .kernel import Block, Kernel, Store
 from .printers import CPrinter
 
 # The parameters of each generated C function whose body is a kernel block.
@@ -60,6 +61,8 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
         "derived": [f"if (!fixed[{i}])\n        par[{i}] = {printer.doprint(expr)};"
                     for i, expr in kernel.derived_parameters],
         "solver": kernel.solver, "jacobian": kernel.jacobian is not None,
+        "layout": layout_kind(kernel), "stored": kernel.layout.size if kernel.layout else kernel.size ** 2,
+        "factor": factorisation_text(kernel.layout),
         "canonical": kernel.momenta is not None,
         "outputs_need_multipliers": kernel.outputs_need_multipliers,
         "integrator_source": integrator_source(kernel.integrator.name),
@@ -82,10 +85,16 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
     return GeneratedSource("c", text, stem(kernel))
 
 
+def layout_kind(kernel: Kernel) -> str:
+    """How the generated code stores and solves K: "diagonal", "sparse" or "dense" (structure.py)."""
+    return kernel.layout.kind if kernel.layout else "dense"
+
+
 def _linear_algebra(kernel: Kernel) -> str:
     """Only the factorisations the scene calls: unused static functions are warnings."""
-    needs_lu = kernel.solver == "lu" or kernel.jacobian is not None or bool(kernel.constraints)
-    needs_cholesky = kernel.solver == "cholesky"
+    dense = layout_kind(kernel) == "dense"
+    needs_lu = kernel.solver == "lu" or kernel.jacobian is not None or bool(kernel.constraints)   # radau5 too
+    needs_cholesky = kernel.solver == "cholesky" and dense
     files = (("cholesky.c", needs_cholesky), ("lu.c", needs_lu), ("lu_condition.c", kernel.solver == "lu"))
     return "".join(c_file(name) + "\n" for name, needed in files if needed)
 
@@ -122,9 +131,8 @@ def _literal(value: float) -> str:
 
 def _print_block(block: Block, kind: str, kernel: Kernel, printer: CPrinter) -> dict:
     """A block as printed lines; `unused` lists the function parameters it does not read."""
-    shapes = {"K": kernel.size, "dR": 2 * kernel.n, "A": kernel.n, "M": kernel.n}
-    stores = [(f"{s.array}[{_flat(s.index, shapes.get(s.array, 0))}]", printer.doprint(s.value))
-              for s in block.stores]
+    stores = [(f"{s.array}[{_position(s, kernel)}]", printer.doprint(s.value))
+              for s in block.stores if not (s.array in CLEARED and s.value == 0)]
     assignments = [(name, printer.doprint(value)) for name, value in block.assignments]
     read = {source.partition("[")[0] for _, source in block.inputs} | {s.array for s in block.stores}
     if any("t" in {x.name for x in value.free_symbols} for _, value in block.assignments) or \
@@ -133,8 +141,23 @@ def _print_block(block: Block, kind: str, kernel: Kernel, printer: CPrinter) -> 
     parameters = [p for p in FUNCTION_PARAMETERS[kind]
                   if (p != "lam" or kernel.constraints) and (p != "inv" or kernel.invariant_names)]
     unused = [p for p in parameters if p not in read]
-    return {"inputs": block.inputs, "assignments": assignments, "stores": stores, "unused": unused}
+    cleared = sorted({s.array for s in block.stores if s.array in CLEARED})
+    return {"inputs": block.inputs, "assignments": assignments, "stores": stores, "unused": unused,
+            "cleared": [f"memset({array}, 0, {CLEARED[array]});" for array in cleared]}
 
 
-def _flat(index: tuple[int, ...], columns: int) -> int:
-    return index[0] if len(index) == 1 else index[0] * columns + index[1]
+# Arrays set to zero before a block fills them, so that their structurally zero entries need
+# no statement: the mostly empty dR of a large model (a derivative of each residual by each
+# state entry) would otherwise be one store per entry.
+CLEARED = {"dR": "sizeof(real) * LAG_NK * LAG_NY"}
+
+
+def _position(store: Store, kernel: Kernel) -> int:
+    """The flat index of a store: row-major matrices, or M where kernel.layout puts it."""
+    if len(store.index) == 1:
+        return store.index[0]
+    row, column = store.index
+    if store.array in ("K", "M") and kernel.layout is not None:
+        return kernel.layout.coordinate_slot(row, column)
+    columns = {"K": kernel.size, "dR": 2 * kernel.n, "A": kernel.n, "M": kernel.n}[store.array]
+    return row * columns + column

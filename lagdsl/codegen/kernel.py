@@ -9,6 +9,8 @@ The blocks are exactly what the scene needs:
                  without constraints  K = M,                   b = f
                  with constraints     K = [[M, -Aᵀ], [A, 0]],  b = [f; γ]
                so that M q'' = f + Aᵀλ and A q'' = γ. K is solved numerically, never inverted.
+               Without constraints M is stored as `layout` says (structure.py): a compact
+               layout stores each structurally nonzero entry once, at K[(k, j)] with k >= j.
   outputs      the scene's columns and the conserved quantities (to report their drift), in
                one block so that what they share (the energy, say) is computed once
   constraints  residuals g (holonomic, position level), c (velocity level) and rows A, for
@@ -37,6 +39,7 @@ from ..errors import InternalError, LagError
 from ..mechanics import Equations
 from ..scene import ScenePlan
 from .cse import eliminate_common_subexpressions
+from .structure import MassLayout, mass_layout
 
 
 @dataclass(frozen=True)
@@ -67,6 +70,7 @@ class Kernel:
     integrator: ir.IntegratorChoice
     time: ir.TimeGrid
     solver: str                                  # "cholesky" or "lu"
+    layout: MassLayout | None                    # how M is stored and factored (cholesky only)
     initial: Block
     system: Block | None                         # None for gauss, which uses the canonical form
     outputs: Block
@@ -134,6 +138,8 @@ class _Lowering:
         self.active = [c for c in equations.constraints if not c.dropped]
         self.active.sort(key=lambda c: c.kind != "holonomic")      # holonomic rows first
         self.n = equations.size
+        self.solver = "lu" if self.active or not self.model.lagrangian.is_natural else "cholesky"
+        self.layout = mass_layout(equations.mass_matrix) if self.solver == "cholesky" else None
         q, v = equations.coordinates, equations.velocities
         self.accelerations = [sympy.Symbol(f"{c.name}''", real=True) for c in self.model.coordinates]
         self.multipliers = [ir.multiplier_symbol(c.name) for c in self.active]
@@ -228,7 +234,7 @@ class _Lowering:
             holonomic=sum(c.kind == "holonomic" for c in self.active),
             columns=plan.columns, invariant_names=plan.invariants,
             integrator=plan.integrator, time=plan.time,
-            solver="lu" if self.active or not self.model.lagrangian.is_natural else "cholesky",
+            solver=self.solver, layout=self.layout,
             initial=self.initial_block(), system=None if plan.canonical else self.system_block(),
             outputs=self.outputs_block(),
             outputs_need_multipliers=any(o.kind == "multiplier" or o.kind == "expression" and
@@ -254,8 +260,18 @@ class _Lowering:
             stores.append(("y0", (self.n + k,), sympy.Float(velocity) if velocity is not None else c.velocity))
         return self.block(stores)
 
+    def mass_stores(self, array: str) -> list[tuple[str, tuple[int, ...], sympy.Expr]]:
+        """M into `array`: every entry (the dense layout), or each structurally nonzero entry
+        once, (k, j) with k >= j (a compact layout)."""
+        M, n = self.eq.mass_matrix, self.n
+        if self.layout is None or not self.layout.compact:
+            return [(array, (k, j), M[k][j]) for k in range(n) for j in range(n)]
+        return [(array, (k, j), M[k][j]) for k in range(n) for j in range(k + 1) if M[k][j] != 0 or j == k]
+
     def system_block(self) -> Block:
         n, m = self.n, len(self.active)
+        if not self.active:
+            return self.block(self.mass_stores("K") + [("b", (k,), f) for k, f in enumerate(self.eq.forcing)])
         stores = []
         for k in range(n):
             for j in range(n):
@@ -324,10 +340,10 @@ class _Lowering:
                     raise LagError("the gauss integrator needs a Lagrangian quadratic in the velocities "
                                    "(a mass matrix independent of q'); use radau5 or dop853",
                                    self.plan.integrator.span)
-        eq, n = self.eq, self.n
+        eq = self.eq
         return {
             "momenta": self.block([("p", (k,), p) for k, p in enumerate(eq.momenta)]),
-            "mass": self.block([("M", (k, j), eq.mass_matrix[k][j]) for k in range(n) for j in range(n)]),
+            "mass": self.block(self.mass_stores("M")),
             "momentum_rate": self.block([("dp", (k,), g + f) for k, (g, f) in
                                          enumerate(zip(eq.lagrangian_gradient, eq.generalized_forces))]),
         }

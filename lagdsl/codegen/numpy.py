@@ -3,14 +3,14 @@ from __future__ import annotations
 
 from .. import __version__
 from . import GeneratedSource, template_environment
-from .c import FUNCTION_PARAMETERS
-from .kernel import Block, Kernel
+from .c import FUNCTION_PARAMETERS, layout_kind
+from .kernel import Block, Kernel, Store
 from .printers import PythonPrinter
 
 
 def render_numpy(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
     printer = PythonPrinter()
-    blocks = {name: _print_block(getattr(kernel, name), printer)
+    blocks = {name: _print_block(getattr(kernel, name), layout_kind(kernel), printer)
               for name in FUNCTION_PARAMETERS if getattr(kernel, name) is not None}
     context = {
         "title": f"{kernel.model_name}, scene {kernel.scene_name}: generated NumPy functions",
@@ -22,7 +22,7 @@ def render_numpy(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSou
         "invariants": bool(kernel.invariant_names),
         "integrator": kernel.integrator.name, "options": kernel.integrator.options,
         "t_start": repr(kernel.time.start), "t_stop": repr(kernel.time.stop),
-        "t_interval": repr(kernel.time.interval), "solver": kernel.solver,
+        "t_interval": repr(kernel.time.interval), "solver": kernel.solver, "layout": layout_kind(kernel),
         "derived": [(i, printer.doprint(expr)) for i, expr in kernel.derived_parameters],
         "jacobian": kernel.jacobian is not None, "canonical": kernel.momenta is not None,
         "outputs_need_multipliers": kernel.outputs_need_multipliers,
@@ -33,9 +33,25 @@ def render_numpy(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSou
     return GeneratedSource("numpy", text, f"{kernel.model_name}_{kernel.scene_name}")
 
 
-def _print_block(block: Block, printer: PythonPrinter) -> dict:
-    stores = [(f"{s.array}[{', '.join(str(i) for i in s.index)}]", printer.doprint(s.value))
-              for s in block.stores]
+# Matrices that the generated functions create as zeros: their zero entries need no statement.
+ZEROED = ("K", "M", "dR")
+
+
+def _print_block(block: Block, layout: str, printer: PythonPrinter) -> dict:
+    stores = [(_target(s, layout), printer.doprint(s.value))
+              for s in block.stores if not (s.array in ZEROED and s.value == 0)]
     return {"inputs": block.inputs,
             "assignments": [(name, printer.doprint(value)) for name, value in block.assignments],
             "stores": stores}
+
+
+def _target(store: Store, layout: str) -> str:
+    """The array element(s) a store sets. A diagonal M is held as the vector of its diagonal; a
+    sparse one is stored once per pair (k, j), k >= j, and set on both sides of the diagonal."""
+    if store.array in ("K", "M") and layout != "dense":
+        row, column = store.index
+        if layout == "diagonal":
+            return f"{store.array}[{row}]"
+        if row != column:
+            return f"{store.array}[{row}, {column}] = {store.array}[{column}, {row}]"
+    return f"{store.array}[{', '.join(str(i) for i in store.index)}]"

@@ -91,11 +91,20 @@ class Probe:
         return self.zeros([expr])[0]
 
     def matrices(self, rows: Sequence[Sequence[sympy.Expr]]) -> list[np.ndarray]:
-        """A matrix of expressions evaluated at each probe point, as float arrays."""
+        """A matrix of expressions evaluated at each probe point, as float arrays.
+
+        Only the entries that are not structurally zero are evaluated: a large mass matrix is
+        mostly zeros (the FPU chain's is the identity), and printing them for lambdify would
+        cost n² however sparse it is."""
         flat = [e for row in rows for e in row]
         shape = (len(rows), len(rows[0]) if rows else 0)
-        return [np.array([_to_float(x) for x in point], dtype=float).reshape(shape)
-                for point in self.evaluate(flat)]
+        nonzero = [i for i, e in enumerate(flat) if e != 0]
+        matrices = []
+        for point in self.evaluate([flat[i] for i in nonzero]):
+            values = np.zeros(len(flat))
+            values[nonzero] = [_to_float(x) for x in point]
+            matrices.append(values.reshape(shape))
+        return matrices
 
 
 def _is_tiny(value) -> bool:

@@ -22,9 +22,11 @@ from tests.run.c_harness import STRICT_FLAGS, find_cc
 
 GOLDEN = ROOT / "tests" / "golden"
 # (model, scene): a fixed-step rk4 scene, a constrained one, an implicit one, a symplectic one,
-# and the chaotic benchmark.
+# the chaotic benchmark, and a banded mass matrix. The mass matrices: dense 2 x 2 (wedge,
+# double_pendulum: a straight-line LDLᵀ), diagonal (charged_particle, kepler), tridiagonal
+# (fem_string: a sparse LDLᵀ), and with constraints (rolling_penny: LU of the saddle-point system).
 CASES = [("wedge", "slide"), ("rolling_penny", "roll"), ("charged_particle", "helix"),
-         ("kepler", "symplectic"), ("double_pendulum", "chaos")]
+         ("kepler", "symplectic"), ("double_pendulum", "chaos"), ("fem_string", "mode2")]
 EXTENSIONS = {"c": "c", "numpy": "py"}
 
 
@@ -127,6 +129,14 @@ def test_double_pendulum_golden_matches_the_worksheet_equations(tmp_path):
                           atol=1e-13, t_eval=table["t"])
     assert np.allclose(table["theta1"], reference.y[0], atol=1e-7)
     assert np.allclose(table["theta2"], reference.y[1], atol=1e-7)
+
+
+def test_fem_string_golden_moves_in_its_discrete_mode(tmp_path):
+    table, _ = run_golden(tmp_path, "fem_string", "mode2")
+    t = table["t"]
+    omega = np.sqrt(6 / 5)          # omega^2 = 6 tension/(rho h^2) (1 - cos theta)/(2 + cos theta), theta = pi/3
+    assert np.allclose(table["u[1]"], 0.1 * np.sqrt(3) / 2 * np.cos(omega * t), atol=1e-9)
+    assert np.max(np.abs(table["u[3]"])) < 1e-12
 
 
 def test_standalone_program_takes_overrides(tmp_path):

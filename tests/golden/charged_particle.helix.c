@@ -293,6 +293,7 @@ static real lag_lu_rcond(int n, const real *lu, const int *piv, real norm, real 
 #define LAG_NQ 3     /* generalized coordinates */
 #define LAG_NY 6     /* state y = (q, q') */
 #define LAG_NK 3     /* order of the linear system for q'' */
+#define LAG_NM 9     /* reals that hold K */
 #define LAG_NP 3     /* parameters */
 #define LAG_NOUT 5     /* output columns */
 #define LAG_NINV 2     /* conserved quantities watched */
@@ -414,7 +415,7 @@ static void lag_assemble(const real *par, real t, const real *y, real *K, real *
 /* q'' at (t, y): assemble K and b, and solve. */
 static int lag_accelerations(const lag_system *sys, real t, const real *y, real *acc)
 {
-    real K[LAG_NK * LAG_NK], b[LAG_NK], rcond;
+    real K[LAG_NM], b[LAG_NK], rcond;
     int i, status;
     lag_assemble(sys->par, t, y, K, b);
     if ((status = lag_solve(LAG_NK, K, b, &rcond)) != LAG_OK)
@@ -444,25 +445,10 @@ static void lag_residual_jacobian(const real *par, real t, const real *y, const 
     (void)acc;
     const real p_e = par[1];
     const real p_B = par[2];
+    memset(dR, 0, sizeof(real) * LAG_NK * LAG_NY);
     const real c0 = p_B*p_e;
-    dR[0] = 0;
-    dR[1] = 0;
-    dR[2] = 0;
-    dR[3] = 0;
     dR[4] = c0;
-    dR[5] = 0;
-    dR[6] = 0;
-    dR[7] = 0;
-    dR[8] = 0;
     dR[9] = -c0;
-    dR[10] = 0;
-    dR[11] = 0;
-    dR[12] = 0;
-    dR[13] = 0;
-    dR[14] = 0;
-    dR[15] = 0;
-    dR[16] = 0;
-    dR[17] = 0;
 }
 
 /* Jacobian of dy/dt = (q', q''): jac[i*LAG_NY + j] = d(dy_i/dt)/dy_j, row-major.
@@ -493,7 +479,7 @@ static int lag_jacobian(const lag_system *sys, real t, const real *y, real *jac)
 /* The reciprocal condition estimate of K at (t, y), reported when a run fails. */
 static real lag_condition(const lag_system *sys, real t, const real *y)
 {
-    real K[LAG_NK * LAG_NK], b[LAG_NK], rcond;
+    real K[LAG_NM], b[LAG_NK], rcond;
     lag_assemble(sys->par, t, y, K, b);
     (void)lag_solve(LAG_NK, K, b, &rcond);
     return rcond;

@@ -63,13 +63,7 @@ def assemble(par, t, y):
     v_y = y[4]
     c0 = p_B*p_e
     K[0, 0] = p_m
-    K[0, 1] = 0
-    K[0, 2] = 0
-    K[1, 0] = 0
     K[1, 1] = p_m
-    K[1, 2] = 0
-    K[2, 0] = 0
-    K[2, 1] = 0
     K[2, 2] = p_m
     b[0] = c0*v_y
     b[1] = -c0*v_x
@@ -129,24 +123,8 @@ def residual_jacobian(par, t, y, acc, lam):
     p_e = par[1]
     p_B = par[2]
     c0 = p_B*p_e
-    dR[0, 0] = 0
-    dR[0, 1] = 0
-    dR[0, 2] = 0
-    dR[0, 3] = 0
     dR[0, 4] = c0
-    dR[0, 5] = 0
-    dR[1, 0] = 0
-    dR[1, 1] = 0
-    dR[1, 2] = 0
     dR[1, 3] = -c0
-    dR[1, 4] = 0
-    dR[1, 5] = 0
-    dR[2, 0] = 0
-    dR[2, 1] = 0
-    dR[2, 2] = 0
-    dR[2, 3] = 0
-    dR[2, 4] = 0
-    dR[2, 5] = 0
     return dR
 
 

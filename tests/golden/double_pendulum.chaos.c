@@ -133,72 +133,12 @@ static void lag_print_real(FILE *file, real x)
 }
 
 /* ---- dense linear algebra ---- */
-/* Cholesky factorisation for the symmetric positive definite mass matrix of a natural
- * system, row-major, in place. Golub & Van Loan, Matrix Computations, 4th ed., algorithm 4.2.1.
- */
-
-/* A = L L^T; L overwrites the lower triangle of a.  Returns 0, or k+1 when the k-th pivot is
- * not positive (A is not positive definite to working precision). */
-static int lag_cholesky_factor(int n, real *a)
-{
-    int i, j, k;
-    for (j = 0; j < n; ++j) {
-        real d = a[j * n + j];
-        for (k = 0; k < j; ++k)
-            d -= a[j * n + k] * a[j * n + k];
-        if (!(d > 0))
-            return j + 1;
-        d = r_sqrt(d);
-        a[j * n + j] = d;
-        for (i = j + 1; i < n; ++i) {
-            real s = a[i * n + j];
-            for (k = 0; k < j; ++k)
-                s -= a[i * n + k] * a[j * n + k];
-            a[i * n + j] = s / d;
-        }
-    }
-    return 0;
-}
-
-/* Solve L L^T x = b with the factor from lag_cholesky_factor; x overwrites b. */
-static void lag_cholesky_solve(int n, const real *l, real *b)
-{
-    int i, k;
-    for (i = 0; i < n; ++i) {
-        real s = b[i];
-        for (k = 0; k < i; ++k)
-            s -= l[i * n + k] * b[k];
-        b[i] = s / l[i * n + i];
-    }
-    for (i = n - 1; i >= 0; --i) {
-        real s = b[i];
-        for (k = i + 1; k < n; ++k)
-            s -= l[k * n + i] * b[k];
-        b[i] = s / l[i * n + i];
-    }
-}
-
-/* Reciprocal condition estimate of A = L L^T from its factor: (min_j l_jj / max_j l_jj)^2.
- * Since cond_2(A) = cond_2(L)^2 >= (max_j l_jj / min_j l_jj)^2, the estimate is never below the
- * true 1/cond_2(A): a well-conditioned A is never reported as ill-conditioned.  For A with unit
- * diagonal, l_jj^2 is the part of column j that the columns before it do not explain, so nearly
- * dependent coordinates show up as a vanishing pivot. */
-static real lag_cholesky_rcond(int n, const real *l)
-{
-    real smallest = l[0], largest = l[0];
-    int j;
-    for (j = 1; j < n; ++j) {
-        smallest = r_fmin(smallest, l[j * n + j]);
-        largest = r_fmax(largest, l[j * n + j]);
-    }
-    return (smallest / largest) * (smallest / largest);
-}
-
 
 /* ---- the model: DoublePendulum ---- */
 #define LAG_NQ 2     /* generalized coordinates */
 #define LAG_NY 4     /* state y = (q, q') */
 #define LAG_NK 2     /* order of the linear system for q'' */
+#define LAG_NM 3     /* reals that hold K (the entries of the sparse M and of its factor) */
 #define LAG_NP 5     /* parameters */
 #define LAG_NOUT 3     /* output columns */
 #define LAG_NINV 1     /* conserved quantities watched */
@@ -247,45 +187,69 @@ static void lag_initial_state(const real *par, real *y0)
  * not determined. */
 #define LAG_RCOND_MIN (1000 * REAL_EPSILON)
 
-/* Symmetric equilibration K' = S K S, b' = S b (the solution is then x = S x'): unit diagonal
- * for the mass matrix, and for a row whose diagonal is zero (a constraint's) a largest scaled
- * entry of 1, so that the condition of K' measures dependence, not units. */
-static void lag_equilibrate(int n, real *K, real *b, real *scale)
+/* M is sparse: K holds its structurally nonzero entries, and the factor L D L^T with the fill of
+ * the elimination order lag_order (minimum degree, chosen when this file was generated), column
+ * by column: the pivot d_p at K[lag_pivots[p]], then the entries of L below it. */
+static const int lag_order[LAG_NQ] = { 0, 1 };
+static const int lag_pivots[LAG_NQ] = { 0, 2 };
+
+/* L D L^T of the equilibrated M in place (S M S, S = diag(M)^-1/2 in scale[], so that the
+ * equilibrated M has unit diagonal). *rcond receives min d_p / max d_p, the reciprocal condition
+ * estimate (min l_pp / max l_pp)^2 of its Cholesky factor; LAG_ERR_SINGULAR with *rcond = 0
+ * when a pivot is not positive. */
+static int lag_factor(real *K, real *scale, real *rcond)
 {
-    int i, j;
-    for (i = 0; i < n; ++i)
-        scale[i] = K[i * n + i] > 0 && r_isfinite(K[i * n + i]) ? 1 / r_sqrt(K[i * n + i]) : 0;
-    for (i = 0; i < n; ++i)
-        if (scale[i] == 0) {
-            real largest = 0;
-            for (j = 0; j < n; ++j)
-                largest = r_fmax(largest, r_fabs(K[i * n + j] * scale[j]));
-            scale[i] = largest > 0 && r_isfinite(largest) ? 1 / largest : 1;
-        }
-    for (i = 0; i < n; ++i) {
-        for (j = 0; j < n; ++j)
-            K[i * n + j] *= scale[i] * scale[j];
-        b[i] *= scale[i];
+    real smallest, largest;
+    int p;
+    *rcond = 0;
+    for (p = 0; p < LAG_NQ; ++p) {
+        real d = K[lag_pivots[p]];
+        if (!(d > 0 && r_isfinite(d)))
+            return LAG_ERR_SINGULAR;
+        scale[p] = 1 / r_sqrt(d);
     }
+    K[1] *= scale[1] * scale[0];
+    K[0] = 1;
+    K[2] = 1 - K[1] * K[1] * K[0];
+    if (!(K[2] > 0))
+        return LAG_ERR_SINGULAR;
+    smallest = largest = K[lag_pivots[0]];
+    for (p = 1; p < LAG_NQ; ++p) {
+        smallest = r_fmin(smallest, K[lag_pivots[p]]);
+        largest = r_fmax(largest, K[lag_pivots[p]]);
+    }
+    *rcond = smallest / largest;
+    return LAG_OK;
 }
 
-/* Solve K x = b in place (K of order n <= LAG_NK, destroyed), equilibrated, by Cholesky
- * (K is positive definite). *rcond receives the reciprocal condition estimate of the equilibrated K; LAG_ERR_SINGULAR when
- * it is below LAG_RCOND_MIN or a pivot vanishes (then *rcond is 0). */
+/* x = M^-1 b from the factor of lag_factor, overwriting b: L z = S b, D w = z, L^T v = w, x = S v. */
+static void lag_substitute(const real *K, const real *scale, real *b)
+{
+    real x[LAG_NQ];
+    int p;
+    for (p = 0; p < LAG_NQ; ++p)
+        x[p] = b[lag_order[p]] * scale[p];
+    x[1] -= K[1] * x[0];
+    for (p = 0; p < LAG_NQ; ++p)
+        x[p] /= K[lag_pivots[p]];
+    x[0] -= K[1] * x[1];
+    for (p = 0; p < LAG_NQ; ++p)
+        b[lag_order[p]] = x[p] * scale[p];
+}
+
+/* Solve M x = b in place (K as lag_assemble stores M, destroyed; n = LAG_NQ). *rcond receives the
+ * reciprocal condition estimate of the equilibrated M; LAG_ERR_SINGULAR when it is below
+ * LAG_RCOND_MIN or a pivot vanishes (then *rcond is 0). */
 static int lag_solve(int n, real *K, real *b, real *rcond)
 {
-    real scale[LAG_NK];
-    int i;
-    *rcond = 0;
-    lag_equilibrate(n, K, b, scale);
-    if (lag_cholesky_factor(n, K) != 0)
-        return LAG_ERR_SINGULAR;
-    *rcond = lag_cholesky_rcond(n, K);
+    real scale[LAG_NQ];
+    int status;
+    (void)n;
+    if ((status = lag_factor(K, scale, rcond)) != LAG_OK)
+        return status;
     if (!(*rcond >= LAG_RCOND_MIN))
         return LAG_ERR_SINGULAR;
-    lag_cholesky_solve(n, K, b);
-    for (i = 0; i < n; ++i)
-        b[i] *= scale[i];
+    lag_substitute(K, scale, b);
     return LAG_OK;
 }
 
@@ -318,8 +282,7 @@ static void lag_assemble(const real *par, real t, const real *y, real *K, real *
     const real c15 = c4*p_l1;
     const real c5 = r_cos(q_theta2);
     const real c16 = c12*c5;
-    const real c17 = c10*c13 + c15*c16;
-    const real c18 = (p_l2*p_l2)*p_m2;
+    const real c17 = (p_l2*p_l2)*p_m2;
     const real c1 = p_l1*(v_theta1*v_theta1);
     const real c3 = p_l2*(v_theta2*v_theta2);
     const real w7 = -c0*c1 - c2*c3;
@@ -328,9 +291,8 @@ static void lag_assemble(const real *par, real t, const real *y, real *K, real *
     const real w13 = -c11*p_m1 - c11*p_m2;
     const real w14 = -c13*p_g;
     K[0] = c14*c6 + c14*c9 + w12;
-    K[1] = c17;
-    K[2] = c17;
-    K[3] = c18*(c2*c2) + c18*(c5*c5);
+    K[1] = c10*c13 + c15*c16;
+    K[2] = c17*(c2*c2) + c17*(c5*c5);
     b[0] = c10*p_m2*w8 - c15*p_m2*w7 + w13;
     b[1] = c13*w8 - c16*w7 + w14;
 }
@@ -338,7 +300,7 @@ static void lag_assemble(const real *par, real t, const real *y, real *K, real *
 /* q'' at (t, y): assemble K and b, and solve. */
 static int lag_accelerations(const lag_system *sys, real t, const real *y, real *acc)
 {
-    real K[LAG_NK * LAG_NK], b[LAG_NK], rcond;
+    real K[LAG_NM], b[LAG_NK], rcond;
     int i, status;
     lag_assemble(sys->par, t, y, K, b);
     if ((status = lag_solve(LAG_NK, K, b, &rcond)) != LAG_OK)
@@ -363,7 +325,7 @@ static int lag_rhs(const lag_system *sys, real t, const real *y, real *dydt)
 /* The reciprocal condition estimate of K at (t, y), reported when a run fails. */
 static real lag_condition(const lag_system *sys, real t, const real *y)
 {
-    real K[LAG_NK * LAG_NK], b[LAG_NK], rcond;
+    real K[LAG_NM], b[LAG_NK], rcond;
     lag_assemble(sys->par, t, y, K, b);
     (void)lag_solve(LAG_NK, K, b, &rcond);
     return rcond;

@@ -78,8 +78,7 @@ def assemble(par, t, y):
     c15 = c4*p_l1
     c5 = numpy.cos(q_theta2)
     c16 = c12*c5
-    c17 = c10*c13 + c15*c16
-    c18 = p_l2**2*p_m2
+    c17 = p_l2**2*p_m2
     c1 = p_l1*v_theta1**2
     c3 = p_l2*v_theta2**2
     w7 = -c0*c1 - c2*c3
@@ -88,9 +87,8 @@ def assemble(par, t, y):
     w13 = -c11*p_m1 - c11*p_m2
     w14 = -c13*p_g
     K[0, 0] = c14*c6 + c14*c9 + w12
-    K[0, 1] = c17
-    K[1, 0] = c17
-    K[1, 1] = c18*c2**2 + c18*c5**2
+    K[1, 0] = K[0, 1] = c10*c13 + c15*c16
+    K[1, 1] = c17*c2**2 + c17*c5**2
     b[0] = c10*p_m2*w8 - c15*p_m2*w7 + w13
     b[1] = c13*w8 - c16*w7 + w14
     return K, b

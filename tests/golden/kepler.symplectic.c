@@ -133,72 +133,12 @@ static void lag_print_real(FILE *file, real x)
 }
 
 /* ---- dense linear algebra ---- */
-/* Cholesky factorisation for the symmetric positive definite mass matrix of a natural
- * system, row-major, in place. Golub & Van Loan, Matrix Computations, 4th ed., algorithm 4.2.1.
- */
-
-/* A = L L^T; L overwrites the lower triangle of a.  Returns 0, or k+1 when the k-th pivot is
- * not positive (A is not positive definite to working precision). */
-static int lag_cholesky_factor(int n, real *a)
-{
-    int i, j, k;
-    for (j = 0; j < n; ++j) {
-        real d = a[j * n + j];
-        for (k = 0; k < j; ++k)
-            d -= a[j * n + k] * a[j * n + k];
-        if (!(d > 0))
-            return j + 1;
-        d = r_sqrt(d);
-        a[j * n + j] = d;
-        for (i = j + 1; i < n; ++i) {
-            real s = a[i * n + j];
-            for (k = 0; k < j; ++k)
-                s -= a[i * n + k] * a[j * n + k];
-            a[i * n + j] = s / d;
-        }
-    }
-    return 0;
-}
-
-/* Solve L L^T x = b with the factor from lag_cholesky_factor; x overwrites b. */
-static void lag_cholesky_solve(int n, const real *l, real *b)
-{
-    int i, k;
-    for (i = 0; i < n; ++i) {
-        real s = b[i];
-        for (k = 0; k < i; ++k)
-            s -= l[i * n + k] * b[k];
-        b[i] = s / l[i * n + i];
-    }
-    for (i = n - 1; i >= 0; --i) {
-        real s = b[i];
-        for (k = i + 1; k < n; ++k)
-            s -= l[k * n + i] * b[k];
-        b[i] = s / l[i * n + i];
-    }
-}
-
-/* Reciprocal condition estimate of A = L L^T from its factor: (min_j l_jj / max_j l_jj)^2.
- * Since cond_2(A) = cond_2(L)^2 >= (max_j l_jj / min_j l_jj)^2, the estimate is never below the
- * true 1/cond_2(A): a well-conditioned A is never reported as ill-conditioned.  For A with unit
- * diagonal, l_jj^2 is the part of column j that the columns before it do not explain, so nearly
- * dependent coordinates show up as a vanishing pivot. */
-static real lag_cholesky_rcond(int n, const real *l)
-{
-    real smallest = l[0], largest = l[0];
-    int j;
-    for (j = 1; j < n; ++j) {
-        smallest = r_fmin(smallest, l[j * n + j]);
-        largest = r_fmax(largest, l[j * n + j]);
-    }
-    return (smallest / largest) * (smallest / largest);
-}
-
 
 /* ---- the model: Kepler ---- */
 #define LAG_NQ 2     /* generalized coordinates */
 #define LAG_NY 4     /* state y = (q, q') */
 #define LAG_NK 2     /* order of the linear system for q'' */
+#define LAG_NM 2     /* reals that hold K (M is diagonal) */
 #define LAG_NP 3     /* parameters */
 #define LAG_NOUT 4     /* output columns */
 #define LAG_NINV 2     /* conserved quantities watched */
@@ -245,45 +185,43 @@ static void lag_initial_state(const real *par, real *y0)
  * not determined. */
 #define LAG_RCOND_MIN (1000 * REAL_EPSILON)
 
-/* Symmetric equilibration K' = S K S, b' = S b (the solution is then x = S x'): unit diagonal
- * for the mass matrix, and for a row whose diagonal is zero (a constraint's) a largest scaled
- * entry of 1, so that the condition of K' measures dependence, not units. */
-static void lag_equilibrate(int n, real *K, real *b, real *scale)
+/* M is diagonal: K[i] holds M_ii, and the solution of M x = b is x_i = b_i / M_ii. Equilibrated,
+ * M is the identity: the reciprocal condition estimate is 1 unless a diagonal entry is not
+ * positive and finite (then the system counts as singular, *rcond = 0). */
+static int lag_factor(real *K, real *scale, real *rcond)
 {
-    int i, j;
-    for (i = 0; i < n; ++i)
-        scale[i] = K[i * n + i] > 0 && r_isfinite(K[i * n + i]) ? 1 / r_sqrt(K[i * n + i]) : 0;
-    for (i = 0; i < n; ++i)
-        if (scale[i] == 0) {
-            real largest = 0;
-            for (j = 0; j < n; ++j)
-                largest = r_fmax(largest, r_fabs(K[i * n + j] * scale[j]));
-            scale[i] = largest > 0 && r_isfinite(largest) ? 1 / largest : 1;
-        }
-    for (i = 0; i < n; ++i) {
-        for (j = 0; j < n; ++j)
-            K[i * n + j] *= scale[i] * scale[j];
-        b[i] *= scale[i];
-    }
+    int i;
+    (void)scale;
+    *rcond = 0;
+    for (i = 0; i < LAG_NQ; ++i)
+        if (!(K[i] > 0 && r_isfinite(K[i])))
+            return LAG_ERR_SINGULAR;
+    *rcond = 1;
+    return LAG_OK;
 }
 
-/* Solve K x = b in place (K of order n <= LAG_NK, destroyed), equilibrated, by Cholesky
- * (K is positive definite). *rcond receives the reciprocal condition estimate of the equilibrated K; LAG_ERR_SINGULAR when
- * it is below LAG_RCOND_MIN or a pivot vanishes (then *rcond is 0). */
+/* x = M^-1 b, overwriting b. */
+static void lag_substitute(const real *K, const real *scale, real *b)
+{
+    int i;
+    (void)scale;
+    for (i = 0; i < LAG_NQ; ++i)
+        b[i] /= K[i];
+}
+
+/* Solve M x = b in place (K as lag_assemble stores M, destroyed; n = LAG_NQ). *rcond receives the
+ * reciprocal condition estimate of the equilibrated M; LAG_ERR_SINGULAR when it is below
+ * LAG_RCOND_MIN or a pivot vanishes (then *rcond is 0). */
 static int lag_solve(int n, real *K, real *b, real *rcond)
 {
-    real scale[LAG_NK];
-    int i;
-    *rcond = 0;
-    lag_equilibrate(n, K, b, scale);
-    if (lag_cholesky_factor(n, K) != 0)
-        return LAG_ERR_SINGULAR;
-    *rcond = lag_cholesky_rcond(n, K);
+    real scale[LAG_NQ];
+    int status;
+    (void)n;
+    if ((status = lag_factor(K, scale, rcond)) != LAG_OK)
+        return status;
     if (!(*rcond >= LAG_RCOND_MIN))
         return LAG_ERR_SINGULAR;
-    lag_cholesky_solve(n, K, b);
-    for (i = 0; i < n; ++i)
-        b[i] *= scale[i];
+    lag_substitute(K, scale, b);
     return LAG_OK;
 }
 
@@ -307,9 +245,7 @@ static void lag_mass(const real *par, real t, const real *y, real *M)
     const real p_m = par[2];
     const real q_r = y[0];
     M[0] = p_m;
-    M[1] = 0;
-    M[2] = 0;
-    M[3] = p_m*(q_r*q_r);
+    M[1] = p_m*(q_r*q_r);
 }
 
 /* dp/dt = dL/dq + Q at (q, q'). */
@@ -338,7 +274,7 @@ static int lag_to_canonical(const lag_system *sys, real t, const real *y, real *
 /* (q, p) -> (q, q'): p = M q' + p(q, 0), so q' = M^-1 (p - p(q, 0)). */
 static int lag_from_canonical(const lag_system *sys, real t, const real *z, real *y)
 {
-    real M[LAG_NQ * LAG_NQ], offset[LAG_NQ], rcond;
+    real M[LAG_NM], offset[LAG_NQ], rcond;
     int i;
     for (i = 0; i < LAG_NQ; ++i) {
         y[i] = z[i];
@@ -367,7 +303,7 @@ static int lag_hamilton_rhs(const lag_system *sys, real t, const real *z, real *
 /* The reciprocal condition estimate of M at (t, y), reported when a run fails. */
 static real lag_condition(const lag_system *sys, real t, const real *y)
 {
-    real K[LAG_NK * LAG_NK], b[LAG_NK], rcond;
+    real K[LAG_NM], b[LAG_NK], rcond;
     lag_mass(sys->par, t, y, K);
     memset(b, 0, sizeof b);
     (void)lag_solve(LAG_NK, K, b, &rcond);

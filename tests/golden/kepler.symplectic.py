@@ -20,6 +20,7 @@ INTEGRATOR = 'gauss'
 OPTIONS = { 'stages': 3.0, 'step': 0.01, }
 TIME = (0.0, 60.0, 0.05)
 SOLVER = 'cholesky'
+# M is diagonal: K (and M) hold only its diagonal, shape (NK,) or (NK, B), and q'' = f / M.
 NQ = 2
 NK = 2
 # Below this reciprocal condition number of the equilibrated K (see equilibrated) K counts as
@@ -51,37 +52,24 @@ def initial_state(par):
 
 
 
-def equilibrated(K):
-    """S K S as a stack (..., NK, NK): unit diagonal for the mass matrix, and for a row whose
-    diagonal is zero (a constraint's) a largest scaled entry of 1, so that its condition
-    measures how nearly dependent the coordinates are, not their units."""
-    stack = numpy.moveaxis(K, (0, 1), (-2, -1))
-    diagonal = numpy.diagonal(stack, axis1=-2, axis2=-1)
-    with numpy.errstate(all="ignore"):
-        scale = numpy.where((diagonal > 0) & numpy.isfinite(diagonal), 1 / numpy.sqrt(numpy.abs(diagonal)), 0.0)
-        rows = numpy.max(numpy.abs(stack * scale[..., None, :]), axis=-1)
-        scale = numpy.where(scale > 0, scale, numpy.where((rows > 0) & numpy.isfinite(rows), 1 / rows, 1.0))
-    return stack * scale[..., :, None] * scale[..., None, :]
-
-
 def reciprocal_condition_of(K):
-    """1 / cond_1 of the equilibrated K (the smallest over a batch); nan when K is not finite."""
-    with numpy.errstate(all="ignore"):
-        return numpy.min(1 / numpy.linalg.cond(equilibrated(K), 1))
+    """1 / cond_1 of the equilibrated diagonal K: 1 (the identity) when every entry is positive,
+    0 when one is not (singular, as the C backend's check of the pivots); nan when K is not finite."""
+    if not numpy.all(numpy.isfinite(K)):
+        return numpy.nan
+    return 1.0 if numpy.all(K > 0) else 0.0
 
 
 def solve(K, b):
-    """Solve K x = b for one system (NK, NK) or a batch (NK, NK, B).
+    """Solve K x = b for the diagonal K of one system (NK,) or a batch (NK, B): x = b / K.
 
-    Raises numpy.linalg.LinAlgError when the reciprocal condition number of the equilibrated K
-    is below RCOND_MIN (a K with non-finite entries is left to the solve: its x is not finite).
+    Raises numpy.linalg.LinAlgError when an entry of K is not positive (a K with non-finite
+    entries is left to the division: its x is not finite).
     """
     if reciprocal_condition_of(K) < RCOND_MIN:
         raise numpy.linalg.LinAlgError("the linear system for q'' is singular to working precision")
-    if K.ndim == 2:
-        return numpy.linalg.solve(K, b)
-    x = numpy.linalg.solve(numpy.moveaxis(K, (0, 1), (-2, -1)), numpy.moveaxis(b, 0, -1)[..., None])
-    return numpy.moveaxis(x[..., 0], -1, 0)
+    with numpy.errstate(all="ignore"):
+        return b / K
 
 
 
@@ -102,13 +90,11 @@ def momenta(par, t, y):
 def mass(par, t, y):
     """M = d2L/dq'dq' (independent of q': L is quadratic in q')."""
     shape = numpy.shape(y[0])
-    M = numpy.zeros((NQ, NQ) + shape)
+    M = numpy.zeros((NQ,) + shape)
     p_m = par[2]
     q_r = y[0]
-    M[0, 0] = p_m
-    M[0, 1] = 0
-    M[1, 0] = 0
-    M[1, 1] = p_m*q_r**2
+    M[0] = p_m
+    M[1] = p_m*q_r**2
     return M
 
 

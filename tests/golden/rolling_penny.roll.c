@@ -293,6 +293,7 @@ static real lag_lu_rcond(int n, const real *lu, const int *piv, real norm, real 
 #define LAG_NQ 4     /* generalized coordinates */
 #define LAG_NY 8     /* state y = (q, q') */
 #define LAG_NK 6     /* order of the linear system for q'' and the multipliers */
+#define LAG_NM 36     /* reals that hold K */
 #define LAG_NP 4     /* parameters */
 #define LAG_NOUT 10     /* output columns */
 #define LAG_NC 2     /* active constraints */
@@ -454,7 +455,7 @@ static void lag_assemble(const real *par, real t, const real *y, real *K, real *
 /* q'' and the multipliers λ at (t, y): assemble K and b, and solve. */
 static int lag_accelerations(const lag_system *sys, real t, const real *y, real *acc, real *lam)
 {
-    real K[LAG_NK * LAG_NK], b[LAG_NK], rcond;
+    real K[LAG_NM], b[LAG_NK], rcond;
     int i, status;
     lag_assemble(sys->par, t, y, K, b);
     if ((status = lag_solve(LAG_NK, K, b, &rcond)) != LAG_OK)
@@ -482,7 +483,7 @@ static int lag_rhs(const lag_system *sys, real t, const real *y, real *dydt)
 /* The reciprocal condition estimate of K at (t, y), reported when a run fails. */
 static real lag_condition(const lag_system *sys, real t, const real *y)
 {
-    real K[LAG_NK * LAG_NK], b[LAG_NK], rcond;
+    real K[LAG_NM], b[LAG_NK], rcond;
     lag_assemble(sys->par, t, y, K, b);
     (void)lag_solve(LAG_NK, K, b, &rcond);
     return rcond;

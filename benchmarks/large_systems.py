@@ -1,0 +1,259 @@
+"""Large systems: how generation, compilation and integration grow with the number of coordinates.
+
+    python benchmarks/large_systems.py [--fpu 50 200 1000 5000] [--chain 8 16 32 64]
+                                       [--kane-max 12] [--limit 900]
+
+Two families, each size measured in its own process (so that peak memory is that size's own):
+
+  FPU chain   the stiff Fermi-Pasta-Ulam chain of Hairer, Lubich and Wanner (GNI I.5) with n unit
+              masses (`coordinate q[n]`, T a sum of squares, stiff linear springs within pairs,
+              soft quartic ones between them and to the walls): an identity, so diagonal, mass
+              matrix. lagdsl's C backend against scipy's DOP853 on a vectorised NumPy right-hand
+              side (a few array operations), 10 s of motion at rtol 1e-8, atol 1e-10.
+  n-link      models/pendulum_chain.lag with n links: a dense mass matrix. lagdsl against
+              sympy.physics.mechanics.KanesMethod + lambdify + scipy DOP853 (numpy.linalg.solve
+              of M q'' = F in each call), up to --kane-max links (Kane's derivation grows fast).
+
+For each: CPU seconds to generate (parse, derive, lower, print the C), to compile it (cc -O2,
+the flags of the build cache), one right-hand side (integration time / evaluations), one
+simulated second (the fastest of 3 integrations, wall-clock as lagdsl reports it), the peak
+resident memory of the process, and the difference of q[1] at t = 10 from scipy's. Growth exponents are fitted between the two largest sizes measured.
+"""
+from __future__ import annotations
+
+import benchtools  # noqa: F401  (first: one BLAS thread before NumPy is imported)
+
+import argparse
+import json
+import math
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+RTOL, ATOL, STOP, INTERVAL = 1e-8, 1e-10, 10.0, 0.1
+REPEAT = 3          # integrations of each kind; the fastest counts (the machine is shared)
+
+
+def fpu_text(n: int) -> str:
+    """The FPU chain with n = 2m unit masses, omega = 50; q[1] starts at 1 (FPU's first mode)."""
+    m = n // 2
+    return f"""model FPU{n} "stiff FPU chain of {n} unit masses"
+  parameter omega = 50 [1/s];
+  coordinate q[{n}](start = {{1{", 0" * (n - 1)}}}) [m];
+  T = sum(der(q[i])^2/2, i in 1:{n});
+  U = omega^2/4*sum((q[2*i] - q[2*i - 1])^2, i in 1:{m})
+    + q[1]^4 + sum((q[2*i + 1] - q[2*i])^4, i in 1:{m - 1}) + q[{n}]^4;
+  scene run
+    time(stop = {STOP}, interval = {INTERVAL});
+    integrator dop853(rtol = {RTOL}, atol = {ATOL});
+    output q[1], energy;
+  end run;
+end FPU{n};
+"""
+
+
+def fpu_rhs(n: int):
+    """The vectorised NumPy right-hand side a user would write for the same chain."""
+    import numpy as np
+    omega2 = 50.0 ** 2
+
+    def rhs(t, y):
+        q, v = y[:n], y[n:]
+        force = np.zeros(n)
+        stiff = omega2 / 2 * (q[1::2] - q[0::2])          # the pairs (q[2i-1], q[2i]), 1-based
+        force[0::2] += stiff
+        force[1::2] -= stiff
+        soft = 4 * (q[2::2] - q[1:-1:2]) ** 3             # between pairs: (q[2i+1] - q[2i])^4
+        force[1:-1:2] += soft
+        force[2::2] -= soft
+        force[0] -= 4 * q[0] ** 3
+        force[-1] -= 4 * q[-1] ** 3
+        return np.concatenate([v, force])
+    return rhs
+
+
+def measure_lagdsl(path: Path, scene: str) -> dict:
+    """Generate, compile and run one scene; CPU seconds for the first two, lagdsl's own
+    integration time for the run."""
+    from lagdsl.codegen.c import render_c
+    from lagdsl.codegen.kernel import lower_to_kernel
+    from lagdsl.pipeline import model_from_source, plan
+    from lagdsl.mechanics import derive_equations
+    from lagdsl.run.toolchain import LIBRARY_FLAGS, find_compiler
+    from lagdsl.scene import Overrides
+    from lagdsl.source import SourceFile
+    import lagdsl
+
+    started = benchtools.cpu_seconds()
+    model = model_from_source(SourceFile.read(path))
+    equations = derive_equations(model)
+    derived = benchtools.cpu_seconds()
+    kernel = lower_to_kernel(equations, plan(model, equations, scene, Overrides()))
+    source = render_c(kernel, path.name).text
+    generated = benchtools.cpu_seconds()
+    with tempfile.TemporaryDirectory() as work:
+        c_file = Path(work) / "model.c"
+        c_file.write_text(source)
+        wall = time.perf_counter()
+        done = subprocess.run([find_compiler(), *LIBRARY_FLAGS, str(c_file), "-o", str(Path(work) / "m.so"), "-lm"],
+                              capture_output=True)
+        compile_seconds = time.perf_counter() - wall
+        compile_cpu = resource.getrusage(resource.RUSAGE_CHILDREN).ru_utime
+    loaded = lagdsl.load(path)
+    runs = [loaded.simulate(scene) for _ in range(REPEAT)]    # the first compiles into the build cache
+    result = min(runs, key=lambda run: run.summary.wall_time)
+    summary = result.summary
+    return {"derive": derived - started, "generate": generated - started, "compile": compile_cpu,
+            "compile_wall": compile_seconds, "compiled": done.returncode == 0, "kb": len(source) / 1024,
+            "layout": kernel.layout.kind if kernel.layout else "lu",
+            "integration": summary.wall_time, "rhs": summary.count("rhs_evals"),
+            "final": [float(result.values[-1, 0])]}
+
+
+def one_fpu(n: int) -> dict:
+    import numpy as np
+    from scipy.integrate import solve_ivp
+    with tempfile.TemporaryDirectory() as work:
+        path = Path(work) / f"fpu{n}.lag"
+        path.write_text(fpu_text(n))
+        row = measure_lagdsl(path, "run")
+    y0 = np.zeros(2 * n)
+    y0[0] = 1.0
+    rhs = fpu_rhs(n)
+    times = np.arange(0, STOP + INTERVAL / 2, INTERVAL)
+    durations = []
+    for _ in range(REPEAT):
+        started = time.perf_counter()
+        reference = solve_ivp(rhs, (0, STOP), y0, method="DOP853", rtol=RTOL, atol=ATOL, t_eval=times)
+        durations.append(time.perf_counter() - started)
+    row["scipy"] = min(durations)
+    row["scipy_rhs"] = reference.nfev
+    row["difference"] = abs(reference.y[0, -1] - row["final"][0])
+    return row
+
+
+def one_chain(n: int, kane: bool) -> dict:
+    source = (benchtools.MODELS / "pendulum_chain.lag").read_text()
+    with tempfile.TemporaryDirectory() as work:
+        path = Path(work) / "chain.lag"
+        path.write_text(source.replace('parameter n = 12 ', f'parameter n = {n} '))
+        row = measure_lagdsl(path, "swing")
+    if kane:
+        row.update(kane_chain(n))
+    return row
+
+
+def kane_chain(n: int) -> dict:
+    """KanesMethod + lambdify + DOP853 for the same chain (m = l = 1, g = 9.81, theta = 0.5)."""
+    import numpy as np
+    import sympy
+    from scipy.integrate import solve_ivp
+    from sympy.physics import mechanics as me
+    started = benchtools.cpu_seconds()
+    q, u = me.dynamicsymbols(f"q:{n}"), me.dynamicsymbols(f"u:{n}")
+    frame, origin = me.ReferenceFrame("N"), me.Point("O")
+    origin.set_vel(frame, 0)
+    point, bodies, loads = origin, [], []
+    for i in range(n):
+        link = frame.orientnew(f"A{i}", "Axis", [q[i], frame.z])
+        link.set_ang_vel(frame, u[i] * frame.z)
+        point = point.locatenew(f"P{i}", -1.0 * link.y)
+        point.v2pt_theory(origin if i == 0 else previous, frame, link)
+        bodies.append(me.Particle(f"m{i}", point, 1.0))
+        loads.append((point, -9.81 * frame.y))
+        previous = point
+    kane = me.KanesMethod(frame, q_ind=q, u_ind=u, kd_eqs=[qd - ud for qd, ud in zip(me.dynamicsymbols(f"q:{n}", 1), u)])
+    kane.kanes_equations(bodies, loads)
+    mass = sympy.lambdify([q, u], kane.mass_matrix, "numpy", cse=True)
+    forcing = sympy.lambdify([q, u], kane.forcing, "numpy", cse=True)
+    generated = benchtools.cpu_seconds() - started
+
+    def rhs(t, y):
+        return np.concatenate([y[n:], np.linalg.solve(mass(y[:n], y[n:]), forcing(y[:n], y[n:]).ravel())])
+
+    y0 = np.concatenate([np.full(n, 0.5), np.zeros(n)])
+    started = time.perf_counter()
+    solution = solve_ivp(rhs, (0, 10.0), y0, method="DOP853", rtol=1e-8, atol=1e-10)
+    return {"kane_generate": generated, "kane_run": time.perf_counter() - started, "kane_rhs": solution.nfev}
+
+
+def child(kind: str, n: int, kane: bool) -> None:
+    row = one_fpu(n) if kind == "fpu" else one_chain(n, kane)
+    row["peak_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(json.dumps(row))
+
+
+def measure(kind: str, n: int, kane: bool, limit: float) -> dict | str:
+    command = [sys.executable, __file__, "--child", kind, str(n)] + (["--kane"] if kane else [])
+    try:
+        done = subprocess.run(command, capture_output=True, text=True, timeout=limit)
+    except subprocess.TimeoutExpired:
+        return f"over {limit:.0f} s"
+    if done.returncode != 0:
+        return "failed: " + done.stderr.strip().splitlines()[-1]
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def exponent(sizes, values) -> str:
+    """log(v2/v1) / log(n2/n1) between the two largest sizes with a value."""
+    points = [(n, v) for n, v in zip(sizes, values) if isinstance(v, (int, float)) and v > 0]
+    if len(points) < 2:
+        return "n/a"
+    (n1, v1), (n2, v2) = points[-2:]
+    return f"{math.log(v2 / v1) / math.log(n2 / n1):.2f}"
+
+
+def report(kind: str, sizes, rows) -> None:
+    ok = [r if isinstance(r, dict) else {} for r in rows]
+    per_rhs = [r["integration"] / r["rhs"] if r.get("rhs") else None for r in ok]
+    headers = ["n", "layout", "generate", "compile", "C KB", "per rhs", "per sim. s", "peak MB"]
+    if kind == "fpu":
+        headers += ["scipy per sim. s", "speed-up", "|q1 - scipy|"]
+    else:
+        headers += ["Kane generate", "Kane per sim. s"]
+    table = []
+    for n, r, rhs in zip(sizes, rows, per_rhs):
+        if not isinstance(r, dict):
+            table.append([n, r] + [""] * (len(headers) - 2))
+            continue
+        line = [n, r["layout"], benchtools.seconds(r["generate"]), benchtools.seconds(r["compile"]),
+                f"{r['kb']:.0f}", f"{rhs * 1e6:.3g} us" if rhs else "n/a",
+                benchtools.seconds(r["integration"] / STOP), f"{r['peak_mb']:.0f}"]
+        if kind == "fpu":
+            line += [benchtools.seconds(r["scipy"] / STOP), benchtools.ratio(r["scipy"], r["integration"]),
+                     f"{r['difference']:.1e}"]
+        else:
+            line += [benchtools.seconds(r.get("kane_generate")), benchtools.seconds(
+                r["kane_run"] / 10 if "kane_run" in r else None)]
+        table.append(line)
+    print(benchtools.markdown_table(headers, table))
+    print(f"growth exponents ({kind}): generate {exponent(sizes, [r.get('generate') for r in ok])}, "
+          f"compile {exponent(sizes, [r.get('compile') for r in ok])}, "
+          f"per rhs {exponent(sizes, per_rhs)}, C size {exponent(sizes, [r.get('kb') for r in ok])}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--fpu", type=int, nargs="*", default=[50, 200, 1000, 5000])
+    parser.add_argument("--chain", type=int, nargs="*", default=[8, 16, 32, 64])
+    parser.add_argument("--kane-max", type=int, default=12)
+    parser.add_argument("--limit", type=float, default=900, help="seconds allowed for one size")
+    parser.add_argument("--child", nargs=2, help=argparse.SUPPRESS)
+    parser.add_argument("--kane", action="store_true", help=argparse.SUPPRESS)
+    arguments = parser.parse_args()
+    if arguments.child:
+        child(arguments.child[0], int(arguments.child[1]), arguments.kane)
+        return
+    print(benchtools.machine_description())
+    if arguments.fpu:
+        report("fpu", arguments.fpu, [measure("fpu", n, False, arguments.limit) for n in arguments.fpu])
+    if arguments.chain:
+        report("chain", arguments.chain, [measure("chain", n, n <= arguments.kane_max, arguments.limit)
+                                          for n in arguments.chain])
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,53 @@
+"""MassLayout -> the C text of a factorisation specialised to the structure of M.
+
+For the sparse layout the LDLᵀ factorisation and the substitutions are written out
+statement by statement, touching only the entries of L that are not structurally zero
+(structure.py chose the elimination order and found the fill). Column p of the factor:
+
+    d_p  = 1 - Σ_{k in row p} L_pk² d_k                       (the equilibrated M has unit diagonal)
+    L_ip = (a_ip - Σ_{k in row p ∩ row i} L_ik d_k L_pk) / d_p    for i in column p
+
+where a_ip is the equilibrated entry of M, or 0 where L_ip is fill (fill always has terms: it
+arises from some k in both rows). Where row p is empty, d_p = 1 and L_ip = a_ip are left as they are.
+"""
+from __future__ import annotations
+
+from .structure import MassLayout
+
+
+def factorisation_text(layout: MassLayout | None) -> dict:
+    """Template variables: `tables` (static index arrays), `scale`, `columns` (the factor),
+    `forward` and `backward` (the substitutions), each a list of C statements; empty unless the
+    layout is sparse."""
+    if layout is None or layout.kind != "sparse":
+        return {"tables": [], "scale": [], "columns": [], "forward": [], "backward": []}
+    slot, rows = layout.slots, layout.rows
+    pivots = [slot[(p, p)] for p in range(layout.n)]
+    tables = [f"static const int lag_order[LAG_NQ] = {{ {_list(layout.order)} }};",
+              f"static const int lag_pivots[LAG_NQ] = {{ {_list(pivots)} }};"]
+    scale = [f"K[{slot[entry]}] *= scale[{entry[0]}] * scale[{entry[1]}];"
+             for entry in sorted(layout.original, key=slot.__getitem__) if entry[0] != entry[1]]
+    columns = []
+    for p, column in enumerate(layout.columns):
+        pivot = pivots[p]
+        terms = "".join(f" - K[{slot[(p, k)]}] * K[{slot[(p, k)]}] * K[{pivots[k]}]" for k in rows[p])
+        columns.append(f"K[{pivot}] = 1{terms};")
+        if terms:                   # else d_p = 1 and L_ip = a_ip: nothing to compute
+            columns.append(f"if (!(K[{pivot}] > 0))\n        return LAG_ERR_SINGULAR;")
+        for i in column:
+            shared = sorted(set(rows[i]) & set(rows[p]))
+            start = f"K[{slot[(i, p)]}]" if (i, p) in layout.original else "0"
+            terms_i = "".join(f" - K[{slot[(i, k)]}] * K[{pivots[k]}] * K[{slot[(p, k)]}]" for k in shared)
+            if terms_i:
+                columns.append(f"K[{slot[(i, p)]}] = ({start}{terms_i}) / K[{pivot}];")
+            elif terms:
+                columns.append(f"K[{slot[(i, p)]}] /= K[{pivot}];")
+    forward = [f"x[{i}] -= {' + '.join(f'K[{slot[(i, k)]}] * x[{k}]' for k in rows[i])};"
+               for i in range(layout.n) if rows[i]]
+    backward = [f"x[{p}] -= {' + '.join(f'K[{slot[(i, p)]}] * x[{i}]' for i in layout.columns[p])};"
+                for p in reversed(range(layout.n)) if layout.columns[p]]
+    return {"tables": tables, "scale": scale, "columns": columns, "forward": forward, "backward": backward}
+
+
+def _list(values) -> str:
+    return ", ".join(str(v) for v in values)

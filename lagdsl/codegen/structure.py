@@ -1,0 +1,143 @@
+"""The structure of the mass matrix, found when the code is generated.
+
+M = ∂²L/∂q'∂q' is symmetric; which of its entries are structurally zero is known from the
+derived expressions. A natural system (M positive definite, no constraints) is solved by one of
+
+  diagonal  M has no off-diagonal entry: q''_k = f_k / M_kk, and only the diagonal is stored;
+  sparse    a straight-line LDLᵀ over the pattern of M, after a fill-reducing ordering
+            (minimum degree), storing only the entries of the factor L that are not
+            structurally zero. Small dense systems (n <= 4) take this form too: their
+            factorisation is a few statements, not a loop;
+  dense     the Cholesky loops over the full n x n array, where the pattern is (nearly) full.
+
+All three work on the equilibrated matrix (unit diagonal, see docs/numerics.md) and report the
+same reciprocal condition estimate: min d_j / max d_j over the pivots of LDLᵀ, which is
+(min l_jj / max l_jj)² of the Cholesky factor.
+"""
+from __future__ import annotations
+
+import heapq
+from dataclasses import dataclass
+from functools import cached_property
+
+import sympy
+
+# Largest order whose dense factorisation is written out straight-line.
+STRAIGHT_LINE_DENSE = 4
+# Largest number of multiplications a straight-line factorisation may take, a constant plus so
+# many per coordinate: beyond it the generated code would grow faster than the model (the fill
+# of an ordering that cannot keep M sparse), and the dense loops are used.
+STRAIGHT_LINE_WORK = (2000, 50)
+
+
+@dataclass(frozen=True)
+class MassLayout:
+    """How M is stored and factored in the generated code.
+
+    `order[p]` is the coordinate eliminated p-th. `columns[p]` lists, in increasing order, the
+    positions i > p where column p of L is not structurally zero (fill included). Storage:
+    column by column, the pivot d_p first, then L_ip for i in columns[p]; `slot` finds an entry.
+    """
+    kind: str                                   # "diagonal", "sparse" or "dense"
+    n: int
+    order: tuple[int, ...]
+    columns: tuple[tuple[int, ...], ...]
+    original: frozenset[tuple[int, int]]        # positions (i, p), i >= p, that M itself fills
+
+    @property
+    def size(self) -> int:
+        """How many reals hold M (and then its factor)."""
+        return self.n * self.n if self.kind == "dense" else self.n + sum(len(c) for c in self.columns)
+
+    @property
+    def compact(self) -> bool:
+        return self.kind != "dense"
+
+    @cached_property
+    def slots(self) -> dict[tuple[int, int], int]:
+        """(i, p) in elimination positions, i >= p -> index in the stored array."""
+        table, index = {}, 0
+        for p, rows in enumerate(self.columns):
+            table[(p, p)] = index
+            index += 1
+            for i in rows:
+                table[(i, p)] = index
+                index += 1
+        return table
+
+    def coordinate_slot(self, k: int, j: int) -> int:
+        """Where entry (k, j) of M (coordinates) is stored."""
+        if self.kind == "dense":
+            return k * self.n + j
+        i, p = sorted((self.position[k], self.position[j]), reverse=True)
+        return self.slots[(i, p)]
+
+    @cached_property
+    def position(self) -> dict[int, int]:
+        """coordinate -> its elimination position."""
+        return {coordinate: p for p, coordinate in enumerate(self.order)}
+
+    @cached_property
+    def rows(self) -> tuple[tuple[int, ...], ...]:
+        """rows[i]: the positions p < i where row i of L is not structurally zero."""
+        rows: list[list[int]] = [[] for _ in range(self.n)]
+        for p, column in enumerate(self.columns):
+            for i in column:
+                rows[i].append(p)
+        return tuple(tuple(r) for r in rows)
+
+    def work(self) -> int:
+        """Multiplications of the straight-line factorisation (the sum over columns of the
+        products L_ik d_k L_jk it forms)."""
+        rows = [set(r) for r in self.rows]
+        return sum(len(rows[p]) + sum(len(rows[i] & rows[p]) for i in column)
+                   for p, column in enumerate(self.columns))
+
+
+def mass_layout(mass_matrix: tuple[tuple[sympy.Expr, ...], ...]) -> MassLayout:
+    """Choose the storage and factorisation of M from its structurally nonzero entries."""
+    n = len(mass_matrix)
+    neighbours = [{j for j in range(n) if j != k and (mass_matrix[k][j] != 0 or mass_matrix[j][k] != 0)}
+                  for k in range(n)]
+    if not any(neighbours):
+        return MassLayout("diagonal", n, tuple(range(n)), ((),) * n,
+                          frozenset((p, p) for p in range(n)))
+    order, columns = minimum_degree(neighbours)
+    position = {coordinate: p for p, coordinate in enumerate(order)}
+    original = frozenset((max(position[k], position[j]), min(position[k], position[j]))
+                         for k in range(n) for j in neighbours[k] | {k})
+    layout = MassLayout("sparse", n, order, columns, original)
+    dense = 2 * layout.size - n >= n * n
+    fixed, per_coordinate = STRAIGHT_LINE_WORK
+    if (dense and n > STRAIGHT_LINE_DENSE) or layout.work() > fixed + per_coordinate * n:
+        return MassLayout("dense", n, tuple(range(n)), tuple(tuple(range(p + 1, n)) for p in range(n)),
+                          frozenset((i, p) for p in range(n) for i in range(p, n)))
+    return layout
+
+
+def minimum_degree(neighbours: list[set[int]]) -> tuple[tuple[int, ...], tuple[tuple[int, ...], ...]]:
+    """Greedy minimum-degree ordering with its symbolic factorisation (ties: lowest index).
+
+    Eliminating a vertex joins its remaining neighbours into a clique: those are the rows of
+    its column of L, and the new edges are the fill. -> (order, columns in positions).
+    """
+    graph = [set(s) for s in neighbours]
+    heap = [(len(s), k) for k, s in enumerate(graph)]
+    heapq.heapify(heap)
+    eliminated: dict[int, int] = {}
+    pattern: list[set[int]] = []
+    while heap:
+        degree, k = heapq.heappop(heap)
+        if k in eliminated or degree != len(graph[k]):
+            continue                                  # a stale entry: k's degree changed
+        eliminated[k] = len(pattern)
+        clique = graph[k]
+        pattern.append(set(clique))
+        for j in clique:
+            graph[j].discard(k)
+            graph[j] |= clique - {j}
+            heapq.heappush(heap, (len(graph[j]), j))
+        graph[k] = set()
+    order = tuple(sorted(eliminated, key=eliminated.__getitem__))
+    columns = tuple(tuple(sorted(eliminated[j] for j in rows)) for rows in pattern)
+    return order, columns

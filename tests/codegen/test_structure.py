@@ -1,0 +1,112 @@
+"""The structure of the mass matrix found at generation time, and the factorisations written for it."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import sympy
+
+import lagdsl
+from lagdsl.codegen.c_factor import factorisation_text
+from lagdsl.codegen.structure import MassLayout, mass_layout
+from tests.conftest import MODELS
+
+a, b, c = sympy.symbols("a b c", positive=True)
+
+
+def pattern(rows: list[str]) -> tuple[tuple[sympy.Expr, ...], ...]:
+    """A symmetric matrix of symbols from a picture: 'x' is a nonzero entry, '.' a zero."""
+    return tuple(tuple(sympy.Symbol(f"m{i}{j}") if ch == "x" else sympy.S.Zero for j, ch in enumerate(row))
+                 for i, row in enumerate(rows))
+
+
+def test_a_diagonal_mass_matrix_is_divided_by():
+    layout = mass_layout(((a, 0, 0), (0, b, 0), (0, 0, c)))
+    assert layout.kind == "diagonal" and layout.size == 3
+    assert [layout.coordinate_slot(k, k) for k in range(3)] == [0, 1, 2]
+
+
+def test_a_tridiagonal_mass_matrix_is_factored_without_fill():
+    layout = mass_layout(pattern(["xx...", "xxx..", ".xxx.", "..xxx", "...xx"]))
+    assert layout.kind == "sparse"
+    assert layout.size == 5 + 4            # the pivots and the 4 subdiagonal entries: no fill
+
+
+def test_minimum_degree_eliminates_the_hub_of_an_arrow_late():
+    # a cart (coordinate 0) carrying four independent pendulums: M is an arrow
+    layout = mass_layout(pattern(["xxxxx", "xx...", "x.x..", "x..x.", "x...x"]))
+    assert 0 not in layout.order[:3]       # (the last two tie, and go by index)
+    assert layout.size == 5 + 4            # eliminated first, the hub would fill the whole matrix
+
+
+def test_small_dense_matrices_are_straight_line_and_large_ones_loop():
+    assert mass_layout(pattern(["xxxx"] * 4)).kind == "sparse"
+    assert mass_layout(pattern(["xxxxx"] * 5)).kind == "dense"
+
+
+def random_matrix(layout_pattern: list[str], seed: int) -> np.ndarray:
+    """A symmetric positive definite matrix with the given pattern (diagonally dominant)."""
+    generator = np.random.default_rng(seed)
+    mask = np.array([[ch == "x" for ch in row] for row in layout_pattern])
+    values = generator.uniform(-1, 1, mask.shape) * mask
+    values = (values + values.T) / 2
+    return values + np.diag(np.abs(values).sum(axis=1) + generator.uniform(0.5, 2, len(mask)))
+
+
+def run_factorisation(layout: MassLayout, matrix: np.ndarray, rhs: np.ndarray) -> tuple[np.ndarray, float]:
+    """Execute the generated straight-line statements (C that is also Python, line by line)."""
+    text = factorisation_text(layout)
+    K = np.zeros(layout.size)
+    for (k, j) in [(k, j) for k in range(layout.n) for j in range(k + 1)]:
+        if matrix[k, j] != 0:
+            K[layout.coordinate_slot(k, j)] = matrix[k, j]
+    scale = 1 / np.sqrt(K[[layout.slots[(p, p)] for p in range(layout.n)]])
+    namespace = {"K": K, "scale": scale}
+    for line in text["scale"] + text["columns"]:
+        if not line.startswith("if"):
+            exec(line.rstrip(";"), namespace)          # noqa: S102 (our own generated statements)
+    pivots = K[[layout.slots[(p, p)] for p in range(layout.n)]]
+    x = np.array([rhs[k] for k in layout.order]) * scale
+    namespace["x"] = x
+    for line in text["forward"]:
+        exec(line.rstrip(";"), namespace)             # noqa: S102
+    x /= pivots
+    for line in text["backward"]:
+        exec(line.rstrip(";"), namespace)             # noqa: S102
+    solution = np.empty(layout.n)
+    solution[list(layout.order)] = x * scale
+    return solution, pivots.min() / pivots.max()
+
+
+@pytest.mark.parametrize("picture", [
+    ["xx...", "xxx..", ".xxx.", "..xxx", "...xx"],
+    ["xxxxx", "xx...", "x.x..", "x..x.", "x...x"],
+    ["xx.x.", "xxx..", ".xx.x", "x..xx", "..xxx"],          # a cycle: minimum degree must fill
+    ["xxx", "xxx", "xxx"],
+])
+def test_the_straight_line_ldlt_solves_the_system(picture):
+    layout = mass_layout(pattern(picture))
+    assert layout.kind == "sparse"
+    matrix = random_matrix(picture, seed=len(picture) + picture[0].count("x"))
+    rhs = np.arange(1.0, layout.n + 1)
+    solution, rcond = run_factorisation(layout, matrix, rhs)
+    assert np.allclose(matrix @ solution, rhs, rtol=1e-13, atol=1e-13)
+    scaled = matrix / np.sqrt(np.outer(np.diag(matrix), np.diag(matrix)))
+    assert rcond >= 1 / np.linalg.cond(scaled, 2) * (1 - 1e-12)     # never below the true 1/cond
+
+
+def test_fem_string_mass_matrix_is_banded_and_fpu_chain_is_diagonal():
+    assert lagdsl.load(MODELS / "fem_string.lag").emit("c").text.count("lag_order[LAG_NQ]") == 1
+    fpu = lagdsl.load(MODELS / "fermi_pasta_ulam.lag")
+    text = fpu.emit("c").text
+    assert "b[i] /= K[i];" in text and "lag_cholesky_factor" not in text
+    assert "K = numpy.zeros((NK,) + shape)" in fpu.emit("numpy").text
+
+
+def test_a_diagonal_mass_matrix_that_is_not_positive_is_singular(tmp_path):
+    model = tmp_path / "negative.lag"
+    model.write_text("model Negative\n  parameter m = 1.0;\n  coordinate x(start = 1);\n"
+                     "  coordinate y;\n  T = m/2*der(x)^2 + der(y)^2/2;\n  U = x^2/2 + y^2/2;\n"
+                     "  scene s\n    time(stop = 1, interval = 0.5);\n  end s;\nend Negative;\n")
+    for backend in ("c", "numpy"):
+        with pytest.raises(lagdsl.SimulationError, match="singular"):
+            lagdsl.load(model).simulate(backend=backend, m=-1.0)
