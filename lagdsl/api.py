@@ -1,6 +1,9 @@
 """The Python API: `lagdsl.load("model.lag").simulate()`. The command line is a thin layer over it."""
 from __future__ import annotations
 
+import contextlib
+import sys
+import time as clock
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -12,11 +15,13 @@ from .errors import LagError
 from .mechanics import Equations
 from .pipeline import compile_model, execute, generate, plan
 from .run.output import Result
+from .run import sweep as batch
 from .run.runner import load as load_program
-from .scene import Overrides, ScenePlan, given_options
+from .scene import RUN_OPTIONS, Overrides, ScenePlan, check_step_count, given_options
 from .source import SourceFile
 
 BACKENDS = ("c", "numpy")
+GRID_OVERRIDES = ("start", "stop", "interval", "integrator")
 
 
 class Model:
@@ -76,6 +81,51 @@ class Model:
         program = self._program(scene, scene_plan, backend, overrides)
         return execute(program.kernel, program.source, scene_plan, progress, program.loaded)
 
+    def sweep(self, scene: str | None = None, backend: str = "c", *, set: dict, workers: int | None = None,
+              client=None, progress: bool = False, **overrides) -> batch.Sweep:
+        """Run B members of a scene in one call and return a `Sweep` (values shaped (B, T, C)).
+
+        `set` maps the names simulate(set=...) takes (parameters, "q.start", "q.velocity") to
+        numbers or 1-D arrays of one common length B; `overrides` are simulate's (stop, interval,
+        integrator, rtol, ..., and parameters as numbers). On the C backend the members run in
+        parallel on `workers` threads (default: OMP_NUM_THREADS, else every CPU), or on the Dask
+        cluster behind `client` (a dask.distributed.Client); member b equals
+        simulate(set={k: v[b]}) bit for bit. A member that fails is marked in `.status` with its
+        `.failure_time`; the others complete. `progress` shows a tqdm bar on stderr.
+        """
+        _check_backend(backend)
+        if client is not None and backend != "c":
+            raise LagError("sweep: a Dask client runs the C backend only; use backend='c'")
+        grid = {k: overrides.pop(k) for k in GRID_OVERRIDES if k in overrides}
+        options = {k: overrides.pop(k) for k in RUN_OPTIONS if k in overrides}
+        varied = {**overrides, **dict(set)}
+        base = Overrides((), grid.get("start"), grid.get("stop"), grid.get("interval"), grid.get("integrator"),
+                         given_options(options))
+        members = batch.member_inputs(lambda o: self.plan(scene, o), base, varied)
+        check_step_count(members.plan)
+        program = self._program(scene, members.plan, backend, base)
+        with _progress_bar(progress, len(members.initial)) as advance:
+            started = clock.perf_counter()
+            if backend == "numpy":
+                values, summaries, counters = batch.run_numpy_batch(program.loaded, program.kernel, program.source,
+                                                                    members, advance)
+                workers_text = "one process"
+            else:
+                layout = batch.batch_layout(members.plan)
+                counters = layout.counters
+                if client is not None:
+                    values, summaries, chunks = batch.run_dask(
+                        client, program.library_bytes(), program.source.text, program.source.suggested_name,
+                        layout, members.parameters, members.initial, advance)
+                    workers_text = f"Dask, {chunks} chunks"
+                else:
+                    threads = batch.default_threads(workers)
+                    values, summaries = batch.run_c_batch(program.loaded, layout, members.parameters,
+                                                          members.initial, threads, advance)
+                    workers_text = f"{threads} thread{'s' if threads > 1 else ''}"
+            elapsed = clock.perf_counter() - started
+        return batch.assemble(members.plan, members, values, summaries, backend, counters, elapsed, workers_text)
+
     def _program(self, scene: str | None, scene_plan: ScenePlan, backend: str, overrides: Overrides) -> Program:
         """The generated, loaded code for a scene, integrator and backend: built on first use, then kept.
 
@@ -99,10 +149,25 @@ class Program:
     source: GeneratedSource
     loaded: object
 
+    def library_bytes(self) -> bytes:
+        """The compiled shared library (C), to ship to other processes: a ctypes handle cannot be."""
+        return Path(self.loaded._name).read_bytes()
+
 
 def load(path: str | Path) -> Model:
     """Read, check and derive a model file; raises LagError with located diagnostics."""
     return Model(SourceFile.read(path))
+
+
+@contextlib.contextmanager
+def _progress_bar(show: bool, members: int):
+    """A tqdm bar over the members on stderr when `show`; yields a callable(members finished)."""
+    if not show:
+        yield None
+        return
+    from tqdm import tqdm
+    with tqdm(total=members, unit="member", file=sys.stderr, dynamic_ncols=True) as bar:
+        yield lambda finished: bar.update(max(0, finished - bar.n))
 
 
 def _check_backend(backend: str) -> None:

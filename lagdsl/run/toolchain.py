@@ -7,6 +7,7 @@ verified before use and built without collisions) is `cache.py`.
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 import shutil
@@ -19,6 +20,18 @@ from .cache import cached_entry
 
 STRICT_FLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic")
 LIBRARY_FLAGS = ("-std=c99", "-O2", "-fPIC", "-shared")
+OPENMP_FLAG = "-fopenmp"
+# A parallel loop that needs the OpenMP runtime: a compiler that accepts -fopenmp but cannot link
+# libgomp (or libomp) must not count as supporting it.
+OPENMP_PROBE = """#include <omp.h>
+int main(void)
+{
+    int n = 0;
+#pragma omp parallel reduction(+:n)
+    n += omp_get_num_threads() > 0;
+    return n > 0 ? 0 : 1;
+}
+"""
 
 
 def find_compiler() -> str:
@@ -41,8 +54,30 @@ def compile_c(source: str, output: Path, flags=STRICT_FLAGS, compiler: str | Non
             raise InternalError(f"the generated C did not compile\n{result.stderr}")
 
 
-def shared_library(source: str, stem: str) -> Path:
-    """The compiled shared library for `source`, built on first use and cached."""
+def shared_library(source: str, stem: str, openmp: bool | None = None) -> Path:
+    """The compiled shared library for `source`, built on first use and cached: with OpenMP
+    (the batch entry point runs its members in parallel) when the compiler supports it, unless
+    `openmp` says otherwise. The generated code gives the same results bit for bit either way."""
     compiler = find_compiler()
-    key = hashlib.sha256("\0".join((source, compiler, *LIBRARY_FLAGS)).encode()).hexdigest()
-    return cached_entry(f"{stem}-{key[:20]}.so", key, lambda path: compile_c(source, path, LIBRARY_FLAGS, compiler))
+    flags = library_flags(compiler, openmp)
+    key = hashlib.sha256("\0".join((source, compiler, *flags)).encode()).hexdigest()
+    return cached_entry(f"{stem}-{key[:20]}.so", key, lambda path: compile_c(source, path, flags, compiler))
+
+
+def library_flags(compiler: str, openmp: bool | None = None) -> tuple[str, ...]:
+    use_openmp = supports_openmp(compiler) if openmp is None else openmp
+    return (*LIBRARY_FLAGS, OPENMP_FLAG) if use_openmp else LIBRARY_FLAGS
+
+
+@functools.lru_cache(maxsize=None)
+def supports_openmp(compiler: str) -> bool:
+    """Whether `compiler` builds and links an OpenMP program (asked once per compiler and process)."""
+    with tempfile.TemporaryDirectory() as work:
+        probe = Path(work) / "probe.c"
+        probe.write_text(OPENMP_PROBE, encoding="ascii")
+        try:
+            done = subprocess.run([compiler, OPENMP_FLAG, str(probe), "-o", str(Path(work) / "probe")],
+                                  capture_output=True, text=True, timeout=60)
+        except (OSError, subprocess.TimeoutExpired):
+            return False
+        return done.returncode == 0
