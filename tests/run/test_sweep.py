@@ -142,3 +142,43 @@ def test_members_not_begun_after_an_interrupt_are_marked(pendulum):
         flag.value = 0
     assert list(summaries[:, 0]) == [7, 7] and list(summaries[:, 1]) == [0, 0]
     assert sweep.status[0] == "ok"
+
+
+def test_lagc_sweep_writes_the_grid_as_a_tidy_table(tmp_path):
+    from tests.test_cli import lagc
+    output = tmp_path / "grid.csv"
+    done = lagc("sweep", MODELS / "double_pendulum.lag", "--vary", "m2=1:2:2", "--vary", "theta1.start=0:1:3",
+                "--stop", "0.5", "--interval", "0.5", "-o", output)
+    assert done.returncode == 0, done.stderr
+    assert "sweep of 6 members" in done.stderr and "6 ok, 0 failed" in done.stderr
+    lines = output.read_text().splitlines()
+    assert lines[0] == "member,m2,theta1.start,t,theta1,theta2,energy,status" and len(lines) == 1 + 6 * 2
+    assert lines[1].startswith("0,1,0,0,0,2,") and lines[-1].startswith("5,2,1,0.5,")
+
+
+def test_lagc_sweep_writes_parquet_and_random_samples(tmp_path):
+    pandas = pytest.importorskip("pandas")
+    pytest.importorskip("pyarrow")
+    from tests.test_cli import lagc
+    output = tmp_path / "sample.parquet"
+    done = lagc("sweep", MODELS / "double_pendulum.lag", "--random", "m2=1:2", "-n", "3", "--seed", "7",
+                "--stop", "0.5", "--interval", "0.5", "-o", output)
+    assert done.returncode == 0, done.stderr
+    table = pandas.read_parquet(output)
+    assert len(table) == 6 and np.array_equal(table["m2"].to_numpy()[::2], np.random.default_rng(7).uniform(1, 2, 3))
+
+
+@pytest.mark.parametrize("options, message", [
+    (["--vary", "m2=1:2"], "lagc: error: --vary m2=1:2: expected NAME=START:STOP:COUNT"),
+    (["--vary", "m2=1:2:0"], "COUNT must be a whole number >= 1"),
+    (["--random", "m2=1:2"], "lagc: error: --random: needs -n"),
+    (["--random", "m2=2:1", "-n", "3"], "need LOW < HIGH"),
+    (["--vary", "m2=1:2:2", "--random", "m1=1:2", "-n", "2"], "not both"),
+    (["--vary", "m2=1:2:2", "--vary", "m2=0:1:2"], "'m2' is varied twice"),
+    ([], "nothing varies"),
+])
+def test_lagc_sweep_refuses_bad_options_with_a_located_error(tmp_path, options, message):
+    from tests.test_cli import lagc
+    done = lagc("sweep", MODELS / "double_pendulum.lag", *options, "-o", tmp_path / "x.csv")
+    assert done.returncode == 1 and message in done.stderr and "Traceback" not in done.stderr
+    assert not (tmp_path / "x.csv").exists()
