@@ -21,13 +21,14 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..codegen import GeneratedSource
 from ..escape import csv_field
 from ..errors import LagError, LagWarning, Setting, SimulationError, SimulationInterrupted
 from ..integrators import COUNTERS, summary_extras
 from ..scene import RUN_OPTIONS, Overrides, ScenePlan
 from .cache import cached_entry
 from .output import SETTINGS_ORDER
-from .runner import INTERRUPTED, SCIPY_METHODS, STATUS, _interruptible, output_times, run_numpy
+from .runner import INTERRUPTED, SCIPY_METHODS, STATUS, _interruptible, load, output_times, run_numpy
 
 CHUNKS_PER_THREAD = 4        # Dask: chunks per worker thread, so that a lost worker costs little
 NUMPY_CHUNK = 256            # NumPy: members integrated as one stacked system
@@ -346,8 +347,6 @@ def _worker_library(library: bytes, source: str, stem: str) -> ctypes.CDLL:
         try:
             _worker_libraries[key] = ctypes.CDLL(str(path))
         except OSError:         # another architecture or C library: build it here
-            from .runner import load
-            from ..codegen import GeneratedSource
             _worker_libraries[key] = load(GeneratedSource("c", source, stem))
     return _worker_libraries[key]
 
