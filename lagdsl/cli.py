@@ -194,7 +194,8 @@ def _sweep(arguments) -> int:
     with _dask_client(arguments.dask, arguments.workers) as client:
         try:
             sweep = model.sweep(arguments.scene, arguments.backend, set={**dict(overrides.values), **varied},
-                                workers=None if client else arguments.workers, client=client, progress=True,
+                                workers=None if client else arguments.workers, client=client,
+                                progress=sys.stderr.isatty(),
                                 **keywords)
         except SimulationInterrupted as stopped:
             write_output(arguments.output, sweep_table(stopped.partial, arguments.output))

@@ -182,3 +182,12 @@ def test_lagc_sweep_refuses_bad_options_with_a_located_error(tmp_path, options, 
     done = lagc("sweep", MODELS / "double_pendulum.lag", *options, "-o", tmp_path / "x.csv")
     assert done.returncode == 1 and message in done.stderr and "Traceback" not in done.stderr
     assert not (tmp_path / "x.csv").exists()
+
+
+def test_threads_come_from_workers_then_omp_num_threads(monkeypatch):
+    monkeypatch.setenv("OMP_NUM_THREADS", "3")
+    assert batch.default_threads(None) == 3 and batch.default_threads(2) == 2
+    monkeypatch.delenv("OMP_NUM_THREADS")
+    assert batch.default_threads(None) >= 1
+    with pytest.raises(LagError, match="at least 1"):
+        batch.default_threads(0)
