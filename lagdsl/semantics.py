@@ -612,6 +612,12 @@ def validate_integrator(name: str, values: dict[str, float], span: Span | Settin
             raise LagError(f"{name}({key} = ...) must be a positive finite number", origins.get(key, span))
     if values.get("rtol") == 0 and values.get("atol") == 0:
         raise LagError(f"{name}(rtol = ..., atol = ...) cannot both be 0", origins.get("rtol", span))
+    if name in ("radau5", "auto") and values.get("atol") == 0:
+        # Hairer's RADAU5 refuses it too: the Newton iteration weighs each component by
+        # atol + rtol |y|, which is 0 for a component at 0 (a body at rest).
+        raise LagError(f"{name}(atol = ...) must be positive: the implicit method weighs each "
+                       "component by atol + rtol |y|, which is 0 where a component is 0",
+                       origins.get("atol", span))
     if "max_steps" in values and (values["max_steps"] != int(values["max_steps"]) or values["max_steps"] > 1e15):
         raise LagError(f"{name}(max_steps = ...) must be a whole number from 1 to 1e15", origins.get("max_steps", span))
     if name in ("rk4", "gauss") and "step" not in values:

@@ -10,6 +10,8 @@ every step of scipy's solvers in the NumPy backend.
 """
 from __future__ import annotations
 
+import collections
+
 import ctypes
 import hashlib
 import importlib.abc
@@ -18,13 +20,14 @@ import threading
 import time as clock
 import warnings
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from ..codegen import GeneratedSource
 from ..codegen.kernel import Kernel
-from ..errors import InternalError, LagError, SimulationError, SimulationInterrupted
+from ..errors import InternalError, LagError, LagWarning, SimulationError, SimulationInterrupted
 from ..integrators import COUNTERS, STIFFNESS_TESTED, SWITCH_TIMES, summary_extras
 from ..integrators.python.fixed_step import IntegrationFailure, integrate_gauss, integrate_rk4
 from ..integrators.python.stiffness import STABILITY_BOUNDARY, StiffnessTest, SwitchLog
@@ -54,10 +57,14 @@ STATUS = {
     6: ("projection onto the constraints did not converge",
         "the constraints may be singular at this state; check the initial values"),
     7: ("interrupted", ""),
+    8: ("at its pace so far, the run would need more steps than the step limit of {max_steps} allows",
+        "the solution may be singular near this time, or the problem is stiff: try --integrator "
+        "radau5, or raise --max-steps"),
 }
 PROJECTION_FAILED = 6
 INTERRUPTED = 7
 SCIPY_METHODS = {"dopri5": "RK45", "dop853": "DOP853", "radau5": "Radau", "auto": "LSODA"}
+SCIPY_RTOL_FLOOR = 100 * float(np.finfo(float).eps)    # scipy raises a smaller rtol itself, with a warning
 POLL_SECONDS = 0.1      # how often the main thread looks at a C run: Ctrl-C and progress
 Progress = Callable[[float, float, float], None]     # (t reached, start, stop)
 
@@ -257,6 +264,7 @@ def run_numpy(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress
         raise LagError("auto on the NumPy backend is scipy's LSODA, which restarts at order 1 after every "
                        "projection onto the constraints and crawls; use --backend c, or --integrator dop853 "
                        "or radau5", plan.integrator.span)
+    plan = _within_scipy_tolerances(plan)
     module = loaded if loaded is not None else load(source)
     par = np.array(plan.parameters, dtype=float)
     times = output_times(plan)
@@ -284,6 +292,18 @@ def run_numpy(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress
             rcond = float(module.reciprocal_condition(t_fail, y_fail, par))
         raise _failure(plan, status, t_fail, y_fail, result, rcond)
     return result
+
+
+def _within_scipy_tolerances(plan: ScenePlan) -> ScenePlan:
+    """scipy's solvers raise rtol below 100 eps themselves (with a warning of their own): raise it
+    here, say so in our words, and let the summary print the tolerance the run used."""
+    options = dict(plan.integrator.options)
+    if plan.integrator.name not in SCIPY_METHODS or options["rtol"] >= SCIPY_RTOL_FLOOR:
+        return plan
+    warnings.warn(f"rtol = {options['rtol']:g} is below what scipy's solvers accept; the NumPy backend "
+                  f"runs at rtol = {SCIPY_RTOL_FLOOR:.3g}", LagWarning, stacklevel=3)
+    options["rtol"] = SCIPY_RTOL_FLOOR
+    return replace(plan, integrator=replace(plan.integrator, options=tuple(sorted(options.items()))))
 
 
 def _start(module, par, t0, y0, plan):
@@ -362,11 +382,19 @@ def _run_scipy(module, par, times, y0, plan, progress):
         return module.rhs(t, y, par)
 
     def start(t, y, first_step=None):
-        return method(fun, t, y, times[-1], rtol=options["rtol"], atol=options["atol"],
-                      first_step=first_step, **extra)
+        solver = method(fun, t, y, times[-1], rtol=options["rtol"], atol=options["atol"],
+                        first_step=first_step, **extra)
+        if not np.isfinite(getattr(solver, "h_abs", 0.0)):
+            # scipy's choice of the first step divides by atol + rtol |y|, which is 0 for a
+            # component at 0 under pure relative error control (atol = 0): h is NaN, and the
+            # step loop, which stops when h falls below a floor, never ends. Hairer's fallback.
+            solver = method(fun, t, y, times[-1], rtol=options["rtol"], atol=options["atol"],
+                            first_step=1e-6 * abs(times[-1] - t), **extra)
+        return solver
 
     counts = {"accepted": 0, "rejected": None, "rhs_evals": 0, "jac_evals": 0, "lu_decomps": 0}
     watch = _StepWatch(method.__name__, counts)
+    forecast = _WorkForecast(times[0], times[-1], plan.max_steps)
     states, solver, k = [y0], None, 1
     span = times[-1] - times[0]
     try:
@@ -382,6 +410,8 @@ def _run_scipy(module, par, times, y0, plan, progress):
                 return states, watch.finish(_tally(counts, solver)), (3, t_before, y_before)
             counts["accepted"] += 1
             watch.record(solver)
+            if forecast.hopeless(solver.t - t_before, solver.t, counts["accepted"]):
+                return states, watch.finish(_tally(counts, solver)), (8, solver.t, solver.y)
             if not np.all(np.isfinite(solver.y)):
                 return states, watch.finish(_tally(counts, solver)), (2, solver.t, solver.y)
             dense = solver.dense_output()
@@ -406,6 +436,37 @@ def _run_scipy(module, par, times, y0, plan, progress):
     except KeyboardInterrupt:
         return _stopped(states, counts, solver, times[0], y0, INTERRUPTED, watch)
     return states, watch.finish(_tally(counts, solver)), None
+
+
+class _WorkForecast:
+    """Stops a run early that cannot end within its step limit.
+
+    A NumPy step costs about a millisecond, so a run whose steps have shrunk to near the
+    resolution of t (an extreme parameter, a singularity) or that needs more steps than allowed
+    would grind through the whole step limit for minutes. From `JUDGED_AFTER` steps on, the run
+    is hopeless when two forecasts of the steps still needed both exceed the steps still allowed:
+    the average pace since the start, (stop - t) x taken / (t - start), which a passing burst of
+    small steps (a close approach) barely moves, and the largest of the last `WINDOW` steps,
+    (stop - t) / h, which forgives a fast transient at the start. Steps that shrink on towards a
+    singularity end here too, before the step-size floor would. (A C step costs microseconds;
+    there the step limit itself ends such runs within a second.)
+    """
+
+    JUDGED_AFTER, WINDOW = 1000, 100
+
+    def __init__(self, start: float, stop: float, max_steps: int):
+        self.start, self.stop, self.max_steps = start, stop, max_steps
+        self.recent: collections.deque = collections.deque(maxlen=self.WINDOW)
+
+    def hopeless(self, step: float, t: float, taken: int) -> bool:
+        self.recent.append(abs(step))
+        if taken < self.JUDGED_AFTER:
+            return False
+        largest = max(self.recent)
+        left, allowed = abs(self.stop - t), self.max_steps - taken
+        by_average = left * taken > allowed * abs(t - self.start)
+        by_recent = left > allowed * largest
+        return by_average and by_recent
 
 
 class _StepWatch:

@@ -132,13 +132,31 @@ def test_a_tolerance_below_the_rounding_is_raised_with_a_warning(oscillator):
         f"rtol = 1e-300 is below 10 eps; raised to {RTOL_FLOOR:.3g}"]
 
 
-def test_pure_absolute_or_relative_error_control_is_allowed(oscillator):
+def test_the_numpy_backend_raises_rtol_to_scipys_floor_in_its_own_words(oscillator):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = oscillator.simulate(backend="numpy", rtol=1e-14)
+    assert [w.category for w in caught] == [LagWarning]
+    assert "below what scipy's solvers accept" in str(caught[0].message)
+    assert dict(result.summary.settings)["rtol"] == pytest.approx(100 * np.finfo(float).eps)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize("integrator", ["dopri5", "dop853", "radau5"])
+def test_pure_absolute_or_relative_error_control_is_allowed(oscillator, backend, integrator):
+    """x' starts at 0: under pure relative control its error weight is 0 at the start (scipy's
+    choice of the first step was NaN there, and its step loop never ended). The implicit method
+    needs atol > 0, as Hairer's RADAU5 does."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", LagWarning)
-        absolute = oscillator.simulate(rtol=0.0, atol=1e-10)
-    relative = oscillator.simulate(atol=0.0, rtol=1e-10)
-    for result in (absolute, relative):
-        assert result["x"][-1] == pytest.approx(math.cos(1.0), abs=1e-8)
+        results = [oscillator.simulate(backend=backend, integrator=integrator, rtol=0.0, atol=1e-10)]
+    if integrator == "radau5":
+        with pytest.raises(LagError, match=r"radau5\(atol = ...\) must be positive"):
+            oscillator.simulate(backend=backend, integrator=integrator, atol=0.0, rtol=1e-10)
+    else:
+        results.append(oscillator.simulate(backend=backend, integrator=integrator, atol=0.0, rtol=1e-10))
+    for result in results:
+        assert result["x"][-1] == pytest.approx(math.cos(1.0), abs=1e-7)
 
 
 # ---- step limits -----------------------------------------------------------------------------
@@ -170,6 +188,31 @@ def test_a_step_size_collapse_at_t0_fails_at_once(oscillator, backend):
     assert "step size collapsed" in error.value.message
     assert error.value.time < 1e-13
     assert time.monotonic() - started < 60     # not a bound on speed: the run used to go on for hours
+
+
+def test_a_numpy_run_that_cannot_finish_within_the_limit_stops_early(oscillator):
+    """k = 1e10 with 200 steps allowed... of 1e7 needed: the NumPy run stops after the judged
+    steps, at its pace, instead of grinding through the whole limit; its rows are kept."""
+    with pytest.raises(SimulationError) as error:
+        oscillator.simulate(backend="numpy", k=1e10, stop=100.0, interval=1e-4, max_steps=10**6)
+    failure = error.value
+    assert "at its pace so far" in failure.message and "10000000" not in failure.message
+    assert "--max-steps" in failure.remedy
+    assert failure.time < 1e-2 and len(failure.partial.t) >= 2
+
+
+def test_the_forecast_forgives_a_burst_of_small_steps_and_a_fast_start():
+    from lagdsl.run.runner import _WorkForecast
+    perihelion = _WorkForecast(0.0, 100.0, 10**5)       # steady 1e-2 steps, then a burst of 1e-6
+    verdicts = [perihelion.hopeless(1e-2, 1e-2 * n, n) for n in range(1, 2001)]
+    verdicts += [perihelion.hopeless(1e-6, 20.0 + 1e-6 * n, 2000 + n) for n in range(1, 201)]
+    assert not any(verdicts)
+    transient = _WorkForecast(0.0, 100.0, 10**5)        # 900 tiny steps, then large ones
+    verdicts = [transient.hopeless(1e-9, 1e-9 * n, n) for n in range(1, 901)]
+    verdicts += [transient.hopeless(1e-2, 1e-2 * n, 900 + n) for n in range(1, 2000)]
+    assert not any(verdicts)
+    stuck = _WorkForecast(0.0, 100.0, 10**5)            # 1e-9 for good: hopeless once judged
+    assert [stuck.hopeless(1e-9, 1e-9 * n, n) for n in (1, 999, 1000)] == [False, False, True]
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
