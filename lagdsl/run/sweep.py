@@ -28,7 +28,7 @@ from ..integrators import COUNTERS, summary_extras
 from ..scene import RUN_OPTIONS, Overrides, ScenePlan
 from .cache import cached_entry
 from .output import SETTINGS_ORDER
-from .runner import INTERRUPTED, SCIPY_METHODS, STATUS, _interruptible, load, output_times, run_numpy
+from .runner import INTERRUPTED, SCIPY_METHODS, SCIPY_RTOL_FLOOR, STATUS, _interruptible, load, output_times, run_numpy
 
 CHUNKS_PER_THREAD = 4        # Dask: chunks per worker thread, so that a lost worker costs little
 NUMPY_CHUNK = 256            # NumPy: members integrated as one stacked system
@@ -421,7 +421,8 @@ def run_numpy_batch(module, kernel, source, members: Members, on_progress: Calla
     error of the stacked state as one RMS norm, so the tolerances are divided by sqrt(B): each
     member's own RMS error norm then meets rtol and atol as in a single run, though the members
     share their steps (they do not equal simulate() bit for bit). A chunk that fails anywhere is
-    rerun member by member, as simulate() runs them, so a failing member ends alone.
+    rerun member by member, as simulate() runs them, so a failing member ends alone; so is a chunk
+    whose divided tolerances scipy would not take as they are (atol = 0, rtol below its floor).
     """
     plan = members.plan
     count = len(members.initial)
@@ -449,6 +450,9 @@ def _stacked_chunk(module, members: Members, lo: int, hi: int, values: np.ndarra
     par = members.parameters[lo:hi].T
     y0 = members.initial[lo:hi].T
     n, count = y0.shape
+    rtol, atol = options["rtol"] / math.sqrt(count), options["atol"] / math.sqrt(count)
+    if not (atol > 0 and rtol >= SCIPY_RTOL_FLOOR):
+        return False        # what scipy would change or cannot start with: as single runs
     extra = {"max_step": options["max_step"]} if options.get("max_step") else {}
     method = getattr(integrate, SCIPY_METHODS[plan.integrator.name])
 
@@ -458,8 +462,7 @@ def _stacked_chunk(module, members: Members, lo: int, hi: int, values: np.ndarra
     states, steps = [y0.reshape(-1)], 0
     with np.errstate(all="ignore"):
         try:
-            solver = method(fun, times[0], y0.reshape(-1), times[-1], rtol=options["rtol"] / math.sqrt(count),
-                            atol=options["atol"] / math.sqrt(count), **extra)
+            solver = method(fun, times[0], y0.reshape(-1), times[-1], rtol=rtol, atol=atol, **extra)
             while len(states) < len(times):
                 solver.step()
                 steps += 1

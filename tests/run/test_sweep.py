@@ -191,3 +191,12 @@ def test_threads_come_from_workers_then_omp_num_threads(monkeypatch):
     assert batch.default_threads(None) >= 1
     with pytest.raises(LagError, match="at least 1"):
         batch.default_threads(0)
+
+
+def test_numpy_members_under_pure_relative_error_control_run_one_by_one(pendulum):
+    values = {"m2": [1.0, 2.0]}
+    sweep = pendulum.sweep("chaos", "numpy", set=values, stop=0.5, interval=0.25, rtol=1e-8, atol=0.0)
+    for b in range(2):
+        alone = pendulum.simulate("chaos", "numpy", set={"m2": values["m2"][b]}, stop=0.5, interval=0.25,
+                                  rtol=1e-8, atol=0.0)
+        assert np.array_equal(alone.values, sweep.values[b])
