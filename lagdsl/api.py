@@ -106,25 +106,9 @@ class Model:
         program = self._program(scene, members.plan, backend, base)
         with _progress_bar(progress, len(members.initial)) as advance:
             started = clock.perf_counter()
-            if backend == "numpy":
-                values, summaries, counters = batch.run_numpy_batch(program.loaded, program.kernel, program.source,
-                                                                    members, advance)
-                workers_text = "one process"
-            else:
-                layout = batch.batch_layout(members.plan)
-                counters = layout.counters
-                if client is not None:
-                    values, summaries, chunks = batch.run_dask(
-                        client, program.library_bytes(), program.source.text, program.source.suggested_name,
-                        layout, members.parameters, members.initial, advance)
-                    workers_text = f"Dask, {chunks} chunks"
-                else:
-                    threads = batch.default_threads(workers)
-                    values, summaries = batch.run_c_batch(program.loaded, layout, members.parameters,
-                                                          members.initial, threads, advance)
-                    workers_text = f"{threads} thread{'s' if threads > 1 else ''}"
+            values, summaries, counters, how = _run_members(program, members, backend, workers, client, advance)
             elapsed = clock.perf_counter() - started
-        return batch.assemble(members.plan, members, values, summaries, backend, counters, elapsed, workers_text)
+        return batch.assemble(members.plan, members, values, summaries, backend, counters, elapsed, how)
 
     def _program(self, scene: str | None, scene_plan: ScenePlan, backend: str, overrides: Overrides) -> Program:
         """The generated, loaded code for a scene, integrator and backend: built on first use, then kept.
@@ -157,6 +141,24 @@ class Program:
 def load(path: str | Path) -> Model:
     """Read, check and derive a model file; raises LagError with located diagnostics."""
     return Model(SourceFile.read(path))
+
+
+def _run_members(program: Program, members: batch.Members, backend: str, workers: int | None, client,
+                 advance: Callable[[int], None] | None):
+    """(values, summaries, counters, how they ran) of the members: NumPy, a Dask cluster, or C threads."""
+    if backend == "numpy":
+        return (*batch.run_numpy_batch(program.loaded, program.kernel, program.source, members, advance),
+                "one process")
+    layout = batch.batch_layout(members.plan)
+    if client is not None:
+        values, summaries, chunks = batch.run_dask(client, program.library_bytes(), program.source.text,
+                                                   program.source.suggested_name, layout, members.parameters,
+                                                   members.initial, advance)
+        return values, summaries, layout.counters, f"Dask, {chunks} chunks"
+    threads = batch.default_threads(workers)
+    values, summaries = batch.run_c_batch(program.loaded, layout, members.parameters, members.initial, threads,
+                                          advance)
+    return values, summaries, layout.counters, f"{threads} thread{'s' if threads > 1 else ''}"
 
 
 @contextlib.contextmanager

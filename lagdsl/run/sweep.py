@@ -193,10 +193,11 @@ def _inputs_depend_on_parameters(plan: ScenePlan, inputs: dict) -> bool:
     names = {p.name for p in plan.model.parameters}
     if not names & inputs.keys():
         return False
-    overridden = {name for name, _, _ in plan.initial}
+    given = {name: (start, velocity) for name, start, velocity in plan.initial}
     derived = any(p.expression.free_symbols and p.name not in plan.fixed_parameters for p in plan.model.parameters)
-    symbolic_start = any((c.start.free_symbols or c.velocity.free_symbols) and c.name not in overridden
-                         for c in plan.model.coordinates)
+    symbolic_start = any(expression.free_symbols and value is None
+                         for c in plan.model.coordinates
+                         for expression, value in zip((c.start, c.velocity), given.get(c.name, (None, None))))
     return derived or symbolic_start
 
 

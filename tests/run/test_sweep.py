@@ -200,3 +200,12 @@ def test_numpy_members_under_pure_relative_error_control_run_one_by_one(pendulum
         alone = pendulum.simulate("chaos", "numpy", set={"m2": values["m2"][b]}, stop=0.5, interval=0.25,
                                   rtol=1e-8, atol=0.0)
         assert np.array_equal(alone.values, sweep.values[b])
+
+
+def test_a_start_velocity_computed_from_a_varied_parameter_is_recomputed_per_member(tmp_path):
+    text = DERIVED.replace("coordinate x(start = 1/w, velocity = 0);", "coordinate x(start = 1, velocity = k);")
+    model = load(tmp_path, text)
+    sweep = model.sweep(set={"k": [1.0, 4.0], "x.start": [0.5, 0.25]})
+    assert list(sweep.values[:, 0, 0]) == [0.5, 0.25]
+    for b, (k, x) in enumerate(((1.0, 0.5), (4.0, 0.25))):
+        assert np.array_equal(model.simulate(set={"k": k, "x.start": x}).values, sweep.values[b])
