@@ -1,6 +1,9 @@
 """The Python API: `lagdsl.load("model.lag").simulate()`. The command line is a thin layer over it."""
 from __future__ import annotations
 
+import contextlib
+import sys
+import time as clock
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -13,11 +16,14 @@ from .mechanics import Equations
 from .pipeline import compile_model, execute, generate, plan
 from .run import plans
 from .run.output import Result
+from .run import sweep as batch
 from .run.runner import load as load_program
-from .scene import Overrides, ScenePlan, given_options, parameters_in_expressions, scene_defaults
+from .scene import (RUN_OPTIONS, Overrides, ScenePlan, check_step_count, given_options, parameters_in_expressions,
+                    scene_defaults)
 from .source import SourceFile
 
 BACKENDS = ("c", "numpy")
+GRID_OVERRIDES = ("start", "stop", "interval", "integrator")
 
 
 class Model:
@@ -84,6 +90,35 @@ class Model:
         program = self._program(scene, scene_plan, backend, overrides)
         return execute(program.kernel, program.source, scene_plan, progress, program.loaded)
 
+    def sweep(self, scene: str | None = None, backend: str = "c", *, set: dict, workers: int | None = None,
+              client=None, progress: bool = False, **overrides) -> batch.Sweep:
+        """Run B members of a scene in one call and return a `Sweep` (values shaped (B, T, C)).
+
+        `set` maps the names simulate(set=...) takes (parameters, "q.start", "q.velocity") to
+        numbers or 1-D arrays of one common length B; `overrides` are simulate's (stop, interval,
+        integrator, rtol, ..., and parameters as numbers). On the C backend the members run in
+        parallel on `workers` threads (default: OMP_NUM_THREADS, else every CPU), or on the Dask
+        cluster behind `client` (a dask.distributed.Client); member b equals
+        simulate(set={k: v[b]}) bit for bit. A member that fails is marked in `.status` with its
+        `.failure_time`; the others complete. `progress` shows a tqdm bar on stderr.
+        """
+        _check_backend(backend)
+        if client is not None and backend != "c":
+            raise LagError("sweep: a Dask client runs the C backend only; use backend='c'")
+        grid = {k: overrides.pop(k) for k in GRID_OVERRIDES if k in overrides}
+        options = {k: overrides.pop(k) for k in RUN_OPTIONS if k in overrides}
+        varied = {**overrides, **dict(set)}
+        base = Overrides((), grid.get("start"), grid.get("stop"), grid.get("interval"), grid.get("integrator"),
+                         given_options(options))
+        members = batch.member_inputs(lambda o: self.plan(scene, o), base, varied)
+        check_step_count(members.plan)
+        program = self._program(scene, members.plan, backend, base)
+        with _progress_bar(progress, len(members.initial)) as advance:
+            started = clock.perf_counter()
+            values, summaries, counters, how = _run_members(program, members, backend, workers, client, advance)
+            elapsed = clock.perf_counter() - started
+        return batch.assemble(members.plan, members, values, summaries, backend, counters, elapsed, how)
+
     def _program(self, scene: str | None, scene_plan: ScenePlan, backend: str, overrides: Overrides) -> Program:
         """The generated, loaded code for a scene, integrator and backend: built on first use, then kept.
 
@@ -121,10 +156,43 @@ class Program:
     source: GeneratedSource
     loaded: object
 
+    def library_bytes(self) -> bytes:
+        """The compiled shared library (C), to ship to other processes: a ctypes handle cannot be."""
+        return Path(self.loaded._name).read_bytes()
+
 
 def load(path: str | Path) -> Model:
     """Read, check and derive a model file; raises LagError with located diagnostics."""
     return Model(SourceFile.read(path))
+
+
+def _run_members(program: Program, members: batch.Members, backend: str, workers: int | None, client,
+                 advance: Callable[[int], None] | None):
+    """(values, summaries, counters, how they ran) of the members: NumPy, a Dask cluster, or C threads."""
+    if backend == "numpy":
+        return (*batch.run_numpy_batch(program.loaded, program.kernel, program.source, members, advance),
+                "one process")
+    layout = batch.batch_layout(members.plan)
+    if client is not None:
+        values, summaries, chunks = batch.run_dask(client, program.library_bytes(), program.source.text,
+                                                   program.source.suggested_name, layout, members.parameters,
+                                                   members.initial, advance)
+        return values, summaries, layout.counters, f"Dask, {chunks} chunks"
+    threads = batch.default_threads(workers)
+    values, summaries = batch.run_c_batch(program.loaded, layout, members.parameters, members.initial, threads,
+                                          advance)
+    return values, summaries, layout.counters, f"{threads} thread{'s' if threads > 1 else ''}"
+
+
+@contextlib.contextmanager
+def _progress_bar(show: bool, members: int):
+    """A tqdm bar over the members on stderr when `show`; yields a callable(members finished)."""
+    if not show:
+        yield None
+        return
+    from tqdm import tqdm
+    with tqdm(total=members, unit="member", file=sys.stderr, dynamic_ncols=True) as bar:
+        yield lambda finished: bar.update(max(0, finished - bar.n))
 
 
 def _check_backend(backend: str) -> None:

@@ -19,7 +19,7 @@ import warnings
 
 
 from . import __version__
-from .errors import LagError, LagWarning, SimulationError, SimulationInterrupted
+from .errors import LagError, LagWarning, Setting, SimulationError, SimulationInterrupted
 from .escape import visible
 from .run import cache
 from .run.output import check_writable, write_output
@@ -62,7 +62,7 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 
 def _dispatch(argv: list[str]) -> int:
     parser = _parser()
-    if argv and argv[0] not in ("check", "eom", "run", "cache", "-h", "--help", "--version") and "--emit" in argv:
+    if argv and argv[0] not in ("check", "eom", "run", "sweep", "cache", "-h", "--help", "--version") and "--emit" in argv:
         argv = ["emit", *argv]
     arguments = parser.parse_args(argv)
     return arguments.handler(arguments)
@@ -87,26 +87,31 @@ def _parser() -> argparse.ArgumentParser:
     run = commands.add_parser("run", help="simulate a scene; CSV on stdout (or -o), run summary on stderr")
     run.add_argument("model")
     _scene_options(run)
-    run.add_argument("--backend", choices=("c", "numpy"), default="c", help="generated code to run (default: c)")
-    run.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                     help="override a parameter, or an initial value as COORDINATE.start / COORDINATE.velocity")
-    run.add_argument("--start", type=float, help="start time of the output grid")
-    run.add_argument("--stop", type=float, help="stop time")
-    run.add_argument("--interval", type=float, help="output interval")
-    run.add_argument("--integrator", help="rk4, dopri5, dop853, radau5, gauss or auto")
-    run.add_argument("--rtol", type=float, help="relative tolerance (adaptive integrators)")
-    run.add_argument("--atol", type=float, help="absolute tolerance (adaptive integrators)")
-    run.add_argument("--step", type=float, help="step size (rk4, gauss)")
-    run.add_argument("--stages", type=int, help="number of stages (gauss)")
-    run.add_argument("--max-step", type=float, help="largest step (dopri5, dop853, radau5)")
-    run.add_argument("--max-steps", type=int, help="step limit, accepted + rejected "
-                     "(default: 100000, or 100 per output row if that is more)")
+    _run_options(run)
     run.add_argument("--units", action="store_true", help="name each column's unit in the CSV header: 'x [m]'")
     run.add_argument("-o", "--output", help="write the CSV here instead of standard output")
     run.add_argument("--no-cache", action="store_true",
                      help="build in a private temporary directory; use nothing from the build cache")
     run.set_defaults(handler=_run)
 
+    sweep = commands.add_parser("sweep", help="simulate many members (a grid or a random sample of inputs); "
+                                "one tidy table to -o")
+    sweep.add_argument("model")
+    _scene_options(sweep)
+    _run_options(sweep)
+    sweep.add_argument("--vary", action="append", default=[], metavar="NAME=START:STOP:COUNT",
+                       help="COUNT values from START to STOP; several --vary make the grid of all combinations")
+    sweep.add_argument("--random", action="append", default=[], metavar="NAME=LOW:HIGH",
+                       help="uniform random values in [LOW, HIGH), -n of them (instead of --vary)")
+    sweep.add_argument("-n", type=int, dest="count", metavar="N", help="members of a --random sample")
+    sweep.add_argument("--seed", type=int, default=0, help="seed of the --random sample (default 0)")
+    sweep.add_argument("--workers", type=int, help="threads (default: OMP_NUM_THREADS, else every CPU); "
+                       "with --dask local, worker processes")
+    sweep.add_argument("--dask", metavar="ADDRESS|local",
+                       help="run on the Dask scheduler at ADDRESS, or on a local cluster of processes")
+    sweep.add_argument("-o", "--output", required=True,
+                       help="the table: Parquet if the name ends in .parquet (needs pyarrow), else CSV")
+    sweep.set_defaults(handler=_sweep)
     cache_command = commands.add_parser("cache", help="show where the build cache is and its size, or empty it")
     cache_command.add_argument("action", choices=("info", "clear"))
     cache_command.set_defaults(handler=_cache)
@@ -118,6 +123,23 @@ def _parser() -> argparse.ArgumentParser:
     emit.add_argument("-o", "--output", help="file to write (default: standard output)")
     emit.set_defaults(handler=_emit)
     return parser
+
+
+def _run_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--backend", choices=("c", "numpy"), default="c", help="generated code to run (default: c)")
+    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                        help="override a parameter, or an initial value as COORDINATE.start / COORDINATE.velocity")
+    parser.add_argument("--start", type=float, help="start time of the output grid")
+    parser.add_argument("--stop", type=float, help="stop time")
+    parser.add_argument("--interval", type=float, help="output interval")
+    parser.add_argument("--integrator", help="rk4, dopri5, dop853, radau5, gauss or auto")
+    parser.add_argument("--rtol", type=float, help="relative tolerance (adaptive integrators)")
+    parser.add_argument("--atol", type=float, help="absolute tolerance (adaptive integrators)")
+    parser.add_argument("--step", type=float, help="step size (rk4, gauss)")
+    parser.add_argument("--stages", type=int, help="number of stages (gauss)")
+    parser.add_argument("--max-step", type=float, help="largest step (dopri5, dop853, radau5)")
+    parser.add_argument("--max-steps", type=int, help="step limit, accepted + rejected "
+                        "(default: 100000, or 100 per output row if that is more)")
 
 
 def _scene_options(parser: argparse.ArgumentParser) -> None:
@@ -185,6 +207,56 @@ def _simulate(arguments) -> int:
     _deliver(result.csv(units), arguments.output)
     print(result.summary.render(), file=sys.stderr)
     return 0
+
+
+def _sweep(arguments) -> int:
+    """Run the members of a grid or random sample; write the tidy table and the summary. Members
+    that fail are rows with their status; Ctrl-C writes the members finished so far."""
+    from .run.sweep import RUN_KEYWORDS, sweep_table, sweep_values
+    model = _model(SourceFile.read(arguments.model))
+    check_writable(arguments.output)
+    varied = sweep_values(arguments.vary, arguments.random, arguments.count, arguments.seed)
+    overrides = _overrides(arguments)
+    keywords = {k: getattr(arguments, k) for k in RUN_KEYWORDS if getattr(arguments, k) is not None}
+    with _dask_client(arguments.dask, arguments.workers) as client:
+        try:
+            sweep = model.sweep(arguments.scene, arguments.backend, set={**dict(overrides.values), **varied},
+                                workers=None if client else arguments.workers, client=client,
+                                progress=sys.stderr.isatty(),
+                                **keywords)
+        except SimulationInterrupted as stopped:
+            write_output(arguments.output, sweep_table(stopped.partial, arguments.output))
+            print(stopped.partial.summary.render(), file=sys.stderr)
+            print(f"lagc: interrupted; the table in {arguments.output} has every member, those not finished "
+                  "with status 'interrupted'", file=sys.stderr)
+            return INTERRUPTED_EXIT
+    write_output(arguments.output, sweep_table(sweep, arguments.output))
+    print(sweep.summary.render(), file=sys.stderr)
+    return 0
+
+
+@contextlib.contextmanager
+def _dask_client(address: str | None, workers: int | None):
+    """A dask.distributed Client for --dask (None without it): `local` starts a LocalCluster of
+    worker processes here, any other value is a scheduler's address."""
+    if address is None:
+        yield None
+        return
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError:
+        raise LagError("--dask needs dask.distributed: pip install 'lagdsl[sweep]'", Setting("--dask")) from None
+    if address == "local":
+        with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+                Client(cluster) as client:
+            yield client
+        return
+    try:
+        client = Client(address, timeout="10s")
+    except (OSError, ValueError, TypeError) as error:
+        raise LagError(f"cannot reach the Dask scheduler at '{address}': {error}", Setting("--dask")) from None
+    with client:
+        yield client
 
 
 class ProgressLine:

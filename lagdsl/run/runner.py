@@ -138,9 +138,11 @@ def run_c(kernel: Kernel, source: GeneratedSource, plan: RunPlan, progress: Prog
     failure_state = extras + 2 * len(plan.invariants)
     summary = np.zeros(failure_state + len(initial) + (2 if plan.stop else 0))
     pointer = lambda a: a.ctypes.data_as(double_p)   # noqa: E731
+    reached = ctypes.c_double.in_dll(library, "lag_progress_t")
+    poll = None if progress is None else lambda: progress(reached.value, plan.time.start, plan.time.stop)
     status, elapsed = _interruptible(
         library, lambda: entry(pointer(parameters), pointer(initial), pointer(settings), pointer(rows),
-                               len(times), pointer(summary)), plan, progress)
+                               len(times), pointer(summary)), poll)
     used = int(summary[1])
     invariants = tuple((name, float(summary[extras + 2 * i]), float(summary[extras + 1 + 2 * i]))
                        for i, name in enumerate(plan.invariants))
@@ -185,9 +187,10 @@ def load_library(path: Path) -> ctypes.CDLL:
         raise LagError(f"cannot load the compiled model '{path}': {error}") from None
 
 
-def _interruptible(library: ctypes.CDLL, call: Callable[[], int], plan: RunPlan,
-                   progress: Progress | None) -> tuple[int, float]:
-    """Make the C call in a worker thread, so that the main thread stays free for Ctrl-C and progress.
+def _interruptible(library: ctypes.CDLL, call: Callable[[], int],
+                   poll: Callable[[], None] | None) -> tuple[int, float]:
+    """Make the C call in a worker thread, so that the main thread stays free for Ctrl-C and
+    `poll` (called every POLL_SECONDS: progress reports).
     Returns its status and its duration, timed in the worker: the main thread notices the end
     only at its next poll, up to POLL_SECONDS later.
 
@@ -197,7 +200,6 @@ def _interruptible(library: ctypes.CDLL, call: Callable[[], int], plan: RunPlan,
     further Ctrl-Cs while it winds down change nothing.
     """
     interrupt = ctypes.c_int.in_dll(library, "lag_interrupt")
-    reached = ctypes.c_double.in_dll(library, "lag_progress_t")
     interrupt.value = 0
     outcome: list[tuple[int, float]] = []
     done = threading.Event()
@@ -219,8 +221,8 @@ def _interruptible(library: ctypes.CDLL, call: Callable[[], int], plan: RunPlan,
             done.wait(POLL_SECONDS)
         except KeyboardInterrupt:
             interrupt.value = 1
-        if progress is not None:
-            progress(reached.value, plan.time.start, plan.time.stop)
+        if poll is not None:
+            poll()
     if not outcome:
         raise InternalError("the C run ended without a status")
     return outcome[0]

@@ -7,6 +7,7 @@ verified before use and built without collisions) is `cache.py`.
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 import shutil
@@ -29,6 +30,18 @@ LIBRARY_FLAGS = ("-std=c99", "-O3", "-march=native", "-fno-tree-slp-vectorize", 
                  "-fPIC", "-shared")
 # For a compiler that refuses one of the above (-march=native is not universal).
 PORTABLE_LIBRARY_FLAGS = ("-std=c99", "-O2", "-fPIC", "-shared")
+OPENMP_FLAG = "-fopenmp"
+# A parallel loop that needs the OpenMP runtime: a compiler that accepts -fopenmp but cannot link
+# libgomp (or libomp) must not count as supporting it.
+OPENMP_PROBE = """#include <omp.h>
+int main(void)
+{
+    int n = 0;
+#pragma omp parallel reduction(+:n)
+    n += omp_get_num_threads() > 0;
+    return n > 0 ? 0 : 1;
+}
+"""
 
 
 def find_compiler() -> str:
@@ -51,22 +64,45 @@ def compile_c(source: str, output: Path, flags=STRICT_FLAGS, compiler: str | Non
             raise InternalError(f"the generated C did not compile\n{result.stderr}")
 
 
-def shared_library(source: str, stem: str) -> Path:
-    """The compiled shared library for `source`, built on first use and cached."""
+def shared_library(source: str, stem: str, openmp: bool | None = None) -> Path:
+    """The compiled shared library for `source`, built on first use and cached: with OpenMP
+    (the batch entry point runs its members in parallel) when the compiler supports it, unless
+    `openmp` says otherwise. The generated code gives the same results bit for bit either way."""
     compiler = find_compiler()
-    name, key = library_entry(source, stem, compiler)
-    return cached_entry(name, key, lambda path: _compile_library(source, path, compiler))
+    name, key = library_entry(source, stem, compiler, openmp)
+    return cached_entry(name, key, lambda path: _compile_library(source, path, compiler, openmp))
 
 
-def library_entry(source: str, stem: str, compiler: str) -> tuple[str, str]:
+def library_entry(source: str, stem: str, compiler: str, openmp: bool | None = None) -> tuple[str, str]:
     """The cache entry's name and key of the library that `compiler` builds from `source`."""
-    key = hashlib.sha256("\0".join((source, compiler, *LIBRARY_FLAGS)).encode()).hexdigest()
+    key = hashlib.sha256("\0".join((source, compiler, *library_flags(compiler, openmp))).encode()).hexdigest()
     return f"{stem}-{key[:20]}.so", key
 
 
-def _compile_library(source: str, output: Path, compiler: str) -> None:
+def library_flags(compiler: str, openmp: bool | None = None, flags: tuple[str, ...] | None = None) -> tuple[str, ...]:
+    """`flags` (the tuned LIBRARY_FLAGS by default), with OpenMP where asked for or supported."""
+    flags = LIBRARY_FLAGS if flags is None else flags
+    use_openmp = supports_openmp(compiler) if openmp is None else openmp
+    return (*flags, OPENMP_FLAG) if use_openmp else flags
+
+
+def _compile_library(source: str, output: Path, compiler: str, openmp: bool | None) -> None:
     """Build with the tuned flags, or with the portable ones where the compiler refuses those."""
     try:
-        compile_c(source, output, LIBRARY_FLAGS, compiler)
+        compile_c(source, output, library_flags(compiler, openmp), compiler)
     except InternalError:
-        compile_c(source, output, PORTABLE_LIBRARY_FLAGS, compiler)
+        compile_c(source, output, library_flags(compiler, openmp, PORTABLE_LIBRARY_FLAGS), compiler)
+
+
+@functools.lru_cache(maxsize=None)
+def supports_openmp(compiler: str) -> bool:
+    """Whether `compiler` builds and links an OpenMP program (asked once per compiler and process)."""
+    with tempfile.TemporaryDirectory() as work:
+        probe = Path(work) / "probe.c"
+        probe.write_text(OPENMP_PROBE, encoding="ascii")
+        try:
+            done = subprocess.run([compiler, OPENMP_FLAG, str(probe), "-o", str(Path(work) / "probe")],
+                                  capture_output=True, text=True, timeout=60)
+        except (OSError, subprocess.TimeoutExpired):
+            return False
+        return done.returncode == 0

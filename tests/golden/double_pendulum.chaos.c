@@ -1181,13 +1181,12 @@ static int lag_buffer_row(void *context, real t, const real *out)
  * summary: status, rows, t_fail, rcond_fail, residual_max, projection_start, the counters
  *          accepted, rejected, rhs_evals, the stiffness test's stiff, stiff_time and the
  *          counters when it fired (stiff_accepted, stiff_rejected, stiff_rhs_evals), then the invariants' start values and drifts, then the state at failure. */
-int lag_run(const double *parameters, const double *initial, const double *settings,
-            double *rows, long capacity, double *summary)
+static int lag_run_member(const double *parameters, const double *initial, const double *settings,
+                          lag_sink sink, void *context, double *summary)
 {
     lag_system sys;
     lag_options options;
     lag_report report;
-    lag_buffer buffer;
     real y0[LAG_NY];
     int i, n = 14;
     for (i = 0; i < LAG_NP; ++i)
@@ -1200,10 +1199,7 @@ int lag_run(const double *parameters, const double *initial, const double *setti
     options.max_step = settings[6];
     options.stages = (int)settings[7];
     options.max_steps = (long)settings[8];
-    buffer.rows = rows;
-    buffer.capacity = capacity;
-    buffer.used = 0;
-    lag_integrate(&sys, y0, settings[0], settings[1], settings[2], &options, lag_buffer_row, &buffer, &report);
+    lag_integrate(&sys, y0, settings[0], settings[1], settings[2], &options, sink, context, &report);
     summary[0] = report.status;
     summary[1] = (double)report.rows;
     summary[2] = (double)report.t_fail;
@@ -1224,6 +1220,76 @@ int lag_run(const double *parameters, const double *initial, const double *setti
     for (i = 0; i < LAG_NY; ++i)
         summary[n++] = (double)report.y_fail[i];
     return report.status;
+}
+
+/* One run: the rows (t and the columns) go to `rows`, at most `capacity` of them. */
+int lag_run(const double *parameters, const double *initial, const double *settings,
+            double *rows, long capacity, double *summary)
+{
+    lag_buffer buffer;
+    buffer.rows = rows;
+    buffer.capacity = capacity;
+    buffer.used = 0;
+    return lag_run_member(parameters, initial, settings, lag_buffer_row, &buffer, summary);
+}
+
+/* ---- batch entry point for model.sweep (ctypes): many members, one call ---- */
+void lag_run_batch(long members, const double *parameters, const double *initial, const double *settings,
+                   double *values, long capacity, double *summaries, long stride, int threads);
+
+/* Members finished so far, for the progress bar of a sweep (read through ctypes). */
+volatile long lag_batch_done = 0;
+
+typedef struct lag_grid { double *values; long capacity, used; } lag_grid;
+
+/* A member's output grid: the columns of each row, without t (every member shares the grid). */
+static int lag_grid_row(void *context, real t, const real *out)
+{
+    lag_grid *grid = context;
+    int i;
+    (void)t;
+    if (grid->used >= grid->capacity)
+        return 1;
+    for (i = 0; i < LAG_NOUT; ++i)
+        grid->values[grid->used * LAG_NOUT + i] = (double)out[i];
+    grid->used += 1;
+    return 0;
+}
+
+/* Integrate `members` runs that share the settings (as lag_run) but each have their own
+ * parameters (members x LAG_NP) and initial state (members x LAG_NY). Member b writes its rows
+ * to values[b * capacity * LAG_NOUT ...] and its summary (the layout of lag_run's) to
+ * summaries[b * stride ...]; a failure ends only that member. The members are independent, so
+ * they run in parallel on `threads` OpenMP threads when the library is built with OpenMP, and
+ * one after another otherwise, with the same results bit for bit. After lag_interrupt is set,
+ * members not yet begun are not begun (status LAG_ERR_INTERRUPTED, no rows). */
+void lag_run_batch(long members, const double *parameters, const double *initial, const double *settings,
+                   double *values, long capacity, double *summaries, long stride, int threads)
+{
+    long b;
+    lag_batch_done = 0;
+#ifdef _OPENMP
+#pragma omp parallel for schedule(dynamic) num_threads(threads > 0 ? threads : 1)
+#else
+    (void)threads;
+#endif
+    for (b = 0; b < members; ++b) {
+        double *summary = summaries + b * stride;
+        lag_grid grid;
+        grid.values = values + b * capacity * LAG_NOUT;
+        grid.capacity = capacity;
+        grid.used = 0;
+        if (lag_interrupt) {
+            summary[0] = LAG_ERR_INTERRUPTED;
+            summary[2] = settings[0];
+        } else {
+            lag_run_member(parameters + b * LAG_NP, initial + b * LAG_NY, settings, lag_grid_row, &grid, summary);
+        }
+#ifdef _OPENMP
+#pragma omp atomic
+#endif
+        lag_batch_done += 1;
+    }
 }
 
 /* ---- standalone program: NAME=VALUE arguments, CSV on stdout, summary on stderr ---- */

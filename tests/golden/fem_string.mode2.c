@@ -397,10 +397,12 @@ static int lag_outputs(const lag_system *sys, real t, const real *y, real *out, 
  *
  * - Error norm: the root mean square of e_i / (atol + rtol max(|y0_i|, |y1_i|)),
  *   Hairer-Norsett-Wanner I (HNW I), Section II.4, (4.11); a step is accepted when err <= 1.
- * - New step size: h_new = h * min(facmax, max(facmin, safety err^-alpha err_old^beta)),
- *   HNW I, II.4, (4.13), with the PI ("Lund-stabilised") factor err_old^beta of Gustafsson
- *   (Hairer-Wanner II, Section IV.2) as in Hairer's DOPRI5 code; beta = 0 is the classical
- *   controller.  After a rejection the step size may not grow until a step is accepted.
+ * - New step size: h_new = h * min(10, max(0.2, 0.9 err^(-1/p))), HNW I, II.4, (4.13), p being
+ *   the order of the error estimate's leading term (5 for DOPRI5, 8 for DOP853).  After a
+ *   rejection the step size may not grow until a step is accepted.  These are the constants of
+ *   scipy's RK45 and DOP853, so that both take the same steps on a smooth problem; Hairer's codes
+ *   limit the factor to [1/3, 6] (DOP853) and add a PI factor err_old^0.04 (DOPRI5), whose
+ *   smaller average error per step costs about 6% more steps at tight tolerances.
  * - Starting step size: the algorithm of HNW I, II.4 ("Starting Step Size"), which costs one
  *   right-hand side evaluation.
  * Integration runs forward only (t_end > t0), as the driver does.
@@ -422,15 +424,16 @@ typedef struct lag_control {
     real span;       /* t_end - t0, the scale of the smallest step (LAG_MIN_STEP) */
     real hmax;
     long max_steps;  /* accepted + rejected trials allowed, 0 = no limit */
-    real alpha, beta, facmin, facmax;  /* the method's controller constants */
-    real err_old;    /* error of the last accepted step, for the PI factor */
+    real exponent;   /* 1/p: err^-exponent is the step-size factor that would make err = 1 */
     int rejected;    /* the last trial was rejected */
 } lag_control;
 
-static const real lag_control_safety = LAG_LIT(0.9);
+static const real lag_control_safety = LAG_LIT(0.9),
+                  lag_control_facmin = LAG_LIT(0.2),   /* the largest decrease of h, 5x */
+                  lag_control_facmax = 10;             /* the largest increase */
 
-static void lag_control_init(lag_control *c, const lag_options *opt, real t0, real t_end,
-                             real alpha, real beta, real facmin, real facmax)
+/* `order` is p, the power of h in the local error estimate (5 for DOPRI5, 8 for DOP853). */
+static void lag_control_init(lag_control *c, const lag_options *opt, real t0, real t_end, int order)
 {
     c->rtol = opt->rtol;
     c->atol = opt->atol;
@@ -438,11 +441,7 @@ static void lag_control_init(lag_control *c, const lag_options *opt, real t0, re
     c->span = t_end - t0;
     c->hmax = opt->max_step > 0 ? opt->max_step : t_end - t0;
     c->max_steps = opt->max_steps;
-    c->alpha = alpha;
-    c->beta = beta;
-    c->facmin = facmin;
-    c->facmax = facmax;
-    c->err_old = LAG_LIT(1e-4);
+    c->exponent = (real)1 / order;
     c->rejected = 0;
 }
 
@@ -459,10 +458,9 @@ static real lag_control_scale(const lag_control *c, real y0, real y1)
     return c->atol + c->rtol * r_fmax(r_fabs(y0), r_fabs(y1));
 }
 
-/* The first step: opt->step if given, else HNW I, II.4, steps (a)-(f).  `order` is the exponent
- * of h in the local error estimate (5 for DOPRI5, 8 for DOP853).  f = f(t, y). */
+/* The first step: opt->step if given, else HNW I, II.4, steps (a)-(f).  f = f(t, y). */
 static real lag_control_first_step(const lag_control *c, const lag_options *opt, const lag_system *sys,
-                                   lag_stats *stats, real t, const real *y, const real *f, int order)
+                                   lag_stats *stats, real t, const real *y, const real *f)
 {
     real y1[LAG_NY], f1[LAG_NY];
     real d0 = 0, d1 = 0, d2 = 0, h0, h1, dmax, w;
@@ -493,7 +491,7 @@ static real lag_control_first_step(const lag_control *c, const lag_options *opt,
     /* (e) the step whose local error, about max(d1, d2) h^order, is 0.01 */
     dmax = r_fmax(d1, d2);
     h1 = dmax <= LAG_LIT(1e-15) ? r_fmax(LAG_LIT(1e-6), h0 * LAG_LIT(1e-3))
-                                : r_pow(LAG_LIT(0.01) / dmax, (real)1 / order);
+                                : r_pow(LAG_LIT(0.01) / dmax, c->exponent);
     return r_fmin(r_fmin(100 * h0, h1), c->hmax);
 }
 
@@ -530,18 +528,17 @@ static int lag_control_update(lag_control *c, lag_stats *stats, int status, real
         *h_next = h / 10;
         return 0;
     }
-    fac = lag_control_safety * r_pow(err, -c->alpha);
+    fac = lag_control_safety * r_pow(err, -c->exponent);
     if (err > 1) {
         ++stats->rejected;
         c->rejected = 1;
-        *h_next = h * r_fmax(c->facmin, fac);
+        *h_next = h * r_fmax(lag_control_facmin, fac);
         return 0;
     }
-    fac = r_fmin(c->facmax, r_fmax(c->facmin, fac * r_pow(c->err_old, c->beta)));
+    fac = r_fmin(lag_control_facmax, r_fmax(lag_control_facmin, fac));
     if (c->rejected)
         fac = r_fmin(fac, 1);
     *h_next = r_fmin(h * fac, c->hmax);
-    c->err_old = r_fmax(err, LAG_LIT(1e-4));
     c->rejected = 0;
     ++stats->accepted;
     return 1;
@@ -617,13 +614,15 @@ static void lag_stiffness_record(lag_stiffness_test *test, lag_stats *stats, rea
  * are irrational; they are the 30-digit decimals published with DOP853, which LAG_LIT rounds to
  * the working precision (exact enough for long double, not quite for __float128).
  * Dense output: the continuous extension of order 7 (HNW I, II.6 and II.10), which needs 3 further
- * stages per accepted step (so 15 evaluations in all).  They are computed at every accepted
- * step because lag_stepper_dense cannot change the stepper; the polynomial of degree 7 in
- * theta = (t - t_old)/h is kept in the nested form
+ * stages.  They are computed only for a step that the dense output is asked about (a step that
+ * contains an output time), on the first such request: outputs every 0.5 s with steps of 0.02 s
+ * need them on one step in 25, and the steps themselves cost 12 evaluations, not 15.  The
+ * stages of the last accepted step are kept until the next step starts.  The polynomial of
+ * degree 7 in theta = (t - t_old)/h is kept in the nested form
  *     r1 + theta (r2 + theta1 (r3 + theta (r4 + theta1 (r5 + theta (r6 + theta1 (r7 + theta r8)))))),
  * theta1 = 1 - theta, which matches y and f at both ends of the step.
- * Step-size control (beta = 0, safety 0.9, facmin 1/3, facmax 6), the starting step and the
- * stiffness test (stability boundary 6.1): explicit_control.c, which must be pasted before
+ * Step-size control (exponent 1/8, safety 0.9, factor within [0.2, 10]), the starting step and
+ * the stiffness test (stability boundary 6.1): explicit_control.c, which must be pasted before
  * this file.
  */
 
@@ -797,12 +796,14 @@ typedef struct lag_stepper {
     lag_stiffness_test stiffness;
     real h_done;                  /* size of the last accepted step */
     real k1[LAG_NY];              /* f(t, y), the first stage of the next step */
+    real k1_done[LAG_NY];         /* the first stage of the last accepted step */
     real k2[LAG_NY], k3[LAG_NY], k4[LAG_NY], k5[LAG_NY], k6[LAG_NY], k7[LAG_NY], k8[LAG_NY];
     real k9[LAG_NY], k10[LAG_NY], k11[LAG_NY], k12[LAG_NY], k13[LAG_NY];
     real k14[LAG_NY], k15[LAG_NY], k16[LAG_NY];  /* the dense output's stages */
     real y_stage[LAG_NY];         /* argument of the stage being evaluated */
     real y_new[LAG_NY];           /* the order-8 solution of the current trial */
     real dense[8][LAG_NY];        /* r1..r8 of the continuous extension on [t_old, t] */
+    int dense_built;              /* r3..r8 are those of the last accepted step */
 } lag_stepper;
 
 /* k = f(t, y_stage). */
@@ -892,65 +893,89 @@ static real dop853_solution(lag_stepper *s, real h)
     return denominator == 0 ? 0 : h * sum5 / r_sqrt(LAG_NY * denominator);
 }
 
-/* For a trial that passed: f at the new point (stage 13, the next step's first stage) and the
- * three extra stages of the dense output. */
+/* For a trial that passed: f at the new point (stage 13, the next step's first stage). */
 static int dop853_finish(lag_stepper *s, real h, real t_new)
 {
-    const real t = s->t;
-    int i, status;
+    int status;
     if ((status = lag_control_rhs(s->sys, &s->stats, t_new, s->y_new, s->k13)) != LAG_OK)
         return status;
     /* stage 12 (at y_stage, still in place) and stage 13 both evaluate f at t_new */
     lag_stiffness_measure(&s->stiffness, h, s->y_new, s->y_stage, s->k13, s->k12);
+    return LAG_OK;
+}
+
+/* The three extra stages of the dense output on the last accepted step, from t_old with the
+ * state dense[0] and the stages k1_done, k6 .. k13 it kept. */
+static int dop853_dense_stages(lag_stepper *s)
+{
+    const real t = s->t_old, h = s->h_done;
+    const real *y = s->dense[0], *k1 = s->k1_done;
+    int i, status;
     for (i = 0; i < LAG_NY; ++i)
-        s->y_stage[i] = s->y[i] + h * (dp8_a14_1 * s->k1[i] + dp8_a14_7 * s->k7[i] + dp8_a14_8 * s->k8[i]
-                                       + dp8_a14_9 * s->k9[i] + dp8_a14_10 * s->k10[i]
-                                       + dp8_a14_11 * s->k11[i] + dp8_a14_12 * s->k12[i]
-                                       + dp8_a14_13 * s->k13[i]);
+        s->y_stage[i] = y[i] + h * (dp8_a14_1 * k1[i] + dp8_a14_7 * s->k7[i] + dp8_a14_8 * s->k8[i]
+                                    + dp8_a14_9 * s->k9[i] + dp8_a14_10 * s->k10[i]
+                                    + dp8_a14_11 * s->k11[i] + dp8_a14_12 * s->k12[i]
+                                    + dp8_a14_13 * s->k13[i]);
     if ((status = dop853_stage(s, t + dp8_c14 * h, s->k14)) != LAG_OK)
         return status;
     for (i = 0; i < LAG_NY; ++i)
-        s->y_stage[i] = s->y[i] + h * (dp8_a15_1 * s->k1[i] + dp8_a15_6 * s->k6[i] + dp8_a15_7 * s->k7[i]
-                                       + dp8_a15_8 * s->k8[i] + dp8_a15_11 * s->k11[i]
-                                       + dp8_a15_12 * s->k12[i] + dp8_a15_13 * s->k13[i]
-                                       + dp8_a15_14 * s->k14[i]);
+        s->y_stage[i] = y[i] + h * (dp8_a15_1 * k1[i] + dp8_a15_6 * s->k6[i] + dp8_a15_7 * s->k7[i]
+                                    + dp8_a15_8 * s->k8[i] + dp8_a15_11 * s->k11[i]
+                                    + dp8_a15_12 * s->k12[i] + dp8_a15_13 * s->k13[i]
+                                    + dp8_a15_14 * s->k14[i]);
     if ((status = dop853_stage(s, t + dp8_c15 * h, s->k15)) != LAG_OK)
         return status;
     for (i = 0; i < LAG_NY; ++i)
-        s->y_stage[i] = s->y[i] + h * (dp8_a16_1 * s->k1[i] + dp8_a16_6 * s->k6[i] + dp8_a16_7 * s->k7[i]
-                                       + dp8_a16_8 * s->k8[i] + dp8_a16_9 * s->k9[i]
-                                       + dp8_a16_13 * s->k13[i] + dp8_a16_14 * s->k14[i]
-                                       + dp8_a16_15 * s->k15[i]);
+        s->y_stage[i] = y[i] + h * (dp8_a16_1 * k1[i] + dp8_a16_6 * s->k6[i] + dp8_a16_7 * s->k7[i]
+                                    + dp8_a16_8 * s->k8[i] + dp8_a16_9 * s->k9[i]
+                                    + dp8_a16_13 * s->k13[i] + dp8_a16_14 * s->k14[i]
+                                    + dp8_a16_15 * s->k15[i]);
     return dop853_stage(s, t + dp8_c16 * h, s->k16);
 }
 
-/* Accept the trial: build the continuous extension on [t, t_new], then move to t_new. */
-static void dop853_accept(lag_stepper *s, real h, real t_new)
+/* r3..r8 of the continuous extension of the last accepted step (r1 = y_old and r2 = y_new - y_old
+ * are set when it is accepted, r2 again when the driver moves y). */
+static int dop853_build_dense(lag_stepper *s)
 {
-    int i;
+    const real h = s->h_done, *k1 = s->k1_done;
+    int i, status;
+    if ((status = dop853_dense_stages(s)) != LAG_OK)
+        return status;
     for (i = 0; i < LAG_NY; ++i) {
-        real dy = s->y_new[i] - s->y[i], slope0 = h * s->k1[i] - dy;
-        s->dense[0][i] = s->y[i];
-        s->dense[1][i] = dy;
+        real dy = s->y_new[i] - s->dense[0][i], slope0 = h * k1[i] - dy;
         s->dense[2][i] = slope0;
         s->dense[3][i] = dy - h * s->k13[i] - slope0;
-        s->dense[4][i] = h * (dp8_d4_1 * s->k1[i] + dp8_d4_6 * s->k6[i] + dp8_d4_7 * s->k7[i]
+        s->dense[4][i] = h * (dp8_d4_1 * k1[i] + dp8_d4_6 * s->k6[i] + dp8_d4_7 * s->k7[i]
                               + dp8_d4_8 * s->k8[i] + dp8_d4_9 * s->k9[i] + dp8_d4_10 * s->k10[i]
                               + dp8_d4_11 * s->k11[i] + dp8_d4_12 * s->k12[i] + dp8_d4_13 * s->k13[i]
                               + dp8_d4_14 * s->k14[i] + dp8_d4_15 * s->k15[i] + dp8_d4_16 * s->k16[i]);
-        s->dense[5][i] = h * (dp8_d5_1 * s->k1[i] + dp8_d5_6 * s->k6[i] + dp8_d5_7 * s->k7[i]
+        s->dense[5][i] = h * (dp8_d5_1 * k1[i] + dp8_d5_6 * s->k6[i] + dp8_d5_7 * s->k7[i]
                               + dp8_d5_8 * s->k8[i] + dp8_d5_9 * s->k9[i] + dp8_d5_10 * s->k10[i]
                               + dp8_d5_11 * s->k11[i] + dp8_d5_12 * s->k12[i] + dp8_d5_13 * s->k13[i]
                               + dp8_d5_14 * s->k14[i] + dp8_d5_15 * s->k15[i] + dp8_d5_16 * s->k16[i]);
-        s->dense[6][i] = h * (dp8_d6_1 * s->k1[i] + dp8_d6_6 * s->k6[i] + dp8_d6_7 * s->k7[i]
+        s->dense[6][i] = h * (dp8_d6_1 * k1[i] + dp8_d6_6 * s->k6[i] + dp8_d6_7 * s->k7[i]
                               + dp8_d6_8 * s->k8[i] + dp8_d6_9 * s->k9[i] + dp8_d6_10 * s->k10[i]
                               + dp8_d6_11 * s->k11[i] + dp8_d6_12 * s->k12[i] + dp8_d6_13 * s->k13[i]
                               + dp8_d6_14 * s->k14[i] + dp8_d6_15 * s->k15[i] + dp8_d6_16 * s->k16[i]);
-        s->dense[7][i] = h * (dp8_d7_1 * s->k1[i] + dp8_d7_6 * s->k6[i] + dp8_d7_7 * s->k7[i]
+        s->dense[7][i] = h * (dp8_d7_1 * k1[i] + dp8_d7_6 * s->k6[i] + dp8_d7_7 * s->k7[i]
                               + dp8_d7_8 * s->k8[i] + dp8_d7_9 * s->k9[i] + dp8_d7_10 * s->k10[i]
                               + dp8_d7_11 * s->k11[i] + dp8_d7_12 * s->k12[i] + dp8_d7_13 * s->k13[i]
                               + dp8_d7_14 * s->k14[i] + dp8_d7_15 * s->k15[i] + dp8_d7_16 * s->k16[i]);
     }
+    s->dense_built = 1;
+    return LAG_OK;
+}
+
+/* Accept the trial: keep what the continuous extension on [t, t_new] needs, move to t_new. */
+static void dop853_accept(lag_stepper *s, real h, real t_new)
+{
+    int i;
+    for (i = 0; i < LAG_NY; ++i) {
+        s->dense[0][i] = s->y[i];
+        s->dense[1][i] = s->y_new[i] - s->y[i];
+    }
+    s->dense_built = 0;
+    memcpy(s->k1_done, s->k1, sizeof s->k1);
     memcpy(s->y, s->y_new, sizeof s->y);
     memcpy(s->k1, s->k13, sizeof s->k1);
     s->t_old = s->t;
@@ -972,11 +997,12 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
     memset(s->dense, 0, sizeof s->dense);
     for (i = 0; i < LAG_NY; ++i)
         s->dense[0][i] = y0[i];
-    lag_control_init(&s->control, opt, t0, t_end, (real)1 / 8, 0, (real)1 / 3, 6);
+    s->dense_built = 1;
+    lag_control_init(&s->control, opt, t0, t_end, 8);
     lag_stiffness_start(&s->stiffness, LAG_LIT(6.1));
     if ((status = lag_control_rhs(sys, &s->stats, t0, s->y, s->k1)) != LAG_OK)
         return status;
-    s->h = lag_control_first_step(&s->control, opt, sys, &s->stats, t0, s->y, s->k1, 8);
+    s->h = lag_control_first_step(&s->control, opt, sys, &s->stats, t0, s->y, s->k1);
     return LAG_OK;
 }
 
@@ -990,7 +1016,7 @@ static int lag_stepper_step(lag_stepper *s)
         status = dop853_stages(s, h, t_new);
         if (status == LAG_OK) {
             err = dop853_solution(s, h);
-            /* the last four stages are spent only on a step that passes the error test */
+            /* f at the new point is spent only on a step that passes the error test */
             if (err <= 1)
                 status = dop853_finish(s, h, t_new);
         }
@@ -1002,15 +1028,19 @@ static int lag_stepper_step(lag_stepper *s)
     return LAG_OK;
 }
 
-/* Valid on [t_old, t] once a step has been taken. */
-static void lag_stepper_dense(const lag_stepper *s, real t, real *yout)
+/* Valid on [t_old, t] once a step has been taken; the first call on a step evaluates the three
+ * extra stages (and returns the status of a right-hand side that fails there). */
+static int lag_stepper_dense(lag_stepper *s, real t, real *yout)
 {
     real theta = (t - s->t_old) / s->h_done, theta1 = 1 - theta;
-    int i;
+    int i, status;
+    if (!s->dense_built && (status = dop853_build_dense(s)) != LAG_OK)
+        return status;
     for (i = 0; i < LAG_NY; ++i)
         yout[i] = s->dense[0][i] + theta * (s->dense[1][i] + theta1 * (s->dense[2][i]
                   + theta * (s->dense[3][i] + theta1 * (s->dense[4][i] + theta * (s->dense[5][i]
                   + theta1 * (s->dense[6][i] + theta * s->dense[7][i]))))));
+    return LAG_OK;
 }
 
 /* The driver moved y (projection): refresh the FSAL derivative, and add theta (y - y_end) to the
@@ -1112,7 +1142,9 @@ static int lag_integrate(const lag_system *sys, const real *y0, real t0, real t1
         if (tk == stepper->t) {
             status = lag_deliver(sys, tk, stepper->y, sink, context, report);
         } else {
-            lag_stepper_dense(stepper, tk, y);
+            status = lag_stepper_dense(stepper, tk, y);
+            if (status != LAG_OK)
+                break;
             status = lag_deliver(sys, tk, y, sink, context, report);
         }
     }
@@ -1165,13 +1197,12 @@ static int lag_buffer_row(void *context, real t, const real *out)
  * summary: status, rows, t_fail, rcond_fail, residual_max, projection_start, the counters
  *          accepted, rejected, rhs_evals, the stiffness test's stiff, stiff_time and the
  *          counters when it fired (stiff_accepted, stiff_rejected, stiff_rhs_evals), then the invariants' start values and drifts, then the state at failure. */
-int lag_run(const double *parameters, const double *initial, const double *settings,
-            double *rows, long capacity, double *summary)
+static int lag_run_member(const double *parameters, const double *initial, const double *settings,
+                          lag_sink sink, void *context, double *summary)
 {
     lag_system sys;
     lag_options options;
     lag_report report;
-    lag_buffer buffer;
     real y0[LAG_NY];
     int i, n = 14;
     for (i = 0; i < LAG_NP; ++i)
@@ -1184,10 +1215,7 @@ int lag_run(const double *parameters, const double *initial, const double *setti
     options.max_step = settings[6];
     options.stages = (int)settings[7];
     options.max_steps = (long)settings[8];
-    buffer.rows = rows;
-    buffer.capacity = capacity;
-    buffer.used = 0;
-    lag_integrate(&sys, y0, settings[0], settings[1], settings[2], &options, lag_buffer_row, &buffer, &report);
+    lag_integrate(&sys, y0, settings[0], settings[1], settings[2], &options, sink, context, &report);
     summary[0] = report.status;
     summary[1] = (double)report.rows;
     summary[2] = (double)report.t_fail;
@@ -1208,6 +1236,76 @@ int lag_run(const double *parameters, const double *initial, const double *setti
     for (i = 0; i < LAG_NY; ++i)
         summary[n++] = (double)report.y_fail[i];
     return report.status;
+}
+
+/* One run: the rows (t and the columns) go to `rows`, at most `capacity` of them. */
+int lag_run(const double *parameters, const double *initial, const double *settings,
+            double *rows, long capacity, double *summary)
+{
+    lag_buffer buffer;
+    buffer.rows = rows;
+    buffer.capacity = capacity;
+    buffer.used = 0;
+    return lag_run_member(parameters, initial, settings, lag_buffer_row, &buffer, summary);
+}
+
+/* ---- batch entry point for model.sweep (ctypes): many members, one call ---- */
+void lag_run_batch(long members, const double *parameters, const double *initial, const double *settings,
+                   double *values, long capacity, double *summaries, long stride, int threads);
+
+/* Members finished so far, for the progress bar of a sweep (read through ctypes). */
+volatile long lag_batch_done = 0;
+
+typedef struct lag_grid { double *values; long capacity, used; } lag_grid;
+
+/* A member's output grid: the columns of each row, without t (every member shares the grid). */
+static int lag_grid_row(void *context, real t, const real *out)
+{
+    lag_grid *grid = context;
+    int i;
+    (void)t;
+    if (grid->used >= grid->capacity)
+        return 1;
+    for (i = 0; i < LAG_NOUT; ++i)
+        grid->values[grid->used * LAG_NOUT + i] = (double)out[i];
+    grid->used += 1;
+    return 0;
+}
+
+/* Integrate `members` runs that share the settings (as lag_run) but each have their own
+ * parameters (members x LAG_NP) and initial state (members x LAG_NY). Member b writes its rows
+ * to values[b * capacity * LAG_NOUT ...] and its summary (the layout of lag_run's) to
+ * summaries[b * stride ...]; a failure ends only that member. The members are independent, so
+ * they run in parallel on `threads` OpenMP threads when the library is built with OpenMP, and
+ * one after another otherwise, with the same results bit for bit. After lag_interrupt is set,
+ * members not yet begun are not begun (status LAG_ERR_INTERRUPTED, no rows). */
+void lag_run_batch(long members, const double *parameters, const double *initial, const double *settings,
+                   double *values, long capacity, double *summaries, long stride, int threads)
+{
+    long b;
+    lag_batch_done = 0;
+#ifdef _OPENMP
+#pragma omp parallel for schedule(dynamic) num_threads(threads > 0 ? threads : 1)
+#else
+    (void)threads;
+#endif
+    for (b = 0; b < members; ++b) {
+        double *summary = summaries + b * stride;
+        lag_grid grid;
+        grid.values = values + b * capacity * LAG_NOUT;
+        grid.capacity = capacity;
+        grid.used = 0;
+        if (lag_interrupt) {
+            summary[0] = LAG_ERR_INTERRUPTED;
+            summary[2] = settings[0];
+        } else {
+            lag_run_member(parameters + b * LAG_NP, initial + b * LAG_NY, settings, lag_grid_row, &grid, summary);
+        }
+#ifdef _OPENMP
+#pragma omp atomic
+#endif
+        lag_batch_done += 1;
+    }
 }
 
 /* ---- standalone program: NAME=VALUE arguments, CSV on stdout, summary on stderr ---- */

@@ -1,0 +1,508 @@
+"""Many runs per call: `Model.sweep`, the batch paths of both backends, and Dask distribution.
+
+A sweep integrates B members of one scene, each with its own parameters and initial state, on the
+scene's common output grid. Member b's inputs are exactly those `simulate(set={k: v[b]})` would
+plan, so on the C backend member b's rows equal that run's bit for bit: the batch entry point
+`lag_run_batch` calls the same `lag_integrate` with the same inputs, in parallel over members
+with OpenMP when the library was built with it. A failing member (singular mass matrix, NaN,
+step-size collapse, step limit) is marked with its status and time and ends alone.
+"""
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import io
+import math
+import os
+import time as clock
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..codegen import GeneratedSource
+from ..escape import csv_field
+from ..errors import LagError, LagWarning, Setting, SimulationError, SimulationInterrupted
+from ..integrators import COUNTERS, summary_extras
+from ..scene import RUN_OPTIONS, Overrides, ScenePlan
+from .cache import cached_entry
+from .output import SETTINGS_ORDER
+from .runner import INTERRUPTED, SCIPY_METHODS, SCIPY_RTOL_FLOOR, STATUS, _interruptible, load, output_times, run_numpy
+
+CHUNKS_PER_THREAD = 4        # Dask: chunks per worker thread, so that a lost worker costs little
+NUMPY_CHUNK = 256            # NumPy: members integrated as one stacked system
+
+
+@dataclass(frozen=True)
+class SweepSummary:
+    """Totals of a sweep: members, how many failed and why, the work, the wall time."""
+
+    members: int
+    failures: tuple[tuple[str, int], ...]      # failure message -> how many members
+    counters: tuple[tuple[str, int], ...]      # totals over members (accepted, rhs_evals, ...)
+    wall_time: float
+    backend: str
+    integrator: str
+    workers: str                               # "2 threads", "Dask, 4 chunks", ...
+
+    @property
+    def failed(self) -> int:
+        return sum(count for _, count in self.failures)
+
+    def render(self) -> str:
+        totals = ", ".join(f"{value} {name}" for name, value in self.counters)
+        lines = [f"sweep of {self.members} members, {self.integrator} ({self.backend}, {self.workers}): "
+                 f"{self.members - self.failed} ok, {self.failed} failed; {totals}{', ' if totals else ''}"
+                 f"{self.wall_time:.3g} s"]
+        lines += [f"  {count} failed: {message}" for message, count in self.failures]
+        return "\n".join(lines)
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """The runs of a sweep on their common grid `t` (T,).
+
+    `values` is (B, T, C) for the `columns`; `sweep["theta1"]` is (B, T). `inputs` maps each name
+    that was set to its B values. `status` (B,) is "ok" or the failure; a failed member's rows
+    after its `failure_time` are NaN. `counters` maps each work counter to its B values.
+    """
+
+    t: np.ndarray
+    columns: tuple[str, ...]
+    values: np.ndarray
+    inputs: dict[str, np.ndarray]
+    status: np.ndarray
+    failure_time: np.ndarray
+    counters: dict[str, np.ndarray]
+    summary: SweepSummary
+    rows: np.ndarray = field(repr=False)        # rows delivered per member
+
+    def __len__(self) -> int:
+        return len(self.values)
+
+    def __getitem__(self, column: str) -> np.ndarray:
+        try:
+            return self.values[:, :, self.columns.index(column)]
+        except ValueError:
+            raise KeyError(f"no column '{column}' (columns: {', '.join(self.columns)})") from None
+
+    def tidy(self) -> dict[str, np.ndarray]:
+        """One row per member and output time: member, the inputs, t, the columns, status."""
+        members, times = len(self.values), len(self.t)
+        table = {"member": np.repeat(np.arange(members), times)}
+        table.update({name: np.repeat(values, times) for name, values in self.inputs.items()})
+        table["t"] = np.tile(self.t, members)
+        table.update({name: self.values[:, :, j].reshape(-1) for j, name in enumerate(self.columns)})
+        table["status"] = np.repeat(self.status, times)
+        return table
+
+    def csv(self) -> str:
+        """The tidy table as CSV: numbers as Result.csv writes them (17 significant digits)."""
+        table = self.tidy()
+        cells = [np.char.mod("%.17g", column) if column.dtype.kind == "f" else
+                 np.array([csv_field(str(x)) for x in column]) if column.dtype == object else column.astype(str)
+                 for column in table.values()]
+        lines = cells[0]
+        for column in cells[1:]:
+            lines = np.char.add(np.char.add(lines, ","), column)
+        header = ",".join(csv_field(name) for name in table)
+        return "\n".join([header, *lines]) + "\n"
+
+    def parquet(self) -> bytes:
+        """The tidy table as a Parquet file (needs pyarrow)."""
+        import pyarrow
+        import pyarrow.parquet
+        buffer = io.BytesIO()
+        table = {name: column.astype(str) if column.dtype == object else column for name, column in self.tidy().items()}
+        pyarrow.parquet.write_table(pyarrow.table(table), buffer)
+        return buffer.getvalue()
+
+    def to_dataframe(self):
+        """The tidy table as a pandas DataFrame (a dict of columns when pandas is not installed)."""
+        try:
+            import pandas
+        except ImportError:
+            return self.tidy()
+        return pandas.DataFrame(self.tidy())
+
+
+@dataclass(frozen=True)
+class Members:
+    """The inputs of B members: parameters (B, NP) and initial states (B, NY), as planned."""
+
+    plan: ScenePlan               # member 0's plan: the grid, integrator and options of all
+    parameters: np.ndarray
+    initial: np.ndarray
+    inputs: dict[str, np.ndarray]
+
+
+def member_inputs(plan: Callable[[Overrides], ScenePlan], base: Overrides, varied: dict) -> Members:
+    """Plan every member. `plan(overrides)` plans one run; `varied` maps names simulate(set=...)
+    takes to scalars or 1-D arrays of one length B.
+
+    When nothing planned depends on a varied parameter (no parameter computed from others, no
+    start value that is an expression), member b's inputs are member 0's with its values put in
+    place, as plan_scene would put them; otherwise every member is planned.
+    """
+    inputs = _broadcast(varied)
+    count = len(next(iter(inputs.values()))) if inputs else 1
+    first = plan(_with_values(base, inputs, 0))
+    parameters = np.tile(np.array(first.parameters, dtype=float), (count, 1))
+    initial = np.tile(np.array(first.initial_state, dtype=float), (count, 1))
+    if _inputs_depend_on_parameters(first, inputs):
+        for b in range(1, count):
+            member = plan(_with_values(base, inputs, b))
+            parameters[b], initial[b] = member.parameters, member.initial_state
+        return Members(first, parameters, initial, inputs)
+    _check_finite(inputs)
+    names = [p.name for p in first.model.parameters]
+    coordinates = [c.name for c in first.model.coordinates]
+    for name, values in inputs.items():
+        coordinate, _, part = name.rpartition(".")
+        if name in names:
+            parameters[:, names.index(name)] = values
+        elif part == "start":
+            initial[:, coordinates.index(coordinate)] = values
+        else:
+            initial[:, len(coordinates) + coordinates.index(coordinate)] = values
+    return Members(first, parameters, initial, inputs)
+
+
+def _broadcast(varied: dict) -> dict[str, np.ndarray]:
+    arrays = {name: np.asarray(value, dtype=float) for name, value in varied.items()}
+    for name, array in arrays.items():
+        if array.ndim > 1:
+            raise LagError(f"sweep: the values of '{name}' must be a number or a 1-D array, not an array of "
+                           f"shape {array.shape}")
+    lengths = sorted({len(a) for a in arrays.values() if a.ndim == 1})
+    if len(lengths) > 1:
+        given = ", ".join(f"{name}: {len(a)}" for name, a in arrays.items() if a.ndim == 1)
+        raise LagError(f"sweep: the arrays of values must have one common length ({given})")
+    count = lengths[0] if lengths else 1
+    if count == 0:
+        raise LagError("sweep: no members (the arrays of values are empty)")
+    return {name: np.broadcast_to(array, (count,)).copy() for name, array in arrays.items()}
+
+
+def _with_values(base: Overrides, inputs: dict[str, np.ndarray], member: int) -> Overrides:
+    return replace(base, values=base.values + tuple((name, float(v[member])) for name, v in inputs.items()))
+
+
+def _inputs_depend_on_parameters(plan: ScenePlan, inputs: dict) -> bool:
+    names = {p.name for p in plan.model.parameters}
+    if not names & inputs.keys():
+        return False
+    given = {name: (start, velocity) for name, start, velocity in plan.initial}
+    derived = any(p.expression.free_symbols and p.name not in plan.fixed_parameters for p in plan.model.parameters)
+    symbolic_start = any(expression.free_symbols and value is None
+                         for c in plan.model.coordinates
+                         for expression, value in zip((c.start, c.velocity), given.get(c.name, (None, None))))
+    return derived or symbolic_start
+
+
+def _check_finite(inputs: dict[str, np.ndarray]) -> None:
+    for name, values in inputs.items():
+        bad = np.flatnonzero(~np.isfinite(values))
+        if len(bad):
+            raise LagError(f"cannot set '{name}' to {values[bad[0]]} (member {bad[0]}): values must be finite numbers")
+
+
+# ---- `lagc sweep`: the members from the command line, the table to a file ---------------------
+RUN_KEYWORDS = ("start", "stop", "interval", "integrator", *RUN_OPTIONS)     # model.sweep's overrides
+
+
+def sweep_values(vary: list[str], sample: list[str], count: int | None, seed: int) -> dict[str, np.ndarray]:
+    """The members of `lagc sweep`: the grid of all combinations of the --vary ranges (the last
+    varying fastest), or -n uniform random draws in each --random range, from `seed`."""
+    if vary and sample:
+        raise LagError("give either --vary (a grid) or --random (a sample), not both", Setting("--random"))
+    if sample and count is None:
+        raise LagError("needs -n, the number of members", Setting("--random"))
+    if count is not None and not sample:
+        raise LagError("-n is the size of a --random sample; a --vary grid has the size of its ranges", Setting("-n"))
+    if count is not None and count < 1:
+        raise LagError(f"the sample needs at least one member, not {count}", Setting("-n"))
+    if not vary and not sample:
+        raise LagError("nothing varies: give --vary NAME=START:STOP:COUNT or --random NAME=LOW:HIGH with -n N")
+    option = "--vary" if vary else "--random"
+    ranges = [_range(option, item, 3 if vary else 2) for item in vary or sample]
+    names = [name for name, _ in ranges]
+    for name in names:
+        if names.count(name) > 1:
+            raise LagError(f"'{name}' is varied twice", Setting(option))
+    if sample:
+        rng = np.random.default_rng(seed)
+        return {name: rng.uniform(low, high, count) for name, (low, high) in ranges}
+    axes = [np.linspace(start, stop, int(points)) for _, (start, stop, points) in ranges]
+    grid = np.meshgrid(*axes, indexing="ij")
+    return {name: axis.reshape(-1) for name, axis in zip(names, grid)}
+
+
+def _range(option: str, item: str, fields: int) -> tuple[str, tuple[float, ...]]:
+    form = "NAME=START:STOP:COUNT" if fields == 3 else "NAME=LOW:HIGH"
+    name, equals, text = item.partition("=")
+    parts = text.split(":")
+    try:
+        numbers = tuple(float(part) for part in parts)
+    except ValueError:
+        numbers = ()
+    if not equals or not name.strip() or len(numbers) != fields or not all(map(math.isfinite, numbers)):
+        raise LagError(f"expected {form} with finite numbers, got '{item}'", Setting(f"{option} {item}"))
+    if fields == 3 and not (numbers[2] >= 1 and numbers[2] == int(numbers[2])):
+        raise LagError(f"COUNT must be a whole number >= 1, got '{parts[2]}'", Setting(f"{option} {item}"))
+    if fields == 2 and not numbers[0] < numbers[1]:
+        raise LagError(f"need LOW < HIGH, got '{text}'", Setting(f"{option} {item}"))
+    return name.strip(), numbers
+
+
+def sweep_table(sweep: Sweep, path: str) -> str | bytes:
+    """The tidy table for `path`: Parquet when it ends in .parquet and pyarrow is installed, else CSV."""
+    if str(path).endswith(".parquet"):
+        try:
+            return sweep.parquet()
+        except ImportError:
+            warnings.warn(f"pyarrow is not installed; writing CSV to {path}", LagWarning, stacklevel=2)
+    return sweep.csv()
+
+
+# ---- the C batch entry point -------------------------------------------------------------------
+@dataclass(frozen=True)
+class BatchLayout:
+    """What lag_run_batch needs besides the members: shared settings, grid rows, summary stride."""
+
+    settings: tuple[float, ...]
+    rows: int
+    columns: int
+    stride: int
+    counters: tuple[str, ...]
+
+
+def batch_layout(plan: ScenePlan) -> BatchLayout:
+    options = dict(plan.integrator.options)
+    settings = (plan.time.start, plan.time.stop, plan.time.interval,
+                *(float(options.get(k, 0.0)) for k in SETTINGS_ORDER), float(plan.max_steps))
+    counters = COUNTERS[plan.integrator.name]
+    stride = 6 + len(counters) + summary_extras(plan.integrator.name) + 2 * len(plan.invariants) \
+        + 2 * len(plan.model.coordinates) + (2 if plan.stop else 0)
+    return BatchLayout(settings, len(output_times(plan)), len(plan.columns), stride, counters)
+
+
+def run_c_batch(library: ctypes.CDLL, layout: BatchLayout, parameters: np.ndarray, initial: np.ndarray,
+                threads: int, on_progress: Callable[[int], None] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(values (B, T, C), summaries (B, stride)) of lag_run_batch; rows not delivered are NaN.
+    `on_progress(members finished)` is called every so often; Ctrl-C stops the members in flight."""
+    count = len(initial)
+    values = np.full((count, layout.rows, layout.columns), np.nan)
+    summaries = np.zeros((count, layout.stride))
+    packed = np.ascontiguousarray(parameters if parameters.shape[1] else np.zeros((count, 0)))
+    state = np.ascontiguousarray(initial)
+    settings = np.array(layout.settings)
+    entry = library.lag_run_batch
+    double_p = ctypes.POINTER(ctypes.c_double)
+    entry.argtypes = [ctypes.c_long, double_p, double_p, double_p, double_p, ctypes.c_long, double_p,
+                      ctypes.c_long, ctypes.c_int]
+    entry.restype = None
+    pointer = lambda a: a.ctypes.data_as(double_p)   # noqa: E731
+    done = ctypes.c_long.in_dll(library, "lag_batch_done")
+
+    def call() -> int:
+        entry(count, pointer(packed), pointer(state), pointer(settings), pointer(values), layout.rows,
+              pointer(summaries), layout.stride, threads)
+        return 0
+
+    _interruptible(library, call, None if on_progress is None else lambda: on_progress(done.value))
+    if on_progress is not None:
+        on_progress(count)
+    return values, summaries
+
+
+def default_threads(workers: int | None) -> int:
+    """`workers`, else OMP_NUM_THREADS, else the CPUs this process may use."""
+    if workers is not None:
+        if int(workers) < 1:
+            raise LagError(f"sweep: workers must be at least 1, not {workers}")
+        return int(workers)
+    given = os.environ.get("OMP_NUM_THREADS", "").split(",")[0].strip()
+    if given.isdigit() and int(given) > 0:
+        return int(given)
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+# ---- Dask --------------------------------------------------------------------------------------
+_worker_libraries: dict[str, ctypes.CDLL] = {}
+
+
+def run_chunk(library: bytes, source: str, stem: str, layout: BatchLayout, parameters: np.ndarray,
+              initial: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A chunk of members on a Dask worker: the shipped library (kept in the worker's build cache
+    under the hash of its bytes), or, when this machine cannot load it, one built here from the
+    source. One thread per chunk: Dask runs the chunks in parallel."""
+    return run_c_batch(_worker_library(library, source, stem), layout, parameters, initial, 1)
+
+
+def _worker_library(library: bytes, source: str, stem: str) -> ctypes.CDLL:
+    key = hashlib.sha256(library).hexdigest()
+    if key not in _worker_libraries:
+        path = cached_entry(f"{stem}-shipped-{key[:20]}.so", key, lambda entry: entry.write_bytes(library))
+        try:
+            _worker_libraries[key] = ctypes.CDLL(str(path))
+        except OSError:         # another architecture or C library: build it here
+            _worker_libraries[key] = load(GeneratedSource("c", source, stem))
+    return _worker_libraries[key]
+
+
+def run_dask(client, library: bytes, source: str, stem: str, layout: BatchLayout, parameters: np.ndarray,
+             initial: np.ndarray, on_progress: Callable[[int], None] | None = None) -> tuple[np.ndarray, np.ndarray, int]:
+    """Send chunks of members to the cluster behind `client`; results come back in member order.
+
+    Dask reschedules the chunks of a worker that dies (and `retries` covers errors raised in a
+    chunk), so every member arrives exactly once. Returns the values, the summaries and the
+    number of chunks.
+    """
+    from dask.distributed import as_completed
+    threads = max(1, sum(client.nthreads().values()))
+    count = len(initial)
+    size = max(1, math.ceil(count / (CHUNKS_PER_THREAD * threads)))
+    bounds = [(lo, min(lo + size, count)) for lo in range(0, count, size)]
+    shipped = client.scatter(library, broadcast=True, hash=True)
+    futures = [client.submit(run_chunk, shipped, source, stem, layout, parameters[lo:hi], initial[lo:hi],
+                             retries=3, pure=False, key=f"lagdsl-sweep-{stem}-{lo}-{os.getpid()}-{clock.time_ns()}")
+               for lo, hi in bounds]
+    finished = 0
+    for future in as_completed(futures):
+        lo, hi = bounds[futures.index(future)]
+        finished += hi - lo
+        if on_progress is not None:
+            on_progress(finished)
+    parts = client.gather(futures)
+    values = np.concatenate([p[0] for p in parts])
+    summaries = np.concatenate([p[1] for p in parts])
+    return values, summaries, len(bounds)
+
+
+# ---- reading the summaries ---------------------------------------------------------------------
+def statuses(plan: ScenePlan, summaries: np.ndarray) -> np.ndarray:
+    codes = summaries[:, 0].astype(int)
+    messages = np.full(len(codes), "ok", dtype=object)
+    for code in np.unique(codes[codes != 0]):
+        text = STATUS.get(int(code), ("unknown failure",))[0].format(max_steps=plan.max_steps)
+        messages[codes == code] = text
+    return messages
+
+
+def assemble(plan: ScenePlan, members: Members, values: np.ndarray, summaries: np.ndarray, backend: str,
+             counters: tuple[str, ...], wall_time: float, workers: str) -> Sweep:
+    """The Sweep of a batch run; raises SimulationInterrupted (with the sweep as `.partial`) after Ctrl-C."""
+    status = statuses(plan, summaries)
+    codes = summaries[:, 0].astype(int)
+    failure_time = np.where(codes != 0, summaries[:, 2], np.nan)
+    counts = {name: summaries[:, 6 + i].astype(np.int64) for i, name in enumerate(counters)}
+    failures = {}
+    for message in status[codes != 0]:
+        failures[message] = failures.get(message, 0) + 1
+    summary = SweepSummary(len(codes), tuple(sorted(failures.items(), key=lambda kv: -kv[1])),
+                           tuple((name, int(c.sum())) for name, c in counts.items()), wall_time, backend,
+                           plan.integrator.name, workers)
+    sweep = Sweep(output_times(plan), plan.columns, values, members.inputs, status, failure_time, counts, summary,
+                  summaries[:, 1].astype(np.int64))
+    if np.any(codes == INTERRUPTED):
+        first = int(np.flatnonzero(codes == INTERRUPTED)[0])
+        raise SimulationInterrupted("interrupted", float(summaries[first, 2]), {}, "", sweep)
+    return sweep
+
+
+# ---- NumPy -------------------------------------------------------------------------------------
+def run_numpy_batch(module, kernel, source, members: Members, on_progress: Callable[[int], None] | None = None
+                    ) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
+    """The NumPy backend's batch path: (values, summaries in the C layout's first columns, counters).
+
+    Chunks of NUMPY_CHUNK members of an explicit scipy method without constraints are integrated as one
+    stacked system, states (n, B) through one vectorised right-hand side. scipy controls the
+    error of the stacked state as one RMS norm, so the tolerances are divided by sqrt(B): each
+    member's own RMS error norm then meets rtol and atol as in a single run, though the members
+    share their steps (they do not equal simulate() bit for bit). A chunk that fails anywhere is
+    rerun member by member, as simulate() runs them, so a failing member ends alone; so is a chunk
+    whose divided tolerances scipy would not take as they are (atol = 0, rtol below its floor).
+    """
+    plan = members.plan
+    count = len(members.initial)
+    counters = ("accepted", "rhs_evals")
+    values = np.full((count, len(output_times(plan)), len(plan.columns)), np.nan)
+    summaries = np.zeros((count, 6 + len(counters)))
+    # (a stop condition ends each member at its own time: members run one at a time then)
+    stacked = plan.integrator.name in ("dopri5", "dop853") and not plan.constraints and plan.stop is None
+    size = NUMPY_CHUNK if stacked else 1
+    for lo in range(0, count, size):
+        hi = min(lo + size, count)
+        if not (stacked and _stacked_chunk(module, members, lo, hi, values, summaries)):
+            for b in range(lo, hi):
+                _single_member(module, kernel, source, members, b, values, summaries)
+        if on_progress is not None:
+            on_progress(hi)
+    return values, summaries, counters
+
+
+def _stacked_chunk(module, members: Members, lo: int, hi: int, values: np.ndarray, summaries: np.ndarray) -> bool:
+    """Integrate members lo..hi-1 as one system; False (nothing written) if it fails anywhere."""
+    from scipy import integrate
+    plan = members.plan
+    times = output_times(plan)
+    options = dict(plan.integrator.options)
+    par = members.parameters[lo:hi].T
+    y0 = members.initial[lo:hi].T
+    n, count = y0.shape
+    rtol, atol = options["rtol"] / math.sqrt(count), options["atol"] / math.sqrt(count)
+    if not (atol > 0 and rtol >= SCIPY_RTOL_FLOOR):
+        return False        # what scipy would change or cannot start with: as single runs
+    extra = {"max_step": options["max_step"]} if options.get("max_step") else {}
+    method = getattr(integrate, SCIPY_METHODS[plan.integrator.name])
+
+    def fun(t, y):
+        return module.rhs(t, y.reshape(n, count), par).reshape(-1)
+
+    states, steps = [y0.reshape(-1)], 0
+    with np.errstate(all="ignore"):
+        try:
+            solver = method(fun, times[0], y0.reshape(-1), times[-1], rtol=rtol, atol=atol, **extra)
+            while len(states) < len(times):
+                solver.step()
+                steps += 1
+                if solver.status == "failed" or steps > plan.max_steps or not np.all(np.isfinite(solver.y)):
+                    return False
+                dense = solver.dense_output()
+                states += [solver.y.copy() if t == solver.t else dense(t)
+                           for t in times[len(states):] if t <= solver.t]
+            grid = np.array(states).reshape(len(times), n, count)
+            observed = [module.observables(times, grid[:, :, j].T, members.parameters[lo + j])[0]
+                        for j in range(count)]
+        except (np.linalg.LinAlgError, ValueError):
+            return False
+    values[lo:hi] = np.transpose(np.array(observed), (0, 2, 1))
+    summaries[lo:hi, 1] = len(times)
+    summaries[lo:hi, 6] = steps
+    summaries[lo:hi, 7] = solver.nfev
+    return True
+
+
+def _single_member(module, kernel, source, members: Members, b: int, values: np.ndarray,
+                   summaries: np.ndarray) -> None:
+    plan = replace(members.plan, parameters=tuple(members.parameters[b]),
+                   initial_state=tuple(members.initial[b]))
+    try:
+        result, status, t_fail = run_numpy(kernel, source, plan, None, module), 0, 0.0
+    except SimulationError as error:
+        result, status, t_fail = error.partial, _status_code(error), error.time
+    values[b, :len(result.t)] = result.values
+    summaries[b, :3] = (status, len(result.t), t_fail)
+    summaries[b, 6] = result.summary.count("accepted") or 0
+    summaries[b, 7] = result.summary.count("rhs_evals") or 0
+
+
+def _status_code(error: SimulationError) -> int:
+    if isinstance(error, SimulationInterrupted):
+        return INTERRUPTED
+    for code, (message, _) in STATUS.items():
+        if error.message.startswith(message.split("{")[0].rstrip()):
+            return code
+    return 2

@@ -1,0 +1,51 @@
+"""model.sweep on a Dask cluster: the library shipped as bytes, chunks of a worker that dies run
+again elsewhere, every member arrives once and in order, equal to the local sweep."""
+from __future__ import annotations
+
+import os
+import signal
+
+import numpy as np
+import pytest
+
+import lagdsl
+from lagdsl.run import sweep as batch
+from lagdsl.scene import Overrides
+from tests.conftest import MODELS
+
+distributed = pytest.importorskip("dask.distributed")
+
+
+@pytest.fixture(scope="module")
+def client():
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                                  silence_logs=50) as cluster, distributed.Client(cluster) as client:
+        yield client
+
+
+def test_a_sweep_on_dask_equals_the_local_one_even_when_a_worker_dies(client):
+    model = lagdsl.load(MODELS / "double_pendulum.lag")
+    count = 160
+    rng = np.random.default_rng(11)
+    values = {"theta1.start": rng.uniform(-3, 3, count), "theta2.start": rng.uniform(-3, 3, count)}
+    grid = dict(stop=3.0, interval=0.5)
+    local = model.sweep("chaos", set=values, **grid)
+    assert np.array_equal(model.sweep("chaos", set=values, client=client, **grid).values, local.values)
+
+    members = batch.member_inputs(lambda o: model.plan("chaos", o), Overrides(stop=3.0, interval=0.5), values)
+    program = model._program("chaos", members.plan, "c", Overrides())
+    pids = client.run(os.getpid)
+    killed = []
+
+    def kill_one_worker(finished: int) -> None:
+        if not killed and finished < count:      # the first chunk is back, the others are in flight
+            victim = sorted(pids.values())[0]
+            os.kill(victim, signal.SIGKILL)
+            killed.append(victim)
+
+    values_dask, summaries, chunks = batch.run_dask(client, program.library_bytes(), program.source.text,
+                                                    program.source.suggested_name, batch.batch_layout(members.plan),
+                                                    members.parameters, members.initial, kill_one_worker)
+    assert killed and chunks > 2
+    assert values_dask.shape == local.values.shape and np.array_equal(values_dask, local.values)
+    assert list(summaries[:, 0]) == [0] * count
