@@ -76,6 +76,23 @@ class Model:
         program = self._program(scene, scene_plan, backend, overrides)
         return execute(program.kernel, program.source, scene_plan, progress, program.loaded)
 
+    def bench(self, scene: str | None = None, *, integrators: tuple[str, ...] | None = None, backend: str = "c",
+              peers: bool = False, repeat: int = 3, set: dict | None = None, start: float | None = None,
+              stop: float | None = None, interval: float | None = None, progress: bool = False):
+        """Work against precision: each integrator's ladder of settings, its time and its global error
+        against the extended-precision reference (see lagdsl.bench).
+
+        `backend` is "c", "numpy" or "both"; `peers` adds scipy's solve_ivp and CyRK (if installed).
+        Returns a pandas DataFrame when pandas is installed, else a list of dicts, with the columns
+        of `lagc bench -o`: integrator, backend, rtol, atol, step, seconds, rhs_evals, steps,
+        rejected, error, reference_error.
+        """
+        from . import bench
+        overrides = Overrides(tuple((k, float(v)) for k, v in (set or {}).items()), start, stop, interval)
+        report = bench.run_bench(self, scene, overrides, integrators, bench.backends(backend), peers, repeat,
+                                 progress=bench.progress_bar() if progress else None)
+        return bench.table(report)
+
     def _program(self, scene: str | None, scene_plan: ScenePlan, backend: str, overrides: Overrides) -> Program:
         """The generated, loaded code for a scene, integrator and backend: built on first use, then kept.
 

@@ -14,9 +14,11 @@ import time as clock
 import warnings
 
 
-from . import __version__
+from . import __version__, bench, plots
 from .api import load
-from .errors import LagError, LagWarning, SimulationError, SimulationInterrupted
+from .errors import LagError, LagWarning, Setting, SimulationError, SimulationInterrupted
+from .expressions import suggest
+from .ir import INTEGRATORS
 from .escape import visible
 from .present import describe_model, format_equations
 from .run.output import check_writable, write_output
@@ -58,7 +60,7 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 
 def _dispatch(argv: list[str]) -> int:
     parser = _parser()
-    if argv and argv[0] not in ("check", "eom", "run", "-h", "--help", "--version") and "--emit" in argv:
+    if argv and argv[0] not in ("check", "eom", "run", "bench", "-h", "--help", "--version") and "--emit" in argv:
         argv = ["emit", *argv]
     arguments = parser.parse_args(argv)
     return arguments.handler(arguments)
@@ -84,11 +86,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("model")
     _scene_options(run)
     run.add_argument("--backend", choices=("c", "numpy"), default="c", help="generated code to run (default: c)")
-    run.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                     help="override a parameter, or an initial value as COORDINATE.start / COORDINATE.velocity")
-    run.add_argument("--start", type=float, help="start time of the output grid")
-    run.add_argument("--stop", type=float, help="stop time")
-    run.add_argument("--interval", type=float, help="output interval")
+    _input_options(run)
     run.add_argument("--integrator", help="rk4, dopri5, dop853, radau5, gauss or auto")
     run.add_argument("--rtol", type=float, help="relative tolerance (adaptive integrators)")
     run.add_argument("--atol", type=float, help="absolute tolerance (adaptive integrators)")
@@ -99,6 +97,21 @@ def _parser() -> argparse.ArgumentParser:
                      "(default: 100000, or 100 per output row if that is more)")
     run.add_argument("-o", "--output", help="write the CSV here instead of standard output")
     run.set_defaults(handler=_run)
+
+    bench = commands.add_parser("bench", help="work against precision: each integrator's time and global error "
+                                "against an extended-precision reference")
+    bench.add_argument("model")
+    _scene_options(bench)
+    bench.add_argument("--integrators", metavar="LIST",
+                       help="comma-separated integrators to compare (default: all the scene admits)")
+    bench.add_argument("--backend", default="c", metavar="c|numpy|both", help="generated code to run (default: c)")
+    bench.add_argument("--peers", action="store_true",
+                       help="also scipy's solve_ivp (RK45, DOP853, Radau, LSODA) and CyRK (if installed)")
+    bench.add_argument("--repeat", default="3", metavar="N", help="runs per setting, the fastest counts (default: 3)")
+    _input_options(bench)
+    bench.add_argument("-o", "--output", metavar="TABLE.csv", help="write the table as CSV")
+    bench.add_argument("--plot", metavar="FILE.png", help="write the work-precision diagram and the drifts")
+    bench.set_defaults(handler=_bench)
 
     emit = commands.add_parser("emit", help="write the generated source: lagc MODEL --emit c|numpy [-o FILE]")
     emit.add_argument("model")
@@ -113,9 +126,24 @@ def _scene_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scene", help="scene to use (default: the model's first scene)")
 
 
+def _input_options(parser: argparse.ArgumentParser) -> None:
+    """Parameters, initial values and the time grid: the inputs of a run."""
+    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                        help="override a parameter, or an initial value as COORDINATE.start / COORDINATE.velocity")
+    parser.add_argument("--start", type=float, help="start time of the output grid")
+    parser.add_argument("--stop", type=float, help="stop time")
+    parser.add_argument("--interval", type=float, help="output interval")
+
+
 def _overrides(arguments) -> Overrides:
+    options = given_options(vars(arguments))
+    return Overrides(_set_values(arguments.set), arguments.start, arguments.stop, arguments.interval,
+                     arguments.integrator, options)
+
+
+def _set_values(items: list[str]) -> tuple[tuple[str, float], ...]:
     values = []
-    for item in arguments.set:
+    for item in items:
         name, equals, text = item.partition("=")
         try:
             value = float(text)
@@ -124,9 +152,7 @@ def _overrides(arguments) -> Overrides:
         if not equals or value is None:
             raise LagError(f"--set takes NAME=VALUE with a number, got '{item}'")
         values.append((name.strip(), value))
-    options = given_options(vars(arguments))
-    return Overrides(tuple(values), arguments.start, arguments.stop, arguments.interval,
-                     arguments.integrator, options)
+    return tuple(values)
 
 
 def _run(arguments) -> int:
@@ -194,6 +220,54 @@ def _incomplete(partial, time: float, output: str | None) -> str:
     where = output or "standard output"
     rows = f"{len(partial.t)} rows up to t = {partial.t[-1]:.17g}" if len(partial.t) else "no rows"
     return f"the run is incomplete: it stopped at t = {time:.17g}; {rows} written to {where}"
+
+
+def _bench(arguments) -> int:
+    """The table on standard output (the reference first), -o CSV and --plot PNG, a progress bar on stderr."""
+    backends = bench.backends(arguments.backend) if arguments.backend in bench.BACKEND_CHOICES else \
+        _refuse("--backend", f"expected c, numpy or both, got '{arguments.backend}'")
+    repeat = _positive_integer("--repeat", arguments.repeat)
+    integrators = _integrator_list(arguments.integrators)
+    for path in (arguments.output, arguments.plot):
+        if path:
+            check_writable(path)
+    model = load(arguments.model)
+    overrides = Overrides(_set_values(arguments.set), arguments.start, arguments.stop, arguments.interval)
+    progress = bench.progress_bar()
+    try:
+        report = bench.run_bench(model, arguments.scene, overrides, integrators, backends, arguments.peers, repeat,
+                                 drift=bool(arguments.plot), progress=progress)
+    finally:
+        progress.close()
+    print(report.render())
+    if arguments.output:
+        write_output(arguments.output, report.csv())
+    if arguments.plot:
+        write_output(arguments.plot, plots.work_precision_png(report))
+    return 0
+
+
+def _refuse(option: str, message: str):
+    raise LagError(message, Setting(option))
+
+
+def _positive_integer(option: str, text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    return value if value >= 1 else _refuse(option, f"expected a whole number >= 1, got '{text}'")
+
+
+def _integrator_list(text: str | None) -> tuple[str, ...] | None:
+    if text is None:
+        return None
+    names = tuple(name.strip() for name in text.split(",") if name.strip())
+    for name in names:
+        if name not in INTEGRATORS:
+            _refuse("--integrators", f"unknown integrator '{name}'{suggest(name, INTEGRATORS)} "
+                    f"(available: {', '.join(INTEGRATORS)})")
+    return names or _refuse("--integrators", "expected a comma-separated list of integrators")
 
 
 def _emit(arguments) -> int:

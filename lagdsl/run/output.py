@@ -143,8 +143,8 @@ def check_writable(path: str | os.PathLike) -> None:
         raise CannotWrite(path, error) from None
 
 
-def write_output(path: str | os.PathLike, text: str) -> None:
-    """Write `text` to `path` without damaging what is there.
+def write_output(path: str | os.PathLike, text: str | bytes) -> None:
+    """Write `text` (UTF-8, or bytes as they are: a PNG) to `path` without damaging what is there.
 
     A regular file (new, or existing and writable) is written to a temporary file beside it and
     renamed over it, so readers never see half a file; an existing file keeps its mode, a new one
@@ -156,7 +156,7 @@ def write_output(path: str | os.PathLike, text: str) -> None:
     try:
         target, existing = _destination(path)
         if existing is not None and not stat.S_ISREG(existing.st_mode):
-            with open(target, "w", encoding="utf-8") as stream:
+            with open(target, **_open_mode(text)) as stream:
                 stream.write(text)
         else:
             _replace(target, text, stat.S_IMODE(existing.st_mode) if existing is not None else None)
@@ -181,12 +181,16 @@ def _destination(path: str | os.PathLike) -> tuple[Path, os.stat_result | None]:
     return target, existing
 
 
-def _replace(target: Path, text: str, mode: int | None) -> None:
+def _open_mode(text: str | bytes) -> dict:
+    return {"mode": "wb"} if isinstance(text, bytes) else {"mode": "w", "encoding": "utf-8"}
+
+
+def _replace(target: Path, text: str | bytes, mode: int | None) -> None:
     """Write a temporary file beside `target` (unique per process and thread) and rename it over `target`."""
     partial = target.with_name(f".{target.name}.{secrets.token_hex(8)}.tmp")
     descriptor = os.open(partial, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)   # 0o666 & ~umask
     try:
-        with os.fdopen(descriptor, "w", encoding="utf-8") as stream:
+        with os.fdopen(descriptor, **_open_mode(text)) as stream:
             stream.write(text)
             if mode is not None:
                 os.fchmod(stream.fileno(), mode)
