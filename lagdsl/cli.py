@@ -96,6 +96,9 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--max-steps", type=int, help="step limit, accepted + rejected "
                      "(default: 100000, or 100 per output row if that is more)")
     run.add_argument("-o", "--output", help="write the CSV here instead of standard output")
+    run.add_argument("--error", action="store_true",
+                     help="estimate the run's global error (a 100x tighter rerun, or the extended-precision reference)")
+    run.add_argument("--plot", metavar="FILE.png", help="plot the output columns against time")
     run.set_defaults(handler=_run)
 
     bench = commands.add_parser("bench", help="work against precision: each integrator's time and global error "
@@ -159,12 +162,13 @@ def _run(arguments) -> int:
     """Simulate; on a numerical failure deliver the rows computed so far, say where the run
     stopped, and exit 1 (with the error, which `main` prints)."""
     model = load(arguments.model)
-    if arguments.output:
-        check_writable(arguments.output)      # refuse before the run, not after it
+    for path in (arguments.output, arguments.plot):
+        if path:
+            check_writable(path)      # refuse before the run, not after it
     overrides = _overrides(arguments)
     progress = ProgressLine(sys.stderr)
     try:
-        result = model.simulate_plan(arguments.scene, arguments.backend, overrides, progress.show)
+        result = model.simulate_plan(arguments.scene, arguments.backend, overrides, progress.show, arguments.error)
     except SimulationInterrupted as stopped:
         progress.clear()
         _deliver(stopped.partial.csv(), arguments.output)
@@ -180,6 +184,9 @@ def _run(arguments) -> int:
         raise
     progress.clear()
     _deliver(result.csv(), arguments.output)
+    if arguments.plot:
+        title = f"{model.name}, scene {model.plan(arguments.scene, overrides).scene_name}"
+        write_output(arguments.plot, plots.outputs_png(result, title))
     print(result.summary.render(), file=sys.stderr)
     return 0
 

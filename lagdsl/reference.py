@@ -23,18 +23,20 @@ import ctypes
 import hashlib
 import json
 import time as clock
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from . import ir
-from .errors import SimulationError
+from .errors import LagError, SimulationError
 from .mechanics import Equations
 from .pipeline import generate
-from .run.cache import cached_entry
+from .run.cache import cached_entry, is_cached
 from .run.runner import Progress, run_c
 from .run.toolchain import extended_precision, find_compiler, shared_library
-from .scene import ScenePlan
+from .run.output import ErrorEstimate, Result
+from .scene import RTOL_FLOOR, ScenePlan
 
 # rtol of the reference and of its check run, per precision and method. dop853's error follows
 # its tolerance down to the rounding of the output; radau5 (order 5) needs a tighter one.
@@ -88,27 +90,47 @@ def atol_ratio(plan: ScenePlan) -> float:
     return DEFAULT_ATOL_RATIO
 
 
-def reference_solution(equations: Equations, plan: ScenePlan, source_name: str,
-                       progress: Progress | None = None) -> Reference:
-    """The reference for the scene as planned (its parameters, initial state, time grid); cached."""
+@dataclass(frozen=True)
+class _Recipe:
+    """What the reference of a plan is computed from, and the name and key of its cache entry."""
+
+    plans: tuple[ScenePlan, ScenePlan]      # the reference and its check, 100x looser
+    kernel: object
+    source: object
+    precision: str
+    name: str
+    key: str
+
+
+def _recipe(equations: Equations, plan: ScenePlan, source_name: str) -> _Recipe:
     precision = extended_precision(find_compiler())
     method = reference_method(plan)
-    tight, check = REFERENCE_TOLERANCES[precision][method]
     ratio = atol_ratio(plan)
-    plans = [_with_tolerance(plan, method, rtol, ratio) for rtol in (tight, check)]
+    plans = tuple(_with_tolerance(plan, method, rtol, ratio) for rtol in REFERENCE_TOLERANCES[precision][method])
     kernel, source = generate(equations, plans[0], "c", source_name)
     inputs = {"version": 1, "source": hashlib.sha256(source.text.encode()).hexdigest(), "compiler": find_compiler(),
               "precision": precision, "parameters": plan.parameters, "initial": plan.initial_state,
               "time": (plan.time.start, plan.time.stop, plan.time.interval),
               "options": [p.integrator.options for p in plans]}
     key = hashlib.sha256(json.dumps(inputs, sort_keys=True).encode()).hexdigest()
-    name = f"{source.suggested_name}-reference-{key[:20]}.npz"
+    return _Recipe(plans, kernel, source, precision, f"{source.suggested_name}-reference-{key[:20]}.npz", key)
+
+
+def reference_is_cached(equations: Equations, plan: ScenePlan, source_name: str) -> bool:
+    recipe = _recipe(equations, plan, source_name)
+    return is_cached(recipe.name, recipe.key)
+
+
+def reference_solution(equations: Equations, plan: ScenePlan, source_name: str,
+                       progress: Progress | None = None) -> Reference:
+    """The reference for the scene as planned (its parameters, initial state, time grid); cached."""
+    recipe = _recipe(equations, plan, source_name)
     computed = []
 
     def build(path) -> None:
-        library = ctypes.CDLL(str(shared_library(source.text, source.suggested_name, precision)))
+        library = ctypes.CDLL(str(shared_library(recipe.source.text, recipe.source.suggested_name, recipe.precision)))
         started = clock.perf_counter()
-        rows = [_run(kernel, source, p, library, progress) for p in plans]
+        rows = [_run(recipe.kernel, recipe.source, p, library, progress) for p in recipe.plans]
         seconds = clock.perf_counter() - started
         accuracy = max(float(np.max(np.abs(rows[0].values - rows[1].values), initial=0.0)),
                        _grid_rounding(rows[0].t, rows[0].values))
@@ -116,10 +138,53 @@ def reference_solution(equations: Equations, plan: ScenePlan, source_name: str,
             np.savez(stream, t=rows[0].t, values=rows[0].values, accuracy=accuracy, seconds=seconds)
         computed.append(True)
 
-    entry = cached_entry(name, key, build)
+    entry = cached_entry(recipe.name, recipe.key, build)
+    options = dict(recipe.plans[0].integrator.options)
     with np.load(entry) as data:
-        return Reference(data["t"], plan.columns, data["values"], float(data["accuracy"]), method, precision,
-                         tight, tight * ratio, float(data["seconds"]), cached=not computed)
+        return Reference(data["t"], plan.columns, data["values"], float(data["accuracy"]),
+                         recipe.plans[0].integrator.name, recipe.precision, options["rtol"], options["atol"],
+                         float(data["seconds"]), cached=not computed)
+
+
+def estimate_error(result: Result, equations: Equations, plan: ScenePlan, source_name: str,
+                   rerun: Callable[[tuple[tuple[str, float], ...]], Result]) -> ErrorEstimate:
+    """The global error of `result` (a run of `plan`): its largest absolute difference from a rerun
+    with 100x tighter settings (`rerun(options)`), or from the reference when that is cached or the
+    tighter settings are beyond double precision (rtol / 100 below 10 eps) or fail. A rerun costs
+    a few times the run (dop853's work grows like tol^(-1/8)); a reference, dozens of times."""
+    started = clock.perf_counter()
+    tighter = tighter_options(plan)
+    if tighter is not None and not reference_is_cached(equations, plan, source_name):
+        try:
+            other = rerun(tighter)
+            settings = ", ".join(f"{key} = {value:g}" for key, value in tighter)
+            return ErrorEstimate(_largest_difference(result.values, other.values), f"a rerun at {settings}",
+                                 clock.perf_counter() - started)
+        except (SimulationError, LagError):
+            pass
+    reference = reference_solution(equations, plan, source_name)
+    return ErrorEstimate(reference.error_of(result.values),
+                         f"the {PRECISION_NAMES[reference.precision]} reference (its accuracy {reference.accuracy:.2g})",
+                         clock.perf_counter() - started)
+
+
+def tighter_options(plan: ScenePlan) -> tuple[tuple[str, float], ...] | None:
+    """Settings whose error is about 100x smaller: tolerances / 100, or the step / 100^(1/order)
+    (rk4: order 4, gauss: 2 stages). None when rtol / 100 is below double precision's floor."""
+    options = dict(plan.integrator.options)
+    if "step" in options:
+        order = 4 if plan.integrator.name == "rk4" else 2 * int(options.get("stages", 2))
+        kept = (("stages", options["stages"]),) if "stages" in options else ()
+        return (("step", options["step"] / 100 ** (1 / order)), *kept)
+    if options.get("rtol", 0) / 100 < RTOL_FLOOR:
+        return None
+    return (("rtol", options["rtol"] / 100), ("atol", options["atol"] / 100))
+
+
+def _largest_difference(a: np.ndarray, b: np.ndarray) -> float:
+    if a.shape != b.shape:
+        raise SimulationError("the rerun delivered other rows", 0.0, {}, "")
+    return float(np.max(np.abs(a - b), initial=0.0))
 
 
 def _with_tolerance(plan: ScenePlan, method: str, rtol: float, ratio: float) -> ScenePlan:

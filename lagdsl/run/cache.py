@@ -74,6 +74,11 @@ def cached_entry(name: str, key: str, build: Callable[[Path], None]) -> Path:
     return entry
 
 
+def is_cached(name: str, key: str) -> bool:
+    """Whether cached_entry(name, key, ...) would find a valid entry without building."""
+    return _is_valid(cache_directory() / name, key)
+
+
 def _is_valid(entry: Path, key: str) -> bool:
     """The entry exists, its manifest was written for `key`, and its bytes are the ones recorded."""
     try:

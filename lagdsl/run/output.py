@@ -55,6 +55,23 @@ class Switches:
 
 
 @dataclass(frozen=True)
+class ErrorEstimate:
+    """The estimated global error of a run: the largest absolute difference, over the output rows
+    and columns, from a more accurate solution (`against` says which), and the seconds it took."""
+
+    value: float
+    against: str
+    seconds: float
+
+    def __float__(self) -> float:
+        return self.value
+
+    def render(self) -> str:
+        return (f"estimated global error: {self.value:.2g} (max abs over rows and columns, against {self.against}; "
+                f"{self.seconds:.3g} s)")
+
+
+@dataclass(frozen=True)
 class RunSummary:
     """What the run cost and how well it kept its invariants and constraints."""
 
@@ -69,6 +86,7 @@ class RunSummary:
     settings: tuple[tuple[str, float], ...] = ()        # the integrator's options as used
     stiffness: Stiffness | None = None                  # explicit methods: stiffness detected
     switches: Switches | None = None                    # auto: its changes of method
+    error: ErrorEstimate | None = None                  # lagc run --error, simulate(estimate_error=True)
 
     def count(self, counter: str) -> int | None:
         """A work counter ("accepted", "rhs_evals", ...), None when the integrator does not keep it."""
@@ -78,7 +96,7 @@ class RunSummary:
         counts = [f"{value} {COUNTER_LABELS[name]}" for name, value in self.counters]
         lines = [f"integrator {self.integrator}({self.settings_text()}) ({self.backend}): "
                  + ", ".join([*counts, f"{self.wall_time:.3g} s"])]
-        lines += [part.render() for part in (self.stiffness, self.switches) if part is not None]
+        lines += [part.render() for part in (self.stiffness, self.switches, self.error) if part is not None]
         for name, start, drift in self.invariants:
             relative = f", relative {drift / abs(start):.3g}" if start != 0 else ""
             lines.append(f"drift of {name}: {drift:.3g} (from {start:.17g}{relative})")

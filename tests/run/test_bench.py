@@ -106,3 +106,24 @@ def test_csv_has_exactly_the_documented_header(kepler, tmp_path, capsys):
 def test_bad_options_are_clean_errors(kepler, options, message, capsys):
     assert main(["bench", str(kepler), *options]) == 1
     assert capsys.readouterr().err.startswith(message)
+
+
+def test_simulate_estimates_its_global_error(kepler):
+    model = lagdsl.load(kepler)
+    result = model.simulate(estimate_error=True)
+    exact = np.column_stack([np.ones(ORBITS + 1), 2 * math.pi * np.arange(ORBITS + 1)])
+    true_error = float(np.max(np.abs(result.values - exact)))
+    estimate = result.summary.error
+    assert true_error / 2 <= float(estimate) <= 2 * true_error and estimate.seconds >= 0
+    assert "rerun at rtol = 1e-12" in estimate.against
+    assert "estimated global error" in result.summary.render()
+    assert model.simulate().summary.error is None
+
+
+def test_run_error_and_plot(kepler, tmp_path, capsys):
+    picture = tmp_path / "outputs.png"
+    assert main(["run", str(kepler), "--error", "--rtol", "1e-14", "--plot", str(picture), "-o",
+                 str(tmp_path / "out.csv")]) == 0
+    assert "against the __float128 reference" in capsys.readouterr().err or \
+        toolchain.extended_precision(toolchain.find_compiler()) != "float128"
+    assert picture.read_bytes().startswith(b"\x89PNG")
