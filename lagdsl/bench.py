@@ -12,6 +12,7 @@ and CyRK (when installed) on the NumPy backend's right-hand side.
 from __future__ import annotations
 
 import math
+import sys
 import time as clock
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -183,8 +184,6 @@ def backends(choice: str) -> tuple[str, ...]:
 
 def progress_bar():
     """A tqdm bar on standard error that follows the settings (its total is set by run_bench)."""
-    import sys
-
     from tqdm import tqdm
     return tqdm(total=0, file=sys.stderr, unit="setting", dynamic_ncols=True, disable=None)  # None: not on a pipe
 
@@ -195,12 +194,14 @@ Progress = Callable[[str], None]      # called with a description before each se
 
 def run_bench(model, scene: str | None = None, overrides: Overrides = Overrides(),
               integrators: tuple[str, ...] | None = None, backends: tuple[str, ...] = ("c",),
-              peers: bool = False, repeat: int = 3, drift: bool = False, progress=None) -> BenchReport:
+              peers: bool = False, repeat: int = 3, drift: bool = False, progress=None,
+              time_limit: float = LADDER_TIME_LIMIT) -> BenchReport:
     """Every admitted integrator's ladder on each backend (and the peers'), against the reference.
 
     `model` is an api.Model; `overrides` carries parameters, initial values and the time grid
     (integrator settings in it are ignored: the ladders set them). `progress`, if given, is a
-    tqdm-like object (update(n), set_description(text), total) that follows the settings.
+    tqdm-like object (update(n), set_description(text), total) that follows the settings. A ladder
+    stops after a setting slower than `time_limit` seconds.
     """
     if repeat < 1:
         raise LagError(f"repeat must be at least 1, got {repeat}")
@@ -221,17 +222,20 @@ def run_bench(model, scene: str | None = None, overrides: Overrides = Overrides(
     rows: list[BenchRow] = []
     drifts: list[Drift] = []
     for settings in ladders:
-        done = _run_ladder(settings, lambda s: _run_lagdsl(model, scene, base, s, repeat, reference), progress, notes)
+        done = _run_ladder(settings, lambda s: _run_lagdsl(model, scene, base, s, repeat, reference), progress, notes,
+                           time_limit)
         rows += done
         if drift:
             drifts += _lagdsl_drift(model, scene, base, done, plan)
     if peer_ladders:
         module = load_program(generate(model.equations, plan, "numpy", model.source.name)[1])
         for settings in peer_ladders:
-            done = _run_ladder(settings, lambda s: _run_peer(module, plan, s, repeat, reference), progress, notes)
+            watched: dict[Setting, np.ndarray] = {}
+            done = _run_ladder(settings, lambda s: _run_peer(module, plan, s, repeat, reference, watched), progress,
+                               notes, time_limit)
             rows += done
             if drift:
-                drifts += _peer_drift(module, plan, done)
+                drifts += _peer_drift(plan, done, watched)
     return BenchReport(model.name, plan.scene_name, reference, tuple(rows), tuple(notes), tuple(drifts))
 
 
@@ -272,8 +276,9 @@ def _advance(progress) -> None:
         progress.update(1)
 
 
-def _run_ladder(settings: list[Setting], run: Callable[[Setting], BenchRow], progress, notes: list[str]) -> list[BenchRow]:
-    """Run the settings from the loosest on; stop after one slower than LADDER_TIME_LIMIT."""
+def _run_ladder(settings: list[Setting], run: Callable[[Setting], BenchRow], progress, notes: list[str],
+                time_limit: float) -> list[BenchRow]:
+    """Run the settings from the loosest on; stop after one slower than `time_limit` seconds."""
     rows = []
     for index, setting in enumerate(settings):
         if progress is not None:
@@ -281,9 +286,9 @@ def _run_ladder(settings: list[Setting], run: Callable[[Setting], BenchRow], pro
         row = run(setting)
         rows.append(row)
         _advance(progress)
-        if row.seconds is not None and row.seconds > LADDER_TIME_LIMIT and index + 1 < len(settings):
+        if row.seconds is not None and row.seconds > time_limit and index + 1 < len(settings):
             notes.append(f"{setting.method}: stopped after {setting.describe()} took {row.seconds:.3g} s "
-                         f"(limit {LADDER_TIME_LIMIT:g} s); {len(settings) - index - 1} tighter settings not run")
+                         f"(limit {time_limit:g} s); {len(settings) - index - 1} tighter settings not run")
             if progress is not None:
                 progress.update(len(settings) - index - 1)
             break
@@ -393,7 +398,9 @@ def _peer_states(module, plan: ScenePlan, setting: Setting) -> tuple[np.ndarray,
     return states, seconds, int(evals), steps
 
 
-def _run_peer(module, plan: ScenePlan, setting: Setting, repeat: int, reference: Reference) -> BenchRow:
+def _run_peer(module, plan: ScenePlan, setting: Setting, repeat: int, reference: Reference,
+              watched: dict) -> BenchRow:
+    """One peer setting; the conserved quantities along its run go into `watched[setting]`."""
     try:
         runs = _repeated(lambda: _peer_states(module, plan, setting), lambda run: run[1], repeat)
     except SimulationError as error:
@@ -401,20 +408,18 @@ def _run_peer(module, plan: ScenePlan, setting: Setting, repeat: int, reference:
     states, _, evals, steps = runs[0]
     par = np.array(plan.parameters, dtype=float)
     with np.errstate(all="ignore"):
-        values = module.observables(output_times(plan), states, par)[0].T
-    return BenchRow(setting, min(run[1] for run in runs), evals, steps, None, reference.error_of(values),
+        values, watched[setting] = module.observables(output_times(plan), states, par)
+    return BenchRow(setting, min(run[1] for run in runs), evals, steps, None, reference.error_of(values.T),
                     reference.accuracy)
 
 
-def _peer_drift(module, plan: ScenePlan, rows: list[BenchRow]) -> list[Drift]:
+def _peer_drift(plan: ScenePlan, rows: list[BenchRow], watched: dict) -> list[Drift]:
     row = _tightest(rows)
     if row is None or not plan.invariants:
         return []
-    states = _peer_states(module, plan, row.setting)[0]
-    times = output_times(plan)
-    with np.errstate(all="ignore"):
-        watched = module.observables(times, states, np.array(plan.parameters, dtype=float))[1]
-    return [Drift(row.setting, times, tuple((name, watched[i] - watched[i][0]) for i, name in enumerate(plan.invariants)))]
+    values = watched[row.setting]
+    return [Drift(row.setting, output_times(plan),
+                  tuple((name, values[i] - values[i][0]) for i, name in enumerate(plan.invariants)))]
 
 
 def table(report: BenchReport):
