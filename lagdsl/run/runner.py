@@ -10,6 +10,8 @@ every step of scipy's solvers in the NumPy backend.
 """
 from __future__ import annotations
 
+import collections
+
 import ctypes
 import hashlib
 import importlib.abc
@@ -54,6 +56,9 @@ STATUS = {
     6: ("projection onto the constraints did not converge",
         "the constraints may be singular at this state; check the initial values"),
     7: ("interrupted", ""),
+    8: ("at its pace so far, the run would need more steps than the step limit of {max_steps} allows",
+        "the solution may be singular near this time, or the problem is stiff: try --integrator "
+        "radau5, or raise --max-steps"),
 }
 PROJECTION_FAILED = 6
 INTERRUPTED = 7
@@ -365,6 +370,7 @@ def _run_scipy(module, par, times, y0, plan, progress):
 
     counts = {"accepted": 0, "rejected": None, "rhs_evals": 0, "jac_evals": 0, "lu_decomps": 0}
     watch = _StepWatch(method.__name__, counts)
+    forecast = _WorkForecast(times[0], times[-1], plan.max_steps)
     states, solver, k = [y0], None, 1
     span = times[-1] - times[0]
     try:
@@ -380,6 +386,8 @@ def _run_scipy(module, par, times, y0, plan, progress):
                 return states, watch.finish(_tally(counts, solver)), (3, t_before, y_before)
             counts["accepted"] += 1
             watch.record(solver)
+            if forecast.hopeless(solver.t - t_before, solver.t, counts["accepted"]):
+                return states, watch.finish(_tally(counts, solver)), (8, solver.t, solver.y)
             if not np.all(np.isfinite(solver.y)):
                 return states, watch.finish(_tally(counts, solver)), (2, solver.t, solver.y)
             dense = solver.dense_output()
@@ -404,6 +412,35 @@ def _run_scipy(module, par, times, y0, plan, progress):
     except KeyboardInterrupt:
         return _stopped(states, counts, solver, times[0], y0, INTERRUPTED, watch)
     return states, watch.finish(_tally(counts, solver)), None
+
+
+class _WorkForecast:
+    """Stops a run early that cannot end within its step limit.
+
+    A NumPy step costs about a millisecond, so a run whose steps have shrunk to near the
+    resolution of t (an extreme parameter, a singularity) or that needs more steps than allowed
+    would grind through the whole step limit for minutes. From `JUDGED_AFTER` steps on, the run
+    is hopeless when two forecasts of the steps still needed both exceed the steps still allowed:
+    the average pace since the start, (stop - t) x taken / (t - start), which a passing burst of
+    small steps (a close approach) barely moves, and the largest of the last `WINDOW` steps,
+    (stop - t) / h, which forgives a fast transient at the start. (A C step costs microseconds;
+    there the step limit itself ends such runs within a second.)
+    """
+
+    JUDGED_AFTER, WINDOW = 1000, 100
+
+    def __init__(self, start: float, stop: float, max_steps: int):
+        self.start, self.stop, self.max_steps = start, stop, max_steps
+        self.recent: collections.deque = collections.deque(maxlen=self.WINDOW)
+
+    def hopeless(self, step: float, t: float, taken: int) -> bool:
+        self.recent.append(abs(step))
+        if taken < self.JUDGED_AFTER:
+            return False
+        left, allowed = abs(self.stop - t), self.max_steps - taken
+        by_average = left * taken > allowed * abs(t - self.start)
+        by_recent = left > allowed * max(self.recent)
+        return by_average and by_recent
 
 
 class _StepWatch:

@@ -172,6 +172,31 @@ def test_a_step_size_collapse_at_t0_fails_at_once(oscillator, backend):
     assert time.monotonic() - started < 60     # not a bound on speed: the run used to go on for hours
 
 
+def test_a_numpy_run_that_cannot_finish_within_the_limit_stops_early(oscillator):
+    """k = 1e10 with 200 steps allowed... of 1e7 needed: the NumPy run stops after the judged
+    steps, at its pace, instead of grinding through the whole limit; its rows are kept."""
+    with pytest.raises(SimulationError) as error:
+        oscillator.simulate(backend="numpy", k=1e10, stop=100.0, interval=1e-4, max_steps=10**6)
+    failure = error.value
+    assert "at its pace so far" in failure.message and "10000000" not in failure.message
+    assert "--max-steps" in failure.remedy
+    assert failure.time < 1e-2 and len(failure.partial.t) >= 2
+
+
+def test_the_forecast_forgives_a_burst_of_small_steps_and_a_fast_start():
+    from lagdsl.run.runner import _WorkForecast
+    perihelion = _WorkForecast(0.0, 100.0, 10**5)       # steady 1e-2 steps, then a burst of 1e-6
+    verdicts = [perihelion.hopeless(1e-2, 1e-2 * n, n) for n in range(1, 2001)]
+    verdicts += [perihelion.hopeless(1e-6, 20.0 + 1e-6 * n, 2000 + n) for n in range(1, 201)]
+    assert not any(verdicts)
+    transient = _WorkForecast(0.0, 100.0, 10**5)        # 900 tiny steps, then large ones
+    verdicts = [transient.hopeless(1e-9, 1e-9 * n, n) for n in range(1, 901)]
+    verdicts += [transient.hopeless(1e-2, 1e-2 * n, 900 + n) for n in range(1, 2000)]
+    assert not any(verdicts)
+    stuck = _WorkForecast(0.0, 100.0, 10**5)            # 1e-9 for good: hopeless once judged
+    assert [stuck.hopeless(1e-9, 1e-9 * n, n) for n in (1, 999, 1000)] == [False, False, True]
+
+
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_max_step_is_honoured(oscillator, backend):
     result = oscillator.simulate(backend=backend, integrator="dopri5", max_step=0.01)
