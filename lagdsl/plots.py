@@ -36,10 +36,11 @@ def work_precision_png(report) -> bytes:
     for row in report.rows:          # in ladder order, loosest first: the line follows the ladder
         if row.failure is None and row.seconds:
             lines.setdefault(row.setting.method, []).append(row)
-    for index, (method, rows) in enumerate(sorted(lines.items())):
+    colors = _method_colors(sorted(lines))
+    for method, rows in sorted(lines.items()):
         peer = rows[0].setting.integrator not in INTEGRATORS
         diagram.loglog([r.seconds for r in rows], [r.error for r in rows], marker="o" if not peer else "s",
-                       linestyle="--" if peer else "-", markersize=4, label=method, color=f"C{index % 10}")
+                       linestyle="--" if peer else "-", markersize=4, label=method, color=colors[method])
     diagram.axhline(report.reference.accuracy, color="grey", linestyle=":", linewidth=1,
                     label="reference accuracy")
     diagram.set_xlabel("integration time [s]")
@@ -48,18 +49,25 @@ def work_precision_png(report) -> bytes:
     diagram.grid(True, which="major", alpha=0.3)
     diagram.legend(fontsize=7)
     if report.drifts:
-        _drift_panel(axes[0][1], report.drifts)
+        _drift_panel(axes[0][1], report.drifts, colors)
     figure.tight_layout()
     return _png(figure)
 
 
-def _drift_panel(axis, drifts) -> None:
+def _method_colors(methods: list[str]) -> dict:
+    """One colour per method, the same in both panels: tab10, or tab20 for more than ten methods."""
+    import matplotlib
+    palette = matplotlib.colormaps["tab10" if len(methods) <= 10 else "tab20"]
+    return {method: palette(index % palette.N) for index, method in enumerate(methods)}
+
+
+def _drift_panel(axis, drifts, colors: dict) -> None:
     """|I(t) - I(t0)| on a log scale (zeros, at the start, left out)."""
-    for index, drift in enumerate(drifts):
+    for drift in drifts:
         for number, (name, values) in enumerate(drift.drifts):
             magnitude = np.abs(values)
             shown = magnitude > 0
-            axis.semilogy(drift.t[shown], magnitude[shown], linewidth=0.8, color=f"C{index % 10}",
+            axis.semilogy(drift.t[shown], magnitude[shown], linewidth=0.8, color=colors.get(drift.setting.method, "black"),
                           linestyle=("-", "--", ":", "-.")[number % 4],
                           label=f"{name}: {drift.setting.describe()}")
     axis.set_xlabel("t")
