@@ -7,8 +7,9 @@
 - the stiff spring (tests/run/models/stiff_spring.lag, K = 1e8);
 - the car axis (models/car_axis.lag, constrained, mildly stiff).
 
-Writes benchmarks/work_precision/<problem>.png and .csv, and the section between the markers
-in benchmarks/README.md (the rest of that file is kept). Takes several minutes:
+Writes benchmarks/work_precision/<problem>.png, .csv and .md (its part of the README), and after
+each problem the section between the markers in benchmarks/README.md from every problem's .md
+(the rest of that file is kept; `--only` reruns some problems and keeps the others' parts). Takes several minutes:
 
     nice python benchmarks/work_precision.py [--repeat N] [--time-limit S] [--only NAME,...]
 """
@@ -76,36 +77,41 @@ def fastest_at(rows, level: float) -> float | None:
     return min(times) if times else None
 
 
-def section(results, time_limit: float) -> str:
-    lines = [BEGIN, "## Work against precision (`work_precision.py`)", "",
-             "Produced by `python benchmarks/work_precision.py` with `lagdsl.bench` (what `lagc bench --peers` "
-             "runs). Each method runs its ladder (rtol 1e-3 .. 1e-13 with atol scaled by the scene's ratio; "
-             "steps of 4 down to 1/64 output intervals for rk4 and gauss); the error is the largest absolute "
-             "difference over the output rows and columns from a reference computed by the generated C in "
-             "`__float128` (dop853 at rtol 1e-20, radau5 at 1e-22 for stiff scenes), whose own accuracy is "
-             "given. lagdsl runs the C backend; scipy and CyRK integrate the NumPy backend's right-hand side "
-             "(a Python function, as a user of those libraries would write it). Wall-clock seconds of the "
-             "integration alone, best of the repeats, on one machine shared with other work: read the ratios. "
-             f"A ladder stops after a setting that takes more than {time_limit:g} s.", ""]
-    for name, title, report, extra in results:
-        lines += [f"### {title}", "", f"![{name}](work_precision/{name}.png)", "", report.reference.describe() + ".",
-                  *([extra + "."] if extra else []), "",
-                  "Fastest setting reaching each error level (seconds; - = not reached):", "",
-                  "| method | " + " | ".join(f"error <= {level:g}" for level in LEVELS) + " |",
-                  "| --- |" + " ---: |" * len(LEVELS)]
-        methods: dict[str, list] = {}
-        for row in report.rows:
-            methods.setdefault(row.setting.method, []).append(row)
-        for method, rows in methods.items():
-            cells = [fastest_at(rows, level) for level in LEVELS]
-            lines.append(f"| {method} | " + " | ".join("-" if c is None else f"{c:.3g}" for c in cells) + " |")
-        lines += [f"- {note}" for note in report.notes]
-        lines.append("")
-    lines.append(END)
+def introduction(time_limit: float) -> list[str]:
+    return ["## Work against precision (`work_precision.py`)", "",
+            "Produced by `python benchmarks/work_precision.py` with `lagdsl.bench` (what `lagc bench --peers` "
+            "runs). Each method runs its ladder (rtol 1e-3 .. 1e-13 with atol scaled by the scene's ratio; "
+            "steps of 4 down to 1/64 output intervals for rk4 and gauss); the error is the largest absolute "
+            "difference over the output rows and columns from a reference computed by the generated C in "
+            "`__float128` (dop853 at rtol 1e-20, radau5 at 1e-22 for stiff scenes), whose own accuracy is "
+            "given. lagdsl runs the C backend; scipy and CyRK integrate the NumPy backend's right-hand side "
+            "(a Python function, as a user of those libraries would write it). Wall-clock seconds of the "
+            "integration alone, best of the repeats, on one machine shared with other work: read the ratios. "
+            f"A ladder stops after a setting that takes more than {time_limit:g} s.", ""]
+
+
+def problem_section(name: str, title: str, report, extra: str) -> str:
+    """One problem's part of the README section (also kept as work_precision/NAME.md)."""
+    lines = [f"### {title}", "", f"![{name}](work_precision/{name}.png)", "", report.reference.describe() + ".",
+             *([extra + "."] if extra else []), "",
+             "Fastest setting reaching each error level (seconds; - = not reached):", "",
+             "| method | " + " | ".join(f"error <= {level:g}" for level in LEVELS) + " |",
+             "| --- |" + " ---: |" * len(LEVELS)]
+    methods: dict[str, list] = {}
+    for row in report.rows:
+        methods.setdefault(row.setting.method, []).append(row)
+    for method, rows in methods.items():
+        cells = [fastest_at(rows, level) for level in LEVELS]
+        lines.append(f"| {method} | " + " | ".join("-" if c is None else f"{c:.3g}" for c in cells) + " |")
+    lines += [f"- {note}" for note in report.notes]
     return "\n".join(lines) + "\n"
 
 
-def write_readme(text: str) -> None:
+def write_readme(time_limit: float, names: list[str]) -> None:
+    """The section between the markers: the introduction and every problem's part written so far
+    (by this run or an earlier one); the rest of the README is kept."""
+    parts = [(OUT / f"{name}.md").read_text() for name in names if (OUT / f"{name}.md").exists()]
+    text = "\n".join([BEGIN, *introduction(time_limit), "\n".join(parts).rstrip("\n"), "", END]) + "\n"
     readme = README.read_text()
     if BEGIN in readme:
         readme = re.sub(re.escape(BEGIN) + ".*?" + re.escape(END) + "\n?", lambda _: text, readme, flags=re.S)
@@ -122,7 +128,7 @@ def main() -> int:
     parser.add_argument("--only", help="comma-separated problems to run (the README gets only those)")
     arguments = parser.parse_args()
     OUT.mkdir(parents=True, exist_ok=True)
-    results = []
+    names = [problem[0] for problem in problems()]
     for name, title, path, scene, overrides in problems():
         if arguments.only and name not in arguments.only.split(","):
             continue
@@ -135,8 +141,9 @@ def main() -> int:
         (OUT / f"{name}.png").write_bytes(plots.work_precision_png(report))
         (OUT / f"{name}.csv").write_text(report.csv())
         print(report.render(), flush=True)
-        results.append((name, title, report, kepler_reference_check(report) if name == "kepler" else ""))
-    write_readme(section(results, arguments.time_limit))
+        extra = kepler_reference_check(report) if name == "kepler" else ""
+        (OUT / f"{name}.md").write_text(problem_section(name, title, report, extra))
+        write_readme(arguments.time_limit, names)      # after each problem: a run cut short keeps its results
     return 0
 
 
