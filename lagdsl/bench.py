@@ -189,9 +189,6 @@ def progress_bar():
 
 
 # ---- the bench -------------------------------------------------------------------------------
-Progress = Callable[[str], None]      # called with a description before each setting
-
-
 def run_bench(model, scene: str | None = None, overrides: Overrides = Overrides(),
               integrators: tuple[str, ...] | None = None, backends: tuple[str, ...] = ("c",),
               peers: bool = False, repeat: int = 3, drift: bool = False, progress=None,

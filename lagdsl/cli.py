@@ -231,7 +231,7 @@ def _incomplete(partial, time: float, output: str | None) -> str:
 
 def _bench(arguments) -> int:
     """The table on standard output (the reference first), -o CSV and --plot PNG, a progress bar on stderr."""
-    backends = bench.backends(arguments.backend) if arguments.backend in bench.BACKEND_CHOICES else \
+    if arguments.backend not in bench.BACKEND_CHOICES:
         _refuse("--backend", f"expected c, numpy or both, got '{arguments.backend}'")
     repeat = _positive_integer("--repeat", arguments.repeat)
     integrators = _integrator_list(arguments.integrators)
@@ -242,8 +242,8 @@ def _bench(arguments) -> int:
     overrides = Overrides(_set_values(arguments.set), arguments.start, arguments.stop, arguments.interval)
     progress = bench.progress_bar()
     try:
-        report = bench.run_bench(model, arguments.scene, overrides, integrators, backends, arguments.peers, repeat,
-                                 drift=bool(arguments.plot), progress=progress)
+        report = bench.run_bench(model, arguments.scene, overrides, integrators, bench.backends(arguments.backend),
+                                 arguments.peers, repeat, drift=bool(arguments.plot), progress=progress)
     finally:
         progress.close()
     print(report.render())
