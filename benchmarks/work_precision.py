@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import re
 import sys
 from pathlib import Path
@@ -77,7 +78,7 @@ def fastest_at(rows, level: float) -> float | None:
     return min(times) if times else None
 
 
-def introduction(time_limit: float) -> list[str]:
+def introduction(time_limit: float, load: str) -> list[str]:
     return ["## Work against precision (`work_precision.py`)", "",
             "Produced by `python benchmarks/work_precision.py` with `lagdsl.bench` (what `lagc bench --peers` "
             "runs). Each method runs its ladder (rtol 1e-3 .. 1e-13 with atol scaled by the scene's ratio; "
@@ -87,7 +88,10 @@ def introduction(time_limit: float) -> list[str]:
             "given. lagdsl runs the C backend; scipy and CyRK integrate the NumPy backend's right-hand side "
             "(a Python function, as a user of those libraries would write it). Wall-clock seconds of the "
             "integration alone, best of the repeats, on one machine shared with other work: read the ratios. "
-            f"A ladder stops after a setting that takes more than {time_limit:g} s.", ""]
+            f"A ladder stops after a setting that takes more than {time_limit:g} s. The times are wall-clock: "
+            f"on a loaded machine (load average {load} when this section was written) they are inflated and "
+            "noisy, most for the longer runs; run the script on an idle machine with `--repeat 3` for clean "
+            "curves.", ""]
 
 
 def problem_section(name: str, title: str, report, extra: str) -> str:
@@ -111,7 +115,8 @@ def write_readme(time_limit: float, names: list[str]) -> None:
     """The section between the markers: the introduction and every problem's part written so far
     (by this run or an earlier one); the rest of the README is kept."""
     parts = [(OUT / f"{name}.md").read_text() for name in names if (OUT / f"{name}.md").exists()]
-    text = "\n".join([BEGIN, *introduction(time_limit), "\n".join(parts).rstrip("\n"), "", END]) + "\n"
+    load = ", ".join(f"{value:.1f}" for value in os.getloadavg())
+    text = "\n".join([BEGIN, *introduction(time_limit, load), "\n".join(parts).rstrip("\n"), "", END]) + "\n"
     readme = README.read_text()
     if BEGIN in readme:
         readme = re.sub(re.escape(BEGIN) + ".*?" + re.escape(END) + "\n?", lambda _: text, readme, flags=re.S)
@@ -123,8 +128,8 @@ def write_readme(time_limit: float, names: list[str]) -> None:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=1, help="runs per setting (short ones are repeated anyway)")
-    parser.add_argument("--time-limit", type=float, default=5.0,
-                        help="seconds: a setting slower than this ends its ladder (default 5)")
+    parser.add_argument("--time-limit", type=float, default=3.0,
+                        help="seconds: a setting slower than this ends its ladder (default 3)")
     parser.add_argument("--only", help="comma-separated problems to run (the README gets only those)")
     arguments = parser.parse_args()
     OUT.mkdir(parents=True, exist_ok=True)
