@@ -6,6 +6,15 @@
 """
 __version__ = "0.1.0"
 
-from .api import Model, load  # noqa: E402  (after __version__, which the code generators print)
-from .errors import LagError, SimulationError  # noqa: E402
+from .errors import LagError, SimulationError  # noqa: E402  (after __version__, which the code generators print)
+
 __all__ = ["load", "Model", "LagError", "SimulationError", "__version__"]
+
+
+def __getattr__(name: str):
+    """`load` and `Model` on first use: the pipeline imports sympy and lark, which a warm
+    `lagc run` (run/plans.py) does without."""
+    if name in ("load", "Model"):
+        from . import api
+        return getattr(api, name)
+    raise AttributeError(f"module 'lagdsl' has no attribute '{name}'")

@@ -11,9 +11,10 @@ from .codegen.kernel import Kernel
 from .errors import LagError
 from .mechanics import Equations
 from .pipeline import compile_model, execute, generate, plan
+from .run import plans
 from .run.output import Result
 from .run.runner import load as load_program
-from .scene import Overrides, ScenePlan, given_options
+from .scene import Overrides, ScenePlan, given_options, parameters_in_expressions, scene_defaults
 from .source import SourceFile
 
 BACKENDS = ("c", "numpy")
@@ -117,7 +118,20 @@ class Model:
             code_plan = self.plan(scene, Overrides(integrator=scene_plan.integrator.name, options=overrides.options))
             kernel, source = generate(self.equations, code_plan, backend, self.source.name)
             self._programs[key] = Program(kernel, source, load_program(source))
+            self._store_plan(scene, backend, overrides.integrator, code_plan, source)
         return self._programs[key]
+
+    def _store_plan(self, scene: str | None, backend: str, integrator: str | None, code_plan: ScenePlan,
+                    source: GeneratedSource) -> None:
+        """Keep the scene's plan in the build cache for a warm `lagc run` in another process
+        (run/plans.py), under the scene and integrator as asked for."""
+        try:
+            settings, parameters, initial_state = scene_defaults(self.ir, self.equations, scene)
+        except LagError:        # a value computed from the others is not finite unless overridden
+            return
+        stored = plans.StoredPlan(settings, parameters, initial_state, parameters_in_expressions(self.ir),
+                                  code_plan.columns, code_plan.invariants, plans.program_entry(source))
+        plans.store(self.source, scene, backend, integrator, stored)
 
 
 @dataclass(frozen=True)

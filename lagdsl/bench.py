@@ -26,7 +26,8 @@ from .pipeline import execute, generate
 from .reference import Reference, atol_ratio, reference_solution
 from .run.runner import load as load_program
 from .run.runner import output_times
-from .scene import Overrides, ScenePlan
+from .scene import ScenePlan
+from .settings import Overrides
 
 ADAPTIVE_RTOLS = tuple(10.0 ** -k for k in range(3, 14))
 STEP_FACTORS = tuple(2.0 ** j for j in range(2, -7, -1))     # steps of 4 .. 1/64 output intervals

@@ -4,25 +4,27 @@ This is the only place that catches LagError: it prints `file:line:column: error
 with the source line and a caret, and exits 1. Anything else escaping is a bug in lagdsl.
 Ctrl-C exits 130 (128 + SIGINT, as shells report it) without a traceback; during `lagc run`
 the rows computed so far are written and the summary says where the run stopped.
+
+`lagc run` first looks for the scene's stored plan (run/plans.py): a warm run imports neither
+sympy nor lark, so the pipeline (api, present) is imported only by the commands that need it.
 """
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 import time as clock
 import warnings
 
 
-from . import __version__, bench, plots
-from .api import load
-from .errors import LagError, LagWarning, Setting, SimulationError, SimulationInterrupted
-from .expressions import suggest
-from .ir import INTEGRATORS
+from . import __version__
+from .errors import LagError, LagWarning, Setting, SimulationError, SimulationInterrupted, suggest
 from .escape import visible
-from .present import describe_model, format_equations
+from .run import cache
 from .run.output import check_writable, write_output
-from .scene import Overrides, given_options
+from .settings import INTEGRATORS, Overrides, given_options
+from .source import SourceFile
 
 
 INTERRUPTED_EXIT = 130
@@ -60,7 +62,7 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 
 def _dispatch(argv: list[str]) -> int:
     parser = _parser()
-    if argv and argv[0] not in ("check", "eom", "run", "bench", "-h", "--help", "--version") and "--emit" in argv:
+    if argv and argv[0] not in ("check", "eom", "run", "bench", "cache", "-h", "--help", "--version") and "--emit" in argv:
         argv = ["emit", *argv]
     arguments = parser.parse_args(argv)
     return arguments.handler(arguments)
@@ -96,6 +98,8 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--max-steps", type=int, help="step limit, accepted + rejected "
                      "(default: 100000, or 100 per output row if that is more)")
     run.add_argument("-o", "--output", help="write the CSV here instead of standard output")
+    run.add_argument("--no-cache", action="store_true",
+                     help="build in a private temporary directory; use nothing from the build cache")
     run.add_argument("--error", action="store_true",
                      help="estimate the run's global error (a 100x tighter rerun, or the extended-precision reference)")
     run.add_argument("--plot", metavar="FILE.png", help="plot the output columns against time")
@@ -115,6 +119,10 @@ def _parser() -> argparse.ArgumentParser:
     bench.add_argument("-o", "--output", metavar="TABLE.csv", help="write the table as CSV")
     bench.add_argument("--plot", metavar="FILE.png", help="write the work-precision diagram and the drifts")
     bench.set_defaults(handler=_bench)
+
+    cache_command = commands.add_parser("cache", help="show where the build cache is and its size, or empty it")
+    cache_command.add_argument("action", choices=("info", "clear"))
+    cache_command.set_defaults(handler=_cache)
 
     emit = commands.add_parser("emit", help="write the generated source: lagc MODEL --emit c|numpy [-o FILE]")
     emit.add_argument("model")
@@ -160,15 +168,33 @@ def _set_values(items: list[str]) -> tuple[tuple[str, float], ...]:
 
 def _run(arguments) -> int:
     """Simulate; on a numerical failure deliver the rows computed so far, say where the run
-    stopped, and exit 1 (with the error, which `main` prints)."""
-    model = load(arguments.model)
+    stopped, and exit 1 (with the error, which `main` prints). --no-cache: in a private cache.
+
+    With a stored plan of the scene (run/plans.py) the model is neither parsed nor derived,
+    unless the plan cannot serve the overrides (or --error needs the model); the output is the same
+    either way."""
+    with cache.private_cache() if arguments.no_cache else contextlib.nullcontext():
+        return _simulate(arguments)
+
+
+def _simulate(arguments) -> int:
+    """`lagc run` in the cache in use: warm from a stored plan if it serves, else the full pipeline."""
+    from .run import plans      # numpy and the runner: only `lagc run` needs them
+    source = SourceFile.read(arguments.model)
+    stored = None if arguments.error else plans.find(source, arguments.scene, arguments.backend, arguments.integrator)
+    model = None if stored else _model(source)      # the model's errors first, as always
     for path in (arguments.output, arguments.plot):
         if path:
             check_writable(path)      # refuse before the run, not after it
     overrides = _overrides(arguments)
     progress = ProgressLine(sys.stderr)
     try:
-        result = model.simulate_plan(arguments.scene, arguments.backend, overrides, progress.show, arguments.error)
+        plan = stored.resolve(overrides) if stored else None
+        result = stored.run(plan, progress.show) if plan else None
+        if result is None:
+            model = model if model is not None else _model(source)
+            result = model.simulate_plan(arguments.scene, arguments.backend, overrides, progress.show,
+                                         arguments.error)
     except SimulationInterrupted as stopped:
         progress.clear()
         _deliver(stopped.partial.csv(), arguments.output)
@@ -185,10 +211,14 @@ def _run(arguments) -> int:
     progress.clear()
     _deliver(result.csv(), arguments.output)
     if arguments.plot:
-        title = f"{model.name}, scene {model.plan(arguments.scene, overrides).scene_name}"
-        write_output(arguments.plot, plots.outputs_png(result, title))
+        from . import plots
+        write_output(arguments.plot, plots.outputs_png(result, _title(source, arguments.scene)))
     print(result.summary.render(), file=sys.stderr)
     return 0
+
+
+def _title(source: SourceFile, scene: str | None) -> str:
+    return f"{source.name}, scene {scene}" if scene else source.name
 
 
 class ProgressLine:
@@ -231,6 +261,7 @@ def _incomplete(partial, time: float, output: str | None) -> str:
 
 def _bench(arguments) -> int:
     """The table on standard output (the reference first), -o CSV and --plot PNG, a progress bar on stderr."""
+    from . import bench, plots
     if arguments.backend not in bench.BACKEND_CHOICES:
         _refuse("--backend", f"expected c, numpy or both, got '{arguments.backend}'")
     repeat = _positive_integer("--repeat", arguments.repeat)
@@ -238,7 +269,7 @@ def _bench(arguments) -> int:
     for path in (arguments.output, arguments.plot):
         if path:
             check_writable(path)
-    model = load(arguments.model)
+    model = _model(SourceFile.read(arguments.model))
     overrides = Overrides(_set_values(arguments.set), arguments.start, arguments.stop, arguments.interval)
     progress = bench.progress_bar()
     try:
@@ -277,8 +308,15 @@ def _integrator_list(text: str | None) -> tuple[str, ...] | None:
     return names or _refuse("--integrators", "expected a comma-separated list of integrators")
 
 
+def _model(source: SourceFile):
+    """The model parsed and derived: the pipeline (sympy, lark) is imported only here."""
+    from .api import Model
+    return Model(source)
+
+
 def _emit(arguments) -> int:
-    _deliver(load(arguments.model).emit(arguments.language, arguments.scene).text, arguments.output)
+    _deliver(_model(SourceFile.read(arguments.model)).emit(arguments.language, arguments.scene).text,
+             arguments.output)
     return 0
 
 
@@ -291,13 +329,26 @@ def _deliver(text: str, output: str | None) -> None:
 
 
 def _check(arguments) -> int:
-    model = load(arguments.model)
+    from .present import describe_model
+    model = _model(SourceFile.read(arguments.model))
     print(describe_model(model.ir, model.equations))
     return 0
 
 
 def _eom(arguments) -> int:
-    print(format_equations(load(arguments.model).equations, latex=arguments.latex))
+    from .present import format_equations
+    print(format_equations(_model(SourceFile.read(arguments.model)).equations, latex=arguments.latex))
+    return 0
+
+
+def _cache(arguments) -> int:
+    """`lagc cache info`: where the cache is, how many entries and bytes; `lagc cache clear`: empty it."""
+    where = visible(cache.cache_root())
+    if arguments.action == "clear":
+        print(f"removed {cache.clear()} entries from the build cache {where}")
+    else:
+        entries, size = cache.usage()
+        print(f"build cache {where}: {entries} entries, {size / 1e6:.1f} MB")
     return 0
 
 

@@ -10,6 +10,7 @@
 """
 from __future__ import annotations
 
+import difflib
 from dataclasses import dataclass
 from typing import Any
 
@@ -121,3 +122,33 @@ class InternalError(Exception):
 
     def __init__(self, message: str):
         super().__init__(f"internal error in lagdsl, please report: {message}")
+
+
+def suggest(name: str, candidates) -> str:
+    """"; did you mean 'x'?" for the closest candidate within a few typing mistakes, else ""."""
+    scored = []
+    for candidate in dict.fromkeys(candidates):
+        distance = _edit_distance(name, candidate)
+        if candidate != name and distance <= max(1, len(name) // 3) and distance < len(name):
+            prefix = len(_common_prefix(name, candidate))
+            ratio = difflib.SequenceMatcher(None, name, candidate).ratio()
+            scored.append((distance, -prefix, -ratio, candidate))
+    return f"; did you mean '{min(scored)[3]}'?" if scored else ""
+
+
+def _common_prefix(a: str, b: str) -> str:
+    return a[:next((i for i, (x, y) in enumerate(zip(a, b)) if x != y), min(len(a), len(b)))]
+
+
+def _edit_distance(a: str, b: str) -> int:
+    """Insertions, deletions, substitutions and swaps of neighbours ("lenght" -> "length" is 1)."""
+    if abs(len(a) - len(b)) > 3:
+        return abs(len(a) - len(b))
+    previous, current = None, list(range(len(b) + 1))
+    for i in range(1, len(a) + 1):
+        before, previous, current = previous, current, [i] + [0] * len(b)
+        for j in range(1, len(b) + 1):
+            current[j] = min(previous[j] + 1, current[j - 1] + 1, previous[j - 1] + (a[i - 1] != b[j - 1]))
+            if i > 1 and j > 1 and a[i - 1] == b[j - 2] and a[i - 2] == b[j - 1]:
+                current[j] = min(current[j], before[j - 2] + 1)
+    return current[len(b)]

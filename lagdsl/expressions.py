@@ -9,7 +9,6 @@ depend on accelerations.
 """
 from __future__ import annotations
 
-import difflib
 import math
 from dataclasses import dataclass
 from fractions import Fraction
@@ -18,7 +17,7 @@ import lark
 import sympy
 
 from .calculus import TIME_DIRECTION, Differentiator
-from .errors import LagError
+from .errors import LagError, suggest  # noqa: F401  (suggest: re-exported)
 from .source import SourceFile, Span
 
 FUNCTIONS = {
@@ -83,36 +82,6 @@ class Scope:
         if name not in self.bindings:
             raise LagError(f"undefined name '{name}'{suggest(name, self.bindings)}", span)
         return self.bindings[name]
-
-
-def suggest(name: str, candidates) -> str:
-    """"; did you mean 'x'?" for the closest candidate within a few typing mistakes, else ""."""
-    scored = []
-    for candidate in dict.fromkeys(candidates):
-        distance = _edit_distance(name, candidate)
-        if candidate != name and distance <= max(1, len(name) // 3) and distance < len(name):
-            prefix = len(_common_prefix(name, candidate))
-            ratio = difflib.SequenceMatcher(None, name, candidate).ratio()
-            scored.append((distance, -prefix, -ratio, candidate))
-    return f"; did you mean '{min(scored)[3]}'?" if scored else ""
-
-
-def _common_prefix(a: str, b: str) -> str:
-    return a[:next((i for i, (x, y) in enumerate(zip(a, b)) if x != y), min(len(a), len(b)))]
-
-
-def _edit_distance(a: str, b: str) -> int:
-    """Insertions, deletions, substitutions and swaps of neighbours ("lenght" -> "length" is 1)."""
-    if abs(len(a) - len(b)) > 3:
-        return abs(len(a) - len(b))
-    previous, current = None, list(range(len(b) + 1))
-    for i in range(1, len(a) + 1):
-        before, previous, current = previous, current, [i] + [0] * len(b)
-        for j in range(1, len(b) + 1):
-            current[j] = min(previous[j] + 1, current[j - 1] + 1, previous[j - 1] + (a[i - 1] != b[j - 1]))
-            if i > 1 and j > 1 and a[i - 1] == b[j - 2] and a[i - 2] == b[j - 1]:
-                current[j] = min(current[j], before[j - 2] + 1)
-    return current[len(b)]
 
 
 def number_value(text: str, span: Span) -> sympy.Rational:

@@ -14,12 +14,10 @@ from fractions import Fraction
 
 import sympy
 
-from .errors import Setting
+from .settings import IMPLICIT_INTEGRATORS, INTEGRATORS, IntegratorChoice, TimeGrid  # noqa: F401  (part of the IR)
 from .source import Span
 
 TIME = sympy.Symbol("t", real=True)
-INTEGRATORS = ("rk4", "dopri5", "dop853", "radau5", "gauss", "auto")
-IMPLICIT_INTEGRATORS = ("radau5", "auto")      # they need the Jacobian (auto switches to radau5)
 BUILTIN_OBSERVABLES = ("energy", "momentum", "multiplier", "residual")
 
 
@@ -119,21 +117,6 @@ class Output:
     unit: Unit | None
     description: str | None
     span: Span
-
-
-@dataclass(frozen=True)
-class TimeGrid:
-    start: float
-    stop: float
-    interval: float
-    span: Span | None
-
-
-@dataclass(frozen=True)
-class IntegratorChoice:
-    name: str
-    options: tuple[tuple[str, float], ...]
-    span: Span | Setting | None        # Setting: chosen on the command line (--integrator)
 
 
 @dataclass(frozen=True)

@@ -26,8 +26,8 @@ from .codegen.numpy import render_numpy
 from .mechanics import Equations, derive_equations
 from .parser import parse
 from .run.output import Result
-from .run.runner import run_c, run_numpy
-from .scene import Overrides, ScenePlan, check_step_count, plan_scene
+from .run.runner import run
+from .scene import Overrides, ScenePlan, plan_scene
 from .semantics import build_model
 from .source import SourceFile
 
@@ -60,6 +60,4 @@ def generate(equations: Equations, scene_plan: ScenePlan, backend: str, source_n
 def execute(kernel: Kernel, source: GeneratedSource, scene_plan: ScenePlan,
             progress: Callable[[float, float, float], None] | None = None, loaded=None) -> Result:
     """Run the scene; `loaded` is runner.load(source) when the caller kept it from an earlier run."""
-    check_step_count(scene_plan)
-    run = {"c": run_c, "numpy": run_numpy}[source.language]
-    return run(kernel, source, scene_plan, progress, loaded)       # -> Result
+    return run(scene_plan.run_plan(), source.language, loaded, progress, source)   # -> Result

@@ -32,11 +32,12 @@ from . import ir
 from .errors import LagError, SimulationError
 from .mechanics import Equations
 from .pipeline import generate
-from .run.cache import cached_entry, is_cached
+from .run.cache import cached_entry, find_entry
 from .run.runner import Progress, run_c
 from .run.toolchain import extended_precision, find_compiler, shared_library
 from .run.output import ErrorEstimate, Result
-from .scene import RTOL_FLOOR, ScenePlan
+from .scene import ScenePlan
+from .settings import RTOL_FLOOR
 
 # rtol of the reference and of its check run, per precision and method. dop853's error follows
 # its tolerance down to the rounding of the output; radau5 (order 5) needs a tighter one.
@@ -118,7 +119,7 @@ def _recipe(equations: Equations, plan: ScenePlan, source_name: str) -> _Recipe:
 
 def reference_is_cached(equations: Equations, plan: ScenePlan, source_name: str) -> bool:
     recipe = _recipe(equations, plan, source_name)
-    return is_cached(recipe.name, recipe.key)
+    return find_entry(recipe.name, recipe.key) is not None
 
 
 def reference_solution(equations: Equations, plan: ScenePlan, source_name: str,
@@ -196,7 +197,7 @@ def _with_tolerance(plan: ScenePlan, method: str, rtol: float, ratio: float) -> 
 
 def _run(kernel, source, plan: ScenePlan, library, progress: Progress | None):
     try:
-        return run_c(kernel, source, plan, progress, library)
+        return run_c(kernel, source, plan.run_plan(), progress, library)
     except SimulationError as error:
         options = dict(plan.integrator.options)
         error.message = (f"the reference solution ({plan.integrator.name} at rtol = {options['rtol']:g} in "

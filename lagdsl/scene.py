@@ -10,67 +10,21 @@ for the symplectic `gauss`.
 from __future__ import annotations
 
 import math
-import sys
-import warnings
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import sympy
 
 from . import ir
-from .errors import LagError, LagWarning, Setting
-from .expressions import suggest
+from .errors import LagError, suggest
 from .mechanics import Equations
-from .semantics import DEFAULT_INTEGRATOR, DEFAULT_TIME, INTEGRATOR_OPTIONS, validate_integrator
-
-
-# Integrator settings that can be given outside the model file (`lagc run --rtol`, `simulate(rtol=)`).
-RUN_OPTIONS = ("rtol", "atol", "step", "stages", "max_step", "max_steps")
-
-
-def given_options(values) -> tuple[tuple[str, float], ...]:
-    """The run options among `values` (a mapping of name to value or None) that were given."""
-    return tuple((name, float(values[name])) for name in RUN_OPTIONS if values.get(name) is not None)
+# Re-exported: the run settings were defined here before they moved to settings.py.
+from .settings import (DEFAULT_INTEGRATOR, DEFAULT_MAX_STEPS, DEFAULT_TIME, GRID_SLACK, MAX_ROWS,  # noqa: F401
+                       RTOL_FLOOR, RUN_OPTIONS, IntegratorTraits, Overrides, RunPlan, SceneSettings,
+                       check_step_count, given_options, grid_rows, step_limit)
 
 
 @dataclass(frozen=True)
-class Overrides:
-    """Settings given outside the model file (`lagc run` options, `simulate()` arguments).
-
-    `values` maps a parameter name, "q.start" or "q.velocity" to a number.
-    """
-
-    values: tuple[tuple[str, float], ...] = ()
-    start: float | None = None
-    stop: float | None = None
-    interval: float | None = None
-    integrator: str | None = None
-    options: tuple[tuple[str, float], ...] = ()     # rtol, atol, step, stages, max_step, max_steps
-
-
-MAX_ROWS = 10**7              # the largest output grid
-DEFAULT_MAX_STEPS = 100000    # the step limit unless the grid asks for more (ScenePlan.max_steps)
-GRID_SLACK = 1e-9             # a grid time within this many intervals of stop is stop
-RTOL_FLOOR = 10 * sys.float_info.epsilon   # no error control is finer than the rounding of y
-
-
-def grid_rows(start: float, stop: float, interval: float) -> int:
-    """Rows of the output grid: start + k*interval while below stop, then stop itself (so a stop
-    that is not on the grid still ends the table, and an interval longer than the run gives the
-    two rows start and stop). The C driver's lag_last_row is the same rule."""
-    ratio = (stop - start) / interval
-    last = math.floor(ratio + GRID_SLACK)
-    return last + 2 if ratio - last > GRID_SLACK or last == 0 else last + 1
-
-
-def step_limit(integrator: ir.IntegratorChoice, time: ir.TimeGrid) -> int:
-    """The most steps (accepted + rejected) a run may take: the integrator's max_steps, or by
-    default 100000 (as in Hairer's codes) or 100 per output row, whichever is larger."""
-    given = dict(integrator.options).get("max_steps")
-    return int(given) if given else max(DEFAULT_MAX_STEPS, 100 * grid_rows(time.start, time.stop, time.interval))
-
-
-@dataclass(frozen=True)
-class ScenePlan:
+class ScenePlan(IntegratorTraits):
     model: ir.Model
     scene_name: str
     description: str | None
@@ -89,40 +43,60 @@ class ScenePlan:
         return tuple(o.column for o in self.outputs)
 
     @property
-    def max_steps(self) -> int:
-        return step_limit(self.integrator, self.time)
+    def coordinates(self) -> tuple[str, ...]:
+        return tuple(c.name for c in self.model.coordinates)
 
-    @property
-    def implicit(self) -> bool:
-        return self.integrator.name in ir.IMPLICIT_INTEGRATORS
-
-    @property
-    def canonical(self) -> bool:
-        return self.integrator.name == "gauss"
+    def run_plan(self) -> RunPlan:
+        """What the runner needs of this plan (no expressions)."""
+        return RunPlan(self.scene_name, self.time, self.integrator, self.parameters, self.initial_state,
+                       self.coordinates, self.columns, self.invariants, self.constraints)
 
 
 def plan_scene(model: ir.Model, equations: Equations, scene_name: str | None = None,
                overrides: Overrides = Overrides()) -> ScenePlan:
     scene = _find_scene(model, scene_name)
-    time = _time(scene.time if scene else DEFAULT_TIME, overrides)
-    integrator = _integrator(scene.integrator if scene else DEFAULT_INTEGRATOR, overrides)
+    settings = _settings(model, equations, scene)
+    time, integrator, set_values, initial = settings.resolve(overrides)
+    parameters = _parameter_values(model, set_values)
     outputs = scene.outputs if scene and scene.outputs else tuple(
         ir.OutputRequest(c.name, "expression", c.symbol, None, None) for c in model.coordinates)
-    set_values = dict((o.name, o.value) for o in (scene.parameter_overrides if scene else ()))
-    initial = {o.coordinate: (o.start, o.velocity) for o in (scene.initial_overrides if scene else ())}
-    for name, value in overrides.values:
-        _apply_override(model, name, value, set_values, initial)
-    parameters = _parameter_values(model, set_values)
-    active = tuple(c.name for c in equations.active_constraints)
     _check_outputs(outputs, equations)
-    if integrator.name == "gauss" and active:
-        raise LagError("the symplectic gauss integrator does not handle constraints; use radau5 or dop853",
-                       integrator.span)
-    return ScenePlan(model, scene.name if scene else "default", scene.description if scene else None,
+    settings.check_integrator(integrator)
+    return ScenePlan(model, settings.scene_name, scene.description if scene else None,
                      time, integrator, parameters, frozenset(set_values),
                      tuple((name, start, velocity) for name, (start, velocity) in initial.items()),
-                     outputs, tuple(q.name for q in equations.conserved), active,
+                     outputs, tuple(q.name for q in equations.conserved), settings.constraints,
                      _initial_state(model, parameters, initial))
+
+
+def scene_defaults(model: ir.Model, equations: Equations,
+                   scene_name: str | None = None) -> tuple[SceneSettings, tuple[float, ...], tuple[float, ...]]:
+    """A scene's settings before any override, and the parameter values and initial state they
+    give (what a warm `lagc run` resolves overrides against, run/plans.py)."""
+    settings = _settings(model, equations, _find_scene(model, scene_name))
+    parameters = _parameter_values(model, dict(settings.set_values))
+    initial = {name: (start, velocity) for name, start, velocity in settings.initial}
+    return settings, parameters, _initial_state(model, parameters, initial)
+
+
+def _settings(model: ir.Model, equations: Equations, scene: ir.Scene | None) -> SceneSettings:
+    return SceneSettings(
+        scene.name if scene else "default", scene.time if scene else DEFAULT_TIME,
+        scene.integrator if scene else DEFAULT_INTEGRATOR, tuple(p.name for p in model.parameters),
+        frozenset(p.name for p in model.parameters if p.structural), tuple(c.name for c in model.coordinates),
+        tuple((o.name, o.value) for o in (scene.parameter_overrides if scene else ())),
+        tuple((o.coordinate, o.start, o.velocity) for o in (scene.initial_overrides if scene else ())),
+        tuple(c.name for c in equations.active_constraints))
+
+
+def parameters_in_expressions(model: ir.Model) -> frozenset[str]:
+    """The parameters that other parameters or the start values are computed from: setting one of
+    them changes values beyond its own."""
+    used = set()
+    for expression in [p.expression for p in model.parameters] + [
+            e for c in model.coordinates for e in (c.start, c.velocity)]:
+        used |= expression.free_symbols
+    return frozenset(p.name for p in model.parameters if p.symbol in used)
 
 
 def _find_scene(model: ir.Model, name: str | None) -> ir.Scene | None:
@@ -134,96 +108,6 @@ def _find_scene(model: ir.Model, name: str | None) -> ir.Scene | None:
     names = [s.name for s in model.scenes]
     available = f" (scenes: {', '.join(names)})" if names else " (the model has no scenes)"
     raise LagError(f"no scene '{name}' in model {model.name}{suggest(name, names)}{available}", model.span)
-
-
-def _time(time: ir.TimeGrid, overrides: Overrides) -> ir.TimeGrid:
-    start = overrides.start if overrides.start is not None else time.start
-    stop = overrides.stop if overrides.stop is not None else time.stop
-    interval = overrides.interval if overrides.interval is not None else time.interval
-    for what, value in (("start time", start), ("stop time", stop), ("output interval", interval)):
-        if not math.isfinite(value):
-            raise LagError(f"the {what} must be a finite number, not {value}")
-    if not stop > start:
-        raise LagError(f"the stop time {stop:g} is not after the start time {start:g}")
-    if not interval > 0:
-        raise LagError("the output interval must be positive")
-    if not (stop - start) / interval < MAX_ROWS or grid_rows(start, stop, interval) > MAX_ROWS:
-        # The interval is what to change: point at the scene's time statement when it came from there.
-        raise LagError(f"the output grid from {start:g} to {stop:g} every {interval:g} would have "
-                       f"{(stop - start) / interval + 1:.3g} rows, more than the limit of {MAX_ROWS:.0e}; "
-                       "choose a larger --interval", time.span if overrides.interval is None else None)
-    return replace(time, start=start, stop=stop, interval=interval)
-
-
-def _integrator(choice: ir.IntegratorChoice, overrides: Overrides) -> ir.IntegratorChoice:
-    """The scene's integrator with the overrides applied.
-
-    Another method (`--integrator`) keeps the scene's settings that it has too: the tolerances
-    of dop853 carry over to radau5, the step of gauss to rk4. Errors in a value given as an
-    override point at its option, not at the scene.
-    """
-    name = overrides.integrator or choice.name
-    chosen = Setting(f"--integrator {name}") if overrides.integrator else choice.span
-    if name not in ir.INTEGRATORS:
-        raise LagError(f"unknown integrator '{name}'{suggest(name, ir.INTEGRATORS)} "
-                       f"(available: {', '.join(ir.INTEGRATORS)})", chosen)
-    allowed = INTEGRATOR_OPTIONS[name]
-    values = {k: v for k, v in choice.options if k in allowed}
-    origins: dict[str, Setting] = {}
-    for key, value in overrides.options:
-        origins[key] = Setting("--" + key.replace("_", "-"))
-        if key not in allowed:
-            raise LagError(f"{name} has no option '{key}' (options: {', '.join(allowed)})", origins[key])
-        values[key] = value
-    return _raise_rtol_to_floor(validate_integrator(name, values, chosen, origins))
-
-
-def _raise_rtol_to_floor(choice: ir.IntegratorChoice) -> ir.IntegratorChoice:
-    """rtol below 10 eps asks for more than double precision can deliver: the step size would
-    collapse or the run crawl. Raise it, as Hairer's codes do, and say so once."""
-    options = dict(choice.options)
-    if "rtol" not in options or options["rtol"] >= RTOL_FLOOR:
-        return choice
-    warnings.warn(f"rtol = {options['rtol']:g} is below 10 eps; raised to {RTOL_FLOOR:.3g}", LagWarning,
-                  stacklevel=2)
-    options["rtol"] = RTOL_FLOOR
-    return replace(choice, options=tuple(sorted(options.items())))
-
-
-def check_step_count(plan: ScenePlan) -> None:
-    """A fixed-step method knows its number of steps before it runs: refuse a run over the limit
-    (the C integrators would stop at once with LAG_ERR_MAX_STEPS)."""
-    integrator, time = plan.integrator, plan.time
-    step = dict(integrator.options).get("step")
-    if integrator.name not in ("rk4", "gauss") or step is None:
-        return
-    steps = (time.stop - time.start) / step
-    if steps > plan.max_steps:
-        raise LagError(f"{integrator.name} with step {step:g} would take {steps:.3g} steps from {time.start:g} to "
-                       f"{time.stop:g}, more than the step limit of {plan.max_steps}; take a larger step or "
-                       "raise --max-steps", integrator.span)
-
-
-def _apply_override(model: ir.Model, name: str, value: float, set_values: dict, initial: dict) -> None:
-    if not math.isfinite(value):
-        raise LagError(f"cannot set '{name}' to {value}: values must be finite numbers")
-    coordinate, _, part = name.rpartition(".")
-    if part in ("start", "velocity") and coordinate:
-        names = [c.name for c in model.coordinates]
-        if coordinate not in names:
-            raise LagError(f"cannot set '{name}': '{coordinate}' is not a coordinate{suggest(coordinate, names)}")
-        start, velocity = initial.get(coordinate, (None, None))
-        initial[coordinate] = (value, velocity) if part == "start" else (start, value)
-        return
-    parameters = {p.name: p for p in model.parameters}
-    if name not in parameters:
-        choices = list(parameters) + [f"{c.name}.start" for c in model.coordinates]
-        raise LagError(f"cannot set '{name}': it is not a parameter, nor COORDINATE.start or "
-                       f"COORDINATE.velocity{suggest(name, choices)}")
-    if parameters[name].structural:
-        raise LagError(f"'{name}' fixes the size of the model (it is used as an index range); "
-                       "change it in the model file")
-    set_values[name] = value
 
 
 def _parameter_values(model: ir.Model, set_values: dict[str, float]) -> tuple[float, ...]:

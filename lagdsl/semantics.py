@@ -8,28 +8,19 @@ later uses of it do not produce follow-on errors.
 """
 from __future__ import annotations
 
-import math
-
 import lark
 import sympy
 
 from . import ir
 from .calculus import TIME_DIRECTION, Differentiator
-from .errors import ErrorCollector, InternalError, LagError, Setting
+from .errors import ErrorCollector, InternalError, LagError
 from .expressions import KIND_WORDS, MAX_MEMBERS, Binding, ExpressionBuilder, Scope, Vector, number_value, suggest
+from .settings import DEFAULT_INTEGRATOR, DEFAULT_TIME, INTEGRATOR_OPTIONS, validate_integrator
 from .source import SourceFile, Span
 from .units import parse_unit
 
 RESERVED = {"model", "end", "parameter", "coordinate", "let", "constraint", "force", "dissipation",
             "output", "scene", "time", "integrator", "set", "t", "T", "U", "L", "der", "pi", "sum", "in"}
-INTEGRATOR_OPTIONS = {
-    "rk4": ("step", "max_steps"), "dopri5": ("rtol", "atol", "max_step", "max_steps"),
-    "dop853": ("rtol", "atol", "max_step", "max_steps"), "radau5": ("rtol", "atol", "max_step", "max_steps"),
-    "gauss": ("stages", "step", "max_steps"),
-    "auto": ("rtol", "atol", "max_step", "max_steps"),
-}
-DEFAULT_INTEGRATOR = ir.IntegratorChoice("dop853", (("rtol", 1e-8), ("atol", 1e-10)), None)
-DEFAULT_TIME = ir.TimeGrid(0.0, 10.0, 0.01, None)
 
 
 class PoisonedName(LagError):
@@ -592,36 +583,3 @@ class _ModelBuilder:
 
 def _position(diagnostic) -> tuple[int, int]:
     return (0, diagnostic.span.start) if diagnostic.span is not None else (1, 0)
-
-
-def validate_integrator(name: str, values: dict[str, float], span: Span | Setting | None,
-                        origins: dict[str, Span | Setting] | None = None) -> ir.IntegratorChoice:
-    """Check and complete an integrator's options (defaults: rtol 1e-8, atol 1e-10, 2 stages).
-
-    Every option is a finite number: step and max_step positive, rtol and atol >= 0 and not both
-    0, stages and max_steps whole numbers (max_steps from 1 to 1e15). rtol below 10 eps is
-    raised by the scene plan, not here. `span` is where the integrator was chosen, `origins`
-    where each option's value was given (in the scene, or a command-line option): errors point
-    there."""
-    origins = origins or {}
-    for key, value in values.items():
-        if key in ("rtol", "atol"):
-            if not 0 <= value < math.inf:
-                raise LagError(f"{name}({key} = ...) must be a finite number >= 0", origins.get(key, span))
-        elif not 0 < value < math.inf:
-            raise LagError(f"{name}({key} = ...) must be a positive finite number", origins.get(key, span))
-    if values.get("rtol") == 0 and values.get("atol") == 0:
-        raise LagError(f"{name}(rtol = ..., atol = ...) cannot both be 0", origins.get("rtol", span))
-    if "max_steps" in values and (values["max_steps"] != int(values["max_steps"]) or values["max_steps"] > 1e15):
-        raise LagError(f"{name}(max_steps = ...) must be a whole number from 1 to 1e15", origins.get("max_steps", span))
-    if name in ("rk4", "gauss") and "step" not in values:
-        example = "--step 0.001" if isinstance(span, Setting) else f"{name}(step = 0.001)"
-        raise LagError(f"{name} is a fixed-step method and needs a step: {example}", span)
-    if name == "gauss":
-        stages = values.setdefault("stages", 2)
-        if stages != int(stages) or not 1 <= stages <= 6:
-            raise LagError("gauss(stages = s) takes s = 1 to 6", origins.get("stages", span))
-    if name in ("dopri5", "dop853", "radau5", "auto"):
-        values.setdefault("rtol", 1e-8)
-        values.setdefault("atol", 1e-10)
-    return ir.IntegratorChoice(name, tuple(sorted(values.items())), span)

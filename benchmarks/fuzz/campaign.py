@@ -62,7 +62,8 @@ def _options():
 
 def _campaign(options, work: Path, started: float):
     """Run the mutants; returns the counts per command and category, the offences
-    (signature -> [count, reproducer directory or None]) and the number of mutants run.
+    (signature -> [count, reproducer directory or None, mutant numbers]) and the number of mutants
+    run.
     The report is rewritten every 50 mutants, so a campaign cut short still has one."""
     tally = collections.Counter()
     offences: dict[str, list] = {}
@@ -82,7 +83,7 @@ def _campaign(options, work: Path, started: float):
             if command == "check" and category != "success":
                 break
         if (number + 1) % 50 == 0:
-            found = sum(count for count, _ in offences.values())
+            found = sum(count for count, _, _ in offences.values())
             print(f"{number + 1} mutants, {found} offending outcomes", file=sys.stderr, flush=True)
             _report(options, tally, offences, number + 1, time.monotonic() - started)
     return tally, offences, options.count
@@ -91,10 +92,11 @@ def _campaign(options, work: Path, started: float):
 def _record(offences, name, options, number, mutant, command, category, stderr) -> None:
     if name in offences:
         offences[name][0] += 1
+        offences[name][2].append(number)
         return
-    saved = len([1 for _, where in offences.values() if where]) < options.keep
+    saved = len([1 for _, where, _ in offences.values() if where]) < options.keep
     where = options.out / f"{number:05d}-{category}" if saved else None
-    offences[name] = [1, where]
+    offences[name] = [1, where, [number]]
     if where:
         where.mkdir(parents=True, exist_ok=True)
         (where / mutant.model).write_text(mutant.text, encoding="utf-8")
@@ -114,8 +116,8 @@ def _report(options, tally, offences, done: int, elapsed: float) -> str:
         lines.append("No tracebacks, signals or hangs.")
     else:
         lines += ["## Offences (first reproducer saved)", ""]
-        lines += [f"- {count} x {name}: {where or 'not saved (--keep)'}"
-                  for name, (count, where) in sorted(offences.items(), key=lambda item: -item[1][0])]
+        lines += [f"- {count} x {name}: {where or 'not saved (--keep)'}; mutants {', '.join(map(str, numbers))}"
+                  for name, (count, where, numbers) in sorted(offences.items(), key=lambda item: -item[1][0])]
     text = "\n".join(lines) + "\n"
     partial = options.out / "report.md.partial"
     partial.write_text(text, encoding="utf-8")

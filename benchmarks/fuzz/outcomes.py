@@ -4,7 +4,8 @@ Shared by the campaign (`campaign.py`) and its CI slice (`tests/test_fuzz_slice.
 command runs in a child process forked from the caller (so that lagdsl, SymPy and SciPy are
 imported once), in its own process group, with a memory limit and a limit on CPU time: the
 machine may be shared, so wall-clock time would count other people's work; a child that waits
-without computing is stopped after four times the limit in wall-clock time. An in-process alarm
+without computing is stopped after `WALL_FACTOR` times the limit in wall-clock time (generous: on a
+busy machine a command gets a small share of a core). An in-process alarm
 would not do: SymPy can spend minutes inside one C call (a power of a huge exact number).
 Linux only (fork, pidfd).
 """
@@ -33,6 +34,7 @@ COMMANDS = {
 }
 CATEGORIES = ("success", "located error", "simulation failure", "unlocated error", "traceback", "signal", "hang")
 OFFENDING = ("traceback", "signal", "hang")     # lagdsl's bugs; the other outcomes are answers
+WALL_FACTOR = 15
 MEMORY_LIMIT = 6 * 2**30        # bytes of address space per command: a runaway mutant must not take the machine
 
 LOCATED = re.compile(r"^(?:.+?:\d+:\d+: error: |lagc: error: )", re.M)
@@ -46,7 +48,7 @@ def arguments(command: str, model: str) -> list[str]:
 
 def run_isolated(argv: list[str], timeout: float, work: Path) -> tuple[int | None, str]:
     """(exit code, stderr) of `lagc argv` in a child process; the code is None if it ran over
-    `timeout` seconds of CPU time (or four times that in wall-clock time: the child's whole process
+    `timeout` seconds of CPU time (or `WALL_FACTOR` times that in wall-clock time: the child's whole process
     group is then killed), and -N if signal N ended it."""
     stdout, stderr = work / "stdout", work / "stderr"
     sys.stdout.flush()
@@ -58,7 +60,7 @@ def run_isolated(argv: list[str], timeout: float, work: Path) -> tuple[int | Non
         os.setpgid(pid, pid)
     finished = os.pidfd_open(pid)
     try:
-        if select.select([finished], [], [], 4 * timeout)[0]:
+        if select.select([finished], [], [], WALL_FACTOR * timeout)[0]:
             exit_code = os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1])
             exit_code = None if exit_code == -signal.SIGXCPU else exit_code
         else:

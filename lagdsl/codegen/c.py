@@ -5,7 +5,7 @@ from .. import __version__
 from ..escape import c_comment, csv_field
 from ..integrators import (COMPOSITES, COUNTER_LABELS, COUNTERS, STIFFNESS_TESTED, c_file, integrator_source,
                            summary_extras)
-from ..semantics import INTEGRATOR_OPTIONS
+from ..settings import INTEGRATOR_OPTIONS
 from . import GeneratedSource, template_environment
 from .kernel import Block, Kernel
 from .printers import CPrinter

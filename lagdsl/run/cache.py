@@ -10,29 +10,58 @@ stale manifest all lead to a rebuild instead of a crash or silently wrong result
 Builds happen in a private directory inside the cache (unique per process and thread) and are
 renamed into place, so concurrent builders never see or overwrite half a file. The cache is
 $LAGDSL_CACHE, or ~/.cache/lagdsl; when it cannot be created or written, a private temporary
-cache is used for the rest of the process (removed at exit) and one warning goes to stderr.
+cache is used for the rest of the process (removed at exit) and one warning goes to stderr;
+`private_cache()` (`lagc run --no-cache`) does the same on purpose, without the warning.
+`find_entry` only looks an entry up (a warm `lagc run`, `plans.py`); `clear` and `usage` serve
+`lagc cache clear` and `lagc cache info`.
 """
 from __future__ import annotations
 
 import atexit
+import contextlib
 import hashlib
 import json
 import os
+import re
 import shutil
 import sys
 import tempfile
+import time
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Iterator
 
 MANIFEST_SUFFIX = ".manifest"
+# What the cache holds: entries named `<stem>-<20 hex digits of the key>.so|.py|.json` (or `_`
+# before the key) and their manifests; private build directories `.build-*`.
+ENTRY_NAME = re.compile(r"[-_][0-9a-f]{20}\.(so|py|json)(\.manifest)?$")
+BUILD_PREFIX = ".build-"
+STALE_BUILD_SECONDS = 3600      # a build directory this old was left by a process that died
 _fallbacks: dict[str, Path] = {}     # unusable cache root -> the private cache standing in for it
+PRIVATE = "private"                  # the _fallbacks key of private_cache()
+
+
+def cache_root() -> str:
+    """Where the cache lives: $LAGDSL_CACHE, or ~/.cache/lagdsl."""
+    return os.environ.get("LAGDSL_CACHE") or os.path.join(os.path.expanduser("~"), ".cache", "lagdsl")
+
+
+@contextlib.contextmanager
+def private_cache() -> Iterator[None]:
+    """Inside the block, build in a private temporary cache (removed after it) and use nothing
+    from the shared one."""
+    with tempfile.TemporaryDirectory(prefix="lagdsl-cache-") as path:
+        _fallbacks[PRIVATE] = Path(path)
+        try:
+            yield
+        finally:
+            del _fallbacks[PRIVATE]
 
 
 def cache_directory() -> Path:
     """The cache directory, created if needed; a private temporary one if it cannot be written."""
-    root = os.environ.get("LAGDSL_CACHE") or os.path.join(os.path.expanduser("~"), ".cache", "lagdsl")
-    if root in _fallbacks:
-        return _fallbacks[root]
+    root = cache_root()
+    if PRIVATE in _fallbacks or root in _fallbacks:
+        return _fallbacks.get(PRIVATE) or _fallbacks[root]
     try:
         path = Path(root)
         path.mkdir(parents=True, exist_ok=True)
@@ -64,7 +93,7 @@ def cached_entry(name: str, key: str, build: Callable[[Path], None]) -> Path:
     entry = directory / name
     if _is_valid(entry, key):
         return entry
-    with tempfile.TemporaryDirectory(dir=directory, prefix=".build-") as work:
+    with tempfile.TemporaryDirectory(dir=directory, prefix=BUILD_PREFIX) as work:
         built = Path(work) / name
         build(built)
         manifest = Path(work) / (name + MANIFEST_SUFFIX)
@@ -74,9 +103,11 @@ def cached_entry(name: str, key: str, build: Callable[[Path], None]) -> Path:
     return entry
 
 
-def is_cached(name: str, key: str) -> bool:
-    """Whether cached_entry(name, key, ...) would find a valid entry without building."""
-    return _is_valid(cache_directory() / name, key)
+def find_entry(name: str, key: str) -> Path | None:
+    """The verified entry `name` built from `key` if the cache holds one (nothing is created)."""
+    root = cache_root()
+    entry = (_fallbacks.get(PRIVATE) or _fallbacks.get(root) or Path(root)) / name
+    return entry if _is_valid(entry, key) else None
 
 
 def _is_valid(entry: Path, key: str) -> bool:
@@ -95,3 +126,29 @@ def _manifest_path(entry: Path) -> Path:
 
 def _digest(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def usage() -> tuple[int, int]:
+    """(number of entries, their bytes with the manifests') in the cache; nothing is created."""
+    files = _entry_files(Path(cache_root()))
+    return sum(1 for f in files if not f.name.endswith(MANIFEST_SUFFIX)), sum(f.stat().st_size for f in files)
+
+
+def clear() -> int:
+    """Remove every entry, manifest and stale build directory; other files are left alone.
+    Returns the number of entries removed."""
+    directory = Path(cache_root())
+    files = _entry_files(directory)
+    for file in files:
+        file.unlink(missing_ok=True)
+    if directory.is_dir():
+        for build in directory.glob(BUILD_PREFIX + "*"):
+            if time.time() - build.stat().st_mtime > STALE_BUILD_SECONDS:
+                shutil.rmtree(build, ignore_errors=True)
+    return sum(1 for f in files if not f.name.endswith(MANIFEST_SUFFIX))
+
+
+def _entry_files(directory: Path) -> list[Path]:
+    if not directory.is_dir():
+        return []
+    return sorted(f for f in directory.iterdir() if ENTRY_NAME.search(f.name) and f.is_file())

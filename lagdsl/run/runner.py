@@ -1,7 +1,7 @@
 """Run a scene: the C backend through ctypes, the NumPy backend with scipy or our Python methods.
 
 Both deliver the same `Result`: rows at the output grid t0, t0 + dt, ... < t1 and t1 itself
-(`scene.grid_rows`), the scene's columns, and a `RunSummary`. A numerical failure raises
+(`settings.grid_rows`), the scene's columns, and a `RunSummary`. A numerical failure raises
 SimulationError naming the time, the state and a remedy, with the rows computed so far in
 `error.partial`. Every run is bounded by the plan's step limit, and Ctrl-C stops it between two
 steps with SimulationInterrupted, which keeps the rows computed so far as well. `progress`, if
@@ -20,20 +20,24 @@ import threading
 import time as clock
 import warnings
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..codegen import GeneratedSource
-from ..codegen.kernel import Kernel
-from ..errors import InternalError, LagError, SimulationError, SimulationInterrupted
+from ..errors import InternalError, LagError, LagWarning, SimulationError, SimulationInterrupted
 from ..integrators import COUNTERS, STIFFNESS_TESTED, SWITCH_TIMES, summary_extras
 from ..integrators.python.fixed_step import IntegrationFailure, integrate_gauss, integrate_rk4
 from ..integrators.python.stiffness import STABILITY_BOUNDARY, StiffnessTest, SwitchLog
-from ..scene import ScenePlan, grid_rows
+from ..settings import RunPlan, check_step_count, grid_rows
 from .cache import cached_entry
 from .output import SETTINGS_ORDER, Result, RunSummary, Stiffness, Switches
 from .toolchain import shared_library
+
+if TYPE_CHECKING:       # the code generators import sympy; running generated code does not need it
+    from ..codegen import GeneratedSource
+    from ..codegen.kernel import Kernel
 
 # K (M, or the saddle-point matrix of a constrained system) counts as singular below this
 # reciprocal condition estimate: q'' would keep fewer than about 3 correct digits. The generated
@@ -63,24 +67,25 @@ STATUS = {
 PROJECTION_FAILED = 6
 INTERRUPTED = 7
 SCIPY_METHODS = {"dopri5": "RK45", "dop853": "DOP853", "radau5": "Radau", "auto": "LSODA"}
+SCIPY_RTOL_FLOOR = 100 * float(np.finfo(float).eps)    # scipy raises a smaller rtol itself, with a warning
 POLL_SECONDS = 0.1      # how often the main thread looks at a C run: Ctrl-C and progress
 Progress = Callable[[float, float, float], None]     # (t reached, start, stop)
 
 
-def output_times(plan: ScenePlan) -> np.ndarray:
-    """start + k*interval while below stop, then stop (the rule of scene.grid_rows)."""
+def output_times(plan: RunPlan) -> np.ndarray:
+    """start + k*interval while below stop, then stop (the rule of settings.grid_rows)."""
     start, stop, interval = plan.time.start, plan.time.stop, plan.time.interval
     times = start + interval * np.arange(grid_rows(start, stop, interval))
     times[-1] = stop
     return times
 
 
-def _state_names(plan: ScenePlan) -> list[str]:
-    names = [c.name for c in plan.model.coordinates]
+def _state_names(plan: RunPlan) -> list[str]:
+    names = list(plan.coordinates)
     return names + [f"{n}'" for n in names]
 
 
-def _failure(plan: ScenePlan, status: int, t_fail: float, y_fail, partial: Result,
+def _failure(plan: RunPlan, status: int, t_fail: float, y_fail, partial: Result,
              rcond: float) -> SimulationError:
     """The error for a failed run; `rcond` is the reciprocal condition estimate of K at y_fail."""
     message, remedy = STATUS.get(status, ("unknown failure", "please report this"))
@@ -91,6 +96,14 @@ def _failure(plan: ScenePlan, status: int, t_fail: float, y_fail, partial: Resul
     return kind(message.format(max_steps=plan.max_steps), t_fail, state, remedy, partial)
 
 
+def run(plan: RunPlan, language: str, loaded=None, progress: Progress | None = None,
+        source: GeneratedSource | None = None) -> Result:
+    """Run `plan` with `loaded`, what load() returned (a shared library or a NumPy module), or
+    else with `source`, loaded once the plan's step count has been checked."""
+    check_step_count(plan)
+    return {"c": run_c, "numpy": run_numpy}[language](None, source, plan, progress, loaded)
+
+
 # ---- C ---------------------------------------------------------------------------------------
 def load(source: GeneratedSource):
     """What runs `source`: its shared library (C, compiled on first use) or its module (NumPy).
@@ -99,11 +112,11 @@ def load(source: GeneratedSource):
     straight to the integration: no hashing of the source, no compiler, no dlopen or import.
     """
     if source.language == "c":
-        return _load_library(shared_library(source.text, source.suggested_name))
+        return load_library(shared_library(source.text, source.suggested_name))
     return load_module(source)
 
 
-def run_c(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress: Progress | None = None,
+def run_c(kernel: Kernel, source: GeneratedSource, plan: RunPlan, progress: Progress | None = None,
           loaded: ctypes.CDLL | None = None) -> Result:
     library = loaded if loaded is not None else load(source)
     entry = library.lag_run
@@ -160,7 +173,7 @@ def _c_switches(extras: np.ndarray) -> Switches:
     return Switches(("dop853", "radau5"), count, times, (float(extras[1]), float(extras[2])))
 
 
-def _load_library(path: Path) -> ctypes.CDLL:
+def load_library(path: Path) -> ctypes.CDLL:
     try:
         return ctypes.CDLL(str(path))
     except OSError as error:
@@ -169,7 +182,7 @@ def _load_library(path: Path) -> ctypes.CDLL:
         raise LagError(f"cannot load the compiled model '{path}': {error}") from None
 
 
-def _interruptible(library: ctypes.CDLL, call: Callable[[], int], plan: ScenePlan,
+def _interruptible(library: ctypes.CDLL, call: Callable[[], int], plan: RunPlan,
                    progress: Progress | None) -> tuple[int, float]:
     """Make the C call in a worker thread, so that the main thread stays free for Ctrl-C and progress.
     Returns its status and its duration, timed in the worker: the main thread notices the end
@@ -217,11 +230,21 @@ def load_module(source: GeneratedSource):
     The module is executed from the generated text itself (the cache entry is verified to hold the
     same bytes), and no bytecode is written beside it: a damaged .pyc could not be told apart.
     """
+    name, key = module_entry(source)
+    path = cached_entry(name, key, lambda entry: _write_module(source.text, entry))
+    return import_module(source.text, path, key)
+
+
+def module_entry(source: GeneratedSource) -> tuple[str, str]:
+    """The cache entry's name and key of a generated NumPy module."""
     key = hashlib.sha256(source.text.encode()).hexdigest()
-    path = cached_entry(f"{source.suggested_name}_{key[:20]}.py", key,
-                        lambda entry: _write_module(source.text, entry))
+    return f"{source.suggested_name}_{key[:20]}.py", key
+
+
+def import_module(text: str, path: Path, key: str):
+    """The module of generated `text`, held in the cache at `path` under `key`."""
     spec = importlib.util.spec_from_file_location(f"lagdsl_generated_{key[:20]}", path,
-                                                  loader=_GeneratedLoader(source.text, path))
+                                                  loader=_GeneratedLoader(text, path))
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -248,7 +271,7 @@ class _GeneratedLoader(importlib.abc.InspectLoader):
         return self.source_to_code(self.text, str(self.path))
 
 
-def run_numpy(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress: Progress | None = None,
+def run_numpy(kernel: Kernel, source: GeneratedSource, plan: RunPlan, progress: Progress | None = None,
               loaded=None) -> Result:
     """Integrate with the generated module; it fails as the C driver does (the same statuses).
 
@@ -260,6 +283,7 @@ def run_numpy(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress
         raise LagError("auto on the NumPy backend is scipy's LSODA, which restarts at order 1 after every "
                        "projection onto the constraints and crawls; use --backend c, or --integrator dop853 "
                        "or radau5", plan.integrator.span)
+    plan = _within_scipy_tolerances(plan)
     module = loaded if loaded is not None else load(source)
     par = np.array(plan.parameters, dtype=float)
     times = output_times(plan)
@@ -287,6 +311,18 @@ def run_numpy(kernel: Kernel, source: GeneratedSource, plan: ScenePlan, progress
             rcond = float(module.reciprocal_condition(t_fail, y_fail, par))
         raise _failure(plan, status, t_fail, y_fail, result, rcond)
     return result
+
+
+def _within_scipy_tolerances(plan: RunPlan) -> RunPlan:
+    """scipy's solvers raise rtol below 100 eps themselves (with a warning of their own): raise it
+    here, say so in our words, and let the summary print the tolerance the run used."""
+    options = dict(plan.integrator.options)
+    if plan.integrator.name not in SCIPY_METHODS or options["rtol"] >= SCIPY_RTOL_FLOOR:
+        return plan
+    warnings.warn(f"rtol = {options['rtol']:g} is below what scipy's solvers accept; the NumPy backend "
+                  f"runs at rtol = {SCIPY_RTOL_FLOOR:.3g}", LagWarning, stacklevel=3)
+    options["rtol"] = SCIPY_RTOL_FLOOR
+    return replace(plan, integrator=replace(plan.integrator, options=tuple(sorted(options.items()))))
 
 
 def _start(module, par, t0, y0, plan):
@@ -365,8 +401,15 @@ def _run_scipy(module, par, times, y0, plan, progress):
         return module.rhs(t, y, par)
 
     def start(t, y, first_step=None):
-        return method(fun, t, y, times[-1], rtol=options["rtol"], atol=options["atol"],
-                      first_step=first_step, **extra)
+        solver = method(fun, t, y, times[-1], rtol=options["rtol"], atol=options["atol"],
+                        first_step=first_step, **extra)
+        if not np.isfinite(getattr(solver, "h_abs", 0.0)):
+            # scipy's choice of the first step divides by atol + rtol |y|, which is 0 for a
+            # component at 0 under pure relative error control (atol = 0): h is NaN, and the
+            # step loop, which stops when h falls below a floor, never ends. Hairer's fallback.
+            solver = method(fun, t, y, times[-1], rtol=options["rtol"], atol=options["atol"],
+                            first_step=1e-6 * abs(times[-1] - t), **extra)
+        return solver
 
     counts = {"accepted": 0, "rejected": None, "rhs_evals": 0, "jac_evals": 0, "lu_decomps": 0}
     watch = _StepWatch(method.__name__, counts)
@@ -423,7 +466,8 @@ class _WorkForecast:
     is hopeless when two forecasts of the steps still needed both exceed the steps still allowed:
     the average pace since the start, (stop - t) x taken / (t - start), which a passing burst of
     small steps (a close approach) barely moves, and the largest of the last `WINDOW` steps,
-    (stop - t) / h, which forgives a fast transient at the start. (A C step costs microseconds;
+    (stop - t) / h, which forgives a fast transient at the start. Steps that shrink on towards a
+    singularity end here too, before the step-size floor would. (A C step costs microseconds;
     there the step limit itself ends such runs within a second.)
     """
 
@@ -437,9 +481,10 @@ class _WorkForecast:
         self.recent.append(abs(step))
         if taken < self.JUDGED_AFTER:
             return False
+        largest = max(self.recent)
         left, allowed = abs(self.stop - t), self.max_steps - taken
         by_average = left * taken > allowed * abs(t - self.start)
-        by_recent = left > allowed * max(self.recent)
+        by_recent = left > allowed * largest
         return by_average and by_recent
 
 

@@ -53,12 +53,18 @@ def shared_library(source: str, stem: str, precision: str = "double") -> Path:
     return doubles whatever it is. The double build's key is unchanged by the option.
     """
     compiler = find_compiler()
+    name, key = library_entry(source, stem, compiler, precision)
     defines, libraries = PRECISIONS[precision]
-    flags = (*LIBRARY_FLAGS, *defines)
-    key = hashlib.sha256("\0".join((source, compiler, *flags, *libraries)).encode()).hexdigest()
+    return cached_entry(name, key,
+                        lambda path: compile_c(source, path, (*LIBRARY_FLAGS, *defines), compiler, libraries))
+
+
+def library_entry(source: str, stem: str, compiler: str, precision: str = "double") -> tuple[str, str]:
+    """The cache entry's name and key of the library that `compiler` builds from `source`."""
+    defines, libraries = PRECISIONS[precision]
+    key = hashlib.sha256("\0".join((source, compiler, *LIBRARY_FLAGS, *defines, *libraries)).encode()).hexdigest()
     suffix = "" if precision == "double" else "-" + precision.replace(" ", "_")
-    return cached_entry(f"{stem}{suffix}-{key[:20]}.so", key,
-                        lambda path: compile_c(source, path, flags, compiler, libraries))
+    return f"{stem}{suffix}-{key[:20]}.so", key
 
 
 @lru_cache(maxsize=None)

@@ -132,3 +132,7 @@ def test_two_processes_building_the_same_model_both_succeed(cache_dir, tmp_path)
     outputs = [run.communicate() for run in runs]
     assert [run.returncode for run in runs] == [0, 0], outputs
     assert outputs[0][0] == outputs[1][0] and outputs[0][0].startswith("t,x\n")
+    # one library and one plan (run/plans.py), no build left behind; the plan serves the next run
+    assert len(list(cache_dir.glob("*.so"))) == len(list(cache_dir.glob("plan-*.json"))) == 1
+    assert not [path for path in cache_dir.iterdir() if path.name.startswith(".")]
+    assert lagc_run(model, cache_dir) == outputs[0][0]

@@ -1,0 +1,187 @@
+"""Run plans kept across processes: a warm `lagc run` parses, derives and lowers nothing.
+
+Once the code of a scene has been built, a plan entry goes into the build cache (`cache.py`)
+beside it: a JSON file holding the scene's settings before any override (time grid, integrator,
+its `set` statements, the names overrides may refer to, `settings.SceneSettings`), the
+parameter values and initial state they give, the columns, the invariants, the active
+constraints, and the name and key of the cache entry of the compiled library or NumPy module.
+Its key is the SHA-256 of the model's text, the scene and integrator asked for (None: the
+model's own), the backend, the C compiler, the plan format and a digest of lagdsl itself (its
+version, its files' sizes and times), so that an edited model, another compiler or another
+lagdsl never finds it.
+
+A later run with the same key resolves its overrides against the plan with the checks and
+messages of the full pipeline (both go through `SceneSettings.resolve`), loads the verified
+library or module and runs it, without importing sympy or lark. Positions in the model
+(the spans errors point at) are stored as numbers and re-attached to the model's text, which
+the key pins. Setting a parameter that other parameters or start values are computed from needs
+the expressions: such a run, like one whose plan or program entry is missing or fails
+verification, takes the full pipeline (`StoredPlan.resolve` returns None), which writes the
+entry again.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+from .. import __version__
+from ..errors import LagError
+from ..settings import IntegratorChoice, Overrides, RunPlan, SceneSettings, TimeGrid
+from ..source import SourceFile, Span
+from . import runner
+from .cache import cached_entry, find_entry
+from .output import Result
+from .toolchain import find_compiler, library_entry
+
+PLAN_FORMAT = 1
+PACKAGE_FILES = (".py", ".lark", ".j2", ".c", ".h")    # what lagdsl generates code and plans from
+
+
+@dataclass(frozen=True)
+class ProgramEntry:
+    """The cache entry of a scene's program: a compiled library (language "c") or a NumPy module."""
+
+    language: str
+    name: str
+    key: str
+
+    def load(self):
+        """The loaded library or imported module, or None when the entry is missing or damaged."""
+        path = find_entry(self.name, self.key)
+        if path is None:
+            return None
+        if self.language == "c":
+            return runner.load_library(path)
+        return runner.import_module(path.read_text(encoding="utf-8"), path, self.key)
+
+
+def program_entry(source) -> ProgramEntry:
+    """The cache entry that runner.load(source) uses for a GeneratedSource."""
+    if source.language == "c":
+        return ProgramEntry("c", *library_entry(source.text, source.suggested_name, find_compiler()))
+    return ProgramEntry("numpy", *runner.module_entry(source))
+
+
+@dataclass(frozen=True)
+class StoredPlan:
+    """A scene as a warm run needs it: its settings, the values they give, and its program."""
+
+    settings: SceneSettings
+    parameters: tuple[float, ...]           # with the scene's `set` statements
+    initial_state: tuple[float, ...]        # with the scene's initial values
+    computed_from: frozenset[str]           # parameters that other values are computed from
+    columns: tuple[str, ...]
+    invariants: tuple[str, ...]
+    program: ProgramEntry
+
+    def resolve(self, overrides: Overrides) -> RunPlan | None:
+        """The run plan with `overrides` applied, as scene.plan_scene makes it (the same errors, in
+        the same order); None when a value to set needs the model's expressions."""
+        if any(name in self.computed_from for name, _ in overrides.values):
+            return None
+        settings = self.settings
+        time, integrator, set_values, initial = settings.resolve(overrides)
+        settings.check_integrator(integrator)
+        parameters = tuple(float(set_values.get(name, value)) for name, value in zip(settings.parameters,
+                                                                                       self.parameters))
+        state, n = list(self.initial_state), len(settings.coordinates)
+        for k, name in enumerate(settings.coordinates):
+            start, velocity = initial.get(name, (None, None))
+            state[k] = start if start is not None else state[k]
+            state[n + k] = velocity if velocity is not None else state[n + k]
+        return RunPlan(settings.scene_name, time, integrator, parameters, tuple(state), settings.coordinates,
+                       self.columns, self.invariants, settings.constraints)
+
+    def run(self, plan: RunPlan, progress=None) -> Result | None:
+        """Run `plan` with the stored program; None if the program entry is no longer valid."""
+        loaded = self.program.load()
+        return None if loaded is None else runner.run(plan, self.program.language, loaded, progress)
+
+
+def find(source: SourceFile, scene: str | None, backend: str, integrator: str | None) -> StoredPlan | None:
+    """The stored plan of this model text, scene, backend and integrator, if the cache holds a valid one."""
+    key = _plan_key(source, scene, backend, integrator)
+    entry = key and find_entry(_plan_name(key), key)
+    try:
+        return _from_json(json.loads(entry.read_text(encoding="utf-8")), source) if entry else None
+    except OSError:         # removed since it was verified (lagc cache clear): build as if it never was
+        return None
+
+
+def store(source: SourceFile, scene: str | None, backend: str, integrator: str | None, plan: StoredPlan) -> None:
+    """Write the plan entry (once; a valid one is kept)."""
+    key = _plan_key(source, scene, backend, integrator)
+    if key:
+        text = json.dumps(_to_json(plan), separators=(",", ":")) + "\n"
+        cached_entry(_plan_name(key), key, lambda path: path.write_text(text, encoding="utf-8"))
+
+
+def _plan_name(key: str) -> str:
+    return f"plan-{key[:20]}.json"
+
+
+def _plan_key(source: SourceFile, scene: str | None, backend: str, integrator: str | None) -> str | None:
+    """The plan's key; None without a C compiler (the full pipeline then says so in its place)."""
+    try:
+        compiler = find_compiler() if backend == "c" else ""
+    except LagError:
+        return None
+    fields = json.dumps([PLAN_FORMAT, _lagdsl_digest(), scene, backend, integrator, compiler])
+    return hashlib.sha256(f"{fields}\0{source.text}".encode()).hexdigest()
+
+
+@lru_cache(maxsize=1)
+def _lagdsl_digest() -> str:
+    """The version of lagdsl and the size and modification time of each of its files: a changed
+    code generator or integrator (even under the same version number, as while lagdsl is being
+    developed) never runs a plan or program built before. (Hashing the files' bytes instead
+    would add a tenth to a warm run.)"""
+    package = Path(__file__).resolve().parents[1]
+    digest = hashlib.sha256(__version__.encode())
+    for path in sorted(package.rglob("*")):
+        if path.suffix in PACKAGE_FILES and "__pycache__" not in path.parts:
+            status = path.stat()
+            digest.update(f"{path.relative_to(package).as_posix()}\0{status.st_size}\0{status.st_mtime_ns}\0".encode())
+    return digest.hexdigest()
+
+
+# ---- JSON ----------------------------------------------------------------------------------
+def _to_json(plan: StoredPlan) -> dict:
+    s = plan.settings
+    return {
+        "scene": s.scene_name,
+        "time": [s.time.start, s.time.stop, s.time.interval, _span_json(s.time.span)],
+        "integrator": [s.integrator.name, [list(o) for o in s.integrator.options], _span_json(s.integrator.span)],
+        "parameter_names": list(s.parameters), "structural": sorted(s.structural),
+        "coordinates": list(s.coordinates), "set_values": [list(v) for v in s.set_values],
+        "initial": [list(v) for v in s.initial], "constraints": list(s.constraints),
+        "parameters": list(plan.parameters), "initial_state": list(plan.initial_state),
+        "computed_from": sorted(plan.computed_from), "columns": list(plan.columns),
+        "invariants": list(plan.invariants),
+        "program": [plan.program.language, plan.program.name, plan.program.key],
+    }
+
+
+def _from_json(data: dict, source: SourceFile) -> StoredPlan:
+    start, stop, interval, time_span = data["time"]
+    name, options, integrator_span = data["integrator"]
+    settings = SceneSettings(
+        data["scene"], TimeGrid(start, stop, interval, _span(time_span, source)),
+        IntegratorChoice(name, tuple((k, v) for k, v in options), _span(integrator_span, source)),
+        tuple(data["parameter_names"]), frozenset(data["structural"]), tuple(data["coordinates"]),
+        tuple((k, v) for k, v in data["set_values"]), tuple((c, s, v) for c, s, v in data["initial"]),
+        tuple(data["constraints"]))
+    return StoredPlan(settings, tuple(data["parameters"]), tuple(data["initial_state"]),
+                      frozenset(data["computed_from"]), tuple(data["columns"]), tuple(data["invariants"]),
+                      ProgramEntry(*data["program"]))
+
+
+def _span_json(span: Span | None) -> list[int] | None:
+    return None if span is None else [span.line, span.column, span.start, span.end]
+
+
+def _span(fields: list[int] | None, source: SourceFile) -> Span | None:
+    return None if fields is None else Span(source, *fields)

@@ -1,0 +1,280 @@
+"""What a run is set to, in plain numbers and names: the time grid, the integrator and its
+options, the overrides given outside the model file, and the `RunPlan` the runner executes.
+
+Nothing here needs sympy or the parser. `scene.py` resolves a scene of a parsed model through
+these functions; a warm `lagc run` (`run/plans.py`) resolves the same overrides against a stored
+copy of the scene's settings, with the same checks and the same messages.
+"""
+from __future__ import annotations
+
+import math
+import sys
+import warnings
+from dataclasses import dataclass, replace
+
+from .errors import LagError, LagWarning, Setting, suggest
+from .source import Span
+
+INTEGRATORS = ("rk4", "dopri5", "dop853", "radau5", "gauss", "auto")
+IMPLICIT_INTEGRATORS = ("radau5", "auto")      # they need the Jacobian (auto switches to radau5)
+INTEGRATOR_OPTIONS = {
+    "rk4": ("step", "max_steps"), "dopri5": ("rtol", "atol", "max_step", "max_steps"),
+    "dop853": ("rtol", "atol", "max_step", "max_steps"), "radau5": ("rtol", "atol", "max_step", "max_steps"),
+    "gauss": ("stages", "step", "max_steps"),
+    "auto": ("rtol", "atol", "max_step", "max_steps"),
+}
+# Integrator settings that can be given outside the model file (`lagc run --rtol`, `simulate(rtol=)`).
+RUN_OPTIONS = ("rtol", "atol", "step", "stages", "max_step", "max_steps")
+
+MAX_ROWS = 10**7              # the largest output grid
+DEFAULT_MAX_STEPS = 100000    # the step limit unless the grid asks for more (step_limit)
+GRID_SLACK = 1e-9             # a grid time within this many intervals of stop is stop
+RTOL_FLOOR = 10 * sys.float_info.epsilon   # no error control is finer than the rounding of y
+
+
+@dataclass(frozen=True)
+class TimeGrid:
+    start: float
+    stop: float
+    interval: float
+    span: Span | None
+
+
+@dataclass(frozen=True)
+class IntegratorChoice:
+    name: str
+    options: tuple[tuple[str, float], ...]
+    span: Span | Setting | None        # Setting: chosen on the command line (--integrator)
+
+
+DEFAULT_INTEGRATOR = IntegratorChoice("dop853", (("rtol", 1e-8), ("atol", 1e-10)), None)
+DEFAULT_TIME = TimeGrid(0.0, 10.0, 0.01, None)
+
+
+def given_options(values) -> tuple[tuple[str, float], ...]:
+    """The run options among `values` (a mapping of name to value or None) that were given."""
+    return tuple((name, float(values[name])) for name in RUN_OPTIONS if values.get(name) is not None)
+
+
+@dataclass(frozen=True)
+class Overrides:
+    """Settings given outside the model file (`lagc run` options, `simulate()` arguments).
+
+    `values` maps a parameter name, "q.start" or "q.velocity" to a number.
+    """
+
+    values: tuple[tuple[str, float], ...] = ()
+    start: float | None = None
+    stop: float | None = None
+    interval: float | None = None
+    integrator: str | None = None
+    options: tuple[tuple[str, float], ...] = ()     # rtol, atol, step, stages, max_step, max_steps
+
+
+def grid_rows(start: float, stop: float, interval: float) -> int:
+    """Rows of the output grid: start + k*interval while below stop, then stop itself (so a stop
+    that is not on the grid still ends the table, and an interval longer than the run gives the
+    two rows start and stop). The C driver's lag_last_row is the same rule."""
+    ratio = (stop - start) / interval
+    last = math.floor(ratio + GRID_SLACK)
+    return last + 2 if ratio - last > GRID_SLACK or last == 0 else last + 1
+
+
+def step_limit(integrator: IntegratorChoice, time: TimeGrid) -> int:
+    """The most steps (accepted + rejected) a run may take: the integrator's max_steps, or by
+    default 100000 (as in Hairer's codes) or 100 per output row, whichever is larger."""
+    given = dict(integrator.options).get("max_steps")
+    return int(given) if given else max(DEFAULT_MAX_STEPS, 100 * grid_rows(time.start, time.stop, time.interval))
+
+
+class IntegratorTraits:
+    """What follows from a plan's integrator and time grid (for ScenePlan and RunPlan alike)."""
+
+    integrator: IntegratorChoice
+    time: TimeGrid
+
+    @property
+    def max_steps(self) -> int:
+        return step_limit(self.integrator, self.time)
+
+    @property
+    def implicit(self) -> bool:
+        return self.integrator.name in IMPLICIT_INTEGRATORS
+
+    @property
+    def canonical(self) -> bool:
+        return self.integrator.name == "gauss"
+
+
+@dataclass(frozen=True)
+class RunPlan(IntegratorTraits):
+    """What the runner needs to run generated code: names and numbers, no expressions."""
+
+    scene_name: str
+    time: TimeGrid
+    integrator: IntegratorChoice
+    parameters: tuple[float, ...]           # one value per model parameter, in order
+    initial_state: tuple[float, ...]        # y0 = (q(0), q'(0))
+    coordinates: tuple[str, ...]
+    columns: tuple[str, ...]
+    invariants: tuple[str, ...]             # names of conserved quantities to watch
+    constraints: tuple[str, ...]            # active constraints (projected, monitored)
+
+
+@dataclass(frozen=True)
+class SceneSettings:
+    """A scene's settings before the overrides: its time grid and integrator, its `set`
+    statements, and the names that overrides may refer to."""
+
+    scene_name: str
+    time: TimeGrid
+    integrator: IntegratorChoice
+    parameters: tuple[str, ...]                     # every parameter, in order
+    structural: frozenset[str]                      # parameters that fix the size of the model
+    coordinates: tuple[str, ...]
+    set_values: tuple[tuple[str, float], ...]       # the scene's `set p = value`
+    initial: tuple[tuple[str, float | None, float | None], ...]   # the scene's (coordinate, start, velocity)
+    constraints: tuple[str, ...]                    # active constraints
+
+    def resolve(self, overrides: Overrides) -> tuple[TimeGrid, IntegratorChoice, dict, dict]:
+        """The time grid, the integrator, the parameters set ({name: value}) and the initial values
+        set ({coordinate: (start, velocity)}) with `overrides` applied on top of the scene's."""
+        time = _time(self.time, overrides)
+        integrator = _integrator(self.integrator, overrides)
+        set_values = dict(self.set_values)
+        initial = {name: (start, velocity) for name, start, velocity in self.initial}
+        for name, value in overrides.values:
+            self._apply_override(name, value, set_values, initial)
+        return time, integrator, set_values, initial
+
+    def check_integrator(self, integrator: IntegratorChoice) -> None:
+        if integrator.name == "gauss" and self.constraints:
+            raise LagError("the symplectic gauss integrator does not handle constraints; use radau5 or dop853",
+                           integrator.span)
+
+    def _apply_override(self, name: str, value: float, set_values: dict, initial: dict) -> None:
+        if not math.isfinite(value):
+            raise LagError(f"cannot set '{name}' to {value}: values must be finite numbers")
+        coordinate, _, part = name.rpartition(".")
+        if part in ("start", "velocity") and coordinate:
+            if coordinate not in self.coordinates:
+                raise LagError(f"cannot set '{name}': '{coordinate}' is not a coordinate"
+                               f"{suggest(coordinate, self.coordinates)}")
+            start, velocity = initial.get(coordinate, (None, None))
+            initial[coordinate] = (value, velocity) if part == "start" else (start, value)
+            return
+        if name not in self.parameters:
+            choices = list(self.parameters) + [f"{c}.start" for c in self.coordinates]
+            raise LagError(f"cannot set '{name}': it is not a parameter, nor COORDINATE.start or "
+                           f"COORDINATE.velocity{suggest(name, choices)}")
+        if name in self.structural:
+            raise LagError(f"'{name}' fixes the size of the model (it is used as an index range); "
+                           "change it in the model file")
+        set_values[name] = value
+
+
+def _time(time: TimeGrid, overrides: Overrides) -> TimeGrid:
+    start = overrides.start if overrides.start is not None else time.start
+    stop = overrides.stop if overrides.stop is not None else time.stop
+    interval = overrides.interval if overrides.interval is not None else time.interval
+    for what, value in (("start time", start), ("stop time", stop), ("output interval", interval)):
+        if not math.isfinite(value):
+            raise LagError(f"the {what} must be a finite number, not {value}")
+    if not stop > start:
+        raise LagError(f"the stop time {stop:g} is not after the start time {start:g}")
+    if not interval > 0:
+        raise LagError("the output interval must be positive")
+    if not (stop - start) / interval < MAX_ROWS or grid_rows(start, stop, interval) > MAX_ROWS:
+        # The interval is what to change: point at the scene's time statement when it came from there.
+        raise LagError(f"the output grid from {start:g} to {stop:g} every {interval:g} would have "
+                       f"{(stop - start) / interval + 1:.3g} rows, more than the limit of {MAX_ROWS:.0e}; "
+                       "choose a larger --interval", time.span if overrides.interval is None else None)
+    return replace(time, start=start, stop=stop, interval=interval)
+
+
+def _integrator(choice: IntegratorChoice, overrides: Overrides) -> IntegratorChoice:
+    """The scene's integrator with the overrides applied.
+
+    Another method (`--integrator`) keeps the scene's settings that it has too: the tolerances
+    of dop853 carry over to radau5, the step of gauss to rk4. Errors in a value given as an
+    override point at its option, not at the scene.
+    """
+    name = overrides.integrator or choice.name
+    chosen = Setting(f"--integrator {name}") if overrides.integrator else choice.span
+    if name not in INTEGRATORS:
+        raise LagError(f"unknown integrator '{name}'{suggest(name, INTEGRATORS)} "
+                       f"(available: {', '.join(INTEGRATORS)})", chosen)
+    allowed = INTEGRATOR_OPTIONS[name]
+    values = {k: v for k, v in choice.options if k in allowed}
+    origins: dict[str, Setting] = {}
+    for key, value in overrides.options:
+        origins[key] = Setting("--" + key.replace("_", "-"))
+        if key not in allowed:
+            raise LagError(f"{name} has no option '{key}' (options: {', '.join(allowed)})", origins[key])
+        values[key] = value
+    return _raise_rtol_to_floor(validate_integrator(name, values, chosen, origins))
+
+
+def _raise_rtol_to_floor(choice: IntegratorChoice) -> IntegratorChoice:
+    """rtol below 10 eps asks for more than double precision can deliver: the step size would
+    collapse or the run crawl. Raise it, as Hairer's codes do, and say so once."""
+    options = dict(choice.options)
+    if "rtol" not in options or options["rtol"] >= RTOL_FLOOR:
+        return choice
+    warnings.warn(f"rtol = {options['rtol']:g} is below 10 eps; raised to {RTOL_FLOOR:.3g}", LagWarning,
+                  stacklevel=2)
+    options["rtol"] = RTOL_FLOOR
+    return replace(choice, options=tuple(sorted(options.items())))
+
+
+def validate_integrator(name: str, values: dict[str, float], span: Span | Setting | None,
+                        origins: dict[str, Span | Setting] | None = None) -> IntegratorChoice:
+    """Check and complete an integrator's options (defaults: rtol 1e-8, atol 1e-10, 2 stages).
+
+    Every option is a finite number: step and max_step positive, rtol and atol >= 0 and not both
+    0, stages and max_steps whole numbers (max_steps from 1 to 1e15). rtol below 10 eps is
+    raised by the scene plan, not here. `span` is where the integrator was chosen, `origins`
+    where each option's value was given (in the scene, or a command-line option): errors point
+    there."""
+    origins = origins or {}
+    for key, value in values.items():
+        if key in ("rtol", "atol"):
+            if not 0 <= value < math.inf:
+                raise LagError(f"{name}({key} = ...) must be a finite number >= 0", origins.get(key, span))
+        elif not 0 < value < math.inf:
+            raise LagError(f"{name}({key} = ...) must be a positive finite number", origins.get(key, span))
+    if values.get("rtol") == 0 and values.get("atol") == 0:
+        raise LagError(f"{name}(rtol = ..., atol = ...) cannot both be 0", origins.get("rtol", span))
+    if name in ("radau5", "auto") and values.get("atol") == 0:
+        # Hairer's RADAU5 refuses it too: the Newton iteration weighs each component by
+        # atol + rtol |y|, which is 0 for a component at 0 (a body at rest).
+        raise LagError(f"{name}(atol = ...) must be positive: the implicit method weighs each "
+                       "component by atol + rtol |y|, which is 0 where a component is 0",
+                       origins.get("atol", span))
+    if "max_steps" in values and (values["max_steps"] != int(values["max_steps"]) or values["max_steps"] > 1e15):
+        raise LagError(f"{name}(max_steps = ...) must be a whole number from 1 to 1e15", origins.get("max_steps", span))
+    if name in ("rk4", "gauss") and "step" not in values:
+        example = "--step 0.001" if isinstance(span, Setting) else f"{name}(step = 0.001)"
+        raise LagError(f"{name} is a fixed-step method and needs a step: {example}", span)
+    if name == "gauss":
+        stages = values.setdefault("stages", 2)
+        if stages != int(stages) or not 1 <= stages <= 6:
+            raise LagError("gauss(stages = s) takes s = 1 to 6", origins.get("stages", span))
+    if name in ("dopri5", "dop853", "radau5", "auto"):
+        values.setdefault("rtol", 1e-8)
+        values.setdefault("atol", 1e-10)
+    return IntegratorChoice(name, tuple(sorted(values.items())), span)
+
+
+def check_step_count(plan: IntegratorTraits) -> None:
+    """A fixed-step method knows its number of steps before it runs: refuse a run over the limit
+    (the C integrators would stop at once with LAG_ERR_MAX_STEPS)."""
+    integrator, time = plan.integrator, plan.time
+    step = dict(integrator.options).get("step")
+    if integrator.name not in ("rk4", "gauss") or step is None:
+        return
+    steps = (time.stop - time.start) / step
+    if steps > plan.max_steps:
+        raise LagError(f"{integrator.name} with step {step:g} would take {steps:.3g} steps from {time.start:g} to "
+                       f"{time.stop:g}, more than the step limit of {plan.max_steps}; take a larger step or "
+                       "raise --max-steps", integrator.span)
