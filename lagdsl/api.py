@@ -130,7 +130,8 @@ class Model:
         except LagError:        # a value computed from the others is not finite unless overridden
             return
         stored = plans.StoredPlan(settings, parameters, initial_state, parameters_in_expressions(self.ir),
-                                  code_plan.columns, code_plan.invariants, plans.program_entry(source))
+                                  code_plan.columns, code_plan.invariants,
+                                  code_plan.stop.text if code_plan.stop else None, plans.program_entry(source))
         plans.store(self.source, scene, backend, integrator, stored)
 
 

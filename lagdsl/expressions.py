@@ -29,9 +29,13 @@ FUNCTIONS = {
     "min": (sympy.Min, 2), "max": (sympy.Max, 2),
 }
 VECTOR_FUNCTIONS = {"dot": 2, "cross": 2, "norm": 1}
+# Matrices, rotations and rigid bodies (docs/language.md, "Rigid bodies"): name -> arity.
+MATRIX_FUNCTIONS = {"rotx": 1, "roty": 1, "rotz": 1, "diag": 3, "transpose": 1, "euler_zxz": 3,
+                    "euler_zyx": 3, "omega_body": 1, "omega_zxz": 3, "omega_zyx": 3}
 SPECIAL_FORMS = {"der": 1, "sum": 2}
 BUILTIN_CALLS = {"momentum", "multiplier", "residual"}
-ALL_FUNCTION_NAMES = sorted(set(FUNCTIONS) | set(VECTOR_FUNCTIONS) | set(SPECIAL_FORMS))
+ALL_FUNCTION_NAMES = sorted(set(FUNCTIONS) | set(VECTOR_FUNCTIONS) | set(MATRIX_FUNCTIONS) | set(SPECIAL_FORMS))
+AXES = ("x", "y", "z")
 MAX_DOUBLE = sympy.Rational(1.7976931348623157e308)
 NON_FINITE = (sympy.zoo, sympy.nan, sympy.oo, sympy.S.NegativeInfinity)
 FOLDING_NODES = ("mul", "div", "pow", "neg", "add", "sub")   # where exact constants combine and may overflow
@@ -52,8 +56,31 @@ class Vector:
 
 
 @dataclass(frozen=True)
+class Matrix:
+    """A 3x3 matrix of scalar expressions, row by row (a rotation matrix, an inertia tensor)."""
+
+    rows: tuple[tuple[sympy.Expr, ...], ...]
+
+    @property
+    def components(self) -> tuple[sympy.Expr, ...]:
+        return tuple(entry for row in self.rows for entry in row)
+
+    def column(self, j: int) -> tuple[sympy.Expr, ...]:
+        return tuple(row[j] for row in self.rows)
+
+
+def is_array(value) -> bool:
+    """A 3-vector or a 3x3 matrix, not a scalar."""
+    return isinstance(value, (Vector, Matrix))
+
+
+def kind_of(value) -> str:
+    return "a 3-vector" if isinstance(value, Vector) else "a 3x3 matrix" if isinstance(value, Matrix) else "a scalar"
+
+
+@dataclass(frozen=True)
 class Binding:
-    """What a name means: `value` is a scalar or Vector; `family` maps indices to values."""
+    """What a name means: `value` is a scalar, Vector or Matrix; `family` maps indices to values."""
 
     kind: str                       # parameter, coordinate, let, output, loop, time, constant, constraint
     span: Span | None
@@ -132,8 +159,8 @@ class ExpressionBuilder:
     # -- entry points ------------------------------------------------------------------------
     def scalar(self, node, scope: Scope, what: str = "a scalar") -> sympy.Expr:
         value = self.build(node, scope)
-        if isinstance(value, Vector):
-            raise LagError(f"expected {what}, but this is a 3-vector", self.span(node))
+        if is_array(value):
+            raise LagError(f"expected {what}, but this is {kind_of(value)}", self.span(node))
         return value
 
     def integer(self, node, scope: Scope, what: str) -> int:
@@ -171,13 +198,13 @@ class ExpressionBuilder:
             value = method(node, scope)
         finally:
             self.depth -= 1
-        for component in (value.components if isinstance(value, Vector) else (value,)):
+        for component in (value.components if is_array(value) else (value,)):
             self._require_real_number(component, node)
         return value
 
     def _require_finite(self, value, node):
         """A function or power of finite arguments may still be infinite: tan(atan2(x, 0)) is zoo*x."""
-        for component in (value.components if isinstance(value, Vector) else (value,)):
+        for component in (value.components if is_array(value) else (value,)):
             if not component.is_number and component.has(*NON_FINITE):
                 text = " ".join(self.span(node).text.split())
                 raise LagError(f"{text if len(text) <= 40 else 'this expression'} has no finite value",
@@ -235,6 +262,8 @@ class ExpressionBuilder:
         if str(token) in ("t", "pi") and str(token) not in scope.bindings:
             raise LagError(f"'{token}' is not indexed", self.span(token))
         binding = scope.lookup(str(token), self.span(token))
+        if binding.family is None and isinstance(binding.value, Vector):
+            return self._component_at(binding.value, self.integer(index_node, scope, "an index"), index_node)
         if binding.family is None:
             raise LagError(f"'{token}' is not indexed", self.span(token))
         index = self.integer(index_node, scope, "an index")
@@ -246,11 +275,41 @@ class ExpressionBuilder:
             raise LagError(f"index {index} is out of range for '{token}' ({members})", self.span(index_node))
         return binding.family[index]
 
+    def _component_at(self, vector: Vector, index: int, index_node):
+        """v[1], v[2], v[3]: the components x, y, z (1-based, like every index of the language)."""
+        if index not in (1, 2, 3):
+            raise LagError(f"index {index} is out of range for a 3-vector (1:3)", self.span(index_node))
+        return vector.components[index - 1]
+
+    def _component(self, node, scope):
+        """v.x, v.y, v.z."""
+        target, _, axis = node.children
+        value = self.build(target, scope)
+        if not isinstance(value, Vector):
+            raise LagError(f".{axis} takes a component of a 3-vector, but this is {kind_of(value)}",
+                           self.span(target))
+        if str(axis) not in AXES:
+            raise LagError(f"a 3-vector has the components x, y and z, not '{axis}'{suggest(str(axis), AXES)}",
+                           self.span(axis))
+        return value.components[AXES.index(str(axis))]
+
     def _braces(self, node, scope):
-        items = [self.scalar(child, scope, "a scalar component") for child in node.children
-                 if not isinstance(child, lark.Token)]
+        """{a, b, c}: a 3-vector; {u, v, w} of three 3-vectors: the 3x3 matrix with those rows."""
+        children = [child for child in node.children if not isinstance(child, lark.Token)]
+        for child in children:
+            if child.data == "iteration":
+                raise LagError("a list '{e, i in a:b}' gives the start values of an indexed coordinate or "
+                               "the values of a parameter array; it is not a value of an expression",
+                               self.span(node))
+        items = [self.build(child, scope) for child in children]
         if len(items) != 3:
             raise LagError(f"a vector has 3 components, not {len(items)}", self.span(node))
+        if all(isinstance(item, Vector) for item in items):
+            return Matrix(tuple(item.components for item in items))
+        for item, child in zip(items, children):
+            if is_array(item):
+                raise LagError(f"expected a scalar component, but this is {kind_of(item)} (a matrix is "
+                               "written {{a, b, c}, {d, e, f}, {g, h, i}}, row by row)", self.span(child))
         return Vector(tuple(items))
 
     # Sums and products are walked iteratively, not by recursion: the grammar makes `a + b + c`
@@ -264,15 +323,23 @@ class ExpressionBuilder:
     def _signed_sum(self, node, scope):
         """A sum of terms with signs: through +, -, unary signs and parentheses, left to right."""
         values = [(sign, self.build(term, scope)) for sign, term in _signed_terms(node)]
-        if len({isinstance(value, Vector) for _, value in values}) > 1:
-            raise LagError("cannot add a vector and a scalar", self.span(node))
-        if isinstance(values[0][1], Vector):
-            return Vector(tuple(sympy.Add(*(sign * v.components[k] for sign, v in values)) for k in range(3)))
+        kinds = {kind_of(value) for _, value in values}
+        if len(kinds) > 1:
+            words = {"a 3-vector": "a vector", "a 3x3 matrix": "a matrix", "a scalar": "a scalar"}
+            raise LagError("cannot add " + " and ".join(words[kind] for kind in sorted(kinds)), self.span(node))
+        first = values[0][1]
+        if is_array(first):
+            total = [sympy.Add(*(sign * v.components[k] for sign, v in values)) for k in range(len(first.components))]
+            return Vector(tuple(total)) if isinstance(first, Vector) else _matrix_of(total)
         return sympy.Add(*(sign * value for sign, value in values))
 
     def _mul(self, node, scope):
-        """A product chain a*b/c*d: at most one factor a vector, no divisor a vector or zero."""
-        numerators, denominators, partial = [], [], sympy.S.One
+        """A product chain a*b/c*d of scalars, 3-vectors and 3x3 matrices, no divisor an array or zero.
+
+        Scalars scale; the arrays multiply left to right as in linear algebra (A*B, A*v), and
+        at most one vector, the last array of the chain: u*v is dot or cross, v*A needs transpose.
+        """
+        array, scalars, denominators, partial = None, [], [], sympy.S.One
         for factor, divides in _factors(node):
             if divides:
                 divisor = self.scalar(factor, scope, "a scalar divisor")
@@ -281,17 +348,26 @@ class ExpressionBuilder:
                 denominators.append(divisor)
                 partial /= divisor
             else:
-                numerators.append(self.build(factor, scope))
-                partial *= numerators[-1] if not isinstance(numerators[-1], Vector) else 1
+                value = self.build(factor, scope)
+                if not is_array(value):
+                    scalars.append(value)
+                    partial *= value
+                else:
+                    array = value if array is None else self._array_product(array, value, node)
             # The constants folded so far, reported where they overflow (the tree would: a*b/c is (a*b)/c).
             self._require_real_constants(partial, self._through(node, factor), True)
-        vectors = [value for value in numerators if isinstance(value, Vector)]
-        if len(vectors) > 1:
+        scale = sympy.Mul(*scalars) / sympy.Mul(*denominators)
+        return _map(array, lambda c: c * scale) if array is not None else scale
+
+    def _array_product(self, left, right, node):
+        if isinstance(left, Vector) and isinstance(right, Vector):
             raise LagError("the product of two vectors is ambiguous; use dot(a, b) or cross(a, b)",
                            self.span(node))
-        scalars = [value for value in numerators if not isinstance(value, Vector)]
-        scale = sympy.Mul(*scalars) / sympy.Mul(*denominators)
-        return _map(vectors[0], lambda c: c * scale) if vectors else scale
+        if isinstance(left, Vector):
+            raise LagError("a vector times a matrix is not defined; write transpose(A)*v", self.span(node))
+        if isinstance(right, Vector):
+            return Vector(tuple(_dot(row, right.components) for row in left.rows))
+        return Matrix(tuple(tuple(_dot(row, right.column(j)) for j in range(3)) for row in left.rows))
 
     _div = _mul
 
@@ -328,7 +404,7 @@ class ExpressionBuilder:
             value = scope.observable(name, arguments, span)
             self.observables.add(value)
             return value
-        expected = {**{k: v[1] for k, v in FUNCTIONS.items()}, **VECTOR_FUNCTIONS,
+        expected = {**{k: v[1] for k, v in FUNCTIONS.items()}, **VECTOR_FUNCTIONS, **MATRIX_FUNCTIONS,
                     **SPECIAL_FORMS}.get(name)
         if expected is None:
             if name in scope.bindings:
@@ -354,15 +430,43 @@ class ExpressionBuilder:
         values = [self.build(a, scope) for a in arguments]
         if name in VECTOR_FUNCTIONS:
             return self._vector_function(name, values, arguments)
+        if name in ("transpose", "omega_body"):
+            return self._matrix_function(name, values[0], arguments[0])
         for value, argument in zip(values, arguments):
-            if isinstance(value, Vector):
-                raise LagError(f"{name}() takes scalars, but this is a 3-vector", self.span(argument))
+            if is_array(value):
+                raise LagError(f"{name}() takes scalars, but this is {kind_of(value)}", self.span(argument))
+        if name in MATRIX_FUNCTIONS:
+            return self._rotation_function(name, values, arguments)
         return self._require_finite(FUNCTIONS[name][0](*values), node)
+
+    def _matrix_function(self, name, value, argument):
+        """transpose(A); omega_body(R), the angular velocity in the body frame of the rotation R
+        (body to space): the axial vector of the skew matrix R^T R'."""
+        if not isinstance(value, Matrix):
+            raise LagError(f"{name}() takes a 3x3 matrix, but this is {kind_of(value)}", self.span(argument))
+        if name == "transpose":
+            return Matrix(tuple(value.column(j) for j in range(3)))
+        rate = self._rate(value, argument)
+        skew = [[_dot(value.column(i), rate.column(j)) for j in range(3)] for i in range(3)]
+        return Vector((skew[2][1], skew[0][2], skew[1][0]))
+
+    def _rotation_function(self, name, values, arguments):
+        """Rotation matrices (active, body to space), inertia tensors, Euler-angle rates: see
+        rotation() and body_rates()."""
+        if name == "diag":
+            return Matrix(tuple(tuple(values[i] if i == j else sympy.S.Zero for j in range(3)) for i in range(3)))
+        if name.startswith("omega_"):
+            rates = [self._rate(value, argument) for value, argument in zip(values, arguments)]
+            return body_rates(name[len("omega_"):], values, rates)
+        if name.startswith("euler_"):
+            first, second, third = (rotation(axis, angle) for axis, angle in zip(name[-3:], values))
+            return self._array_product(self._array_product(first, second, None), third, None)
+        return rotation(name[-1], values[0])
 
     def _vector_function(self, name, values, arguments):
         for value, argument in zip(values, arguments):
             if not isinstance(value, Vector):
-                raise LagError(f"{name}() takes 3-vectors, but this is a scalar", self.span(argument))
+                raise LagError(f"{name}() takes 3-vectors, but this is {kind_of(value)}", self.span(argument))
         if name == "norm":
             return sympy.sqrt(sum(c**2 for c in values[0].components))
         a, b = values[0].components, values[1].components
@@ -371,8 +475,11 @@ class ExpressionBuilder:
         return Vector((a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]))
 
     def _der(self, argument, scope):
-        value = self.build(argument, scope)
-        for component in (value.components if isinstance(value, Vector) else (value,)):
+        return self._rate(self.build(argument, scope), argument)
+
+    def _rate(self, value, argument):
+        """The time derivative of a value of (q, t), componentwise for vectors and matrices."""
+        for component in (value.components if is_array(value) else (value,)):
             if component.free_symbols & self.observables:
                 raise LagError("der() of a Lagrange multiplier: its rate is not computed", self.span(argument))
             if self.calculus.dependencies(component) & set(self.velocities.values()):
@@ -414,10 +521,11 @@ class ExpressionBuilder:
         return str(name_token), low, high
 
     def _sum_terms(self, a, b, span):
-        if isinstance(a, Vector) != isinstance(b, Vector):
-            raise LagError("sum() terms mix vectors and scalars", span)
-        if isinstance(a, Vector):
-            return Vector(tuple(x + y for x, y in zip(a.components, b.components)))
+        if kind_of(a) != kind_of(b):
+            raise LagError(f"sum() terms mix {kind_of(a)[2:]}s and {kind_of(b)[2:]}s", span)
+        if is_array(a):
+            total = [x + y for x, y in zip(a.components, b.components)]
+            return Vector(tuple(total)) if isinstance(a, Vector) else _matrix_of(total)
         return a + b
 
     def _iteration(self, node, scope):
@@ -460,4 +568,51 @@ def _factors(node) -> list[tuple[lark.Tree, bool]]:
 def _map(value, function):
     if isinstance(value, Vector):
         return Vector(tuple(function(c) for c in value.components))
+    if isinstance(value, Matrix):
+        return _matrix_of([function(c) for c in value.components])
     return function(value)
+
+
+def _matrix_of(entries) -> Matrix:
+    """The 3x3 matrix of nine entries, row by row."""
+    return Matrix(tuple(tuple(entries[3 * i:3 * i + 3]) for i in range(3)))
+
+
+def _dot(a, b) -> sympy.Expr:
+    return sympy.Add(*(x * y for x, y in zip(a, b)))
+
+
+def rotation(axis: str, angle) -> Matrix:
+    """The active rotation by `angle` about the x, y or z axis (right-handed): rotz(a)*{1, 0, 0}
+    is {cos(a), sin(a), 0}. As the orientation of a body, it maps body to space components."""
+    c, s = sympy.cos(angle), sympy.sin(angle)
+    i = AXES.index(axis)
+    j, k = (i + 1) % 3, (i + 2) % 3
+    entries = [[sympy.S.Zero] * 3 for _ in range(3)]
+    entries[i][i] = sympy.S.One
+    entries[j][j], entries[j][k], entries[k][j], entries[k][k] = c, -s, s, c
+    return Matrix(tuple(tuple(row) for row in entries))
+
+
+def body_rates(convention: str, angles, rates) -> Vector:
+    """The angular velocity in body axes of R = euler_<convention>(angles), in closed form.
+
+    zxz (Goldstein's x-convention, R = rotz(phi) rotx(theta) rotz(psi)):
+        w1 = phi' sin(theta) sin(psi) + theta' cos(psi)
+        w2 = phi' sin(theta) cos(psi) - theta' sin(psi)
+        w3 = phi' cos(theta) + psi'
+    zyx (yaw psi, pitch theta, roll phi, R = rotz(psi) roty(theta) rotx(phi)):
+        w1 = phi' - psi' sin(theta)
+        w2 = theta' cos(phi) + psi' cos(theta) sin(phi)
+        w3 = psi' cos(theta) cos(phi) - theta' sin(phi)
+    """
+    sin, cos = sympy.sin, sympy.cos
+    if convention == "zxz":
+        (phi, theta, psi), (dphi, dtheta, dpsi) = angles, rates
+        return Vector((dphi * sin(theta) * sin(psi) + dtheta * cos(psi),
+                       dphi * sin(theta) * cos(psi) - dtheta * sin(psi),
+                       dphi * cos(theta) + dpsi))
+    (psi, theta, phi), (dpsi, dtheta, dphi) = angles, rates
+    return Vector((dphi - dpsi * sin(theta),
+                   dtheta * cos(phi) + dpsi * cos(theta) * sin(phi),
+                   dpsi * cos(theta) * cos(phi) - dtheta * sin(phi)))

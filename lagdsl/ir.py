@@ -150,6 +150,19 @@ class OutputRequest:
 
 
 @dataclass(frozen=True)
+class StopCondition:
+    """`stop when a < b;` (or `a > b`): the run ends where the condition first holds.
+
+    `function` is e(q, q', t) = a - b (or b - a), so that the condition is e < 0; the run stops at
+    the start if it holds there, else at the first root of e where e changes sign to negative.
+    """
+
+    text: str                   # the condition as written, for the run summary
+    function: sympy.Expr
+    span: Span | None
+
+
+@dataclass(frozen=True)
 class Scene:
     name: str
     description: str | None
@@ -159,6 +172,7 @@ class Scene:
     initial_overrides: tuple[InitialOverride, ...]
     outputs: tuple[OutputRequest, ...]
     span: Span | None
+    stop: StopCondition | None = None
 
 
 @dataclass(frozen=True)

@@ -15,14 +15,15 @@ KEYWORDS = {
     "MODEL": "model", "END": "end", "PARAMETER": "parameter", "COORDINATE": "coordinate",
     "LET": "let", "DISSIPATION": "dissipation", "FORCE": "force", "CONSTRAINT": "constraint",
     "OUTPUT": "output", "SCENE": "scene", "TIME": "time", "INTEGRATOR": "integrator",
-    "SET": "set", "IN": "in",
+    "SET": "set", "IN": "in", "STOP": "stop", "WHEN": "when",
 }
 TOKEN_WORDS = {
     **{name: f"'{word}'" for name, word in KEYWORDS.items()},
     "ENERGY": "'T', 'U' or 'L'", "NAME": "a name", "NUMBER": "a number",
     "STRING": 'a description in double quotes', "UNIT": "a unit such as [kg]",
     "POW": "'^'", "PLUS": "'+'", "MINUS": "'-'", "STAR": "'*'", "SLASH": "'/'", "EQ": "'='",
-    "SEMI": "';'", "COLON": "':'", "COMMA": "','", "LPAR": "'('", "RPAR": "')'", "LSQB": "'['",
+    "SEMI": "';'", "COLON": "':'", "COMMA": "','",
+    "DOT": "'.'", "LESS": "'<'", "GREATER": "'>'", "LPAR": "'('", "RPAR": "')'", "LSQB": "'['",
     "RSQB": "']'", "LBRACE": "'{'", "RBRACE": "'}'", "$END": "the end of the file",
 }
 DECLARATION_STARTS = {"PARAMETER", "COORDINATE", "LET", "ENERGY", "DISSIPATION", "FORCE",
@@ -31,7 +32,7 @@ EXPRESSION_STARTS = {"NAME", "NUMBER", "LPAR", "LBRACE", "MINUS", "PLUS"}
 OPERATORS = {"PLUS", "MINUS", "STAR", "SLASH", "POW"}
 CLOSING = {"LPAR": "RPAR", "LSQB": "RSQB", "LBRACE": "RBRACE"}     # opening bracket -> closing
 OPENING = {closer: opener for opener, closer in CLOSING.items()}
-STATEMENT_LEVEL = DECLARATION_STARTS | {"SEMI", "END", "TIME", "INTEGRATOR", "SET", "MODEL"}
+STATEMENT_LEVEL = DECLARATION_STARTS | {"SEMI", "END", "TIME", "INTEGRATOR", "SET", "STOP", "MODEL"}
 
 
 @lru_cache(maxsize=1)

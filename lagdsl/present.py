@@ -63,7 +63,8 @@ def describe_model(model: ir.Model, equations: Equations) -> str:
         lines.append(f"  {s.name}" + (f' "{s.description}"' if s.description else "")
                      + f": t = {format_number(s.time.start)} .. {format_number(s.time.stop)}"
                      f" every {format_number(s.time.interval)}, {s.integrator.name}({options}); "
-                     f"outputs: {', '.join(o.column for o in s.outputs) or 'the coordinates'}")
+                     f"outputs: {', '.join(o.column for o in s.outputs) or 'the coordinates'}"
+                     + (f"; stop when {s.stop.text}" if s.stop else ""))
     return "\n".join(visible(line) for line in lines)      # descriptions and units are free text
 
 

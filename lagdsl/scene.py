@@ -37,6 +37,7 @@ class ScenePlan(IntegratorTraits):
     invariants: tuple[str, ...]                     # names of conserved quantities to watch
     constraints: tuple[str, ...]                    # active constraints (projected, monitored)
     initial_state: tuple[float, ...]                # y0 = (q(0), q'(0)) with every override applied
+    stop: ir.StopCondition | None = None            # the scene's `stop when ...`
 
     @property
     def columns(self) -> tuple[str, ...]:
@@ -49,7 +50,8 @@ class ScenePlan(IntegratorTraits):
     def run_plan(self) -> RunPlan:
         """What the runner needs of this plan (no expressions)."""
         return RunPlan(self.scene_name, self.time, self.integrator, self.parameters, self.initial_state,
-                       self.coordinates, self.columns, self.invariants, self.constraints)
+                       self.coordinates, self.columns, self.invariants, self.constraints,
+                       self.stop.text if self.stop else None)
 
 
 def plan_scene(model: ir.Model, equations: Equations, scene_name: str | None = None,
@@ -66,7 +68,7 @@ def plan_scene(model: ir.Model, equations: Equations, scene_name: str | None = N
                      time, integrator, parameters, frozenset(set_values),
                      tuple((name, start, velocity) for name, (start, velocity) in initial.items()),
                      outputs, tuple(q.name for q in equations.conserved), settings.constraints,
-                     _initial_state(model, parameters, initial))
+                     _initial_state(model, parameters, initial), scene.stop if scene else None)
 
 
 def scene_defaults(model: ir.Model, equations: Equations,

@@ -14,7 +14,7 @@ import sympy
 from . import ir
 from .calculus import TIME_DIRECTION, Differentiator
 from .errors import ErrorCollector, InternalError, LagError
-from .expressions import KIND_WORDS, MAX_MEMBERS, Binding, ExpressionBuilder, Scope, Vector, number_value, suggest
+from .expressions import KIND_WORDS, MAX_MEMBERS, Binding, ExpressionBuilder, Matrix, Scope, Vector, suggest
 from .settings import DEFAULT_INTEGRATOR, DEFAULT_TIME, INTEGRATOR_OPTIONS, validate_integrator
 from .source import SourceFile, Span
 from .units import parse_unit
@@ -175,7 +175,20 @@ class _ModelBuilder:
 
     def _parameter(self, node, token):
         value_node = expressions_of(node)[0]
-        value = self.expr.scalar(value_node, self.scope, "a scalar value")
+        dimension = subtree(node, "dimension")
+        if dimension is None:
+            symbol = self.new_parameter(str(token), value_node, self.scope, node, token)
+            self.declare(token, Binding("parameter", self.span(token), symbol))
+            return
+        size = self.family_size(dimension, "parameters")
+        nodes = self.listed(value_node, size, f"{token}[1] .. {token}[{size}]", "", "parameters")
+        self.require_new_name(token)
+        family = {i: self.new_parameter(f"{token}[{i}]", item, scope, node, token)
+                  for i, (item, scope) in enumerate(nodes, 1)}
+        self.declare(token, Binding("parameter", self.span(token), family=family))
+
+    def new_parameter(self, name: str, value_node, scope, node, token) -> sympy.Symbol:
+        value = self.expr.scalar(value_node, scope, "a scalar value")
         stray = value.free_symbols - set(self.expr.exact_parameters)
         if stray:
             raise LagError("a parameter's value may only use numbers and earlier parameters", self.span(value_node))
@@ -183,15 +196,43 @@ class _ModelBuilder:
         number = complex(exact.evalf(20))
         if number.imag != 0 or not abs(number.real) < float("inf"):
             raise LagError("the parameter's value is not a finite real number", self.span(value_node))
-        symbol = sympy.Symbol(str(token), real=True)
-        self.declare(token, Binding("parameter", self.span(token), symbol))
+        symbol = sympy.Symbol(name, real=True)
         self.expr.exact_parameters[symbol] = exact
-        self.parameters.append(ir.Parameter(str(token), symbol, value, number.real, self.unit(node),
+        self.parameters.append(ir.Parameter(name, symbol, value, number.real, self.unit(node),
                                             self.description(node), self.span(token)))
+        return symbol
 
-    def parameter_value(self, node, what: str) -> float:
+    def family_size(self, dimension, what: str) -> int:
+        size = self.expr.integer(dimension.children[1], self.scope, f"the number of {what}")
+        if size < 1:
+            raise LagError(f"an indexed family of {what} needs at least one member", self.span(dimension))
+        if size > MAX_MEMBERS:
+            raise LagError(f"{size} {what} in one family; at most {MAX_MEMBERS} are allowed", self.span(dimension))
+        return size
+
+    def listed(self, node, size: int, members: str, kind: str, noun: str) -> list[tuple[lark.Tree, Scope]]:
+        """The values of a family of `size` members, each as (expression, scope to read it in):
+        one expression for all, a list {a, b, ...} of `size`, or {e, i in 1:n}, e read with i bound."""
+        if node.data != "braces":
+            return [(node, self.scope)] * size
+        items = [c for c in node.children if not isinstance(c, lark.Token)]
+        if items[-1].data == "iteration":
+            if len(items) != 2:
+                raise LagError("a list given by its index is written {expression, i in 1:n}", self.span(node))
+            variable, low, high = self.expr.iteration(items[1], self.scope)
+            if (low, high) != (1, size):
+                raise LagError(f"the range {low}:{high} does not cover the members {members}; write "
+                               f"{variable} in 1:{size}", self.span(items[1].children[2]))
+            return [(items[0], self.scope.child(**{variable: i})) for i in range(1, size + 1)]
+        if len(items) != size:
+            what = f"{kind} values" if kind else "values"
+            raise LagError(f"{len(items)} {what} for the {size} {noun} {members}; give one "
+                           f"value for all, or a list of {size}", self.span(node))
+        return [(item, self.scope) for item in items]
+
+    def parameter_value(self, node, what: str, scope: Scope | None = None) -> float:
         """A number in a scene or modifier: parameters allowed, evaluated at their defaults."""
-        value = self.expr.scalar(node, self.scope, what)
+        value = self.expr.scalar(node, scope or self.scope, what)
         if value.free_symbols - set(self.expr.exact_parameters):
             raise LagError(f"{what} may only use numbers and parameters", self.span(node))
         result = complex(value.xreplace(self.expr.exact_parameters).evalf(20))
@@ -221,12 +262,7 @@ class _ModelBuilder:
             coordinate = self.new_coordinate(name, start, velocity, unit, description, self.span(token))
             self.declare(token, Binding("coordinate", self.span(token), coordinate.symbol))
             return
-        size = self.expr.integer(dimension.children[1], self.scope, "the number of coordinates")
-        if size < 1:
-            raise LagError("an indexed coordinate needs at least one member", self.span(dimension))
-        if size > MAX_MEMBERS:
-            raise LagError(f"{size} coordinates in one family; at most {MAX_MEMBERS} are allowed",
-                           self.span(dimension))
+        size = self.family_size(dimension, "coordinates")
         starts = self.initial_values(modifiers.get("start"), size, f"{name}[1] .. {name}[{size}]", "start")
         velocities = self.initial_values(modifiers.get("velocity"), size, f"{name}[1] .. {name}[{size}]",
                                          "velocity")
@@ -268,22 +304,18 @@ class _ModelBuilder:
         """start/velocity: a parameter expression, or {a, b, ...} for an indexed family."""
         if node is None:
             return sympy.S.Zero if size is None else [sympy.S.Zero] * size
-        if node.data == "braces":
-            items = [c for c in node.children if not isinstance(c, lark.Token)]
-            if size is None:
+        if size is None:
+            if node.data == "braces":
                 raise LagError("a list of initial values needs an indexed coordinate", self.span(node))
-            if len(items) != size:
-                raise LagError(f"{len(items)} {kind} values for the {size} coordinates {members}; give one "
-                               f"value for all, or a list of {size}", self.span(node))
-            return [self.initial_expression(item) for item in items]
-        value = self.initial_expression(node)
-        return value if size is None else [value] * size
+            return self.initial_expression(node, self.scope)
+        return [self.initial_expression(item, scope)
+                for item, scope in self.listed(node, size, members, kind, "coordinates")]
 
-    def initial_expression(self, node) -> sympy.Expr:
-        value = self.expr.scalar(node, self.scope, "an initial value")
+    def initial_expression(self, node, scope) -> sympy.Expr:
+        value = self.expr.scalar(node, scope, "an initial value")
         if value.free_symbols - set(self.expr.exact_parameters):
             raise LagError("an initial value may only use numbers and parameters", self.span(node))
-        self.parameter_value(node, "an initial value")
+        self.parameter_value(node, "an initial value", scope)
         return value
 
     # -- lets ------------------------------------------------------------------------------------
@@ -324,6 +356,9 @@ class _ModelBuilder:
         if isinstance(value, Vector):
             return Vector(tuple(self.intermediate(f"{name}.{axis}", c, token)
                                 for axis, c in zip("xyz", value.components)))
+        if isinstance(value, Matrix):
+            return Matrix(tuple(tuple(self.intermediate(f"{name}[{i},{j}]", c, token) for j, c in enumerate(row, 1))
+                                for i, row in enumerate(value.rows, 1)))
         symbol = sympy.Symbol(name, real=True)
         self.let_spans[symbol] = self.span(token)
         return self.calculus.define(symbol, value)
@@ -395,7 +430,7 @@ class _ModelBuilder:
         self.forces.append(ir.Force(name, value, self.span(node)))
 
     def coordinate_member(self, token, binding: Binding, index_node, usage: str) -> str:
-        """'q', or 'q[i]' for a member of an indexed coordinate, with the index checked."""
+        """'q', or 'q[i]' for a member of an indexed coordinate (or parameter), with the index checked."""
         if binding.family is None:
             if index_node is not None:
                 raise LagError(f"'{token}' is not indexed", self.span(token))
@@ -438,14 +473,15 @@ class _ModelBuilder:
         else:
             self.scene_spans[str(name)] = self.span(name)
         statements = [c for c in node.children if isinstance(c, lark.Tree) and c.data != "description"]
-        time, integrator = DEFAULT_TIME, None
+        time, integrator, stop = DEFAULT_TIME, None, None
         parameter_overrides, initial_overrides, outputs = [], [], []
         given: dict[str, Span] = {}
         for statement in statements:
-            if statement.data in ("scene_time", "scene_integrator"):
-                word = "time" if statement.data == "scene_time" else "integrator"
+            if statement.data in ("scene_time", "scene_integrator", "scene_stop"):
+                word = {"scene_time": "time(...)", "scene_integrator": "integrator(...)",
+                        "scene_stop": "a stop condition"}[statement.data]
                 if word in given:
-                    errors.errors.append(LagError(f"the scene gives {word}(...) twice (first at line "
+                    errors.errors.append(LagError(f"the scene gives {word} twice (first at line "
                                                   f"{given[word].line})", self.span(statement)))
                     continue
                 given[word] = self.span(statement)
@@ -453,6 +489,8 @@ class _ModelBuilder:
                 time = errors.attempt(self.scene_time, statement) or time
             elif statement.data == "scene_integrator":
                 integrator = errors.attempt(self.scene_integrator, statement) or integrator
+            elif statement.data == "scene_stop":
+                stop = errors.attempt(self.scene_stop, statement)
             elif statement.data == "scene_set":
                 override = errors.attempt(self.scene_set, statement)
                 if isinstance(override, ir.ParameterOverride):
@@ -474,7 +512,7 @@ class _ModelBuilder:
             integrator = DEFAULT_INTEGRATOR
         self.scenes.append(ir.Scene(str(name), self.description(node), time, integrator,
                                     tuple(parameter_overrides), tuple(initial_overrides),
-                                    tuple(outputs), self.span(name)))
+                                    tuple(outputs), self.span(name), stop))
 
     def scene_time(self, node) -> ir.TimeGrid:
         options = self.modifiers(node, ("start", "stop", "interval"), "time(...)")
@@ -486,6 +524,20 @@ class _ModelBuilder:
         if not interval > 0:
             raise LagError("the output interval must be positive", self.span(options.get("interval", node)))
         return ir.TimeGrid(start, stop, interval, self.span(node))
+
+    def scene_stop(self, node) -> ir.StopCondition:
+        """`stop when a < b;`: e = a - b (for `>`, b - a), a function of q, q', t and parameters."""
+        left, right = expressions_of(node)
+        sides = [self.expr.scalar(side, self.output_scope(), "a scalar in the stop condition")
+                 for side in (left, right)]
+        function = sides[0] - sides[1] if tokens(node, "LESS") else sides[1] - sides[0]
+        multipliers = {ir.multiplier_symbol(c.name) for c in self.constraints}
+        if function.free_symbols & multipliers:
+            raise LagError("a stop condition cannot use multiplier(...): it is evaluated after every step, "
+                           "where the multipliers are not solved for", self.span(node))
+        span = self.span(node)
+        text = " ".join(self.source.text[self.span(left).start:self.span(right).end].split())
+        return ir.StopCondition(text, function, span)
 
     def scene_integrator(self, node) -> ir.IntegratorChoice:
         token = tokens(node, "NAME")[0]
@@ -501,6 +553,8 @@ class _ModelBuilder:
         token = tokens(node, "NAME")[0]
         binding = self.scope.bindings.get(str(token))
         parts = [c for c in node.children if isinstance(c, lark.Tree) and c.data != "modifiers"]
+        if binding is not None and binding.kind == "invalid":
+            raise PoisonedName()
         if subtree(node, "modifiers") is None:        # set p = value
             if binding is not None and binding.kind == "coordinate":
                 raise LagError(f"'{token}' is a coordinate; set its initial values with "
@@ -508,13 +562,13 @@ class _ModelBuilder:
             if binding is None or binding.kind != "parameter":
                 parameters = [p.name for p in self.parameters]
                 raise LagError(f"'{token}' is not a parameter{suggest(str(token), parameters)}", self.span(token))
-            if len(parts) != 1:
-                raise LagError(f"'{token}' is not indexed", self.span(token))
-            parameter = next(p for p in self.parameters if p.name == str(token))
+            name = self.coordinate_member(token, binding, parts[0] if len(parts) == 2 else None,
+                                          f"set {token}[i] = ...")
+            parameter = next(p for p in self.parameters if p.name == name)
             if parameter.symbol in self.expr.structural:
-                raise LagError(f"'{token}' fixes the size of the model and cannot be changed by a scene",
+                raise LagError(f"'{name}' fixes the size of the model and cannot be changed by a scene",
                                self.span(token))
-            return ir.ParameterOverride(str(token), self.parameter_value(parts[-1], "the value"), self.span(node))
+            return ir.ParameterOverride(name, self.parameter_value(parts[-1], "the value"), self.span(node))
         if binding is not None and binding.kind == "parameter":
             raise LagError(f"'{token}' is a parameter; set it with set {token} = ...", self.span(token))
         if binding is None or binding.kind != "coordinate":

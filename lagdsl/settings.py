@@ -119,6 +119,7 @@ class RunPlan(IntegratorTraits):
     columns: tuple[str, ...]
     invariants: tuple[str, ...]             # names of conserved quantities to watch
     constraints: tuple[str, ...]            # active constraints (projected, monitored)
+    stop: str | None = None                 # the text of the scene's `stop when` condition
 
 
 @dataclass(frozen=True)

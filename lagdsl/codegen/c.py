@@ -20,6 +20,7 @@ FUNCTION_PARAMETERS = {
     "momentum_rate": ("par", "t", "y", "dp"),
     "constraint_rows": ("par", "t", "y", "g", "c", "A"),
     "outputs": ("par", "t", "y", "out", "inv"),
+    "stop": ("par", "t", "y", "ev"),
 }
 # Command-line names of the integrator options, and the lag_options field each sets.
 OPTION_FIELDS = {"rtol": "rtol", "atol": "atol", "step": "step", "max_step": "max_step", "stages": "stages",
@@ -73,6 +74,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
         "options_init": _options_initializer(options),
         "option_fields": _option_fields(kernel),
         "tolerances": "rtol" in _allowed_options(kernel),
+        "stop_text": kernel.stop_text, "stop": None,      # the stop block, when there is one (below)
         **blocks,
     }
     context["driver"] = template_environment().get_template("c/driver.c.j2").render(context)

@@ -17,6 +17,8 @@ The blocks are exactly what the scene needs:
                (q'', λ); then ∂(q'', λ)/∂y = K⁻¹ ∂R/∂y, solved numerically
   canonical    gauss only: p = ∂L/∂q', M, and ṗ = ∂L/∂q + Q for Hamilton's equations
   initial      the initial state y0 from the start values (expressions of parameters)
+  stop         a scene with `stop when ...` only: the function e(t, y) whose sign change to
+               negative ends the run
 
 All symbols are renamed to target-safe names (p_m1, q_theta1, v_theta1, let_x1, c12, ...)
 that cannot collide with C or Python keywords, libm or POSIX names.
@@ -74,6 +76,8 @@ class Kernel:
     momenta: Block | None
     mass: Block | None
     momentum_rate: Block | None
+    stop: Block | None = None                    # e(t, y) of the scene's stop condition
+    stop_text: str = ""                          # the condition as written
 
     @property
     def n(self) -> int:
@@ -231,7 +235,9 @@ class _Lowering:
                                          o.expression.free_symbols & set(self.multipliers) for o in plan.outputs),
             constraint_rows=self.constraint_block() if self.active else None,
             jacobian=self.jacobian_block() if plan.implicit else None,
-            **self.canonical_blocks())
+            **self.canonical_blocks(),
+            stop=self.block([("ev", (0,), plan.stop.function)]) if plan.stop else None,
+            stop_text=plan.stop.text if plan.stop else "")
 
     def derived_parameters(self):
         """Parameters defined by earlier ones, written in terms of the array par[] they live in."""

@@ -26,6 +26,7 @@ def render_numpy(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSou
         "derived": [(i, printer.doprint(expr)) for i, expr in kernel.derived_parameters],
         "jacobian": kernel.jacobian is not None, "canonical": kernel.momenta is not None,
         "outputs_need_multipliers": kernel.outputs_need_multipliers,
+        "stop_text": kernel.stop_text, "stop": None,      # the stop block, when there is one (below)
         **blocks,
     }
     text = template_environment().get_template("numpy/model.py.j2").render(context)

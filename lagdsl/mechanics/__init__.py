@@ -31,7 +31,10 @@ def derive_equations(model: ir.Model) -> Equations:
     _require_derivatives(model, merged_definitions(calculus, held),
                          [*forcing, *(e for row in mass for e in row),
                           *(e for c in constraints for e in (*c.jacobian, c.gamma))])
-    _require_regular(model, mass, constraints, probe)
+    # M's entries may be intermediates of the carriers' table: probe over both tables.
+    bases = (*q, *v, ir.TIME)
+    _require_regular(model, mass, constraints,
+                     Probe(Differentiator(merged_definitions(calculus, held), bases), probe.symbols))
     energy = sum((vk * pk for vk, pk in zip(v, momenta)), sympy.S.Zero) - lagrangian
     conserved = conserved_quantities(model, calculus, probe, lagrangian, momenta, gradient,
                                      constraints, energy)

@@ -72,6 +72,17 @@ class ErrorEstimate:
 
 
 @dataclass(frozen=True)
+class Stop:
+    """The scene's stop condition ended the run at `time`, the time of the last row."""
+
+    condition: str          # as written: "y < 0"
+    time: float
+
+    def render(self) -> str:
+        return f"stopped at t = {self.time:.17g}, where {self.condition}"
+
+
+@dataclass(frozen=True)
 class RunSummary:
     """What the run cost and how well it kept its invariants and constraints."""
 
@@ -86,6 +97,7 @@ class RunSummary:
     settings: tuple[tuple[str, float], ...] = ()        # the integrator's options as used
     stiffness: Stiffness | None = None                  # explicit methods: stiffness detected
     switches: Switches | None = None                    # auto: its changes of method
+    stopped: Stop | None = None                         # the scene's stop condition ended the run
     error: ErrorEstimate | None = None                  # lagc run --error, simulate(estimate_error=True)
 
     def count(self, counter: str) -> int | None:
@@ -96,7 +108,8 @@ class RunSummary:
         counts = [f"{value} {COUNTER_LABELS[name]}" for name, value in self.counters]
         lines = [f"integrator {self.integrator}({self.settings_text()}) ({self.backend}): "
                  + ", ".join([*counts, f"{self.wall_time:.3g} s"])]
-        lines += [part.render() for part in (self.stiffness, self.switches, self.error) if part is not None]
+        lines += [part.render() for part in (self.stiffness, self.switches, self.stopped, self.error)
+                  if part is not None]
         for name, start, drift in self.invariants:
             relative = f", relative {drift / abs(start):.3g}" if start != 0 else ""
             lines.append(f"drift of {name}: {drift:.3g} (from {start:.17g}{relative})")

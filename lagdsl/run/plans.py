@@ -36,7 +36,7 @@ from .cache import cached_entry, find_entry
 from .output import Result
 from .toolchain import find_compiler, library_entry
 
-PLAN_FORMAT = 1
+PLAN_FORMAT = 2
 PACKAGE_FILES = (".py", ".lark", ".j2", ".c", ".h")    # what lagdsl generates code and plans from
 
 
@@ -75,6 +75,7 @@ class StoredPlan:
     computed_from: frozenset[str]           # parameters that other values are computed from
     columns: tuple[str, ...]
     invariants: tuple[str, ...]
+    stop: str | None                        # the text of the scene's stop condition
     program: ProgramEntry
 
     def resolve(self, overrides: Overrides) -> RunPlan | None:
@@ -93,7 +94,7 @@ class StoredPlan:
             state[k] = start if start is not None else state[k]
             state[n + k] = velocity if velocity is not None else state[n + k]
         return RunPlan(settings.scene_name, time, integrator, parameters, tuple(state), settings.coordinates,
-                       self.columns, self.invariants, settings.constraints)
+                       self.columns, self.invariants, settings.constraints, self.stop)
 
     def run(self, plan: RunPlan, progress=None) -> Result | None:
         """Run `plan` with the stored program; None if the program entry is no longer valid."""
@@ -160,7 +161,7 @@ def _to_json(plan: StoredPlan) -> dict:
         "initial": [list(v) for v in s.initial], "constraints": list(s.constraints),
         "parameters": list(plan.parameters), "initial_state": list(plan.initial_state),
         "computed_from": sorted(plan.computed_from), "columns": list(plan.columns),
-        "invariants": list(plan.invariants),
+        "invariants": list(plan.invariants), "stop": plan.stop,
         "program": [plan.program.language, plan.program.name, plan.program.key],
     }
 
@@ -176,7 +177,7 @@ def _from_json(data: dict, source: SourceFile) -> StoredPlan:
         tuple(data["constraints"]))
     return StoredPlan(settings, tuple(data["parameters"]), tuple(data["initial_state"]),
                       frozenset(data["computed_from"]), tuple(data["columns"]), tuple(data["invariants"]),
-                      ProgramEntry(*data["program"]))
+                      data["stop"], ProgramEntry(*data["program"]))
 
 
 def _span_json(span: Span | None) -> list[int] | None:

@@ -32,7 +32,8 @@ from ..integrators.python.fixed_step import IntegrationFailure, integrate_gauss,
 from ..integrators.python.stiffness import STABILITY_BOUNDARY, StiffnessTest, SwitchLog
 from ..settings import RunPlan, check_step_count, grid_rows
 from .cache import cached_entry
-from .output import SETTINGS_ORDER, Result, RunSummary, Stiffness, Switches
+from .output import SETTINGS_ORDER, Result, RunSummary, Stiffness, Stop, Switches
+from .stop import StopCondition
 from .toolchain import shared_library
 
 if TYPE_CHECKING:       # the code generators import sympy; running generated code does not need it
@@ -134,7 +135,8 @@ def run_c(kernel: Kernel, source: GeneratedSource, plan: RunPlan, progress: Prog
     counters = COUNTERS[plan.integrator.name]
     head = 6 + len(counters)        # status, rows, t_fail, rcond_fail, residual, projection, counters
     extras = head + summary_extras(plan.integrator.name)     # the stiffness verdict, the switches
-    summary = np.zeros(extras + 2 * len(plan.invariants) + len(initial))
+    failure_state = extras + 2 * len(plan.invariants)
+    summary = np.zeros(failure_state + len(initial) + (2 if plan.stop else 0))
     pointer = lambda a: a.ctypes.data_as(double_p)   # noqa: E731
     status, elapsed = _interruptible(
         library, lambda: entry(pointer(parameters), pointer(initial), pointer(settings), pointer(rows),
@@ -149,10 +151,11 @@ def run_c(kernel: Kernel, source: GeneratedSource, plan: RunPlan, progress: Prog
                         plan.integrator.options,
                         stiffness=_c_stiffness(summary[head:], dict(zip(counters, summary[6:head])))
                         if name in STIFFNESS_TESTED else None,
-                        switches=_c_switches(summary[head:]) if name == "auto" else None)
+                        switches=_c_switches(summary[head:]) if name == "auto" else None,
+                        stopped=Stop(plan.stop, float(summary[-1])) if plan.stop and summary[-2] else None)
     result = Result(rows[:used, 0].copy(), plan.columns, rows[:used, 1:].copy(), report)
     if status != 0:
-        raise _failure(plan, status, float(summary[2]), summary[extras + 2 * len(plan.invariants):], result,
+        raise _failure(plan, status, float(summary[2]), summary[failure_state:failure_state + len(initial)], result,
                        float(summary[3]))
     return result
 
@@ -293,18 +296,25 @@ def run_numpy(kernel: Kernel, source: GeneratedSource, plan: RunPlan, progress: 
         # As in the C driver, the initial row is written unless y0 could not be projected.
         states = [y0] if failure is not None and failure[0] != PROJECTION_FAILED else []
         counts, elapsed = {}, 0.0
-        if failure is None:
+        stop = StopCondition(lambda t, y: float(module.stop_function(t, y, par))) if plan.stop else None
+        if failure is None and stop is not None and stop.holds_at_start(times[0], y0):
+            states = [y0]
+        elif failure is None:
             started = clock.perf_counter()
             if plan.integrator.name in SCIPY_METHODS:
-                states, counts, failure = _run_scipy(module, par, times, y0, plan, progress or _no_progress)
+                states, counts, failure = _run_scipy(module, par, times, y0, plan, progress or _no_progress, stop)
             else:
-                states, counts, failure = _run_fixed_step(module, par, times, y0, plan)
+                states, counts, failure = _run_fixed_step(module, par, times, y0, plan, stop)
             elapsed = clock.perf_counter() - started
         states = np.array(states).reshape(len(states), len(y0))
+        stopped = Stop(plan.stop, stop.time) if stop is not None and stop.time is not None else None
+        if stopped is not None:           # the last row is at the stop time
+            times = np.append(times[:len(states) - 1], stopped.time)
         rows = _rows_with_outputs(module, par, times, states)
         if rows < len(states) and failure is None:
             failure = (1, times[rows], states[rows])
-        result = _numpy_result(module, par, times[:rows], states[:rows], plan, counts, elapsed, projection)
+        result = _numpy_result(module, par, times[:rows], states[:rows], plan, counts, elapsed, projection,
+                               stopped)
     if failure is not None:
         status, t_fail, y_fail = failure
         with np.errstate(all="ignore"):
@@ -363,7 +373,7 @@ def _rows_with_outputs(module, par, times, states) -> int:
         return len(states)
 
 
-def _numpy_result(module, par, times, states, plan, counts, elapsed, projection) -> Result:
+def _numpy_result(module, par, times, states, plan, counts, elapsed, projection, stopped=None) -> Result:
     Y = states.T
     values, watched = module.observables(times, Y, par) if len(times) else (np.zeros((len(plan.columns), 0)), None)
     values = values.T
@@ -379,7 +389,7 @@ def _numpy_result(module, par, times, states, plan, counts, elapsed, projection)
                  if counts.get(name) is not None)
     summary = RunSummary("numpy", plan.integrator.name, kept, elapsed, invariants, plan.constraints, residual,
                          projection if plan.constraints else None, plan.integrator.options,
-                         stiffness=counts.get("stiffness"), switches=counts.get("switches"))
+                         stiffness=counts.get("stiffness"), switches=counts.get("switches"), stopped=stopped)
     return Result(np.asarray(times, dtype=float), plan.columns, np.asarray(values, dtype=float), summary)
 
 
@@ -387,9 +397,11 @@ def _no_progress(t: float, start: float, stop: float) -> None:
     pass
 
 
-def _run_scipy(module, par, times, y0, plan, progress):
+def _run_scipy(module, par, times, y0, plan, progress, stop=None):
     """scipy's solver step by step: rows from its dense output, the step limit and a step-size floor
-    counted here (scipy's own floor, 10 ulp of t, is no floor at t = 0), Ctrl-C between steps."""
+    counted here (scipy's own floor, 10 ulp of t, is no floor at t = 0), Ctrl-C between steps.
+    A stop condition is checked after every step, as the C driver does (not with solve_ivp's
+    events, which need solve_ivp's own loop): its row ends the run."""
     from scipy import integrate
     options = dict(plan.integrator.options)
     method = getattr(integrate, SCIPY_METHODS[plan.integrator.name])
@@ -434,10 +446,15 @@ def _run_scipy(module, par, times, y0, plan, progress):
             if not np.all(np.isfinite(solver.y)):
                 return states, watch.finish(_tally(counts, solver)), (2, solver.t, solver.y)
             dense = solver.dense_output()
-            while k < len(times) and times[k] <= solver.t:
+            end = stop.crossed(solver.t_old, solver.t, solver.y, dense) if stop is not None else None
+            while k < len(times) and times[k] <= solver.t and (end is None or times[k] < end):
                 state = solver.y.copy() if times[k] == solver.t else dense(times[k])
                 states.append(project(module, par, times[k], state)[0] if plan.constraints else state)
                 k += 1
+            if end is not None:
+                state = solver.y.copy() if end == solver.t else dense(end)
+                states.append(project(module, par, end, state)[0] if plan.constraints else state)
+                break
             if plan.constraints and solver.status == "running":
                 projected, _ = project(module, par, solver.t, solver.y)
                 counts = _tally(counts, solver)
@@ -535,34 +552,36 @@ def _tally(counts, solver):
     return counts
 
 
-def _run_fixed_step(module, par, times, y0, plan):
+def _run_fixed_step(module, par, times, y0, plan, stop=None):
     options = dict(plan.integrator.options)
     try:
         if plan.integrator.name == "rk4" and plan.constraints:
-            Y, stats = _rk4_projected(module, par, times, y0, options["step"], plan.time.stop)
+            Y, stats = _rk4_projected(module, par, times, y0, options["step"], plan.time.stop, stop)
         elif plan.integrator.name == "rk4":
-            Y, stats = integrate_rk4(lambda t, y: module.rhs(t, y, par), times, y0, options["step"])
+            Y, stats = integrate_rk4(lambda t, y: module.rhs(t, y, par), times, y0, options["step"], stop)
         else:
             Y, stats = integrate_gauss(lambda t, z: module.hamilton_rhs(t, z, par),
                                        lambda t, y: module.to_canonical(t, y, par),
                                        lambda t, z: module.from_canonical(t, z, par),
-                                       times, y0, options["step"], int(options["stages"]))
+                                       times, y0, options["step"], int(options["stages"]), stop)
     except IntegrationFailure as failure:
         return list(failure.Y[:failure.completed]), {}, (failure.status, failure.t, failure.y)
     return list(Y), stats, None
 
 
-def _rk4_projected(module, par, times, y0, step, stop):
+def _rk4_projected(module, par, times, y0, step, t_stop, stop=None):
     """rk4 step by step, projecting onto the constraints after each step as the C driver does;
-    output rows inside a step come from that step's dense output."""
+    output rows inside a step come from that step's dense output (and the stop condition's row)."""
     rows, stats, k, n, y = [y0], {"accepted": 0, "rejected": 0, "rhs_evals": 0}, 1, 0, y0
     try:
         while k < len(times):
-            start, end = times[0] + n * step, min(times[0] + (n + 1) * step, stop)
+            start, end = times[0] + n * step, min(times[0] + (n + 1) * step, t_stop)
             inside = [t for t in times[k:] if t <= end]
             grid = np.array([start, *inside] + ([] if inside and inside[-1] == end else [end]))
             try:
-                Y, counts = integrate_rk4(lambda t, x: module.rhs(t, x, par), grid, y, end - start)
+                Y, counts = integrate_rk4(lambda t, x: module.rhs(t, x, par), grid, y, end - start, stop)
+                if stop is not None and stop.time is not None:     # the last row is at the stop time
+                    inside = [*inside[:len(Y) - 2], stop.time]
                 projected = [project(module, par, t, row)[0] for t, row in zip(inside, Y[1:1 + len(inside)])]
                 y_end, _ = project(module, par, end, Y[-1])
             except IntegrationFailure as failure:       # with the rows of this run, not of the one step
@@ -574,6 +593,8 @@ def _rk4_projected(module, par, times, y0, step, stop):
             rows.extend(projected)
             for key in stats:
                 stats[key] += counts.get(key, 0)
+            if stop is not None and stop.time is not None:
+                break
             y = y_end
             k, n = k + len(inside), n + 1
     except KeyboardInterrupt:

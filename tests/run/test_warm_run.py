@@ -107,6 +107,18 @@ def test_a_warm_run_imports_neither_sympy_nor_lark_and_writes_the_same_bytes(mod
     assert (warm.returncode, warm.stdout, without_wall_time(warm.stderr)) == cold
 
 
+def test_a_warm_run_stops_where_the_scenes_condition_says(model, capsys):
+    """The stop condition's text travels in the stored plan: the summary names it on a warm run."""
+    ball = model.with_name("ball.lag")
+    ball.write_text("model Ball\n  parameter g = 9.81;\n  coordinate y(start = 0, velocity = 4);\n"
+                    "  T = der(y)^2/2;\n  U = g*y;\n  scene flight\n    time(stop = 10, interval = 0.1);\n"
+                    "    stop when y < 0;\n    output y;\n  end flight;\nend Ball;\n")
+    cold = lagc_here(capsys, "run", ball)
+    assert "stopped at t = 0.815494393476" in cold[2] and "where y < 0" in cold[2]
+    warm, imported = lagc("run", ball)
+    assert imported == "" and (warm.returncode, warm.stdout, without_wall_time(warm.stderr)) == cold
+
+
 @pytest.fixture(scope="module")
 def primed(tmp_path_factory):
     """A model whose scene has been run once, so its plan is stored (shared: warm runs write nothing)."""

@@ -66,20 +66,32 @@ def _step_count(t0: float, t_end: float, step: float) -> int:
 
 
 class _Output:
-    """Collects the rows of Y at the output times as the steps pass them."""
+    """Collects the rows of Y at the output times as the steps pass them.
 
-    def __init__(self, t_grid, y0):
+    `stop`, if given, is a stop condition (lagdsl.run.stop.StopCondition): where it begins to
+    hold in a step, the rows end with one at its time, and the integration stops.
+    """
+
+    def __init__(self, t_grid, y0, stop=None):
         self.t_grid = np.asarray(t_grid, dtype=float)
         self.Y = np.empty((len(self.t_grid),) + np.shape(y0))
         self.Y[0] = y0
         self.completed = 1
+        self.stop, self.stopped, self.t_old = stop, False, self.t_grid[0]
 
     def deliver(self, t_new, y_new, dense):
         """Fill the rows up to t_new: y_new at t_new itself, dense(t) before it."""
-        while self.completed < len(self.t_grid) and self.t_grid[self.completed] <= t_new:
+        end = self.stop.crossed(self.t_old, t_new, y_new, dense) if self.stop is not None else None
+        self.t_old = t_new
+        while self.completed < len(self.t_grid) and self.t_grid[self.completed] <= t_new and (
+                end is None or self.t_grid[self.completed] < end):
             t = self.t_grid[self.completed]
             self.Y[self.completed] = y_new if t == t_new else dense(t)
             self.completed += 1
+        if end is not None:
+            self.Y[self.completed] = y_new if end == t_new else dense(end)
+            self.completed += 1
+            self.stopped = True
 
     def failure(self, message, t, y, status=NONFINITE):
         return IntegrationFailure(message, t, y, self.Y[:self.completed].copy(), self.completed, status)
@@ -93,14 +105,17 @@ def _steps(output, step):
         raise output.failure(f"the step {step} is below the resolution of t", t0, output.Y[0], STEP_TOO_SMALL)
     steps = _step_count(t0, t_end, step)
     for n in range(1, steps + 1):
+        if output.stopped:
+            return
         yield n == steps, (t_end if n == steps else t0 + n * step)
 
 
-def integrate_rk4(rhs, t_grid, y0, step):
-    """Classical RK4 with a fixed step; Y[k] at t_grid[k], shape (len(t_grid),) + y0.shape."""
+def integrate_rk4(rhs, t_grid, y0, step, stop=None):
+    """Classical RK4 with a fixed step; Y[k] at t_grid[k], shape (len(t_grid),) + y0.shape (with a
+    stop condition `stop` that ends the run, fewer rows, the last at stop.time)."""
     t_grid = np.asarray(t_grid, dtype=float)
     y = np.array(y0, dtype=float)
-    output = _Output(t_grid, y)
+    output = _Output(t_grid, y, stop)
     stats = dict.fromkeys(STATS_KEYS, 0)
     t = t_grid[0]
     f = rhs(t, y)
@@ -118,7 +133,7 @@ def integrate_rk4(rhs, t_grid, y0, step):
         raise output.failure(f"rk4: the mass matrix is singular in the step from t = {t}", t, y, SINGULAR) from None
     except KeyboardInterrupt:
         raise output.failure("rk4: interrupted", t, y, INTERRUPTED) from None
-    return output.Y, stats
+    return output.Y[:output.completed], stats
 
 
 def _rk4_step(rhs, t, y, f, t_new):
@@ -141,13 +156,14 @@ def _hermite(t_old, y_old, f_old, t, y, f, t_out):
     return y_old + theta * (dy + (1 - theta) * (slope0 + theta * (dy - h * f - slope0)))
 
 
-def integrate_gauss(hamilton_rhs, to_canonical, from_canonical, t_grid, y0, step, stages):
+def integrate_gauss(hamilton_rhs, to_canonical, from_canonical, t_grid, y0, step, stages, stop=None):
     """s-stage Gauss-Legendre collocation with a fixed step on z = to_canonical(t, y).
 
     hamilton_rhs(t, z), to_canonical(t, y) and from_canonical(t, z) take and return arrays of
     shape (n,) or (n, B).  Returns (Y, stats) with Y[k] = y(t_grid[k]) in (q, q') form.
     stats["rhs_evals"] counts hamilton_rhs calls (one call evaluates the whole batch) and
     stats["newton_iters"] the fixed-point sweeps (those of the slowest column of a batch).
+    A stop condition `stop` ends the run as in integrate_rk4.
     """
     t_grid = np.asarray(t_grid, dtype=float)
     y = np.array(y0, dtype=float)
@@ -158,7 +174,7 @@ def integrate_gauss(hamilton_rhs, to_canonical, from_canonical, t_grid, y0, step
     else:
         as_batch, as_given = np.asarray, np.asarray
     method = _Gauss(hamilton_rhs, *gauss_legendre_tableau(int(stages)))
-    output = _Output(t_grid, y)
+    output = _Output(t_grid, y, stop)
     t = t_grid[0]
     z = as_batch(to_canonical(t, y))
     error = np.zeros_like(z)          # compensated summation: the part of z lost to rounding
@@ -171,7 +187,7 @@ def integrate_gauss(hamilton_rhs, to_canonical, from_canonical, t_grid, y0, step
         raise output.failure(f"gauss: the mass matrix is singular in the step from t = {t}", t, y, SINGULAR) from None
     except KeyboardInterrupt:
         raise output.failure("gauss: interrupted", t, y, INTERRUPTED) from None
-    return output.Y, method.stats
+    return output.Y[:output.completed], method.stats
 
 
 def _gauss_step(method, output, from_canonical, as_given, t, z, error, y, t_new, h):
