@@ -5,10 +5,10 @@ import contextlib
 import sys
 import time as clock
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
-from . import ir
+from . import ir, reference
 from .codegen import GeneratedSource
 from .codegen.kernel import Kernel
 from .errors import LagError
@@ -63,13 +63,15 @@ class Model:
                  start: float | None = None, stop: float | None = None, interval: float | None = None,
                  integrator: str | None = None, rtol: float | None = None, atol: float | None = None,
                  step: float | None = None, stages: int | None = None, max_step: float | None = None,
-                 max_steps: int | None = None, **parameters: float) -> Result:
+                 max_steps: int | None = None, estimate_error: bool = False, **parameters: float) -> Result:
         """Run a scene and return its outputs.
 
         `set` maps parameter names, "q.start" and "q.velocity" to values; parameters may also be
         given as keyword arguments (`simulate(m2=3)`). The other arguments override the scene's
         time grid and integrator; `max_steps` bounds the steps (default: 100000, or 100 per
-        output row). Raises SimulationError (with `.partial`, the rows computed so far) when the
+        output row). `estimate_error` fills `result.summary.error` (an ErrorEstimate: `.value`, the
+        largest absolute error over rows and columns, against a 100x tighter rerun or the
+        extended-precision reference; `float(...)` gives the value). Raises SimulationError (with `.partial`, the rows computed so far) when the
         integration fails, SimulationInterrupted (a SimulationError) when Ctrl-C stops it.
         """
         _check_backend(backend)
@@ -79,16 +81,43 @@ class Model:
                                      max_steps=max_steps))
         overrides = Overrides(tuple((k, float(v)) for k, v in values.items()), start, stop, interval,
                               integrator, options)
-        return self.simulate_plan(scene, backend, overrides)
+        return self.simulate_plan(scene, backend, overrides, estimate_error=estimate_error)
 
     def simulate_plan(self, scene: str | None, backend: str, overrides: Overrides,
-                      progress: Callable[[float, float, float], None] | None = None) -> Result:
+                      progress: Callable[[float, float, float], None] | None = None,
+                      estimate_error: bool = False) -> Result:
         """`simulate` with the overrides already gathered (what `lagc run` calls); `progress` is
         called as progress(t reached, start, stop) every so often."""
         _check_backend(backend)
         scene_plan = self.plan(scene, overrides)
         program = self._program(scene, scene_plan, backend, overrides)
-        return execute(program.kernel, program.source, scene_plan, progress, program.loaded)
+        result = execute(program.kernel, program.source, scene_plan, progress, program.loaded)
+        if not estimate_error:
+            return result
+
+        def rerun(options) -> Result:
+            tighter = replace(overrides, integrator=scene_plan.integrator.name, options=options)
+            return self.simulate_plan(scene, backend, tighter)
+
+        error = reference.estimate_error(result, self.equations, scene_plan, self.source.name, rerun)
+        return replace(result, summary=replace(result.summary, error=error))
+
+    def bench(self, scene: str | None = None, *, integrators: tuple[str, ...] | None = None, backend: str = "c",
+              peers: bool = False, repeat: int = 3, set: dict | None = None, start: float | None = None,
+              stop: float | None = None, interval: float | None = None, progress: bool = False):
+        """Work against precision: each integrator's ladder of settings, its time and its global error
+        against the extended-precision reference (see lagdsl.bench).
+
+        `backend` is "c", "numpy" or "both"; `peers` adds scipy's solve_ivp and CyRK (if installed).
+        Returns a pandas DataFrame when pandas is installed, else a list of dicts, with the columns
+        of `lagc bench -o`: integrator, backend, rtol, atol, step, seconds, rhs_evals, steps,
+        rejected, error, reference_error.
+        """
+        from . import bench
+        overrides = Overrides(tuple((k, float(v)) for k, v in (set or {}).items()), start, stop, interval)
+        report = bench.run_bench(self, scene, overrides, integrators, bench.backends(backend), peers, repeat,
+                                 progress=bench.progress_bar() if progress else None)
+        return bench.table(report)
 
     def sweep(self, scene: str | None = None, backend: str = "c", *, set: dict, workers: int | None = None,
               client=None, progress: bool = False, **overrides) -> batch.Sweep:

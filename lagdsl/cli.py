@@ -19,11 +19,11 @@ import warnings
 
 
 from . import __version__
-from .errors import LagError, LagWarning, Setting, SimulationError, SimulationInterrupted
+from .errors import LagError, LagWarning, Setting, SimulationError, SimulationInterrupted, suggest
 from .escape import visible
 from .run import cache
 from .run.output import check_writable, write_output
-from .settings import Overrides, given_options
+from .settings import INTEGRATORS, Overrides, given_options
 from .source import SourceFile
 
 
@@ -62,7 +62,8 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 
 def _dispatch(argv: list[str]) -> int:
     parser = _parser()
-    if argv and argv[0] not in ("check", "eom", "run", "sweep", "cache", "-h", "--help", "--version") and "--emit" in argv:
+    if argv and argv[0] not in ("check", "eom", "run", "sweep", "bench", "cache", "-h", "--help", "--version") \
+            and "--emit" in argv:
         argv = ["emit", *argv]
     arguments = parser.parse_args(argv)
     return arguments.handler(arguments)
@@ -92,6 +93,9 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("-o", "--output", help="write the CSV here instead of standard output")
     run.add_argument("--no-cache", action="store_true",
                      help="build in a private temporary directory; use nothing from the build cache")
+    run.add_argument("--error", action="store_true",
+                     help="estimate the run's global error (a 100x tighter rerun, or the extended-precision reference)")
+    run.add_argument("--plot", metavar="FILE.png", help="plot the output columns against time")
     run.set_defaults(handler=_run)
 
     sweep = commands.add_parser("sweep", help="simulate many members (a grid or a random sample of inputs); "
@@ -112,6 +116,21 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("-o", "--output", required=True,
                        help="the table: Parquet if the name ends in .parquet (needs pyarrow), else CSV")
     sweep.set_defaults(handler=_sweep)
+    bench = commands.add_parser("bench", help="work against precision: each integrator's time and global error "
+                                "against an extended-precision reference")
+    bench.add_argument("model")
+    _scene_options(bench)
+    bench.add_argument("--integrators", metavar="LIST",
+                       help="comma-separated integrators to compare (default: all the scene admits)")
+    bench.add_argument("--backend", default="c", metavar="c|numpy|both", help="generated code to run (default: c)")
+    bench.add_argument("--peers", action="store_true",
+                       help="also scipy's solve_ivp (RK45, DOP853, Radau, LSODA) and CyRK (if installed)")
+    bench.add_argument("--repeat", default="3", metavar="N", help="runs per setting, the fastest counts (default: 3)")
+    _input_options(bench)
+    bench.add_argument("-o", "--output", metavar="TABLE.csv", help="write the table as CSV")
+    bench.add_argument("--plot", metavar="FILE.png", help="write the work-precision diagram and the drifts")
+    bench.set_defaults(handler=_bench)
+
     cache_command = commands.add_parser("cache", help="show where the build cache is and its size, or empty it")
     cache_command.add_argument("action", choices=("info", "clear"))
     cache_command.set_defaults(handler=_cache)
@@ -126,12 +145,9 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _run_options(parser: argparse.ArgumentParser) -> None:
+    """What `lagc run` and `lagc sweep` take: the backend, the inputs and the integrator's options."""
     parser.add_argument("--backend", choices=("c", "numpy"), default="c", help="generated code to run (default: c)")
-    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                        help="override a parameter, or an initial value as COORDINATE.start / COORDINATE.velocity")
-    parser.add_argument("--start", type=float, help="start time of the output grid")
-    parser.add_argument("--stop", type=float, help="stop time")
-    parser.add_argument("--interval", type=float, help="output interval")
+    _input_options(parser)
     parser.add_argument("--integrator", help="rk4, dopri5, dop853, radau5, gauss or auto")
     parser.add_argument("--rtol", type=float, help="relative tolerance (adaptive integrators)")
     parser.add_argument("--atol", type=float, help="absolute tolerance (adaptive integrators)")
@@ -146,9 +162,24 @@ def _scene_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scene", help="scene to use (default: the model's first scene)")
 
 
+def _input_options(parser: argparse.ArgumentParser) -> None:
+    """Parameters, initial values and the time grid: the inputs of a run."""
+    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                        help="override a parameter, or an initial value as COORDINATE.start / COORDINATE.velocity")
+    parser.add_argument("--start", type=float, help="start time of the output grid")
+    parser.add_argument("--stop", type=float, help="stop time")
+    parser.add_argument("--interval", type=float, help="output interval")
+
+
 def _overrides(arguments) -> Overrides:
+    options = given_options(vars(arguments))
+    return Overrides(_set_values(arguments.set), arguments.start, arguments.stop, arguments.interval,
+                     arguments.integrator, options)
+
+
+def _set_values(items: list[str]) -> tuple[tuple[str, float], ...]:
     values = []
-    for item in arguments.set:
+    for item in items:
         name, equals, text = item.partition("=")
         try:
             value = float(text)
@@ -157,9 +188,7 @@ def _overrides(arguments) -> Overrides:
         if not equals or value is None:
             raise LagError(f"--set takes NAME=VALUE with a number, got '{item}'")
         values.append((name.strip(), value))
-    options = given_options(vars(arguments))
-    return Overrides(tuple(values), arguments.start, arguments.stop, arguments.interval,
-                     arguments.integrator, options)
+    return tuple(values)
 
 
 def _run(arguments) -> int:
@@ -167,7 +196,8 @@ def _run(arguments) -> int:
     stopped, and exit 1 (with the error, which `main` prints). --no-cache: in a private cache.
 
     With a stored plan of the scene (run/plans.py) the model is neither parsed nor derived,
-    unless the plan cannot serve the overrides; the output is the same either way."""
+    unless the plan cannot serve the overrides (or --error needs the model); the output is the same
+    either way."""
     with cache.private_cache() if arguments.no_cache else contextlib.nullcontext():
         return _simulate(arguments)
 
@@ -176,11 +206,13 @@ def _simulate(arguments) -> int:
     """`lagc run` in the cache in use: warm from a stored plan if it serves, else the full pipeline."""
     from .run import plans      # numpy and the runner: only `lagc run` needs them
     source = SourceFile.read(arguments.model)
-    # --units names the columns' units, which only the model knows: the full pipeline
-    stored = None if arguments.units else plans.find(source, arguments.scene, arguments.backend, arguments.integrator)
+    # --units names the columns' units and --error needs the model: the full pipeline
+    stored = None if arguments.units or arguments.error else plans.find(source, arguments.scene, arguments.backend,
+                                                                        arguments.integrator)
     model = None if stored else _model(source)      # the model's errors first, as always
-    if arguments.output:
-        check_writable(arguments.output)      # refuse before the run, not after it
+    for path in (arguments.output, arguments.plot):
+        if path:
+            check_writable(path)      # refuse before the run, not after it
     overrides = _overrides(arguments)
     progress = ProgressLine(sys.stderr)
     units = model.column_units(arguments.scene) if arguments.units else None
@@ -189,7 +221,8 @@ def _simulate(arguments) -> int:
         result = stored.run(plan, progress.show) if plan else None
         if result is None:
             model = model if model is not None else _model(source)
-            result = model.simulate_plan(arguments.scene, arguments.backend, overrides, progress.show)
+            result = model.simulate_plan(arguments.scene, arguments.backend, overrides, progress.show,
+                                         arguments.error)
     except SimulationInterrupted as stopped:
         progress.clear()
         _deliver(stopped.partial.csv(units), arguments.output)
@@ -205,6 +238,9 @@ def _simulate(arguments) -> int:
         raise
     progress.clear()
     _deliver(result.csv(units), arguments.output)
+    if arguments.plot:
+        from . import plots
+        write_output(arguments.plot, plots.outputs_png(result, _title(source, arguments.scene)))
     print(result.summary.render(), file=sys.stderr)
     return 0
 
@@ -259,6 +295,10 @@ def _dask_client(address: str | None, workers: int | None):
         yield client
 
 
+def _title(source: SourceFile, scene: str | None) -> str:
+    return f"{source.name}, scene {scene}" if scene else source.name
+
+
 class ProgressLine:
     """`lagc: t = 12.5 of 50 (25%), 3.1 s` on a terminal's standard error, rewritten in place with \r
     at most every REFRESH seconds once a run has taken DELAY seconds; nothing on a file or pipe
@@ -295,6 +335,55 @@ def _incomplete(partial, time: float, output: str | None) -> str:
     where = output or "standard output"
     rows = f"{len(partial.t)} rows up to t = {partial.t[-1]:.17g}" if len(partial.t) else "no rows"
     return f"the run is incomplete: it stopped at t = {time:.17g}; {rows} written to {where}"
+
+
+def _bench(arguments) -> int:
+    """The table on standard output (the reference first), -o CSV and --plot PNG, a progress bar on stderr."""
+    from . import bench, plots
+    if arguments.backend not in bench.BACKEND_CHOICES:
+        _refuse("--backend", f"expected c, numpy or both, got '{arguments.backend}'")
+    repeat = _positive_integer("--repeat", arguments.repeat)
+    integrators = _integrator_list(arguments.integrators)
+    for path in (arguments.output, arguments.plot):
+        if path:
+            check_writable(path)
+    model = _model(SourceFile.read(arguments.model))
+    overrides = Overrides(_set_values(arguments.set), arguments.start, arguments.stop, arguments.interval)
+    progress = bench.progress_bar()
+    try:
+        report = bench.run_bench(model, arguments.scene, overrides, integrators, bench.backends(arguments.backend),
+                                 arguments.peers, repeat, drift=bool(arguments.plot), progress=progress)
+    finally:
+        progress.close()
+    print(report.render())
+    if arguments.output:
+        write_output(arguments.output, report.csv())
+    if arguments.plot:
+        write_output(arguments.plot, plots.work_precision_png(report))
+    return 0
+
+
+def _refuse(option: str, message: str):
+    raise LagError(message, Setting(option))
+
+
+def _positive_integer(option: str, text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    return value if value >= 1 else _refuse(option, f"expected a whole number >= 1, got '{text}'")
+
+
+def _integrator_list(text: str | None) -> tuple[str, ...] | None:
+    if text is None:
+        return None
+    names = tuple(name.strip() for name in text.split(",") if name.strip())
+    for name in names:
+        if name not in INTEGRATORS:
+            _refuse("--integrators", f"unknown integrator '{name}'{suggest(name, INTEGRATORS)} "
+                    f"(available: {', '.join(INTEGRATORS)})")
+    return names or _refuse("--integrators", "expected a comma-separated list of integrators")
 
 
 def _model(source: SourceFile):

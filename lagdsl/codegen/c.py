@@ -126,7 +126,7 @@ def _options_initializer(options: dict[str, float]) -> str:
 
 
 def _literal(value: float) -> str:
-    return f"LAG_LIT({value!r})"
+    return f"LAG_LIT({float(value)!r})"     # 20 -> 20.0: the Q and L suffixes need a floating constant
 
 
 def _print_block(block: Block, kind: str, kernel: Kernel, printer: CPrinter) -> dict:

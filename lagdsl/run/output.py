@@ -55,6 +55,23 @@ class Switches:
 
 
 @dataclass(frozen=True)
+class ErrorEstimate:
+    """The estimated global error of a run: the largest absolute difference, over the output rows
+    and columns, from a more accurate solution (`against` says which), and the seconds it took."""
+
+    value: float
+    against: str
+    seconds: float
+
+    def __float__(self) -> float:
+        return self.value
+
+    def render(self) -> str:
+        return (f"estimated global error: {self.value:.2g} (max abs over rows and columns, against {self.against}; "
+                f"{self.seconds:.3g} s)")
+
+
+@dataclass(frozen=True)
 class Stop:
     """The scene's stop condition ended the run at `time`, the time of the last row."""
 
@@ -81,6 +98,7 @@ class RunSummary:
     stiffness: Stiffness | None = None                  # explicit methods: stiffness detected
     switches: Switches | None = None                    # auto: its changes of method
     stopped: Stop | None = None                         # the scene's stop condition ended the run
+    error: ErrorEstimate | None = None                  # lagc run --error, simulate(estimate_error=True)
 
     def count(self, counter: str) -> int | None:
         """A work counter ("accepted", "rhs_evals", ...), None when the integrator does not keep it."""
@@ -90,7 +108,8 @@ class RunSummary:
         counts = [f"{value} {COUNTER_LABELS[name]}" for name, value in self.counters]
         lines = [f"integrator {self.integrator}({self.settings_text()}) ({self.backend}): "
                  + ", ".join([*counts, f"{self.wall_time:.3g} s"])]
-        lines += [part.render() for part in (self.stiffness, self.switches, self.stopped) if part is not None]
+        lines += [part.render() for part in (self.stiffness, self.switches, self.stopped, self.error)
+                  if part is not None]
         for name, start, drift in self.invariants:
             relative = f", relative {drift / abs(start):.3g}" if start != 0 else ""
             lines.append(f"drift of {name}: {drift:.3g} (from {start:.17g}{relative})")
@@ -161,7 +180,7 @@ def check_writable(path: str | os.PathLike) -> None:
 
 
 def write_output(path: str | os.PathLike, text: str | bytes) -> None:
-    """Write `text` (or bytes: a Parquet file) to `path` without damaging what is there.
+    """Write `text` (UTF-8, or bytes as they are: a Parquet file, a PNG) to `path` without damaging what is there.
 
     A regular file (new, or existing and writable) is written to a temporary file beside it and
     renamed over it, so readers never see half a file; an existing file keeps its mode, a new one

@@ -42,6 +42,9 @@ int main(void)
     return n > 0 ? 0 : 1;
 }
 """
+# The working precision of a build: the macro runtime.h reads, and the library it needs beyond libm.
+PRECISIONS = {"double": ((), ()), "long double": (("-DLAG_LONG_DOUBLE",), ()),
+              "float128": (("-DLAG_FLOAT128",), ("-lquadmath",))}
 
 
 def find_compiler() -> str:
@@ -52,46 +55,59 @@ def find_compiler() -> str:
                    "or run with --backend numpy")
 
 
-def compile_c(source: str, output: Path, flags=STRICT_FLAGS, compiler: str | None = None) -> None:
+def compile_c(source: str, output: Path, flags=STRICT_FLAGS, compiler: str | None = None,
+              libraries: tuple[str, ...] = ()) -> None:
     """Compile one C file; a compiler error in generated code is our bug, reported in full."""
     compiler = compiler or find_compiler()
     with tempfile.TemporaryDirectory() as work:
         source_path = Path(work) / f"{output.stem}.c"
         source_path.write_text(source, encoding="utf-8")
-        result = subprocess.run([compiler, *flags, str(source_path), "-o", str(output), "-lm"],
+        result = subprocess.run([compiler, *flags, str(source_path), "-o", str(output), *libraries, "-lm"],
                                 capture_output=True, text=True)
         if result.returncode != 0:
             raise InternalError(f"the generated C did not compile\n{result.stderr}")
 
 
-def shared_library(source: str, stem: str, openmp: bool | None = None) -> Path:
+def shared_library(source: str, stem: str, openmp: bool | None = None, precision: str = "double") -> Path:
     """The compiled shared library for `source`, built on first use and cached: with OpenMP
     (the batch entry point runs its members in parallel) when the compiler supports it, unless
-    `openmp` says otherwise. The generated code gives the same results bit for bit either way."""
+    `openmp` says otherwise. The generated code gives the same results bit for bit either way.
+
+    `precision` (a key of PRECISIONS) is the type of `real` inside; the entry points take and
+    return doubles whatever it is. The double build's key is unchanged by the option.
+    """
     compiler = find_compiler()
-    name, key = library_entry(source, stem, compiler, openmp)
-    return cached_entry(name, key, lambda path: _compile_library(source, path, compiler, openmp))
+    name, key = library_entry(source, stem, compiler, openmp, precision)
+    return cached_entry(name, key, lambda path: _compile_library(source, path, compiler, openmp, precision))
 
 
-def library_entry(source: str, stem: str, compiler: str, openmp: bool | None = None) -> tuple[str, str]:
+def library_entry(source: str, stem: str, compiler: str, openmp: bool | None = None,
+                  precision: str = "double") -> tuple[str, str]:
     """The cache entry's name and key of the library that `compiler` builds from `source`."""
-    key = hashlib.sha256("\0".join((source, compiler, *library_flags(compiler, openmp))).encode()).hexdigest()
-    return f"{stem}-{key[:20]}.so", key
+    libraries = PRECISIONS[precision][1]
+    flags = library_flags(compiler, openmp, precision=precision)
+    key = hashlib.sha256("\0".join((source, compiler, *flags, *libraries)).encode()).hexdigest()
+    suffix = "" if precision == "double" else "-" + precision.replace(" ", "_")
+    return f"{stem}{suffix}-{key[:20]}.so", key
 
 
-def library_flags(compiler: str, openmp: bool | None = None, flags: tuple[str, ...] | None = None) -> tuple[str, ...]:
-    """`flags` (the tuned LIBRARY_FLAGS by default), with OpenMP where asked for or supported."""
-    flags = LIBRARY_FLAGS if flags is None else flags
+def library_flags(compiler: str, openmp: bool | None = None, flags: tuple[str, ...] | None = None,
+                  precision: str = "double") -> tuple[str, ...]:
+    """`flags` (the tuned LIBRARY_FLAGS by default) with the precision's macro, and OpenMP where
+    asked for or supported."""
+    flags = (*(LIBRARY_FLAGS if flags is None else flags), *PRECISIONS[precision][0])
     use_openmp = supports_openmp(compiler) if openmp is None else openmp
     return (*flags, OPENMP_FLAG) if use_openmp else flags
 
 
-def _compile_library(source: str, output: Path, compiler: str, openmp: bool | None) -> None:
+def _compile_library(source: str, output: Path, compiler: str, openmp: bool | None, precision: str) -> None:
     """Build with the tuned flags, or with the portable ones where the compiler refuses those."""
+    libraries = PRECISIONS[precision][1]
     try:
-        compile_c(source, output, library_flags(compiler, openmp), compiler)
+        compile_c(source, output, library_flags(compiler, openmp, precision=precision), compiler, libraries)
     except InternalError:
-        compile_c(source, output, library_flags(compiler, openmp, PORTABLE_LIBRARY_FLAGS), compiler)
+        compile_c(source, output, library_flags(compiler, openmp, PORTABLE_LIBRARY_FLAGS, precision), compiler,
+                  libraries)
 
 
 @functools.lru_cache(maxsize=None)
@@ -106,3 +122,17 @@ def supports_openmp(compiler: str) -> bool:
         except (OSError, subprocess.TimeoutExpired):
             return False
         return done.returncode == 0
+
+
+@functools.lru_cache(maxsize=None)
+def extended_precision(compiler: str) -> str:
+    """The most precise `real` that `compiler` can build: "float128" when it has __float128 and
+    libquadmath (gcc on x86 and others), else "long double" (clang, most non-x86 systems)."""
+    probe = ("#include <quadmath.h>\nint main(void) { __float128 x = 2; "
+             "return sqrtq(x) > 1 ? 0 : 1; }\n")
+    with tempfile.TemporaryDirectory() as work:
+        program = Path(work) / "probe.c"
+        program.write_text(probe, encoding="utf-8")
+        built = subprocess.run([compiler, str(program), "-o", str(Path(work) / "probe"), "-lquadmath"],
+                               capture_output=True, text=True)
+    return "float128" if built.returncode == 0 else "long double"

@@ -1,0 +1,99 @@
+"""Figures as PNG bytes (matplotlib, Agg backend: no display needed): the work-precision diagram
+of `lagc bench --plot` and the outputs of `lagc run --plot`."""
+from __future__ import annotations
+
+import io
+import math
+
+import numpy as np
+
+from .ir import INTEGRATORS
+
+
+def _pyplot():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as pyplot
+    return pyplot
+
+
+def _png(figure) -> bytes:
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=110)
+    _pyplot().close(figure)
+    return buffer.getvalue()
+
+
+def work_precision_png(report) -> bytes:
+    """Left: error against integration time, log-log, one line per integrator and backend, the
+    reference's accuracy as a dashed line (points on it are at or below it, not measured).
+    Right: I(t) - I(t0) of each conserved quantity for each method's tightest setting."""
+    pyplot = _pyplot()
+    panels = 2 if report.drifts else 1
+    figure, axes = pyplot.subplots(1, panels, figsize=(6.5 * panels, 5), squeeze=False)
+    diagram = axes[0][0]
+    lines: dict[str, list] = {}
+    for row in report.rows:          # in ladder order, loosest first: the line follows the ladder
+        if row.failure is None and row.seconds:
+            lines.setdefault(row.setting.method, []).append(row)
+    colors = _method_colors(sorted(lines))
+    for method, rows in sorted(lines.items()):
+        peer = rows[0].setting.integrator not in INTEGRATORS
+        diagram.loglog([r.seconds for r in rows], [r.error for r in rows], marker="o" if not peer else "s",
+                       linestyle="--" if peer else "-", markersize=4, label=method, color=colors[method])
+    diagram.axhline(report.reference.accuracy, color="grey", linestyle=":", linewidth=1,
+                    label="reference accuracy")
+    diagram.set_xlabel("integration time [s]")
+    diagram.set_ylabel("max abs error over rows and columns")
+    diagram.set_title(f"{report.model}, scene {report.scene}: work against precision", fontsize=10)
+    diagram.grid(True, which="major", alpha=0.3)
+    diagram.legend(fontsize=7)
+    if report.drifts:
+        _drift_panel(axes[0][1], report.drifts, colors)
+    figure.tight_layout()
+    return _png(figure)
+
+
+def _method_colors(methods: list[str]) -> dict:
+    """One colour per method, the same in both panels: tab10, or tab20 for more than ten methods."""
+    import matplotlib
+    palette = matplotlib.colormaps["tab10" if len(methods) <= 10 else "tab20"]
+    return {method: palette(index % palette.N) for index, method in enumerate(methods)}
+
+
+def _drift_panel(axis, drifts, colors: dict) -> None:
+    """|I(t) - I(t0)| on a log scale (zeros, at the start, left out)."""
+    for drift in drifts:
+        for number, (name, values) in enumerate(drift.drifts):
+            magnitude = np.abs(values)
+            shown = magnitude > 0
+            axis.semilogy(drift.t[shown], magnitude[shown], linewidth=0.8, color=colors.get(drift.setting.method, "black"),
+                          linestyle=("-", "--", ":", "-.")[number % 4],
+                          label=f"{name}: {drift.setting.describe()}")
+    axis.set_xlabel("t")
+    axis.set_ylabel("|I(t) - I(t0)|")
+    axis.set_title("drift of the conserved quantities, tightest setting of each method", fontsize=10)
+    axis.grid(True, alpha=0.3)
+    axis.legend(fontsize=6)
+
+
+def outputs_png(result, title: str) -> bytes:
+    """The output columns against t, one panel per column."""
+    pyplot = _pyplot()
+    count = max(1, len(result.columns))
+    columns = 1 if count <= 3 else 2
+    rows = math.ceil(count / columns)
+    figure, axes = pyplot.subplots(rows, columns, figsize=(6.5 * columns, 2.2 * rows + 0.8), squeeze=False,
+                                   sharex=True)
+    for index, name in enumerate(result.columns):
+        axis = axes[index // columns][index % columns]
+        axis.plot(result.t, result[name], linewidth=1)
+        axis.set_ylabel(name)
+        axis.grid(True, alpha=0.3)
+    for index in range(len(result.columns), rows * columns):
+        axes[index // columns][index % columns].set_visible(False)
+    for axis in axes[-1]:
+        axis.set_xlabel("t")
+    figure.suptitle(title, fontsize=10)
+    figure.tight_layout()
+    return _png(figure)
