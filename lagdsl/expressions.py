@@ -43,6 +43,7 @@ MAX_MEMBERS = 10000         # largest index range or indexed family: sizes are u
 MAX_UNROLLED = 100000       # all sums and indexed lets of a model together
 MAX_NUMBER_LENGTH = 100     # characters of a number literal (a double keeps 17 significant digits)
 MAX_NESTING = 100           # nested calls, powers, products in sums...: see ExpressionBuilder.build
+HUGE_EXPONENT = 64          # a power of a parameter beyond this gets float values (with_parameter_values)
 KIND_WORDS = {"parameter": "a parameter", "coordinate": "a coordinate", "let": "a let",
               "output": "an output", "pending output": "an output", "constraint": "a constraint",
               "loop": "an index", "partial": "a let", "invalid": "a name whose declaration failed"}
@@ -163,11 +164,21 @@ class ExpressionBuilder:
             raise LagError(f"expected {what}, but this is {kind_of(value)}", self.span(node))
         return value
 
+    def with_parameter_values(self, value: sympy.Expr) -> sympy.Expr:
+        """`value` with the parameters' exact values put in. A power of a parameter with a large
+        exponent (l^1e300) would be computed exactly, digit by digit, for hours: there the values
+        go in as 30-digit floats, whose powers cost nothing (and overflow or underflow plainly)."""
+        huge = any(p.exp.is_number and abs(p.exp) > HUGE_EXPONENT and p.base.free_symbols
+                   for p in value.atoms(sympy.Pow))
+        if not huge:
+            return value.xreplace(self.exact_parameters)
+        return value.xreplace({s: sympy.Float(v.evalf(30), 30) for s, v in self.exact_parameters.items()})
+
     def integer(self, node, scope: Scope, what: str) -> int:
         """An index or range bound: parameters in it are fixed at compile time (structural)."""
         value = self.scalar(node, scope)
         used = value.free_symbols & self.exact_parameters.keys()
-        value = value.xreplace(self.exact_parameters)
+        value = self.with_parameter_values(value)
         if not value.is_Integer:
             if value.is_number and value.is_real:
                 raise LagError(f"{what} must be an integer, not {float(value):g}", self.span(node))

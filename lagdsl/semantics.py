@@ -194,7 +194,7 @@ class _ModelBuilder:
             raise LagError("a parameter's value may only use numbers and earlier parameters", self.span(value_node))
         unit = self.unit(node)
         value = in_si(value, unit)
-        exact = value.xreplace(self.expr.exact_parameters)
+        exact = self.expr.with_parameter_values(value)
         number = complex(exact.evalf(20))
         if number.imag != 0 or not abs(number.real) < float("inf"):
             raise LagError("the parameter's value is not a finite real number", self.span(value_node))
@@ -238,7 +238,7 @@ class _ModelBuilder:
         value = in_si(self.expr.scalar(node, scope or self.scope, what), unit)
         if value.free_symbols - set(self.expr.exact_parameters):
             raise LagError(f"{what} may only use numbers and parameters", self.span(node))
-        result = complex(value.xreplace(self.expr.exact_parameters).evalf(20))
+        result = complex(self.expr.with_parameter_values(value).evalf(20))
         if result.imag != 0 or not abs(result.real) < float("inf"):
             raise LagError(f"{what} is not a finite real number", self.span(node))
         return result.real

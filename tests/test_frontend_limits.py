@@ -161,3 +161,24 @@ def test_330_term_sums_run_on_both_backends(tmp_path):
         result = model.simulate(backend=backend)
         exact = [mean + (0.5 - mean) * math.cos(t) + 0.25 * math.sin(t) for t in result.t]
         assert result["x"] == pytest.approx(exact, abs=1e-8)
+
+
+def test_a_huge_power_of_a_parameter_is_evaluated_in_floating_point():
+    """l^1e300 with l = 1/2 was computed exactly, digit by digit, for hours (fuzz): it is 0 in double
+    precision, and l^(-400) is 2^400; an index n^1e300 is simply not an integer."""
+    model = model_from_source(SourceFile("huge.lag", """model Huge
+  parameter l = 0.5;
+  parameter p = l^(-400);
+  coordinate x(start = l^1e300, velocity = p*0);
+  T = der(x)^2/2;
+  U = x^2/2;
+end Huge;
+"""))
+    assert model.parameters[1].value == 2.0 ** 400
+    with pytest.raises(LagError, match="must be an integer"):
+        model_from_source(SourceFile("index.lag", """model Index
+  parameter n = 2;
+  coordinate q[n^1e300];
+  T = der(q[1])^2/2;
+end Index;
+"""))
