@@ -13,6 +13,11 @@ has an unknown dimension: an equation between dimensions is then a linear equati
 unknowns' exponents, solved as the walk goes (`Solver`); what stays unknown is said in a note.
 A model without any unit is not checked at all.
 
+A value is a Form (a scalar), a 3-tuple of Forms (a vector) or a 3-tuple of rows, each a 3-tuple of
+Forms (a 3x3 matrix). Rotations are dimensionless matrices, angular velocities vectors of 1/time,
+and a product A*u or A*B sums products that must agree row by row, so `dot(w, I*w)` with I in
+kg*m^2 is an energy.
+
 To teach the check a new construct, add a method `_<tree node>` (expressions) or an entry of
 `FUNCTION_RULES` (calls); a construct it does not know is not checked, and a note says so.
 """
@@ -113,7 +118,8 @@ class _Checker:
         self.solver = Solver()
         self.errors: list[LagError] = []
         self.notes: list[Diagnostic] = []
-        self.names: dict[str, object] = {}              # a Form, or a 3-tuple of Forms (a vector)
+        self.names: dict[str, object] = {}              # a Form, a vector or a matrix of Forms
+        self.families: set[str] = set()                 # indexed names: x[i] is a member, not a component
         self.undeclared: dict[str, Span] = {}           # quantities declared without a unit
         self.moving: set[str] = set()                   # lets that depend on velocities
         self.constraints: dict[str, tuple[Form, bool]] = {}     # name -> (dimension, holonomic)
@@ -187,25 +193,47 @@ class _Checker:
         return Form.unknown(str(token))
 
     def parameter(self, node) -> None:
+        """A parameter, or a parameter array whose unit applies to every member: a number is in the
+        unit, an expression of earlier parameters must have the unit's dimension."""
         token = tokens(node, "NAME")[0]
-        value_node = expressions_of(node)[0]
-        unit = self.units.get(str(token))
-        parameter = next((p for p in self.model.parameters if p.name.split("[")[0] == str(token)), None)
-        if parameter is not None and not parameter.expression.free_symbols:   # a number, in its unit
-            self.names[str(token)] = self.declared(token, unit)
+        name, unit = str(token), self.units.get(str(token))
+        size = subtree(node, "dimension")
+        if size is not None:
+            self.dimensionless(size.children[1], "the number of parameters")
+            self.families.add(name)
+        members = self.members(expressions_of(node)[0])
+        if not members:                              # numbers only, in the unit
+            self.names[name] = self.declared(token, unit)
             return
-        value = self.scalar(value_node)
-        self.names[str(token)] = Form(dimension(unit)) if unit is not None else value
-        if unit is not None:
-            self.require(value, Form(dimension(unit)), value_node,
-                         lambda: f"{self.has(f'the value of {token}', value)} but its unit [{unit.text}] "
-                                 f"{self.has('', Form(dimension(unit)), True)[1:]}")
+        expected = Form(dimension(unit)) if unit is not None else members[0][1]
+        self.names[name] = expected
+        for item, value in members:
+            if unit is not None:
+                self.require(value, expected, item,
+                             lambda value=value: f"{self.has(f'the value of {token}', value)} but its unit "
+                                                 f"[{unit.text}] {self.has('', expected, True)[1:]}")
+            elif item is not members[0][0]:
+                self.differ(value, item, expected, members[0][0], "this member", "the first member",
+                            f"the members of {token} differ: ")
+
+    def members(self, node) -> list[tuple[lark.Tree, Form]]:
+        """The members of a family's value that use names, with their dimensions: one value for
+        all, a list {a, b, ...}, or a list given by its index {e, i in 1:n} (e read with i a plain
+        number). A member written with numbers (and the index) only is a number in the unit."""
+        items = [c for c in node.children if isinstance(c, lark.Tree)] if node.data == "braces" else [node]
+        if items[-1].data == "iteration":
+            variable, _, range_node = items[-1].children
+            if not self.names_in(items[0], str(variable)):
+                return []
+            return [(items[0], self.within_range(variable, range_node, items[0]))]
+        return [(item, self.scalar(item)) for item in items if self.names_in(item)]
 
     def coordinate(self, node) -> None:
         token = tokens(node, "NAME")[0]
         size = subtree(node, "dimension")
         if size is not None:
             self.dimensionless(size.children[1], "the number of coordinates")
+            self.families.add(str(token))
         form = self.names[str(token)] = self.declared(token, self.units.get(str(token)))
         self.initial_values(node, str(token), form)
 
@@ -217,16 +245,12 @@ class _Checker:
             if not isinstance(modifier, lark.Tree):
                 continue
             key, value_node = str(modifier.children[0]), modifier.children[2]
-            items = [c for c in value_node.children if isinstance(c, lark.Tree)] \
-                if value_node.data == "braces" else [value_node]
             expected, owner = (form, name) if key == "start" else (form / Form(TIME), f"der({name})")
             what = "the start value" if key == "start" else "the start velocity"
-            for item in items:
-                if self.names_in(item):
-                    value = self.scalar(item)
-                    self.require(value, expected, item,
-                                 lambda: f"{self.has(f'{what} of {name}', value)} but "
-                                         f"{self.has(owner, expected, True)}")
+            for item, value in self.members(value_node):
+                self.require(value, expected, item,
+                             lambda value=value: f"{self.has(f'{what} of {name}', value)} but "
+                                                 f"{self.has(owner, expected, True)}")
 
     def let(self, node) -> None:
         token = tokens(node, "NAME")[0]
@@ -237,6 +261,7 @@ class _Checker:
             self.names[name] = self.value(body)
         else:
             # x[i] may use x[i - 1]: the family's dimension is an unknown that its body must equal.
+            self.families.add(name)
             self.names[name] = Form.unknown(f"{name}[i]")
             value = self.within_range(members.children[1], members.children[3], body)
             if isinstance(value, Form):
@@ -309,6 +334,10 @@ class _Checker:
                         self.is_time(modifier.children[2], f"time({modifier.children[0]} = ...)")
             elif statement.data == "scene_set":
                 self.scene_set(statement)
+            elif statement.data == "scene_stop":
+                left, right = expressions_of(statement)
+                self.differ(self.scalar(right), right, self.scalar(left), left, "the right side", "the left side",
+                            "the sides of the stop condition differ: ")
             elif statement.data == "scene_output":
                 for item in statement.children:
                     if isinstance(item, lark.Tree):
@@ -373,8 +402,7 @@ class _Checker:
         return method(node) if method is not None else self.unchecked(node)
 
     def scalar(self, node) -> Form:
-        value = self.value(node)
-        return value if isinstance(value, Form) else value[0]
+        return _components(self.value(node))[0]
 
     def unchecked(self, node) -> Form:
         """A construct this check does not know: an unknown dimension, and a note."""
@@ -382,9 +410,10 @@ class _Checker:
                                      "its dimension was not checked", self.span(node), "note"))
         return Form.unknown(" ".join(self.span(node).text.split()))
 
-    def names_in(self, node) -> bool:
-        """Does the expression use a name (other than pi)? If not, it is a plain number."""
-        return any(n.data in ("name", "index") and str(n.children[0]) != "pi" for n in node.iter_subtrees())
+    def names_in(self, node, *numbers: str) -> bool:
+        """Does the expression use a name (other than pi and `numbers`)? If not, it is a plain number."""
+        return any(n.data in ("name", "index") and str(n.children[0]) not in ("pi", *numbers)
+                   for n in node.iter_subtrees())
 
     def uses_velocities(self, node) -> bool:
         return any((n.data == "call" and str(n.children[0]) == "der")
@@ -419,11 +448,23 @@ class _Checker:
         return self.names[str(token)] if str(token) in self.names else self.unchecked(node)
 
     def _index(self, node):
+        """A member of a family, or a component r[1] .. r[3] of a vector let."""
         self.dimensionless(node.children[2], "an index")
-        return self.lookup(node.children[0], node)
+        value = self.lookup(node.children[0], node)
+        if str(node.children[0]) in self.families or not isinstance(value, tuple) or _is_matrix(value):
+            return value
+        position = _constant(node.children[2])
+        if position in (1, 2, 3):
+            return value[int(position) - 1]
+        return self.common(value, node)          # any component: they must agree
+
+    def _component(self, node):
+        value = self.value(node.children[0])
+        return value["xyz".index(str(node.children[2]))] if isinstance(value, tuple) else value
 
     def _braces(self, node):
-        return tuple(self.scalar(c) for c in node.children if isinstance(c, lark.Tree))
+        """A vector {a, b, c}, or the matrix {u, v, w} with rows u, v, w."""
+        return tuple(self.value(c) for c in node.children if isinstance(c, lark.Tree))
 
     def _parenthesized(self, node):
         """A sum: every term of the first one's dimension (componentwise for vectors)."""
@@ -439,14 +480,35 @@ class _Checker:
     _pos = _neg = _add = _sub = _parenthesized
 
     def _mul(self, node):
-        scale, vector = Form(), None
+        result = None
         for factor, divides in _factors(node):
             value = self.value(factor)
-            if isinstance(value, tuple):
-                vector = value
-            else:
-                scale = scale / value if divides else scale * value
-        return tuple(c * scale for c in vector) if vector is not None else scale
+            if divides:                        # only by a scalar (the semantics makes sure)
+                value = _map(value, lambda c: c ** -1)
+            result = value if result is None else self.product(result, value, node)
+        return result
+
+    def product(self, a, b, node):
+        """s*x, x*s, A*u and A*B; each entry of a matrix product sums products of one dimension."""
+        if not isinstance(a, tuple):
+            return _map(b, lambda c: a * c)
+        if not isinstance(b, tuple):
+            return _map(a, lambda c: c * b)
+        if not _is_matrix(a):                  # u*v, u*A: refused by the semantics
+            return a
+        if not _is_matrix(b):
+            return tuple(self.entry([row[k] * b[k] for k in range(3)], node) for row in a)
+        return tuple(tuple(self.entry([row[k] * b[k][j] for k in range(3)], node) for j in range(3))
+                     for row in a)
+
+    def entry(self, terms: list[Form], node) -> Form:
+        """One entry of a matrix product: its products (but the zeros) have one dimension."""
+        known = [term for term in terms if not term.wild]
+        for term in known[1:]:
+            self.require(term, known[0], node,
+                         lambda term=term: f"the products summed in {self.quoted(node, 'this product')} differ: "
+                                           f"{self.words(known[0])} and {self.words(term)}")
+        return known[0] if known else Form(wild=True)
 
     _div = _mul
 
@@ -483,8 +545,7 @@ class _Checker:
         return Form() if str(node.children[0]) == "atan2" else first
 
     def der(self, node, arguments):
-        value = self.value(arguments[0])
-        return tuple(c / Form(TIME) for c in value) if isinstance(value, tuple) else value / Form(TIME)
+        return _map(self.value(arguments[0]), lambda c: c / Form(TIME))
 
     def sum(self, node, arguments):
         variable, _, range_node = arguments[1].children
@@ -500,13 +561,45 @@ class _Checker:
         return product if name == "dot" else (product, product, product)
 
     def shared(self, node) -> Form:
-        value = self.value(node)
-        components = value if isinstance(value, tuple) else (value,)     # (a construct not checked)
-        known = [c for c in components if not c.wild]
+        return self.common(self.value(node), node)
+
+    def common(self, value, node) -> Form:
+        """The one dimension of the components of a vector (0 has any)."""
+        known = [c for c in _components(value) if not c.wild]
         for other in known[1:]:
             self.require(other, known[0], node, lambda: f"the components of {self.quoted(node, 'this vector')} "
                                                         f"differ: {self.words(known[0])} and {self.words(other)}")
         return known[0] if known else Form(wild=True)
+
+    def diag(self, node, arguments):
+        zero = Form(wild=True)
+        values = [self.scalar(a) for a in arguments]
+        return tuple(tuple(values[i] if i == j else zero for j in range(3)) for i in range(3))
+
+    def transpose(self, node, arguments):
+        value = self.value(arguments[0])
+        return tuple(zip(*value)) if _is_matrix(value) else value
+
+    def rotation(self, node, arguments):
+        """rotx .. euler_zyx: a dimensionless matrix of angles."""
+        for argument in arguments:
+            self.dimensionless(argument, f"an angle of {node.children[0]}()")
+        return ((Form(),) * 3,) * 3
+
+    def angular_velocity(self, node, arguments):
+        """omega_zxz, omega_zyx of three angles, omega_body of a rotation matrix: 1/time."""
+        name = str(node.children[0])
+        if name == "omega_body":
+            value = self.value(arguments[0])
+            for entry in _components(value):
+                if not self.require(entry, Form(), arguments[0],
+                                    lambda entry=entry: f"the rotation matrix of omega_body() must be "
+                                                        f"dimensionless, but it has {self.words(entry)}"):
+                    break
+        else:
+            for argument in arguments:
+                self.dimensionless(argument, f"an angle of {name}()")
+        return (Form(TIME) ** -1,) * 3
 
     def multiplier(self, node, arguments) -> Form:
         """λ of constraint c: Aᵀλ is a generalized force, A = ∂c/∂q (holonomic) or ∂c/∂q'."""
@@ -554,6 +647,9 @@ FUNCTION_RULES = {
     "min": _Checker.alike, "max": _Checker.alike, "atan2": _Checker.alike,
     "der": _Checker.der, "sum": _Checker.sum, "multiplier": _Checker.multiplier,
     "dot": _Checker.vector_function, "cross": _Checker.vector_function, "norm": _Checker.vector_function,
+    "diag": _Checker.diag, "transpose": _Checker.transpose,
+    **{name: _Checker.rotation for name in ("rotx", "roty", "rotz", "euler_zxz", "euler_zyx")},
+    **{name: _Checker.angular_velocity for name in ("omega_zxz", "omega_zyx", "omega_body")},
 }
 
 
@@ -561,8 +657,22 @@ def _wild(value) -> bool:
     return all(c.wild for c in _components(value))
 
 
+def _is_matrix(value) -> bool:
+    return isinstance(value, tuple) and isinstance(value[0], tuple)
+
+
 def _components(value) -> tuple[Form, ...]:
-    return value if isinstance(value, tuple) else (value,)
+    """The Forms of a scalar, a vector or (row by row) a matrix."""
+    if not isinstance(value, tuple):
+        return (value,)
+    return tuple(c for row in value for c in row) if _is_matrix(value) else value
+
+
+def _map(value, function):
+    """`function` applied to each Form of a scalar, vector or matrix."""
+    if not isinstance(value, tuple):
+        return function(value)
+    return tuple(_map(c, function) for c in value)
 
 
 def _constant(node) -> Fraction | None:

@@ -7,6 +7,7 @@ import subprocess
 import sys
 from fractions import Fraction
 
+import numpy as np
 import pytest
 
 from lagdsl.api import Model
@@ -220,3 +221,93 @@ def test_the_solver_infers_unknowns_and_refuses_contradictions():
     assert solver.resolve(Form.unknown("a")) == length
     assert not solver.equate(Form.unknown("b"), time)
     assert solver.equate(Form(wild=True), time)
+
+
+# -- vectors, matrices, rigid bodies, parameter arrays and stop conditions -----------------------
+
+TOP = """model Top "a heavy top written with the rigid-body functions"
+  parameter I1 = 1.0 [kg*m^2];
+  parameter I3 = 0.5 [kg*m^2];
+  parameter m = 1 [kg];
+  parameter l = 50 [cm];
+  parameter g = 9.81 [m/s^2];
+  coordinate phi(velocity = 0.5) [rad];
+  coordinate theta(start = 0.6) [rad];
+  coordinate psi(velocity = 20) [rad];
+  let w = omega_zxz(phi, theta, psi);
+  let I = diag(I1, I1, I3);
+  let R = euler_zxz(phi, theta, psi);
+  let r = R*{0, 0, l};
+  T = 1/2*dot(w, I*w);
+  U = m*g*r[3];
+  output height = (transpose(R)*(rotz(phi)*{0, 0, l})).z [cm];
+  output spin = omega_body(R).z + 0*w.x [1/s];
+  scene short
+    time(stop = 0.5);
+    stop when r.z < l/2;
+    output theta, height, spin, energy;
+  end short;
+end Top;
+"""
+
+
+def test_a_heavy_top_with_rigid_body_functions_passes_without_notes():
+    model = loaded(TOP).ir
+    assert not model.units.notes
+    assert model.units.unit_of("spin") == "1/s" and model.units.unit_of("l") == "m"
+
+
+CHAIN = """model Chain
+  parameter n = 3;
+  parameter m[n] = {1000, 2000, 3000} [g];
+  parameter w2 = 4 [1/s^2];
+  parameter k[n] = {m[i]*w2, i in 1:n} [N/m];
+  parameter v0 = 1 [mm/s];
+  coordinate x[n](start = {0.01*i, i in 1:n}, velocity = {v0*i, i in 1:n}) [m];
+  T = sum(m[i]/2*der(x[i])^2, i in 1:n);
+  U = sum(k[i]/2*x[i]^2, i in 1:n);
+  scene s
+    time(stop = 1, interval = 0.5);
+    output x[1], x[3];
+  end s;
+end Chain;
+"""
+
+
+def test_parameter_arrays_in_grams_run_with_si_values():
+    model = loaded(CHAIN)
+    values = {p.name: p.value for p in model.ir.parameters}
+    assert [values[f"m[{i}]"] for i in (1, 2, 3)] == pytest.approx([1, 2, 3], rel=1e-15)
+    assert [values[f"k[{i}]"] for i in (1, 2, 3)] == pytest.approx([4, 8, 12], rel=1e-15)
+    assert not model.ir.units.notes
+    result = model.simulate(backend="numpy")
+    # Each mass on its own spring, k_i/m_i = 4 /s^2: x_i(t) = 0.01 i cos(2 t) + 0.001 i/2 sin(2 t).
+    t = result["t"]
+    assert result["x[3]"] == pytest.approx(0.03 * np.cos(2 * t) + 0.0015 * np.sin(2 * t), abs=1e-7)
+
+
+@pytest.mark.parametrize("text, old, new, line, column, message", [
+    (TOP, "[kg*m^2]", "[kg*m]", 14, 7,
+     "T has dimension mass*length/time^2 but U has mass*length^2/time^2"),
+    (TOP, "let R = euler_zxz(phi, theta, psi);", "let R = euler_zxz(phi, theta, psi)*rotz(l);", 12, 43,
+     "an angle of rotz() must be dimensionless, but 'l' has dimension length"),
+    (TOP, "let I = diag(I1, I1, I3);", "let I = {{I1, l, 0}, {0, I1, 0}, {0, 0, I3}};", 14, 18,
+     "the products summed in 'I*w' differ: mass*length^2/time and length/time"),
+    (TOP, "omega_body(R).z", "omega_body(l*R).z", 17, 28,
+     "the rotation matrix of omega_body() must be dimensionless, but it has length"),
+    (TOP, "stop when r.z < l/2;", "stop when r.z < t;", 20, 21,
+     "the sides of the stop condition differ: 't' has dimension time but 'r.z' has length"),
+    (CHAIN, "{m[i]*w2, i in 1:n} [N/m]", "{m[i]*w2, i in 1:n} [N]", 5, 21,
+     "the value of k has dimension mass/time^2 but its unit [N] has mass*length/time^2"),
+    (CHAIN, "velocity = {v0*i, i in 1:n}", "velocity = {v0*w2, i in 1:n}", 7, 59,
+     "the start velocity of x has dimension length/time^3 but der(x) has length/time"),
+    (CHAIN, "parameter v0 = 1 [mm/s];", "parameter v0 = 1 [mm/s];\n  parameter a[n] = {0, w2, 0} [mm/s];", 7, 24,
+     "the value of a has dimension 1/time^2 but its unit [mm/s] has length/time"),
+])
+def test_dimensional_mistakes_with_matrices_arrays_and_stop_conditions_are_located(text, old, new, line, column,
+                                                                                  message):
+    with pytest.raises(LagError) as raised:
+        loaded(text.replace(old, new)).ir
+    diagnostic = raised.value.diagnostics[0]          # (a wrong k makes U wrong too)
+    assert diagnostic.message == message
+    assert (diagnostic.span.line, diagnostic.span.column) == (line, column)
