@@ -224,7 +224,7 @@ class _Lowering:
 
     # -- the kernel ----------------------------------------------------------------------------
     def kernel(self) -> Kernel:
-        plan, eq = self.plan, self.eq
+        plan = self.plan
         return Kernel(
             model_name=self.model.name, scene_name=plan.scene_name,
             coordinates=tuple(c.name for c in self.model.coordinates),

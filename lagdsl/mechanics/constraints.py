@@ -12,7 +12,6 @@ A constraint lhs = rhs has the residual c = lhs - rhs.
 from __future__ import annotations
 
 import numpy as np
-import sympy
 
 from .. import ir
 from ..calculus import TIME_DIRECTION, Differentiator, time_rates

@@ -96,7 +96,7 @@ class Features:
             lines += [f"  let px = k*sin({a}) + {b};", f"  let py = -k*cos({a}){support};"]
             if self.nested:
                 lines.append(f"  let pz = px*cos({c}) + py*sin({b});")
-            kinetic = f"m/2*(der(px)^2 + der(py)^2)" + (" + m/4*der(pz)^2" if self.nested else "")
+            kinetic = "m/2*(der(px)^2 + der(py)^2)" + (" + m/4*der(pz)^2" if self.nested else "")
             potential = "m*9.81*py"
         else:
             kinetic = f"m/2*(der({a})^2 + der({b}{support})^2)"

@@ -15,6 +15,9 @@
  *   Build with -fopenmp to run the members in parallel (OMP_NUM_THREADS threads).
  * Precision: -DLAG_LONG_DOUBLE, or -DLAG_FLOAT128 with -lquadmath, for reference runs.
  */
+#if defined(__unix__) || defined(__APPLE__)
+#define _POSIX_C_SOURCE 200809L     /* sigaction, for a clean Ctrl-C (lag_catch_interrupt) */
+#endif
 #include <math.h>
 #include <float.h>
 #include <signal.h>
@@ -1397,6 +1400,23 @@ static void lag_on_interrupt(int signal_number)
     lag_interrupt = 1;
 }
 
+/* Ctrl-C stops the run between two steps. With POSIX's sigaction the handler stays and a write
+ * of a row that the signal interrupts resumes (SA_RESTART): ISO C's signal() gives neither on
+ * every system, and an interrupted write would cut the last row of the CSV. */
+static void lag_catch_interrupt(void)
+{
+#ifdef SA_RESTART
+    struct sigaction action;
+    memset(&action, 0, sizeof action);
+    action.sa_handler = lag_on_interrupt;
+    sigemptyset(&action.sa_mask);
+    action.sa_flags = SA_RESTART;
+    sigaction(SIGINT, &action, NULL);
+#else
+    signal(SIGINT, lag_on_interrupt);
+#endif
+}
+
 /* The checks of `lagc run`: a finite grid of at most LAG_MAX_ROWS rows. */
 static int lag_check_grid(const char *program, real t0, real t1, real dt)
 {
@@ -1612,7 +1632,7 @@ static int lag_batch_main(const char *program, const lag_member *given, real t0,
     settings[8] = (double)options->max_steps;
     if (lag_read_members(program, given, &members)) {
         lag_print_header(1);
-        signal(SIGINT, lag_on_interrupt);    /* members in flight stop, the others are not begun */
+        lag_catch_interrupt();    /* members in flight stop, the others are not begun */
         status = members.count > 0 ? lag_run_standalone_batch(&members, settings, lag_last_row(t0, t1, dt) + 1) : 0;
     }
     free(members.parameters);
@@ -1698,7 +1718,7 @@ int main(int argc, char **argv)
         return 2;
     memcpy(sys.par, given.par, sizeof sys.par);
     lag_print_header(0);
-    signal(SIGINT, lag_on_interrupt);    /* stop between two steps, keeping the rows written so far */
+    lag_catch_interrupt();    /* stop between two steps, keeping the rows written so far */
     clock_start = clock();
     status = lag_integrate(&sys, y0, t0, t1, dt, &options, lag_print_row, NULL, &report);
     fprintf(stderr, "integrator %s(", LAG_INTEGRATOR_NAME);    /* the options as used, as in a scene */

@@ -11,7 +11,7 @@ import pytest
 import lagdsl
 from lagdsl.errors import SimulationError
 from lagdsl.pipeline import execute, generate
-from tests.conftest import MODELS, without_units
+from tests.conftest import MODELS
 from tests.test_cli import lagc
 
 SINGULAR_START = """model SingularStart

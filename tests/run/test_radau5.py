@@ -15,7 +15,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pytest
 from scipy.integrate import solve_ivp
 
 from tests.run.c_harness import build_and_run
