@@ -1262,9 +1262,10 @@ static int lag_run_standalone_batch(const lag_members *members, const double *se
             }
             for (i = 0; i < 3; ++i)
                 totals[i] += (long)summary[6 + i];
-            if ((int)summary[0] == LAG_ERR_INTERRUPTED && unfinished < 0)
-                unfinished = first + b;
-            else if ((int)summary[0] != LAG_OK) {
+            if ((int)summary[0] == LAG_ERR_INTERRUPTED) {
+                if (unfinished < 0)
+                    unfinished = first + b;
+            } else if ((int)summary[0] != LAG_OK) {
                 failed += 1;
                 lag_report_member(first + b, summary);
             }
