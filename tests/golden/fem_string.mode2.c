@@ -9,6 +9,10 @@
  *   COORDINATE.start or COORDINATE.velocity (initial values),
  *   t.start, t.stop, t.interval (the output grid), or rtol, atol, max_step, max_steps (dop853).
  *   The CSV goes to standard output, the run summary to standard error.
+ * Batch:  ./FemString_mode2 --batch [NAME=VALUE ...] < members.txt > FemString_mode2.csv
+ *   One member a line of standard input: parameters, .start and .velocity as NAME=VALUE, on top of
+ *   the command line's settings; the CSV's first column is the member's number (from 0).
+ *   Build with -fopenmp to run the members in parallel (OMP_NUM_THREADS threads).
  * Precision: -DLAG_LONG_DOUBLE, or -DLAG_FLOAT128 with -lquadmath, for reference runs.
  */
 #if defined(__unix__) || defined(__APPLE__)
@@ -21,6 +25,9 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#ifdef _OPENMP
+#include <omp.h>    /* the batch mode's default number of threads */
+#endif
 
 /* ---- runtime: precision, libm table, status codes ---- */
 /* lagdsl C runtime: precision, libm function table, status codes, run options.
@@ -1208,6 +1215,7 @@ static int lag_run_member(const double *parameters, const double *initial, const
     lag_report report;
     real y0[LAG_NY];
     int i, n = 14;
+    memset(&sys, 0, sizeof sys);    /* a model without parameters still has the placeholder par[0] */
     for (i = 0; i < LAG_NP; ++i)
         sys.par[i] = parameters[i];
     for (i = 0; i < LAG_NY; ++i)
@@ -1259,31 +1267,25 @@ void lag_run_batch(long members, const double *parameters, const double *initial
 /* Members finished so far, for the progress bar of a sweep (read through ctypes). */
 volatile long lag_batch_done = 0;
 
-typedef struct lag_grid { double *values; long capacity, used; } lag_grid;
-
 /* A member's output grid: the columns of each row, without t (every member shares the grid). */
 static int lag_grid_row(void *context, real t, const real *out)
 {
-    lag_grid *grid = context;
+    lag_buffer *grid = context;
     int i;
     (void)t;
     if (grid->used >= grid->capacity)
         return 1;
     for (i = 0; i < LAG_NOUT; ++i)
-        grid->values[grid->used * LAG_NOUT + i] = (double)out[i];
+        grid->rows[grid->used * LAG_NOUT + i] = (double)out[i];
     grid->used += 1;
     return 0;
 }
 
-/* Integrate `members` runs that share the settings (as lag_run) but each have their own
- * parameters (members x LAG_NP) and initial state (members x LAG_NY). Member b writes its rows
- * to values[b * capacity * LAG_NOUT ...] and its summary (the layout of lag_run's) to
- * summaries[b * stride ...]; a failure ends only that member. The members are independent, so
- * they run in parallel on `threads` OpenMP threads when the library is built with OpenMP, and
- * one after another otherwise, with the same results bit for bit. After lag_interrupt is set,
- * members not yet begun are not begun (status LAG_ERR_INTERRUPTED, no rows). */
-void lag_run_batch(long members, const double *parameters, const double *initial, const double *settings,
-                   double *values, long capacity, double *summaries, long stride, int threads)
+/* The loop of lag_run_batch, for any sink of the layout of lag_buffer: member b's rows, `width`
+ * doubles each, go to values[b * capacity * width ...]. */
+static void lag_run_members(long members, const double *parameters, const double *initial, const double *settings,
+                            lag_sink sink, long width, double *values, long capacity, double *summaries, long stride,
+                            int threads)
 {
     long b;
     lag_batch_done = 0;
@@ -1294,21 +1296,35 @@ void lag_run_batch(long members, const double *parameters, const double *initial
 #endif
     for (b = 0; b < members; ++b) {
         double *summary = summaries + b * stride;
-        lag_grid grid;
-        grid.values = values + b * capacity * LAG_NOUT;
-        grid.capacity = capacity;
-        grid.used = 0;
+        lag_buffer buffer;
+        buffer.rows = values + b * capacity * width;
+        buffer.capacity = capacity;
+        buffer.used = 0;
         if (lag_interrupt) {
             summary[0] = LAG_ERR_INTERRUPTED;
             summary[2] = settings[0];
         } else {
-            lag_run_member(parameters + b * LAG_NP, initial + b * LAG_NY, settings, lag_grid_row, &grid, summary);
+            lag_run_member(parameters + b * LAG_NP, initial + b * LAG_NY, settings, sink, &buffer, summary);
         }
 #ifdef _OPENMP
 #pragma omp atomic
 #endif
         lag_batch_done += 1;
     }
+}
+
+/* Integrate `members` runs that share the settings (as lag_run) but each have their own
+ * parameters (members x LAG_NP) and initial state (members x LAG_NY). Member b writes its rows
+ * (the columns, without t) to values[b * capacity * LAG_NOUT ...] and its summary (the layout of
+ * lag_run's) to summaries[b * stride ...]; a failure ends only that member. The members are
+ * independent, so they run in parallel on `threads` OpenMP threads when the library is built
+ * with OpenMP, and one after another otherwise, with the same results bit for bit. After
+ * lag_interrupt is set, members not yet begun are not begun (status LAG_ERR_INTERRUPTED, no rows). */
+void lag_run_batch(long members, const double *parameters, const double *initial, const double *settings,
+                   double *values, long capacity, double *summaries, long stride, int threads)
+{
+    lag_run_members(members, parameters, initial, settings, lag_grid_row, LAG_NOUT, values, capacity, summaries,
+                    stride, threads);
 }
 
 /* ---- standalone program: NAME=VALUE arguments, CSV on stdout, summary on stderr ---- */
@@ -1325,6 +1341,16 @@ static int lag_print_row(void *context, real t, const real *out)
     return 0;
 }
 
+/* The CSV header: the columns, after the member's number in batch mode. */
+static void lag_print_header(int batch)
+{
+    int i;
+    fputs(batch ? "member,t" : "t", stdout);
+    for (i = 0; i < LAG_NOUT; ++i)
+        fprintf(stdout, ",%s", lag_column_names[i]);
+    fputc('\n', stdout);
+}
+
 static int lag_index_of(const char *const *names, int count, const char *name, size_t length)
 {
     int i;
@@ -1339,6 +1365,49 @@ static int lag_parse_value(const char *text, real *value)
     char *end;
     *value = r_strtod(text, &end);
     return end != text && *end == '\0';
+}
+
+/* What may differ between the members of a batch: parameters and initial values, given by name. */
+typedef struct lag_member {
+    real par[4];
+    int fixed[4];    /* given, so not computed from the others */
+    real start[LAG_NY];
+    int overridden[LAG_NY];
+} lag_member;
+
+/* NAME=VALUE: the '=' and the value, or NULL after saying what is wrong (after `prefix`). */
+static const char *lag_split_setting(const char *prefix, const char *text, real *value)
+{
+    const char *equals = strchr(text, '=');
+    if (equals == NULL || !lag_parse_value(equals + 1, value)) {
+        fprintf(stderr, "%s: expected NAME=VALUE, got '%s'\n", prefix, text);
+        return NULL;
+    }
+    return equals;
+}
+
+/* A parameter, or a coordinate's start or velocity: set it and return 1; anything else: 0. */
+static int lag_member_setting(const char *text, const char *equals, real value, lag_member *member)
+{
+    const char *dot = NULL;
+    const char *c;
+    int index;
+    for (c = text; c < equals; ++c)    /* the last '.' of the name */
+        if (*c == '.')
+            dot = c;
+    if ((index = lag_index_of(lag_parameter_names, LAG_NP, text, (size_t)(equals - text))) >= 0) {
+        member->par[index] = value;
+        member->fixed[index] = 1;
+        return 1;
+    }
+    if (dot != NULL && (index = lag_index_of(lag_coordinate_names, LAG_NQ, text, (size_t)(dot - text))) >= 0
+        && (strncmp(dot, ".start=", 7) == 0 || strncmp(dot, ".velocity=", 10) == 0)) {
+        int slot = dot[1] == 's' ? index : LAG_NQ + index;
+        member->start[slot] = value;
+        member->overridden[slot] = 1;
+        return 1;
+    }
+    return 0;
 }
 
 static void lag_on_interrupt(int signal_number)
@@ -1404,32 +1473,212 @@ static int lag_check_inputs(const char *program, const real *par, const real *y0
     return 1;
 }
 
+/* The member's parameters (the ones not given computed from the others) and initial state (the
+ * scene's, where not given); 0 after saying what is not finite. */
+static int lag_member_state(const char *prefix, lag_member *member, real *y0)
+{
+    int i;
+    lag_derive_parameters(member->par, member->fixed);
+    lag_initial_state(member->par, y0);
+    for (i = 0; i < LAG_NY; ++i)
+        if (member->overridden[i])
+            y0[i] = member->start[i];
+    return lag_check_inputs(prefix, member->par, y0);
+}
+
+/* ---- the standalone program's batch mode: one member a line of standard input ---- */
+#define LAG_LINE_MAX 4096                /* the longest line of batch input, with its newline */
+#define LAG_BATCH_VALUES (1L << 22)      /* the doubles of output held at once: members run in chunks */
+#define LAG_SUMMARY_SIZE (14 + 2 * LAG_NINV + LAG_NY)
+
+/* The members read so far: their parameters and initial states, as lag_run_batch takes them. */
+typedef struct lag_members { long count, allocated; double *parameters, *initial; } lag_members;
+
+static int lag_members_add(lag_members *members, const real *par, const real *y0)
+{
+    int i;
+    if (members->count == members->allocated) {
+        long allocated = members->allocated > 0 ? 2 * members->allocated : 64;
+        double *parameters = realloc(members->parameters, (size_t)allocated * (LAG_NP + 1) * sizeof(double));
+        double *initial = parameters == NULL ? NULL : realloc(members->initial, (size_t)allocated * LAG_NY * sizeof(double));
+        if (parameters != NULL)
+            members->parameters = parameters;
+        if (initial == NULL)
+            return 0;
+        members->initial = initial;
+        members->allocated = allocated;
+    }
+    for (i = 0; i < LAG_NP; ++i)
+        members->parameters[members->count * LAG_NP + i] = (double)par[i];
+    for (i = 0; i < LAG_NY; ++i)
+        members->initial[members->count * LAG_NY + i] = (double)y0[i];
+    members->count += 1;
+    return 1;
+}
+
+/* Read the members from standard input, one a line of NAME=VALUE settings (parameters,
+ * q.start, q.velocity) on top of the command line's (`common`); blank lines and lines that
+ * begin with '#' hold no member. Returns 0 after saying what is wrong, as "line N: ...". */
+static int lag_read_members(const char *program, const lag_member *common, lag_members *members)
+{
+    char line[LAG_LINE_MAX + 2], prefix[300];
+    long number = 0;
+    while (fgets(line, sizeof line, stdin) != NULL) {
+        lag_member member = *common;
+        real y0[LAG_NY];
+        char *word;
+        snprintf(prefix, sizeof prefix, "%.256s: line %ld", program, ++number);
+        if (strlen(line) > LAG_LINE_MAX) {    /* its end, beyond the buffer, would read as another line */
+            fprintf(stderr, "%s: longer than %d characters\n", prefix, LAG_LINE_MAX - 1);
+            return 0;
+        }
+        word = strtok(line, " \t\r\n");
+        if (word == NULL || word[0] == '#')
+            continue;
+        for (; word != NULL; word = strtok(NULL, " \t\r\n")) {
+            real value;
+            const char *equals = lag_split_setting(prefix, word, &value);
+            if (equals == NULL)
+                return 0;
+            if (!lag_member_setting(word, equals, value, &member)) {
+                fprintf(stderr, "%s: '%.*s' is not a parameter or a coordinate's start or velocity; only those "
+                        "differ between members (give the others on the command line)\n", prefix,
+                        (int)(equals - word), word);
+                return 0;
+            }
+        }
+        if (!lag_member_state(prefix, &member, y0))
+            return 0;
+        if (!lag_members_add(members, member.par, y0)) {
+            fprintf(stderr, "%s: out of memory\n", prefix);
+            return 0;
+        }
+    }
+    if (ferror(stdin)) {
+        fprintf(stderr, "%s: cannot read standard input\n", program);
+        return 0;
+    }
+    return 1;
+}
+
+/* Say how member b failed (its rows so far are written). */
+static void lag_report_member(long b, const double *summary)
+{
+    int status = (int)summary[0];
+    fprintf(stderr, "member %ld: simulation failed at t = %.17g after %ld rows: %s", b, summary[2],
+            (long)summary[1], lag_status_message(status));
+    if (status == LAG_ERR_SINGULAR)
+        fprintf(stderr, " (reciprocal condition estimate %.3g, below %.3g)", summary[3], (double)LAG_RCOND_MIN);
+    fputc('\n', stderr);
+}
+
+/* Run the members in chunks on the grid of `settings` (OpenMP threads when built with -fopenmp)
+ * and write their rows in member order, each with its member's number first; a failure ends only
+ * its member. Returns the exit status: 0, 1 when a member failed, 130 when interrupted. */
+static int lag_run_standalone_batch(const lag_members *members, const double *settings, long capacity)
+{
+    long width = LAG_NOUT + 1, chunk = LAG_BATCH_VALUES / (capacity * width), first, b, r, failed = 0, unfinished = -1;
+    long totals[3] = {0};
+    double *values, *summaries;
+    int i, threads = 1;
+    clock_t clock_start = clock();
+#ifdef _OPENMP
+    threads = omp_get_max_threads();    /* OMP_NUM_THREADS, else the processors */
+#endif
+    chunk = chunk < 1 ? 1 : chunk > members->count ? members->count : chunk;
+    values = malloc((size_t)(chunk * capacity * width + 1) * sizeof(double));
+    summaries = malloc((size_t)(chunk * LAG_SUMMARY_SIZE + 1) * sizeof(double));
+    if (values == NULL || summaries == NULL) {
+        free(values);
+        free(summaries);
+        fputs("batch: out of memory\n", stderr);
+        return 1;
+    }
+    for (first = 0; first < members->count && !lag_interrupt; first += chunk) {
+        long count = members->count - first < chunk ? members->count - first : chunk;
+        lag_run_members(count, members->parameters + first * LAG_NP, members->initial + first * LAG_NY, settings,
+                        lag_buffer_row, width, values, capacity, summaries, LAG_SUMMARY_SIZE, threads);
+        for (b = 0; b < count; ++b) {
+            const double *summary = summaries + b * LAG_SUMMARY_SIZE;
+            for (r = 0; r < (long)summary[1]; ++r) {
+                const double *row = values + (b * capacity + r) * width;
+                real out[LAG_NOUT];
+                for (i = 0; i < LAG_NOUT; ++i)
+                    out[i] = (real)row[1 + i];
+                fprintf(stdout, "%ld,", first + b);
+                lag_print_row(NULL, (real)row[0], out);
+            }
+            for (i = 0; i < 3; ++i)
+                totals[i] += (long)summary[6 + i];
+            if ((int)summary[0] == LAG_ERR_INTERRUPTED) {
+                if (unfinished < 0)
+                    unfinished = first + b;
+            } else if ((int)summary[0] != LAG_OK) {
+                failed += 1;
+                lag_report_member(first + b, summary);
+            }
+        }
+    }
+    free(values);
+    free(summaries);
+    fprintf(stderr, "%ld members, %ld failed; integrator %s, in all: %ld steps accepted, %ld rejected, %ld right-hand sides, %.3g s CPU\n",
+            members->count, failed, LAG_INTEGRATOR_NAME, totals[0], totals[1], totals[2], (double)(clock() - clock_start) / CLOCKS_PER_SEC);
+    if (lag_interrupt) {
+        fprintf(stderr, "interrupted: member %ld is incomplete, and so may be those after it\n", unfinished);
+        return 130;
+    }
+    return failed > 0;
+}
+
+/* `--batch`: the members from standard input on the command line's settings (`given`, t0, t1,
+ * dt, options, all checked), one CSV. Returns the exit status (2 for bad input). */
+static int lag_batch_main(const char *program, const lag_member *given, real t0, real t1, real dt,
+                          const lag_options *options)
+{
+    lag_members members = { 0, 0, NULL, NULL };
+    double settings[9];
+    int status = 2;
+    settings[0] = (double)t0;
+    settings[1] = (double)t1;
+    settings[2] = (double)dt;
+    settings[3] = (double)options->rtol;
+    settings[4] = (double)options->atol;
+    settings[5] = (double)options->step;
+    settings[6] = (double)options->max_step;
+    settings[7] = options->stages;
+    settings[8] = (double)options->max_steps;
+    if (lag_read_members(program, given, &members)) {
+        lag_print_header(1);
+        lag_catch_interrupt();    /* members in flight stop, the others are not begun */
+        status = members.count > 0 ? lag_run_standalone_batch(&members, settings, lag_last_row(t0, t1, dt) + 1) : 0;
+    }
+    free(members.parameters);
+    free(members.initial);
+    return status;
+}
+
 int main(int argc, char **argv)
 {
     lag_system sys;
+    lag_member given;
     lag_options options = { LAG_LIT(1e-10), LAG_LIT(1e-12), LAG_LIT(0.0), LAG_LIT(0.0), 0, 0L };
     lag_report report;
-    real y0[LAG_NY], start[LAG_NY], t0 = LAG_LIT(0.0), t1 = LAG_LIT(10.0), dt = LAG_LIT(0.5);
-    int fixed[4] = {0}, overridden[LAG_NY] = {0};
-    int i, status;
+    real y0[LAG_NY], t0 = LAG_LIT(0.0), t1 = LAG_LIT(10.0), dt = LAG_LIT(0.5);
+    int i, status, batch = 0;
     clock_t clock_start;
-    lag_default_parameters(sys.par);
+    memset(&given, 0, sizeof given);
+    lag_default_parameters(given.par);
     for (i = 1; i < argc; ++i) {
-        const char *equals = strchr(argv[i], '=');
-        const char *dot = NULL;
-        const char *c;
+        const char *equals;
         real value;
-        int index;
-        for (c = argv[i]; equals != NULL && c < equals; ++c)    /* the last '.' of the name */
-            if (*c == '.')
-                dot = c;
-        if (equals == NULL || !lag_parse_value(equals + 1, &value)) {
-            fprintf(stderr, "%s: expected NAME=VALUE, got '%s'\n", argv[0], argv[i]);
-            return 2;
+        if (strcmp(argv[i], "--batch") == 0) {
+            batch = 1;
+            continue;
         }
-        if ((index = lag_index_of(lag_parameter_names, LAG_NP, argv[i], (size_t)(equals - argv[i]))) >= 0) {
-            sys.par[index] = value;
-            fixed[index] = 1;
+        if ((equals = lag_split_setting(argv[0], argv[i], &value)) == NULL)
+            return 2;
+        if (lag_member_setting(argv[i], equals, value, &given)) {
+            continue;
         } else if (strncmp(argv[i], "t.start=", 8) == 0) {
             t0 = value;
         } else if (strncmp(argv[i], "t.stop=", 7) == 0) {
@@ -1464,12 +1713,6 @@ int main(int argc, char **argv)
                 return 2;
             }
             options.max_steps = (long)value;
-        } else if (dot != NULL
-                   && (index = lag_index_of(lag_coordinate_names, LAG_NQ, argv[i], (size_t)(dot - argv[i]))) >= 0
-                   && (strncmp(dot, ".start=", 7) == 0 || strncmp(dot, ".velocity=", 10) == 0)) {
-            int slot = dot[1] == 's' ? index : LAG_NQ + index;
-            start[slot] = value;
-            overridden[slot] = 1;
         } else {
             fprintf(stderr, "%s: unknown setting '%.*s'\n", argv[0], (int)(equals - argv[i]), argv[i]);
             return 2;
@@ -1486,17 +1729,12 @@ int main(int argc, char **argv)
                 (double)(10 * REAL_EPSILON));
         options.rtol = 10 * REAL_EPSILON;
     }
-    lag_derive_parameters(sys.par, fixed);
-    lag_initial_state(sys.par, y0);
-    for (i = 0; i < LAG_NY; ++i)
-        if (overridden[i])
-            y0[i] = start[i];
-    if (!lag_check_inputs(argv[0], sys.par, y0))
+    if (batch)
+        return lag_batch_main(argv[0], &given, t0, t1, dt, &options);
+    if (!lag_member_state(argv[0], &given, y0))
         return 2;
-    fputs("t", stdout);
-    for (i = 0; i < LAG_NOUT; ++i)
-        fprintf(stdout, ",%s", lag_column_names[i]);
-    fputc('\n', stdout);
+    memcpy(sys.par, given.par, sizeof sys.par);
+    lag_print_header(0);
     lag_catch_interrupt();    /* stop between two steps, keeping the rows written so far */
     clock_start = clock();
     status = lag_integrate(&sys, y0, t0, t1, dt, &options, lag_print_row, NULL, &report);

@@ -1,0 +1,61 @@
+"""The standalone C program's batch mode: one member a line of standard input, one CSV with the
+member's number first, equal row for row to single runs of the same program, serial or OpenMP."""
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from lagdsl.run.toolchain import supports_openmp
+from tests.run.c_harness import STRICT_FLAGS
+from tests.run.test_failures import SINGULAR_LATER
+from tests.test_cli import lagc
+
+
+def _strict_programs(model_path, tmp_path) -> list[Path]:
+    """The model's standalone program built with the strict flags, serial and (when the compiler
+    can) with OpenMP."""
+    cc = shutil.which("cc") or pytest.skip("no C compiler")
+    source = tmp_path / "model.c"
+    assert lagc(model_path, "--emit", "c", "-o", source).returncode == 0
+    builds = [("serial", [])] + ([("openmp", ["-fopenmp"])] if supports_openmp(cc) else [])
+    for name, flags in builds:
+        subprocess.run([cc, *STRICT_FLAGS, *flags, "-o", tmp_path / name, source, "-lm"], check=True)
+    return [tmp_path / name for name, _ in builds]
+
+
+def test_the_standalone_batch_equals_single_runs_row_for_row(tmp_path):
+    model_path = tmp_path / "singular.lag"
+    model_path.write_text(SINGULAR_LATER, encoding="utf-8")     # x = x0 - t: singular where x = 0
+    members = ["x.start=1.3", "x.start=1.0", "x.start=2.7 y.velocity=0.5"]
+    batch_input = "# x0 and y'0\n" + "\n\n".join(members) + "\n"
+    for program in _strict_programs(model_path, tmp_path):
+        done = subprocess.run([program, "--batch", "t.stop=1.5"], input=batch_input, capture_output=True,
+                              text=True, timeout=30, env={**os.environ, "OMP_NUM_THREADS": "2"})
+        assert done.returncode == 1, done.stderr
+        lines = done.stdout.splitlines()
+        assert lines[0] == "member,t,x,y"
+        expected = []
+        for b, member in enumerate(members):
+            single = subprocess.run([program, "t.stop=1.5", *member.split()], capture_output=True, text=True,
+                                    timeout=30)
+            assert single.returncode == (1 if b == 1 else 0)
+            expected += [f"{b},{row}" for row in single.stdout.splitlines()[1:]]
+        assert lines[1:] == expected and sum(line.startswith("1,") for line in lines) == 4
+        assert ("member 1: simulation failed at t = 0.875 after 4 rows: the mass matrix is singular"
+                in done.stderr)
+        assert "3 members, 1 failed" in done.stderr
+
+
+def test_a_bad_line_of_batch_input_stops_the_batch_before_it_runs(tmp_path):
+    model_path = tmp_path / "singular.lag"
+    model_path.write_text(SINGULAR_LATER, encoding="utf-8")
+    program = _strict_programs(model_path, tmp_path)[0]
+    for text, words in [("x.start=1\nx.start=one\n", "line 2: expected NAME=VALUE, got 'x.start=one'"),
+                        ("\nx.start=1 t.stop=3\n", "line 2: 't.stop' is not a parameter or a coordinate's"),
+                        ("x.start=inf\n", "line 1: the initial value of x is inf")]:
+        done = subprocess.run([program, "--batch"], input=text, capture_output=True, text=True, timeout=30)
+        assert done.returncode == 2 and words in done.stderr and done.stdout == "", (text, done.stderr)
