@@ -12,12 +12,13 @@ import lagdsl
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 
 PROJECTILE = """model Projectile "a thrown point mass; the flight ends where it comes down"
+  parameter m = 1 [kg];
   parameter g = 9.81 [m/s^2];
   coordinate x(velocity = 3) [m];
   coordinate y(velocity = 4) [m];
   let r = {x, y, 0};
-  T = dot(der(r), der(r))/2;
-  U = g*r.y;
+  T = m*dot(der(r), der(r))/2;
+  U = m*g*r.y;
   scene flight
     time(stop = 2, interval = 0.1);
     integrator dopri5(rtol = 1e-10, atol = 1e-12);
@@ -29,11 +30,12 @@ end Projectile;
 # The pendulum released at rest from theta0 swings through the bottom after a quarter period,
 # K(sin^2(theta0/2)) sqrt(l/g) (scipy's ellipk takes the parameter m = k^2).
 PENDULUM = """model Pendulum
+  parameter m = 1 [kg];
   parameter l = 2 [m];
   parameter g = 9.81 [m/s^2];
   coordinate theta(start = 2.5) [rad];
-  T = l^2/2*der(theta)^2;
-  U = -g*l*cos(theta);
+  T = m*l^2/2*der(theta)^2;
+  U = -m*g*l*cos(theta);
   scene quarter
     time(stop = 10, interval = 0.25);
     stop when l*sin(theta) < 0;
@@ -43,12 +45,13 @@ end Pendulum;
 """
 QUARTER = ellipk(np.sin(2.5 / 2)**2) * np.sqrt(2 / 9.81)
 ROD = """model Rod "a pendulum in Cartesian coordinates, held by a rod"
+  parameter m = 1 [kg];
   parameter l = 1 [m];
   parameter g = 9.81 [m/s^2];
   coordinate x(start = 1) [m];
   coordinate y [m];
-  T = (der(x)^2 + der(y)^2)/2;
-  U = g*y;
+  T = m*(der(x)^2 + der(y)^2)/2;
+  U = m*g*y;
   constraint rod: x^2 + y^2 = l^2;
   scene fall
     time(stop = 3, interval = 0.1);
