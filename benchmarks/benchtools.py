@@ -136,3 +136,32 @@ def machine_description() -> str:
         compiler = subprocess.run(["cc", "--version"], capture_output=True, text=True).stdout.splitlines()[0]
     return (f"{cpu}, {os.cpu_count()} cores (measured on one); Python {platform.python_version()}, "
             f"SymPy {sympy.__version__}, NumPy {numpy.__version__}, SciPy {scipy.__version__}; {compiler}")
+
+
+# ---- peers -----------------------------------------------------------------------------------
+def cyrk_double_pendulum():
+    """(numba, CyRK's nbsolve_ivp, the double pendulum's right-hand side as a numba function), or
+    None without CyRK. The right-hand side is the textbook one, written as a user would: Cramer's
+    rule on M q'' = F for y = (theta1, theta2, theta1', theta2') and args (m1, m2, l1, l2, g)."""
+    try:
+        import numba
+        import numpy as np
+        from CyRK import nbsolve_ivp
+    except ImportError:
+        return None
+
+    @numba.njit(cache=False)
+    def rhs(t, y, m1, m2, l1, l2, g):
+        d = y[0] - y[1]
+        c, s = np.cos(d), np.sin(d)
+        a11, a12, a22 = (m1 + m2) * l1 * l1, m2 * l1 * l2 * c, m2 * l2 * l2
+        b1 = -m2 * l1 * l2 * s * y[3] * y[3] - (m1 + m2) * g * l1 * np.sin(y[0])
+        b2 = m2 * l1 * l2 * s * y[2] * y[2] - m2 * g * l2 * np.sin(y[1])
+        det = a11 * a22 - a12 * a12
+        dy = np.empty(4)
+        dy[0], dy[1] = y[2], y[3]
+        dy[2] = (b1 * a22 - a12 * b2) / det
+        dy[3] = (a11 * b2 - a12 * b1) / det
+        return dy
+
+    return numba, nbsolve_ivp, rhs

@@ -202,25 +202,10 @@ def measure_lagc_run(repeat: int):
 
 def measure_cyrk(problem: Problem, repeat: int):
     """(best seconds, final angles, rhs) of CyRK's nbsolve_ivp DOP853 with a numba rhs, or a reason."""
-    try:
-        import numba
-        from CyRK import nbsolve_ivp
-    except ImportError:
+    cyrk = benchtools.cyrk_double_pendulum()
+    if cyrk is None:
         return "not installed", None, None
-
-    @numba.njit(cache=False)
-    def rhs(t, y, m1, m2, l1, l2, g):
-        d = y[0] - y[1]
-        c, s = np.cos(d), np.sin(d)
-        a11, a12, a22 = (m1 + m2) * l1 * l1, m2 * l1 * l2 * c, m2 * l2 * l2
-        b1 = -m2 * l1 * l2 * s * y[3] * y[3] - (m1 + m2) * g * l1 * np.sin(y[0])
-        b2 = m2 * l1 * l2 * s * y[2] * y[2] - m2 * g * l2 * np.sin(y[1])
-        det = a11 * a22 - a12 * a12
-        dy = np.empty(4)
-        dy[0], dy[1] = y[2], y[3]
-        dy[2] = (b1 * a22 - a12 * b2) / det
-        dy[3] = (a11 * b2 - a12 * b1) / det
-        return dy
+    numba, nbsolve_ivp, rhs = cyrk
 
     @numba.njit(cache=False)
     def counting_rhs(t, y, m1, m2, l1, l2, g, calls):
