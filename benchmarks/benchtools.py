@@ -139,6 +139,22 @@ def machine_description() -> str:
 
 
 # ---- peers -----------------------------------------------------------------------------------
+def hand_rhs(t, y, m1, m2, l1, l2, g):
+    """The textbook equations of the plane double pendulum (angles from the downward vertical),
+    solved for the accelerations by hand, as a scipy user would write them."""
+    import math
+
+    import numpy as np
+    th1, th2, w1, w2 = y
+    d = th1 - th2
+    c, s = math.cos(d), math.sin(d)
+    a11, a12, a22 = (m1 + m2) * l1 * l1, m2 * l1 * l2 * c, m2 * l2 * l2
+    b1 = -m2 * l1 * l2 * s * w2 * w2 - (m1 + m2) * g * l1 * math.sin(th1)
+    b2 = m2 * l1 * l2 * s * w1 * w1 - m2 * g * l2 * math.sin(th2)
+    det = a11 * a22 - a12 * a12
+    return np.array([w1, w2, (b1 * a22 - a12 * b2) / det, (a11 * b2 - a12 * b1) / det])
+
+
 def cyrk_double_pendulum():
     """(numba, CyRK's nbsolve_ivp, the double pendulum's right-hand side as a numba function), or
     None without CyRK. The right-hand side is the textbook one, written as a user would: Cramer's

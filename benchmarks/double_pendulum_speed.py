@@ -41,7 +41,6 @@ from __future__ import annotations
 import benchtools  # noqa: F401  (first: one BLAS thread before NumPy is imported)
 
 import argparse
-import math
 import os
 import re
 import subprocess
@@ -84,18 +83,6 @@ class Problem:
 
 
 # ---- right-hand sides ------------------------------------------------------------------------
-def hand_rhs(t, y, m1, m2, l1, l2, g):
-    """The textbook equations of the plane double pendulum solved for the accelerations by hand."""
-    th1, th2, w1, w2 = y
-    d = th1 - th2
-    c, s = math.cos(d), math.sin(d)
-    a11, a12, a22 = (m1 + m2) * l1 * l1, m2 * l1 * l2 * c, m2 * l2 * l2
-    b1 = -m2 * l1 * l2 * s * w2 * w2 - (m1 + m2) * g * l1 * math.sin(th1)
-    b2 = m2 * l1 * l2 * s * w1 * w1 - m2 * g * l2 * math.sin(th2)
-    det = a11 * a22 - a12 * a12
-    return np.array([w1, w2, (b1 * a22 - a12 * b2) / det, (a11 * b2 - a12 * b1) / det])
-
-
 def lambdified_rhs(par):
     """A SymPy user's right-hand side: LagrangesMethod, lambdify(M, F), numpy.linalg.solve per call."""
     import sympy
@@ -322,7 +309,7 @@ def main(argv=None) -> int:
     problem = Problem(model)
 
     started = cpu_seconds()
-    states, _ = solve_with_scipy(hand_rhs, problem, *REFERENCE_TOLERANCES, args=problem.par)
+    states, _ = solve_with_scipy(benchtools.hand_rhs, problem, *REFERENCE_TOLERANCES, args=problem.par)
     reference = final_angles_from_states(states)
     print(f"reference (solve_ivp DOP853, rtol {REFERENCE_TOLERANCES[0]:g}, atol {REFERENCE_TOLERANCES[1]:g}): "
           f"theta1({STOP:g}) = {reference[0]:.12f}, theta2({STOP:g}) = {reference[1]:.12f} "
@@ -336,7 +323,7 @@ def main(argv=None) -> int:
             ("(b) solve_ivp DOP853 + lambdify(M, F) + numpy.linalg.solve",
              *measure_scipy(lambdified_rhs(problem.par), problem, max(1, args.repeat // 2))),
             ("(c) solve_ivp DOP853 + hand-written rhs (math)",
-             *measure_scipy(hand_rhs, problem, args.repeat, args=problem.par)),
+             *measure_scipy(benchtools.hand_rhs, problem, args.repeat, args=problem.par)),
             ("(e) CyRK nbsolve_ivp DOP853 + numba rhs", *measure_cyrk(problem, args.repeat))]
     print(integration_table(rows, reference, problem.times))
     print()

@@ -79,16 +79,6 @@ def measure_simulate_loop(model, varied, chosen, sweep):
     return (time.process_time() - started) / len(chosen)
 
 
-def hand_rhs(t, y, m1, m2, l1, l2, g):
-    """The textbook accelerations of the plane double pendulum (angles from the downward vertical)."""
-    th1, th2, w1, w2 = y
-    d = th1 - th2
-    c, s = math.cos(d), math.sin(d)
-    a11, a12, a22 = (m1 + m2) * l1 * l1, m2 * l1 * l2 * c, m2 * l2 * l2
-    b1 = -m2 * l1 * l2 * s * w2 * w2 - (m1 + m2) * g * l1 * math.sin(th1)
-    b2 = m2 * l1 * l2 * s * w1 * w1 - m2 * g * l2 * math.sin(th2)
-    det = a11 * a22 - a12 * a12
-    return np.array([w1, w2, (b1 * a22 - a12 * b2) / det, (a11 * b2 - a12 * b1) / det])
 
 
 def starts_of(varied, b) -> np.ndarray:
@@ -99,7 +89,7 @@ def measure_scipy_loop(varied, chosen, par):
     from scipy.integrate import solve_ivp
     started = time.process_time()
     for b in chosen:
-        solve_ivp(hand_rhs, (0.0, GRID["stop"]), starts_of(varied, b), method="DOP853", t_eval=[0.0, GRID["stop"]],
+        solve_ivp(benchtools.hand_rhs, (0.0, GRID["stop"]), starts_of(varied, b), method="DOP853", t_eval=[0.0, GRID["stop"]],
                   rtol=GRID["rtol"], atol=GRID["atol"], args=par)
     return (time.process_time() - started) / len(chosen)
 
