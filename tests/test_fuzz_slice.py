@@ -27,7 +27,7 @@ def test_mutants_get_answers_not_tracebacks_or_hangs(tmp_path, monkeypatch):
         path = tmp_path / mutant.model
         path.write_text(mutant.text, encoding="utf-8")
         for command in COMMANDS:
-            exit_code, stderr = run_isolated(arguments(command, str(path)), CPU_LIMIT, tmp_path)
+            exit_code, stderr, _ = run_isolated(arguments(command, str(path)), CPU_LIMIT, tmp_path)
             category = classify(exit_code, stderr)
             if category in OFFENDING:
                 offences.append(f"{category} in '{command}' on {mutant.model} after {mutant.mutations}:\n{stderr}")

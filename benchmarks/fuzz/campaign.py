@@ -12,7 +12,8 @@ campaign is about robustness, and `lagc eom` of 12 links alone takes 20 s.
 Outcomes are counted per command: successes, located errors (`file:line:col: error:` or
 `lagc: error:`), simulation failures (time, state, remedy), errors without a location, and the
 offending ones: tracebacks (`Traceback` or `internal error` on stderr, or an exit code other
-than 0 and 1), signals, and hangs (time-outs). The first mutant of each distinct offence is
+than 0 and 1), signals, and hangs (over the hard limit of CPU time). Answers that took more than the
+soft limit are counted as "slow" and listed by mutant, but they are not offences (see outcomes.py). The first mutant of each distinct offence is
 saved for reproduction: DIR/NNN-category/ holds the model, the command and its stderr.
 DIR/report.md has the counts and the list of offences.
 """
@@ -44,8 +45,8 @@ def main() -> int:
     with tempfile.TemporaryDirectory(prefix="lagdsl-fuzz-") as work:
         os.environ["LAGDSL_CACHE"] = str(Path(work) / "cache")
         started = time.monotonic()
-        tally, offences, done = _campaign(options, Path(work), started)
-    report = _report(options, tally, offences, done, time.monotonic() - started)
+        tally, offences, slow, done = _campaign(options, Path(work), started)
+    report = _report(options, tally, offences, slow, done, time.monotonic() - started)
     print(report)
     return 0
 
@@ -54,7 +55,10 @@ def _options():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--count", type=int, default=10**4, help="number of mutants (default 10^4)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    parser.add_argument("--timeout", type=float, default=20.0, help="CPU time limit per command in seconds (default 20)")
+    parser.add_argument("--timeout", type=float, default=20.0,
+                        help="soft CPU time limit per command in seconds: slower answers are listed (default 20)")
+    parser.add_argument("--hard-limit", type=float, default=120.0,
+                        help="hard CPU time limit per command in seconds: a hang (default 120)")
     parser.add_argument("--out", type=Path, default=Path("fuzz-out"), help="report and reproducers (default fuzz-out/)")
     parser.add_argument("--keep", type=int, default=20, help="reproducers to save at most (default 20)")
     return parser.parse_args()
@@ -62,11 +66,12 @@ def _options():
 
 def _campaign(options, work: Path, started: float):
     """Run the mutants; returns the counts per command and category, the offences
-    (signature -> [count, reproducer directory or None, mutant numbers]) and the number of mutants
-    run.
+    (signature -> [count, reproducer directory or None, mutant numbers]), the slow answers and the
+    number of mutants run.
     The report is rewritten every 50 mutants, so a campaign cut short still has one."""
     tally = collections.Counter()
     offences: dict[str, list] = {}
+    slow: list[str] = []
     seeds = {name: text.replace("n = 12", "n = 3") for name, text in library(benchtools.MODELS).items()}
     stream = mutants(seeds, random.Random(options.seed))
     for number in range(options.count):
@@ -74,19 +79,21 @@ def _campaign(options, work: Path, started: float):
         model = work / mutant.model
         model.write_text(mutant.text, encoding="utf-8")
         for command in COMMANDS:
-            exit_code, stderr = run_isolated(arguments(command, str(model)), options.timeout, work)
-            category = classify(exit_code, stderr)
+            exit_code, stderr, cpu = run_isolated(arguments(command, str(model)), options.hard_limit, work)
+            category = classify(exit_code, stderr, cpu, options.timeout)
             tally[command, category] += 1
-            if category in OFFENDING:
+            if category == "slow":
+                slow.append(f"{number} ({command}, {cpu:.0f} s)")
+            elif category in OFFENDING:
                 _record(offences, signature(category, command, exit_code, stderr), options, number, mutant,
                         command, category, stderr)
-            if command == "check" and category != "success":
+            if command == "check" and exit_code != 0:
                 break
         if (number + 1) % 50 == 0:
             found = sum(count for count, _, _ in offences.values())
             print(f"{number + 1} mutants, {found} offending outcomes", file=sys.stderr, flush=True)
-            _report(options, tally, offences, number + 1, time.monotonic() - started)
-    return tally, offences, options.count
+            _report(options, tally, offences, slow, number + 1, time.monotonic() - started)
+    return tally, offences, slow, options.count
 
 
 def _record(offences, name, options, number, mutant, command, category, stderr) -> None:
@@ -105,11 +112,12 @@ def _record(offences, name, options, number, mutant, command, category, stderr) 
         (where / "stderr.txt").write_text(stderr, encoding="utf-8")
 
 
-def _report(options, tally, offences, done: int, elapsed: float) -> str:
+def _report(options, tally, offences, slow, done: int, elapsed: float) -> str:
     """Write DIR/report.md (atomically) and return its text."""
     rows = [[command, *(tally[command, category] for category in CATEGORIES)] for command in COMMANDS]
     progress = "" if done == options.count else f" (so far: {done} of {options.count})"
-    lines = [f"# Fuzz campaign: {done} mutants{progress}, seed {options.seed}, time limit {options.timeout:g} s",
+    lines = [f"# Fuzz campaign: {done} mutants{progress}, seed {options.seed}, "
+             f"CPU time limits {options.timeout:g} s (slow) and {options.hard_limit:g} s (hang)",
              "", f"{elapsed:.0f} s on one core. {benchtools.machine_description()}", "",
              benchtools.markdown_table(["command", *CATEGORIES], rows), ""]
     if not offences:
@@ -118,6 +126,8 @@ def _report(options, tally, offences, done: int, elapsed: float) -> str:
         lines += ["## Offences (first reproducer saved)", ""]
         lines += [f"- {count} x {name}: {where or 'not saved (--keep)'}; mutants {', '.join(map(str, numbers))}"
                   for name, (count, where, numbers) in sorted(offences.items(), key=lambda item: -item[1][0])]
+    if slow:
+        lines += ["", f"Slow answers (mutant, command, CPU time): {', '.join(slow)}"]
     text = "\n".join(lines) + "\n"
     partial = options.out / "report.md.partial"
     partial.write_text(text, encoding="utf-8")

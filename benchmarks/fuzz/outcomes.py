@@ -7,6 +7,12 @@ machine may be shared, so wall-clock time would count other people's work; a chi
 without computing is stopped after `WALL_FACTOR` times the limit in wall-clock time (generous: on a
 busy machine a command gets a small share of a core). An in-process alarm
 would not do: SymPy can spend minutes inside one C call (a power of a huge exact number).
+
+Two times judge a command. Running over the hard limit is a hang: the run contract is broken.
+Finishing between the soft limit and the hard one is "slow": an answer, but one worth a look. The
+gap is there because a run is bounded by its step limit, not by a time: 10^5 steps by default, and
+a SciPy step of a small model's NumPy right-hand side costs up to about 1 ms, so an honest
+`run numpy` can take a minute and a half of CPU.
 Linux only (fork, pidfd).
 """
 from __future__ import annotations
@@ -32,7 +38,8 @@ COMMANDS = {
     "emit c": ["{model}", "--emit", "c"],
     "emit numpy": ["{model}", "--emit", "numpy"],
 }
-CATEGORIES = ("success", "located error", "simulation failure", "unlocated error", "traceback", "signal", "hang")
+CATEGORIES = ("success", "located error", "simulation failure", "unlocated error", "slow", "traceback", "signal",
+              "hang")
 OFFENDING = ("traceback", "signal", "hang")     # lagdsl's bugs; the other outcomes are answers
 WALL_FACTOR = 15
 MEMORY_LIMIT = 6 * 2**30        # bytes of address space per command: a runaway mutant must not take the machine
@@ -46,10 +53,11 @@ def arguments(command: str, model: str) -> list[str]:
     return [word.format(model=model) for word in COMMANDS[command]]
 
 
-def run_isolated(argv: list[str], timeout: float, work: Path) -> tuple[int | None, str]:
-    """(exit code, stderr) of `lagc argv` in a child process; the code is None if it ran over
-    `timeout` seconds of CPU time (or `WALL_FACTOR` times that in wall-clock time: the child's whole process
-    group is then killed), and -N if signal N ended it."""
+def run_isolated(argv: list[str], timeout: float, work: Path) -> tuple[int | None, str, float]:
+    """(exit code, stderr, CPU seconds) of `lagc argv` in a child process; the code is None if it ran
+    over `timeout` seconds of CPU time (or `WALL_FACTOR` times that in wall-clock time: the child's
+    whole process group is then killed), and -N if signal N ended it. The CPU time includes the
+    compilers the command started."""
     stdout, stderr = work / "stdout", work / "stderr"
     sys.stdout.flush()
     sys.stderr.flush()
@@ -60,16 +68,15 @@ def run_isolated(argv: list[str], timeout: float, work: Path) -> tuple[int | Non
         os.setpgid(pid, pid)
     finished = os.pidfd_open(pid)
     try:
-        if select.select([finished], [], [], WALL_FACTOR * timeout)[0]:
-            exit_code = os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1])
-            exit_code = None if exit_code == -signal.SIGXCPU else exit_code
-        else:
+        waited = select.select([finished], [], [], WALL_FACTOR * timeout)[0]
+        if not waited:
             os.killpg(pid, signal.SIGKILL)
-            os.waitpid(pid, 0)
-            exit_code = None
+        _, status, usage = os.wait4(pid, 0)
+        exit_code = os.waitstatus_to_exitcode(status) if waited else None
+        exit_code = None if exit_code == -signal.SIGXCPU else exit_code
     finally:
         os.close(finished)
-    return exit_code, stderr.read_text(encoding="utf-8", errors="replace")
+    return exit_code, stderr.read_text(encoding="utf-8", errors="replace"), usage.ru_utime + usage.ru_stime
 
 
 def _child(argv: list[str], stdout: Path, stderr: Path, timeout: float) -> None:
@@ -109,14 +116,17 @@ def invoke(argv: list[str]) -> int:
         return 1
 
 
-def classify(exit_code: int | None, stderr: str) -> str:
-    """One of CATEGORIES. `exit_code` is None after a time-out, negative after a signal."""
+def classify(exit_code: int | None, stderr: str, cpu_seconds: float = 0.0, slow_after: float = float("inf")) -> str:
+    """One of CATEGORIES. `exit_code` is None after a time-out, negative after a signal; an answer
+    that took more than `slow_after` CPU seconds is "slow"."""
     if exit_code is None:
         return "hang"
     if exit_code < 0:
         return "signal"
     if "Traceback" in stderr or "internal error" in stderr or exit_code not in (0, 1):
         return "traceback"
+    if cpu_seconds > slow_after:
+        return "slow"
     if exit_code == 0:
         return "success"
     if LOCATED.search(stderr):
