@@ -41,8 +41,8 @@ def fpu_text(n: int) -> str:
     """The FPU chain with n = 2m unit masses, omega = 50; q[1] starts at 1 (FPU's first mode)."""
     m = n // 2
     return f"""model FPU{n} "stiff FPU chain of {n} unit masses"
-  parameter omega = 50 [1/s];
-  coordinate q[{n}](start = {{1{", 0" * (n - 1)}}}) [m];
+  parameter omega = 50;
+  coordinate q[{n}](start = {{1{", 0" * (n - 1)}}});
   T = sum(der(q[i])^2/2, i in 1:{n});
   U = omega^2/4*sum((q[2*i] - q[2*i - 1])^2, i in 1:{m})
     + q[1]^4 + sum((q[2*i + 1] - q[2*i])^4, i in 1:{m - 1}) + q[{n}]^4;

@@ -108,10 +108,14 @@ class Differentiator:
         if not (self.dependencies(expr) & rates.keys()):
             return sympy.S.Zero
         gradient = self.gradient(expr)
-        # Look up the few rates rather than scan the whole gradient: a partial derivative of a
-        # Lagrangian with n coordinates would otherwise cost n per coordinate. (The order of
-        # the terms is immaterial: sympy.Add sorts them.)
-        terms = [gradient[symbol] * rate for symbol, rate in rates.items() if symbol in gradient]
+        # Scan the smaller of the gradient and the rates: a partial derivative of a Lagrangian
+        # with n coordinates would otherwise cost n per coordinate, and so would the time
+        # derivative der(q[i]) of one member of a long family. (The order of the terms is
+        # immaterial: sympy.Add sorts them.)
+        if len(gradient) < len(rates):
+            terms = [derivative * rates[symbol] for symbol, derivative in gradient.items() if symbol in rates]
+        else:
+            terms = [gradient[symbol] * rate for symbol, rate in rates.items() if symbol in gradient]
         for symbol in self._intermediates_in(expr):
             if self._depends[symbol] & rates.keys():
                 terms.append(gradient[symbol] * self._derivative_of(symbol, direction, rates))

@@ -144,6 +144,7 @@ class ExpressionBuilder:
         self.calculus = differentiator
         self.velocities = velocities          # q -> q'
         self.rates = dict(velocities)
+        self._velocities_seen: frozenset = frozenset()
         self.rates[sympy.Symbol("t", real=True)] = sympy.S.One
         self.exact_parameters: dict[sympy.Symbol, sympy.Expr] = {}   # parameter -> exact value
         self.structural: set[sympy.Symbol] = set()                    # parameters used as sizes
@@ -488,12 +489,19 @@ class ExpressionBuilder:
     def _der(self, argument, scope):
         return self._rate(self.build(argument, scope), argument)
 
+    def _velocity_symbols(self) -> frozenset:
+        """The velocities declared so far, kept between calls: der() of each member of a long
+        family would otherwise build the set anew, n² in all."""
+        if len(self._velocities_seen) != len(self.velocities):
+            self._velocities_seen = frozenset(self.velocities.values())
+        return self._velocities_seen
+
     def _rate(self, value, argument):
         """The time derivative of a value of (q, t), componentwise for vectors and matrices."""
         for component in (value.components if is_array(value) else (value,)):
             if component.free_symbols & self.observables:
                 raise LagError("der() of a Lagrange multiplier: its rate is not computed", self.span(argument))
-            if self.calculus.dependencies(component) & set(self.velocities.values()):
+            if self.calculus.dependencies(component) & self._velocity_symbols():
                 raise LagError("der() of an expression that depends on velocities would need accelerations; "
                                "L, T, U and constraints are functions of q, q' and t", self.span(argument))
         return _map(value, lambda c: self.calculus.directional(c, TIME_DIRECTION, self.rates))
@@ -504,11 +512,8 @@ class ExpressionBuilder:
             raise LagError("the second argument of sum() is a range: sum(expr, i in 1:n)",
                            self.span(iteration) if isinstance(iteration, lark.Tree) else span)
         variable, low, high = self.iteration(iteration, scope)
-        total = None
-        for index in range(low, high + 1):
-            term = self.build(body, scope.child(**{variable: index}))
-            total = term if total is None else self._sum_terms(total, term, span)
-        return total if total is not None else sympy.S.Zero
+        terms = [self.build(body, scope.child(**{variable: index})) for index in range(low, high + 1)]
+        return self._sum_terms(terms, span) if terms else sympy.S.Zero
 
     def iteration(self, node, scope) -> tuple[str, int, int]:
         """`i in a:b` -> ("i", a, b)."""
@@ -531,13 +536,17 @@ class ExpressionBuilder:
             raise error
         return str(name_token), low, high
 
-    def _sum_terms(self, a, b, span):
-        if kind_of(a) != kind_of(b):
-            raise LagError(f"sum() terms mix {kind_of(a)[2:]}s and {kind_of(b)[2:]}s", span)
-        if is_array(a):
-            total = [x + y for x, y in zip(a.components, b.components)]
-            return Vector(tuple(total)) if isinstance(a, Vector) else _matrix_of(total)
-        return a + b
+    def _sum_terms(self, terms, span):
+        """The terms added at once: sympy sorts an Add's arguments whenever it is built, so adding
+        them one by one would cost n² in the number of terms."""
+        first = terms[0]
+        for term in terms[1:]:
+            if kind_of(term) != kind_of(first):
+                raise LagError(f"sum() terms mix {kind_of(first)[2:]}s and {kind_of(term)[2:]}s", span)
+        if is_array(first):
+            total = [sympy.Add(*parts) for parts in zip(*(term.components for term in terms))]
+            return Vector(tuple(total)) if isinstance(first, Vector) else _matrix_of(total)
+        return sympy.Add(*terms)
 
     def _iteration(self, node, scope):
         raise LagError("an 'i in a:b' range is only allowed as the second argument of sum()",
