@@ -215,14 +215,18 @@ def _interruptible(library: ctypes.CDLL, call: Callable[[], int],
     threading.Thread(target=work, name="lagdsl-c-run", daemon=True).start()
     # Waits on the event, not join(timeout): a KeyboardInterrupt inside Thread.join can leave
     # the thread looking finished while it still runs. The wait ends as soon as the run does, so
-    # a run of milliseconds does not wait out a poll interval.
-    while not done.is_set():
+    # a run of milliseconds does not wait out a poll interval. Ctrl-C is caught wherever the
+    # main thread is in the loop, in the wait, the test of the event or the poll: Python raises
+    # KeyboardInterrupt at whichever bytecode it reaches next.
+    while True:
         try:
-            done.wait(POLL_SECONDS)
+            while not done.is_set():
+                done.wait(POLL_SECONDS)
+                if poll is not None:
+                    poll()
+            break
         except KeyboardInterrupt:
             interrupt.value = 1
-        if poll is not None:
-            poll()
     if not outcome:
         raise InternalError("the C run ended without a status")
     return outcome[0]
@@ -320,7 +324,10 @@ def run_numpy(kernel: Kernel, source: GeneratedSource, plan: RunPlan, progress: 
     if failure is not None:
         status, t_fail, y_fail = failure
         with np.errstate(all="ignore"):
-            rcond = float(module.reciprocal_condition(t_fail, y_fail, par))
+            try:
+                rcond = float(module.reciprocal_condition(t_fail, y_fail, par))
+            except (np.linalg.LinAlgError, ArithmeticError):     # K itself cannot be formed there
+                rcond = float("nan")
         raise _failure(plan, status, t_fail, y_fail, result, rcond)
     return result
 
@@ -353,6 +360,8 @@ def _start(module, par, t0, y0, plan):
             else module.rhs(t0, y0, par)
     except np.linalg.LinAlgError:
         return y0, moved, (1, t0, y0)
+    except ArithmeticError:         # Python float arithmetic (a constant let) overflowed: not finite
+        return y0, moved, (2, t0, y0)
     if not (np.all(np.isfinite(y0)) and np.all(np.isfinite(derivative))):
         return y0, moved, (2, t0, y0)
     return y0, moved, None
@@ -366,11 +375,11 @@ def _rows_with_outputs(module, par, times, states) -> int:
         if len(states):
             module.observables(times[:len(states)], states.T, par)
         return len(states)
-    except np.linalg.LinAlgError:
+    except (np.linalg.LinAlgError, ArithmeticError):
         for row, state in enumerate(states):
             try:
                 module.observables(times[row:row + 1], state[:, None], par)
-            except np.linalg.LinAlgError:
+            except (np.linalg.LinAlgError, ArithmeticError):
                 return row
         return len(states)
 
@@ -466,10 +475,11 @@ def _run_scipy(module, par, times, y0, plan, progress, stop=None):
                 solver = start(solver.t, projected, first_step=min(proposed, times[-1] - solver.t))
     except np.linalg.LinAlgError:
         return _stopped(states, counts, solver, times[0], y0, 1, watch)
-    except ValueError:
+    except (ValueError, ArithmeticError):
         # The inputs were checked before the run, so scipy's own finiteness checks (lu_factor of
         # an iteration matrix with inf or NaN in the Jacobian) fire only on values the model
-        # produced on the way: the same failure as a non-finite state.
+        # produced on the way: the same failure as a non-finite state. So does an overflow in
+        # Python float arithmetic (a power of a constant let), which raises where NumPy's gives inf.
         return _stopped(states, counts, solver, times[0], y0, 2, watch)
     except KeyboardInterrupt:
         return _stopped(states, counts, solver, times[0], y0, INTERRUPTED, watch)

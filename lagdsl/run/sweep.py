@@ -476,7 +476,7 @@ def _stacked_chunk(module, members: Members, lo: int, hi: int, values: np.ndarra
             grid = np.array(states).reshape(len(times), n, count)
             observed = [module.observables(times, grid[:, :, j].T, members.parameters[lo + j])[0]
                         for j in range(count)]
-        except (np.linalg.LinAlgError, ValueError):
+        except (np.linalg.LinAlgError, ValueError, ArithmeticError):
             return False
     values[lo:hi] = np.transpose(np.array(observed), (0, 2, 1))
     summaries[lo:hi, 1] = len(times)

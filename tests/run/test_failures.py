@@ -114,6 +114,26 @@ def test_non_finite_initial_state(tmp_path, backend):
     assert "check the parameters and initial values" in error.remedy
 
 
+# A let that is a bare number is a Python float in the generated NumPy code, and a Python float
+# raises OverflowError where NumPy's gives inf (found by the fuzz campaign: a constant let of
+# rolling_disk.lag set to 1e308).
+CONSTANT_OVERFLOW = """model ConstantOverflow
+  let huge = 1e308;
+  coordinate x(start = 1);
+  T = der(x)^2/2;
+  U = (huge*x)^2;
+end ConstantOverflow;
+"""
+
+
+@pytest.mark.parametrize("backend", ["c", "numpy"])
+@pytest.mark.parametrize("integrator, options", [("dop853", {}), ("rk4", {"step": 0.01})])
+def test_overflow_of_a_constant_is_a_simulation_error(tmp_path, backend, integrator, options):
+    model = load(tmp_path, CONSTANT_OVERFLOW)
+    with pytest.raises(SimulationError, match="infinite or NaN"):
+        model.simulate(backend=backend, integrator=integrator, stop=0.1, **options)
+
+
 def test_the_command_line_shows_no_warning_or_traceback(tmp_path):
     path = tmp_path / "blow_up.lag"
     path.write_text(BLOW_UP, encoding="utf-8")

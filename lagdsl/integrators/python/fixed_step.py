@@ -131,6 +131,8 @@ def integrate_rk4(rhs, t_grid, y0, step, stop=None):
             stats["accepted"] += 1
     except np.linalg.LinAlgError:
         raise output.failure(f"rk4: the mass matrix is singular in the step from t = {t}", t, y, SINGULAR) from None
+    except ArithmeticError:
+        raise output.failure(f"rk4: the state became infinite or NaN in the step from t = {t}", t, y) from None
     except KeyboardInterrupt:
         raise output.failure("rk4: interrupted", t, y, INTERRUPTED) from None
     return output.Y[:output.completed], stats
@@ -185,6 +187,8 @@ def integrate_gauss(hamilton_rhs, to_canonical, from_canonical, t_grid, y0, step
             t, z, y = t_new, z_new, y_new
     except np.linalg.LinAlgError:
         raise output.failure(f"gauss: the mass matrix is singular in the step from t = {t}", t, y, SINGULAR) from None
+    except ArithmeticError:
+        raise output.failure(f"gauss: the state became infinite or NaN in the step from t = {t}", t, y) from None
     except KeyboardInterrupt:
         raise output.failure("gauss: interrupted", t, y, INTERRUPTED) from None
     return output.Y[:output.completed], method.stats
