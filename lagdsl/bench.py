@@ -327,7 +327,9 @@ def _failure_text(error: SimulationError) -> str:
 
 def invariant_plan(plan: ScenePlan, equations) -> ScenePlan:
     """The plan with the conserved quantities as its output columns (for their drift)."""
-    outputs = tuple(ir.OutputRequest(q.name, "expression", q.expression, None, None) for q in equations.conserved)
+    outputs = tuple(ir.OutputRequest(q.name, "energy", None, None, None) if q.name == "energy" else
+                    ir.OutputRequest(q.name, "momentum", None, q.name[len("momentum("):-1], None)
+                    for q in equations.conserved)
     return replace(plan, outputs=outputs)
 
 

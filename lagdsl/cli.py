@@ -416,8 +416,9 @@ def _check(arguments) -> int:
 
 
 def _eom(arguments) -> int:
+    from .mechanics.families import expanded
     from .present import format_equations
-    print(format_equations(_model(SourceFile.read(arguments.model)).equations, latex=arguments.latex))
+    print(format_equations(expanded(_model(SourceFile.read(arguments.model)).equations), latex=arguments.latex))
     return 0
 
 

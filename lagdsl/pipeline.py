@@ -1,7 +1,7 @@
 """The whole chain on one screen.
 
     text ──parse──▶ lark Tree ──build_model──▶ ir.Model ──check_dimensions──▶ ir.Model (+ units)
-         ──derive_equations──▶ Equations
+         ──derive_equations──▶ Equations (or LocalEquations: per shape, for large local models)
          ──plan_scene──▶ ScenePlan ──lower──▶ codegen.Kernel ──render──▶ C or NumPy source
          ──build/run──▶ results
 
@@ -9,9 +9,9 @@ stage            input -> output                       module
 parse            SourceFile -> lark.Tree               parser.py (grammar.lark)
 build_model      Tree -> ir.Model                      semantics.py, expressions.py, units.py
 check_dimensions Tree + Model -> Model (+ UnitReport)  dimensions.py, units.py
-derive_equations Model -> Equations (M, f, A, ...)     mechanics/
+derive_equations Model -> Equations (M, f, A, ...)     mechanics/ (families.py: the local form)
 plan_scene       Model + scene + overrides -> plan     scene.py
-lower            Equations + plan -> Kernel (CSE)      codegen/kernel.py
+lower            Equations + plan -> Kernel (CSE)      codegen/kernel.py (loops.py: the local form)
 render           Kernel -> source text                 codegen/c.py, codegen/numpy.py
 run              source -> trajectories                run/
 """
@@ -27,6 +27,7 @@ from .codegen.kernel import Kernel, lower_to_kernel
 from .codegen.numpy import render_numpy
 from .dimensions import check_dimensions
 from .mechanics import Equations, derive_equations
+from .mechanics.families import LocalEquations, derive_local_equations
 from .parser import parse
 from .run.output import Result
 from .run.runner import run
@@ -46,9 +47,9 @@ def model_from_source(source: SourceFile) -> ir.Model:
     return check_dimensions(tree, model, source)      # + units checked, UnitReport
 
 
-def compile_model(source: SourceFile) -> tuple[ir.Model, Equations]:
+def compile_model(source: SourceFile) -> tuple[ir.Model, Equations | LocalEquations]:
     model = model_from_source(source)         # text -> ir.Model
-    return model, derive_equations(model)     # Model -> Equations
+    return model, derive_local_equations(model) or derive_equations(model)   # Model -> Equations
 
 
 def plan(model: ir.Model, equations: Equations, scene: str | None, overrides: Overrides) -> ScenePlan:

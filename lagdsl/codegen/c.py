@@ -8,7 +8,7 @@ from ..integrators import (COMPOSITES, COUNTER_LABELS, COUNTERS, STIFFNESS_TESTE
 from ..settings import INTEGRATOR_OPTIONS
 from . import GeneratedSource, template_environment
 from .c_factor import factorisation_text
-from .kernel import Block, Kernel, Store
+from .kernel import Block, Kernel, Loop, Store
 from .printers import CPrinter
 
 # The parameters of each generated C function whose body is a kernel block.
@@ -61,7 +61,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
         "derived": [f"if (!fixed[{i}])\n        par[{i}] = {printer.doprint(expr)};"
                     for i, expr in kernel.derived_parameters],
         "solver": kernel.solver, "jacobian": kernel.jacobian is not None,
-        "layout": layout_kind(kernel), "stored": kernel.layout.size if kernel.layout else kernel.size ** 2,
+        "layout": layout_kind(kernel), "bandwidth": kernel.layout.bandwidth if kernel.layout else 0, "stored": kernel.layout.size if kernel.layout else kernel.size ** 2,
         "factor": factorisation_text(kernel.layout),
         "canonical": kernel.momenta is not None,
         "outputs_need_multipliers": kernel.outputs_need_multipliers,
@@ -134,22 +134,61 @@ def _print_block(block: Block, kind: str, kernel: Kernel, printer: CPrinter) -> 
     stores = [(f"{s.array}[{_position(s, kernel)}]", printer.doprint(s.value))
               for s in block.stores if not (s.array in CLEARED and s.value == 0)]
     assignments = [(name, printer.doprint(value)) for name, value in block.assignments]
-    read = {source.partition("[")[0] for _, source in block.inputs} | {s.array for s in block.stores}
-    if any("t" in {x.name for x in value.free_symbols} for _, value in block.assignments) or \
-            any("t" in {x.name for x in s.value.free_symbols} for s in block.stores):
+    loops = [_print_loop(loop, kernel, printer) for loop in block.loops]
+    read = ({source.partition("[")[0] for _, source in block.inputs} | {s.array for s in block.stores}
+            | {array for loop in block.loops for _, array, _, _ in loop.inputs}
+            | {array for loop in block.loops for array, index, _ in loop.stores if index} | set(block.cleared))
+    values = [*(value for _, value in block.assignments), *(s.value for s in block.stores),
+              *(value for loop in block.loops for _, value in loop.assignments),
+              *(value for loop in block.loops for _, _, value in loop.stores)]
+    if any("t" in {x.name for x in value.free_symbols} for value in values):
         read.add("t")
     parameters = [p for p in FUNCTION_PARAMETERS[kind]
                   if (p != "lam" or kernel.constraints) and (p != "inv" or kernel.invariant_names)]
     unused = [p for p in parameters if p not in read]
-    cleared = sorted({s.array for s in block.stores if s.array in CLEARED})
+    cleared = sorted({s.array for s in block.stores if s.array in CLEARED} | set(block.cleared))
     return {"inputs": block.inputs, "assignments": assignments, "stores": stores, "unused": unused,
-            "cleared": [f"memset({array}, 0, {CLEARED[array]});" for array in cleared]}
+            "cleared": [f"memset({array}, 0, {ARRAY_SIZES[array]});" for array in cleared],
+            "accumulators": block.accumulators, "loops": loops}
 
 
 # Arrays set to zero before a block fills them, so that their structurally zero entries need
 # no statement: the mostly empty dR of a large model (a derivative of each residual by each
-# state entry) would otherwise be one store per entry.
-CLEARED = {"dR": "sizeof(real) * LAG_NK * LAG_NY"}
+# state entry) would otherwise be one store per entry. A block may ask for more (Block.cleared):
+# the loops of the local form add into K and b.
+CLEARED = ("dR",)
+ARRAY_SIZES = {"y0": "sizeof(real) * LAG_NY", "dR": "sizeof(real) * LAG_NK * LAG_NY", "K": "sizeof(real) * LAG_NM", "b": "sizeof(real) * LAG_NK"}
+
+
+def _print_loop(loop: Loop, kernel: Kernel, printer: CPrinter) -> dict:
+    """A Loop as C: `count` > 1 is a for loop over i, a single member a block with i = 0."""
+    def element(array: str, index) -> str:
+        if not index:
+            return array                                            # an accumulator
+        offset, stride = index[0] if len(index) == 1 else _band_position(index, kernel)
+        return f"{array}[{_affine(offset, stride if loop.count > 1 else 0)}]"
+    return {"count": loop.count,
+            "inputs": [(name, element(array, ((offset, stride),))) for name, array, offset, stride in loop.inputs],
+            "assignments": [(name, printer.doprint(value)) for name, value in loop.assignments],
+            "stores": [(element(array, index), printer.doprint(value)) for array, index, value in loop.stores]}
+
+
+def _band_position(index, kernel: Kernel) -> tuple[int, int]:
+    """(offset, stride) of entry (row, column) of M over the members: K[row] when M is diagonal,
+    K[row (w + 1) + row - column] in the band of half-width w."""
+    (row, stride), (column, _) = index
+    if kernel.layout.kind == "diagonal":
+        return row, stride
+    width = kernel.layout.bandwidth + 1
+    return row * width + row - column, stride * width
+
+
+def _affine(offset: int, stride: int) -> str:
+    """offset + stride·i as C or Python: "i", "2 * i + 1", "7"."""
+    if stride == 0:
+        return str(offset)
+    term = "i" if stride == 1 else f"{stride} * i"
+    return term if offset == 0 else f"{term} + {offset}" if offset > 0 else f"{term} - {-offset}"
 
 
 def _position(store: Store, kernel: Kernel) -> int:

@@ -37,6 +37,7 @@ from .. import ir
 from ..calculus import Differentiator
 from ..errors import InternalError, LagError
 from ..mechanics import Equations
+from ..mechanics.families import LocalEquations
 from ..scene import ScenePlan
 from .cse import eliminate_common_subexpressions
 from .structure import MassLayout, mass_layout
@@ -50,10 +51,26 @@ class Store:
 
 
 @dataclass(frozen=True)
+class Loop:
+    """The members of one stencil (mechanics/families.py): for i = 0 .. count - 1, read each input
+    name = array[offset + stride·i], compute the assignments, and add each store's value into
+    array[offset + stride·i] (one (offset, stride) per index; a 2-index store is an entry of M).
+    A store with no index adds into the block's accumulator of that name (a sum over members)."""
+
+    count: int
+    inputs: tuple[tuple[str, str, int, int], ...]            # (name, array, offset, stride)
+    assignments: tuple[tuple[str, sympy.Expr], ...]
+    stores: tuple[tuple[str, tuple[tuple[int, int], ...], sympy.Expr], ...]
+
+
+@dataclass(frozen=True)
 class Block:
     inputs: tuple[tuple[str, str], ...]          # (name, source such as "y[3]" or "par[0]")
     assignments: tuple[tuple[str, sympy.Expr], ...]
     stores: tuple[Store, ...]
+    loops: tuple[Loop, ...] = ()                 # run after the inputs, before the assignments
+    accumulators: tuple[str, ...] = ()           # scalars the loops sum into, zero before them
+    cleared: tuple[str, ...] = ()                # arrays zeroed first: the loops add into them
 
 
 @dataclass(frozen=True)
@@ -93,9 +110,21 @@ class Kernel:
         return self.n + len(self.constraints)
 
 
-def lower_to_kernel(equations: Equations, plan: ScenePlan) -> Kernel:
-    """Build every block the scene needs (see the module docstring)."""
+def lower_to_kernel(equations: Equations | LocalEquations, plan: ScenePlan) -> Kernel:
+    """Build every block the scene needs (see the module docstring): from the local form of the
+    equations (loops over stencils) where the scene allows it, else from the expanded equations."""
+    if isinstance(equations, LocalEquations):
+        if local_form_serves(plan):
+            from .loops import LocalLowering
+            return LocalLowering(equations, plan).kernel()
+        equations = equations.expanded
     return _Lowering(equations, plan).kernel()
+
+
+def local_form_serves(plan: ScenePlan) -> bool:
+    """The local form gives M, f and the energy: enough for an explicit integrator whose outputs
+    need no momenta, multipliers or residuals."""
+    return not (plan.implicit or plan.canonical) and all(o.kind in ("expression", "energy") for o in plan.outputs)
 
 
 def safe_name(text: str) -> str:
@@ -139,7 +168,7 @@ class _Lowering:
         self.active.sort(key=lambda c: c.kind != "holonomic")      # holonomic rows first
         self.n = equations.size
         self.solver = "lu" if self.active or not self.model.lagrangian.is_natural else "cholesky"
-        self.layout = mass_layout(equations.mass_matrix) if self.solver == "cholesky" else None
+        self.layout = self.mass_layout() if self.solver == "cholesky" else None
         q, v = equations.coordinates, equations.velocities
         self.accelerations = [sympy.Symbol(f"{c.name}''", real=True) for c in self.model.coordinates]
         self.multipliers = [ir.multiplier_symbol(c.name) for c in self.active]
@@ -152,6 +181,9 @@ class _Lowering:
         self.names: dict[sympy.Symbol, str] = {ir.TIME: "t"}
         self._taken: set[str] = {"t"}
         self._name_table()
+
+    def mass_layout(self) -> MassLayout:
+        return mass_layout(self.eq.mass_matrix)
 
     # -- names ---------------------------------------------------------------------------------
     def _claim(self, symbol: sympy.Symbol, wanted: str) -> None:
@@ -258,7 +290,9 @@ class _Lowering:
             start, velocity = overrides.get(c.name, (None, None))
             stores.append(("y0", (k,), sympy.Float(start) if start is not None else c.start))
             stores.append(("y0", (self.n + k,), sympy.Float(velocity) if velocity is not None else c.velocity))
-        return self.block(stores)
+        # y0 starts as zeros: a chain of many masses at rest needs no statement per member.
+        block = self.block([store for store in stores if store[2] != 0])
+        return Block(block.inputs, block.assignments, block.stores, cleared=("y0",))
 
     def mass_stores(self, array: str) -> list[tuple[str, tuple[int, ...], sympy.Expr]]:
         """M into `array`: every entry (the dense layout), or each structurally nonzero entry
@@ -288,6 +322,9 @@ class _Lowering:
         return self.block(stores)
 
     def outputs_block(self) -> Block:
+        return self.block(self.output_stores())
+
+    def output_stores(self) -> list[tuple[str, tuple[int, ...], sympy.Expr]]:
         conserved = {q.name: q.expression for q in self.eq.conserved}
         coordinates = [c.name for c in self.model.coordinates]
         active = [c.name for c in self.active]
@@ -297,7 +334,7 @@ class _Lowering:
             if request.kind == "expression":
                 value = request.expression
             elif request.kind == "energy":
-                value = conserved.get("energy", self.eq.energy)
+                value = conserved["energy"] if "energy" in conserved else self.eq.energy
             elif request.kind == "momentum":
                 value = self.eq.momenta[coordinates.index(request.target)]
             elif request.kind == "multiplier":
@@ -307,7 +344,7 @@ class _Lowering:
                 value = constraint.residual
             stores.append(("out", (column,), value))
         stores += [("inv", (i,), q.expression) for i, q in enumerate(self.eq.conserved)]
-        return self.block(stores)
+        return stores
 
     def constraint_block(self) -> Block:
         holonomic = [c for c in self.active if c.kind == "holonomic"]

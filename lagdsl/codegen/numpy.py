@@ -4,7 +4,7 @@ from __future__ import annotations
 from .. import __version__
 from . import GeneratedSource, template_environment
 from .c import FUNCTION_PARAMETERS, layout_kind
-from .kernel import Block, Kernel, Store
+from .kernel import Block, Kernel, Loop, Store
 from .printers import PythonPrinter
 
 
@@ -27,6 +27,7 @@ def render_numpy(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSou
         "jacobian": kernel.jacobian is not None, "canonical": kernel.momenta is not None,
         "outputs_need_multipliers": kernel.outputs_need_multipliers,
         "stop_text": kernel.stop_text, "stop": None,      # the stop block, when there is one (below)
+        "totals": any(block["accumulators"] for block in blocks.values()),
         **blocks,
     }
     text = template_environment().get_template("numpy/model.py.j2").render(context)
@@ -42,7 +43,42 @@ def _print_block(block: Block, layout: str, printer: PythonPrinter) -> dict:
               for s in block.stores if not (s.array in ZEROED and s.value == 0)]
     return {"inputs": block.inputs,
             "assignments": [(name, printer.doprint(value)) for name, value in block.assignments],
-            "stores": stores}
+            "stores": stores, "accumulators": block.accumulators,
+            "loops": [_print_loop(loop, layout, printer) for loop in block.loops]}
+
+
+def _print_loop(loop: Loop, layout: str, printer: PythonPrinter) -> dict:
+    """A Loop as array operations on all members at once: each input is a strided slice of y or
+    par, each store adds into one (the members of one slot never share an entry). A diagonal M
+    is the vector K[k]; any other M is a full matrix, set on both sides of the diagonal."""
+    def members(offset: int, stride: int) -> str:
+        if loop.count == 1:
+            return str(offset)
+        stop = offset + stride * (loop.count - 1) + 1
+        return f"{offset}:{stop}" + (f":{stride}" if stride != 1 else "")
+
+    def stores(array, index, value):
+        if not index:
+            return [f"{array} += {value}" if loop.count == 1 else f"{array} += _total({value}, {loop.count})"]
+        if len(index) == 1 or layout == "diagonal":
+            return [f"{array}[{members(*index[0])}] += {value}"]
+        (row, stride), (column, _) = index
+        rows, columns = _indices(row, stride, loop.count), _indices(column, stride, loop.count)
+        lines = [f"{array}[{rows}, {columns}] += {value}"]
+        return lines + ([f"{array}[{columns}, {rows}] += {value}"] if row != column else [])
+
+    def read(array, offset, stride):
+        if array == "par" and loop.count > 1:       # one value per member, against a batch of states
+            return f"par[{members(offset, stride)}].reshape((-1,) + (1,) * (numpy.ndim(y) - 1))"
+        return f"{array}[{members(offset, stride)}]"
+
+    return {"inputs": [(name, read(array, offset, stride)) for name, array, offset, stride in loop.inputs],
+            "assignments": [(name, printer.doprint(value)) for name, value in loop.assignments],
+            "stores": [line for array, index, value in loop.stores for line in stores(array, index, printer.doprint(value))]}
+
+
+def _indices(offset: int, stride: int, count: int) -> str:
+    return str(offset) if count == 1 else f"numpy.arange({offset}, {offset + stride * (count - 1) + 1}, {stride})"
 
 
 def _target(store: Store, layout: str) -> str:

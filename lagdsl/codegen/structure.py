@@ -8,7 +8,10 @@ derived expressions. A natural system (M positive definite, no constraints) is s
             (minimum degree), storing only the entries of the factor L that are not
             structurally zero. Small dense systems (n <= 4) take this form too: their
             factorisation is a few statements, not a loop;
-  dense     the Cholesky loops over the full n x n array, where the pattern is (nearly) full.
+  dense     the Cholesky loops over the full n x n array, where the pattern is (nearly) full;
+  banded    the loops of a banded LDLᵀ, for the local form of a large model (codegen/loops.py):
+            M_ij is stored at i·(w + 1) + (i - j) for i - w <= j <= i, w the half-bandwidth, and
+            a band factors without fill.
 
 All three work on the equilibrated matrix (unit diagonal, see docs/numerics.md) and report the
 same reciprocal condition estimate: min d_j / max d_j over the pivots of LDLᵀ, which is
@@ -38,15 +41,18 @@ class MassLayout:
     positions i > p where column p of L is not structurally zero (fill included). Storage:
     column by column, the pivot d_p first, then L_ip for i in columns[p]; `slot` finds an entry.
     """
-    kind: str                                   # "diagonal", "sparse" or "dense"
+    kind: str                                   # "diagonal", "sparse", "dense" or "banded"
     n: int
     order: tuple[int, ...]
     columns: tuple[tuple[int, ...], ...]
     original: frozenset[tuple[int, int]]        # positions (i, p), i >= p, that M itself fills
+    bandwidth: int = 0                          # of the banded layout
 
     @property
     def size(self) -> int:
         """How many reals hold M (and then its factor)."""
+        if self.kind == "banded":
+            return self.n * (self.bandwidth + 1)
         return self.n * self.n if self.kind == "dense" else self.n + sum(len(c) for c in self.columns)
 
     @property
@@ -92,6 +98,12 @@ class MassLayout:
         rows = [set(r) for r in self.rows]
         return sum(len(rows[p]) + sum(len(rows[i] & rows[p]) for i in column)
                    for p, column in enumerate(self.columns))
+
+
+def local_layout(n: int, bandwidth: int) -> MassLayout:
+    """The layout of the local form's M (mechanics/families.py): diagonal, or a band."""
+    kind = "banded" if bandwidth else "diagonal"
+    return MassLayout(kind, n, tuple(range(n)), ((),) * n, frozenset((p, p) for p in range(n)), bandwidth)
 
 
 def mass_layout(mass_matrix: tuple[tuple[sympy.Expr, ...], ...]) -> MassLayout:

@@ -23,10 +23,13 @@ from tests.run.c_harness import STRICT_FLAGS, find_cc
 GOLDEN = ROOT / "tests" / "golden"
 # (model, scene): a fixed-step rk4 scene, a constrained one, an implicit one, a symplectic one,
 # the chaotic benchmark, and a banded mass matrix. The mass matrices: dense 2 x 2 (wedge,
-# double_pendulum: a straight-line LDLᵀ), diagonal (charged_particle, kepler), tridiagonal
-# (fem_string: a sparse LDLᵀ), and with constraints (rolling_penny: LU of the saddle-point system).
+# double_pendulum: a straight-line LDLᵀ), dense 12 x 12 (pendulum_chain: the Cholesky loops),
+# diagonal (charged_particle, kepler), tridiagonal (fem_string: a sparse LDLᵀ), with constraints
+# (rolling_penny: LU of the saddle-point system), and the local form's loops over members
+# (fpu_chain: diagonal, 200 masses; fem_string_fine: a band, 40 nodes).
 CASES = [("wedge", "slide"), ("rolling_penny", "roll"), ("charged_particle", "helix"),
-         ("kepler", "symplectic"), ("double_pendulum", "chaos"), ("fem_string", "mode2")]
+         ("kepler", "symplectic"), ("double_pendulum", "chaos"), ("fem_string", "mode2"),
+         ("pendulum_chain", "swing"), ("fpu_chain", "spread"), ("fem_string_fine", "mode2")]
 EXTENSIONS = {"c": "c", "numpy": "py"}
 
 

@@ -336,11 +336,9 @@ static void lag_derive_parameters(real *par, const int *fixed)
 static void lag_initial_state(const real *par, real *y0)
 {
     (void)par;
+    memset(y0, 0, sizeof(real) * LAG_NY);
     y0[0] = 1;
-    y0[3] = 0;
-    y0[1] = 0;
     y0[4] = -2;
-    y0[2] = 0;
     y0[5] = LAG_LIT(0.1);
 }
 

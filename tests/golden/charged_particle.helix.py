@@ -41,12 +41,9 @@ def derive_parameters(par, fixed=()):
 
 def initial_state(par):
     """y0 = (q(0), q'(0))."""
-    y0 = numpy.empty(6)
+    y0 = numpy.zeros(6)
     y0[0] = 1
-    y0[3] = 0
-    y0[1] = 0
     y0[4] = -2
-    y0[2] = 0
     y0[5] = 1/10
     return y0
 

@@ -182,18 +182,13 @@ static void lag_derive_parameters(real *par, const int *fixed)
 static void lag_initial_state(const real *par, real *y0)
 {
     const real p_a = par[3];
+    memset(y0, 0, sizeof(real) * LAG_NY);
     const real c0 = 0.5*r_sqrt(3)*p_a;
     const real c1 = -c0;
     y0[0] = c0;
-    y0[5] = 0;
     y0[1] = c0;
-    y0[6] = 0;
-    y0[2] = 0;
-    y0[7] = 0;
     y0[3] = c1;
-    y0[8] = 0;
     y0[4] = c1;
-    y0[9] = 0;
 }
 
 /* Below this reciprocal condition estimate the linear system for q'' counts as singular: its

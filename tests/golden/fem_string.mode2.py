@@ -41,20 +41,14 @@ def derive_parameters(par, fixed=()):
 
 def initial_state(par):
     """y0 = (q(0), q'(0))."""
-    y0 = numpy.empty(10)
+    y0 = numpy.zeros(10)
     p_a = par[3]
     c0 = (1/2)*numpy.sqrt(3)*p_a
     c1 = -c0
     y0[0] = c0
-    y0[5] = 0
     y0[1] = c0
-    y0[6] = 0
-    y0[2] = 0
-    y0[7] = 0
     y0[3] = c1
-    y0[8] = 0
     y0[4] = c1
-    y0[9] = 0
     return y0
 
 

@@ -42,10 +42,8 @@ def derive_parameters(par, fixed=()):
 
 def initial_state(par):
     """y0 = (q(0), q'(0))."""
-    y0 = numpy.empty(4)
+    y0 = numpy.zeros(4)
     y0[0] = 1
-    y0[2] = 0
-    y0[1] = 0
     y0[3] = 6/5
     return y0
 

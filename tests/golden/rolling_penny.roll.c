@@ -339,12 +339,7 @@ static void lag_derive_parameters(real *par, const int *fixed)
 static void lag_initial_state(const real *par, real *y0)
 {
     (void)par;
-    y0[0] = 0;
-    y0[4] = 0;
-    y0[1] = 0;
-    y0[5] = 0;
-    y0[2] = 0;
-    y0[6] = 0;
+    memset(y0, 0, sizeof(real) * LAG_NY);
     y0[3] = LAG_LIT(0.3);
     y0[7] = 1;
 }

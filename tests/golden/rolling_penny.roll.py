@@ -41,13 +41,7 @@ def derive_parameters(par, fixed=()):
 
 def initial_state(par):
     """y0 = (q(0), q'(0))."""
-    y0 = numpy.empty(8)
-    y0[0] = 0
-    y0[4] = 0
-    y0[1] = 0
-    y0[5] = 0
-    y0[2] = 0
-    y0[6] = 0
+    y0 = numpy.zeros(8)
     y0[3] = 3/10
     y0[7] = 1
     return y0
