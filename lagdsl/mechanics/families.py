@@ -36,6 +36,8 @@ from collections import defaultdict
 from dataclasses import dataclass
 from functools import cached_property
 
+import numpy as np
+import scipy.linalg
 import sympy
 
 from .. import ir
@@ -154,12 +156,10 @@ def derive_local_equations(model: ir.Model) -> LocalEquations | None:
     if shapes is None:
         return None
     stencils, looped = [], 0
-    derived: dict[_Shape, tuple] = {}
     for shape, members in shapes.items():
-        if shape not in derived:
-            derived[shape] = _derive(shape)
+        derived = _derive(shape)                    # once per shape, for all its members
         for run in _runs(members):
-            stencils.append(_stencil(shape, run, *derived[shape]))
+            stencils.append(_stencil(shape, run, *derived))
             looped += len(run) if len(run) >= MIN_MEMBERS else 0
     total = sum(len(members) for members in shapes.values())
     if 2 * looped < total:
@@ -167,6 +167,8 @@ def derive_local_equations(model: ir.Model) -> LocalEquations | None:
     bandwidth = _bandwidth(stencils)
     if bandwidth is None or not _every_diagonal_filled(stencils, n) or _has_cyclic(stencils, n):
         return None
+    if not _positive_definite(stencils, model, n, bandwidth):
+        return None         # derive_equations says why M is singular
     energy_conserved = not (model.forces or model.dissipation is not None or terms.time_dependent)
     return LocalEquations(model, tuple(stencils), bandwidth, energy_conserved)
 
@@ -344,3 +346,37 @@ def _has_cyclic(stencils, n: int) -> bool:
         for a in s.moving:
             reached.update(s.coordinate(m, a) for m in range(s.count))
     return len(reached) < n
+
+
+def _positive_definite(stencils, model: ir.Model, n: int, bandwidth: int) -> bool:
+    """M, assembled at a random state with the default parameters, has a Cholesky factor.
+
+    A singular M (T = Σ (q'_i - q'_{i+1})²/2, say) is a modelling error that derive_equations
+    explains; the generated code would only find it when the run starts."""
+    rng = np.random.default_rng(0)
+    state = rng.uniform(-1, 1, size=(2, n))
+    band = np.zeros((bandwidth + 1, n))                 # band[i - j, j] = M_ij, scipy's lower form
+    values = {p.symbol: p.value for p in model.parameters}
+    values[ir.TIME] = 0.3
+    for s in stencils:
+        members = np.arange(s.count)
+        slots = {}
+        for a, offset in enumerate(s.offsets):
+            rows = s.coordinate(members, a)
+            slots[slot(POSITION, offset)], slots[slot(VELOCITY, offset)] = state[0, rows], state[1, rows]
+        for offset in s.parameter_offsets:
+            indices = s.parameter_first + s.parameter_step * members + offset
+            slots[slot(PARAMETER, offset)] = np.array([model.parameters[j].value for j in indices])
+        for a, b, entry in s.mass:
+            symbols = sorted(entry.free_symbols, key=str)
+            if any(x in slots for x in symbols):
+                value = sympy.lambdify(symbols, entry, "numpy")(*(slots.get(x, values.get(x)) for x in symbols))
+            else:                                       # the usual case: constant masses
+                value = float(entry.xreplace({x: values[x] for x in symbols}))
+            band[s.offsets[a] - s.offsets[b], s.coordinate(members, b)] += value
+    try:
+        with np.errstate(all="ignore"):
+            scipy.linalg.cholesky_banded(band, lower=True)
+    except (np.linalg.LinAlgError, ValueError):
+        return False
+    return True

@@ -103,6 +103,20 @@ def test_small_constrained_and_dense_models_keep_the_expanded_equations():
         assert derive_local_equations(load_model(MODELS / f"{name}.lag")) is None, name
 
 
+def test_a_singular_mass_matrix_is_reported_by_the_expanded_derivation():
+    """T = Σ (q'_i - q'_{i+1})²/2 leaves the common velocity free: M is singular."""
+    text = """model Free
+  coordinate x[20];
+  T = sum((der(x[i]) - der(x[i + 1]))^2/2, i in 1:19);
+  U = sum(x[i]^2, i in 1:20);
+end Free;
+"""
+    model, local = compiled(text)
+    assert local is None
+    with pytest.raises(lagdsl.LagError, match="mass matrix is singular at every state"):
+        derive_equations(model)
+
+
 @pytest.mark.parametrize("integrator", ["radau5", "gauss"])
 def test_scenes_the_local_form_does_not_serve_use_the_expanded_equations(integrator):
     model, local = compiled(library_text("fpu_chain", m=8))
