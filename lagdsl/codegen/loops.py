@@ -23,6 +23,8 @@ LOOPS = "loops"         # the source of a value the block's loops compute
 
 
 class LocalLowering(_Lowering):
+    """The lowering of kernel.py with the system block and the energy taken from the stencils."""
+
     def __init__(self, equations: LocalEquations, plan):
         super().__init__(equations, plan)
         self.sources[ENERGY] = LOOPS
@@ -47,12 +49,11 @@ class LocalLowering(_Lowering):
         bodies read outside y and par (scalar parameters, in the order of par)."""
         plain = self.block(stores) if stores else Block((), (), ())
         inputs = {name: source for name, source in plain.inputs if source != LOOPS}
-        outer = set().union(*(value.free_symbols for loop in loops for _, value in loop.assignments),
-                            *(value.free_symbols for loop in loops for _, _, value in loop.stores))
-        for symbol in sorted((s for s in self.sources if self.names.get(s) in {x.name for x in outer}),
-                             key=self._input_order):
-            if self.sources[symbol] not in (LOOPS, "t"):
-                inputs[self.names[symbol]] = self.sources[symbol]
+        read = {x.name for loop in loops for value in (*(v for _, v in loop.assignments),
+                                                       *(v for _, _, v in loop.stores)) for x in value.free_symbols}
+        for symbol, source in self.sources.items():
+            if self.names.get(symbol) in read and source not in (LOOPS, "t"):
+                inputs[self.names[symbol]] = source
         order = {name: self._input_order(symbol) for symbol, name in self.names.items()}
         return Block(tuple(sorted(inputs.items(), key=lambda item: order.get(item[0], (9, 0)))),
                      plain.assignments, plain.stores, tuple(loops), accumulators, cleared)
