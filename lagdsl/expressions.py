@@ -394,13 +394,19 @@ class ExpressionBuilder:
         exponent = self.scalar(right, scope, "a scalar exponent")
         if base == 0 and exponent.is_number and exponent.is_negative:
             raise LagError("division by zero", self.span(node))
-        if base.is_Rational and exponent.is_Rational and abs(base) not in (0, 1) and abs(exponent) > 1:
-            # Rational powers are computed exactly: check their size first (2^(10^9) is not a double).
-            p, q = abs(base.p), base.q
+        # Rational powers are computed exactly: check their size first (2^(10^9) is not a double).
+        # sympy also raises the rational factor of a product to an integer power ((x/2)^n is
+        # x^n/2^n), so the factor is checked too.
+        coefficient = base if base.is_Rational else base.as_coeff_Mul()[0]
+        if coefficient.is_Rational and exponent.is_Rational and abs(coefficient) not in (0, 1) and abs(exponent) > 1:
+            p, q = abs(coefficient.p), coefficient.q
             bits = abs(float(exponent)) * abs(math.log2(p) - math.log2(q))
             work = abs(float(exponent)) * max(math.log2(p), math.log2(q))
             if bits > 1100 or work > 100000:
-                raise LagError(f"{base}^{exponent} is out of the range of double precision", self.span(node))
+                power = f"^{float(exponent):.6g}"
+                what = f"{base}{power}" if base.is_Rational else \
+                    f"the power {power} of an expression with the factor {coefficient}"
+                raise LagError(f"{what} is out of the range of double precision", self.span(node))
         return self._require_finite(base ** exponent, node)
 
     def _call(self, node, scope):
