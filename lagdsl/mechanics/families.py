@@ -369,14 +369,19 @@ def _positive_definite(stencils, model: ir.Model, n: int, bandwidth: int) -> boo
             slots[slot(PARAMETER, offset)] = np.array([model.parameters[j].value for j in indices])
         for a, b, entry in s.mass:
             symbols = sorted(entry.free_symbols, key=str)
-            if any(x in slots for x in symbols):
-                value = sympy.lambdify(symbols, entry, "numpy")(*(slots.get(x, values.get(x)) for x in symbols))
-            else:                                       # the usual case: constant masses
-                value = float(entry.xreplace({x: values[x] for x in symbols}))
-            band[s.offsets[a] - s.offsets[b], s.coordinate(members, b)] += value
+            try:
+                with np.errstate(all="ignore"):
+                    if any(x in slots for x in symbols):
+                        value = sympy.lambdify(symbols, entry, "numpy")(*(slots.get(x, values.get(x)) for x in symbols))
+                    else:                               # the usual case: constant masses
+                        value = float(entry.xreplace({x: values[x] for x in symbols}))
+                    band[s.offsets[a] - s.offsets[b], s.coordinate(members, b)] += value
+            except (TypeError, ValueError, ArithmeticError):    # complex or not a number: let
+                return False                                    # derive_equations judge it
+    if not np.all(np.isfinite(band)):
+        return False
     try:
-        with np.errstate(all="ignore"):
-            scipy.linalg.cholesky_banded(band, lower=True)
+        scipy.linalg.cholesky_banded(band, lower=True)
     except (np.linalg.LinAlgError, ValueError):
         return False
     return True
