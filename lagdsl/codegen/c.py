@@ -15,6 +15,7 @@ from .printers import CPrinter
 FUNCTION_PARAMETERS = {
     "initial": ("par", "y0"),
     "system": ("par", "t", "y", "K", "b"),
+    "constant_mass": ("par", "K"),
     "jacobian": ("par", "t", "y", "acc", "lam", "dR"),
     "momenta": ("par", "t", "y", "p"),
     "mass": ("par", "t", "y", "M"),
@@ -41,7 +42,7 @@ OPTION_CHECKS = {
 
 def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
     printer = CPrinter()
-    blocks = {name: _print_block(getattr(kernel, name), name, kernel, printer)
+    blocks = {name: _print_block(getattr(kernel, name), signature(kernel, name), kernel, printer)
               for name in FUNCTION_PARAMETERS if getattr(kernel, name) is not None}
     options = dict(kernel.integrator.options)
     context = {
@@ -77,12 +78,20 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
         "options_init": _options_initializer(options),
         "option_fields": _option_fields(kernel),
         "tolerances": "rtol" in _allowed_options(kernel),
-        "stop_text": kernel.stop_text, "stop": None,      # the stop block, when there is one (below)
+        "stop_text": kernel.stop_text, "stop": None, "constant_mass": None,      # blocks a scene may not have (below)
         **blocks,
     }
     context["driver"] = template_environment().get_template("c/driver.c.j2").render(context)
     text = template_environment().get_template("c/model.c.j2").render(context)
     return GeneratedSource("c", text, stem(kernel))
+
+
+def signature(kernel: Kernel, name: str) -> tuple[str, ...]:
+    """The parameters of the function whose body is block `name`: with M apart (constant_mass),
+    the system block is lag_forces(par, t, y, b)."""
+    if name == "system" and kernel.constant_mass is not None:
+        return ("par", "t", "y", "b")
+    return FUNCTION_PARAMETERS[name]
 
 
 def layout_kind(kernel: Kernel) -> str:
@@ -129,7 +138,7 @@ def _literal(value: float) -> str:
     return f"LAG_LIT({float(value)!r})"     # 20 -> 20.0: the Q and L suffixes need a floating constant
 
 
-def _print_block(block: Block, kind: str, kernel: Kernel, printer: CPrinter) -> dict:
+def _print_block(block: Block, signature: tuple[str, ...], kernel: Kernel, printer: CPrinter) -> dict:
     """A block as printed lines; `unused` lists the function parameters it does not read."""
     stores = [(f"{s.array}[{_position(s, kernel)}]", printer.doprint(s.value))
               for s in block.stores if not (s.array in CLEARED and s.value == 0)]
@@ -143,7 +152,7 @@ def _print_block(block: Block, kind: str, kernel: Kernel, printer: CPrinter) -> 
               *(value for loop in block.loops for _, _, value in loop.stores)]
     if any("t" in {x.name for x in value.free_symbols} for value in values):
         read.add("t")
-    parameters = [p for p in FUNCTION_PARAMETERS[kind]
+    parameters = [p for p in signature
                   if (p != "lam" or kernel.constraints) and (p != "inv" or kernel.invariant_names)]
     unused = [p for p in parameters if p not in read]
     cleared = sorted({s.array for s in block.stores if s.array in CLEARED} | set(block.cleared))

@@ -11,6 +11,9 @@ The blocks are exactly what the scene needs:
                so that M q'' = f + Aᵀλ and A q'' = γ. K is solved numerically, never inverted.
                Without constraints M is stored as `layout` says (structure.py): a compact
                layout stores each structurally nonzero entry once, at K[(k, j)] with k >= j.
+  constant_mass  M, in a block of its own, when it depends on the parameters alone and is
+               stored in a compact layout (no constraints): the C program assembles and factors
+               it once per run, and `system` then gives b alone
   outputs      the scene's columns and the conserved quantities (to report their drift), in
                one block so that what they share (the energy, say) is computed once
   constraints  residuals g (holonomic, position level), c (velocity level) and rows A, for
@@ -99,6 +102,7 @@ class Kernel:
     momentum_rate: Block | None
     stop: Block | None = None                    # e(t, y) of the scene's stop condition
     stop_text: str = ""                          # the condition as written
+    constant_mass: Block | None = None           # M from the parameters alone (system then gives b)
 
     @property
     def n(self) -> int:
@@ -257,6 +261,7 @@ class _Lowering:
     # -- the kernel ----------------------------------------------------------------------------
     def kernel(self) -> Kernel:
         plan = self.plan
+        constant_mass, system = (None, None) if plan.canonical else self.system_blocks()
         return Kernel(
             model_name=self.model.name, scene_name=plan.scene_name,
             coordinates=tuple(c.name for c in self.model.coordinates),
@@ -267,7 +272,7 @@ class _Lowering:
             columns=plan.columns, invariant_names=plan.invariants,
             integrator=plan.integrator, time=plan.time,
             solver=self.solver, layout=self.layout,
-            initial=self.initial_block(), system=None if plan.canonical else self.system_block(),
+            initial=self.initial_block(), system=system, constant_mass=constant_mass,
             outputs=self.outputs_block(),
             outputs_need_multipliers=any(o.kind == "multiplier" or o.kind == "expression" and
                                          o.expression.free_symbols & set(self.multipliers) for o in plan.outputs),
@@ -301,6 +306,24 @@ class _Lowering:
         if self.layout is None or not self.layout.compact:
             return [(array, (k, j), M[k][j]) for k in range(n) for j in range(n)]
         return [(array, (k, j), M[k][j]) for k in range(n) for j in range(k + 1) if M[k][j] != 0 or j == k]
+
+    def system_blocks(self) -> tuple[Block | None, Block]:
+        """(constant mass, system): M apart from f when it can be factored once per run (see
+        the module docstring), else (None, the block of K and b)."""
+        if self.active or self.layout is None or not self.layout.compact or not self.mass_is_constant():
+            return None, self.system_block()
+        return self.mass_block(), self.forces_block()
+
+    def mass_is_constant(self) -> bool:
+        """M depends on neither the state nor the time (Cartesian masses, springs, chains)."""
+        varying = {ir.TIME, *self.eq.coordinates, *self.eq.velocities}
+        return not any(self.calculus.dependencies(entry) & varying for row in self.eq.mass_matrix for entry in row)
+
+    def mass_block(self) -> Block:
+        return self.block(self.mass_stores("K"))
+
+    def forces_block(self) -> Block:
+        return self.block([("b", (k,), f) for k, f in enumerate(self.eq.forcing)])
 
     def system_block(self) -> Block:
         n, m = self.n, len(self.active)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import sympy
 
+from .. import ir
 from ..mechanics.families import ENERGY, PARAMETER, POSITION, VELOCITY, LocalEquations, Stencil
 from .cse import eliminate_common_subexpressions
 from .kernel import Block, Loop, _Lowering
@@ -34,14 +35,30 @@ class LocalLowering(_Lowering):
         return local_layout(self.n, self.eq.bandwidth)
 
     def system_block(self) -> Block:
-        loops = [loop for stencil in self.eq.stencils for loop in [self.stencil_loop(stencil, "system")] if loop]
-        return self.looped_block([], loops, cleared=("K", "b"))
+        return self.stencils_block(("b", "K"))
+
+    def mass_block(self) -> Block:
+        return self.stencils_block(("K",))
+
+    def forces_block(self) -> Block:
+        return self.stencils_block(("b",))
+
+    def mass_is_constant(self) -> bool:
+        """No stencil's M reads a position, a velocity or the time."""
+        return not any(symbol == ir.TIME or symbol.name.startswith((POSITION, VELOCITY))
+                       for stencil in self.eq.stencils for _, _, entry in stencil.mass
+                       for symbol in entry.free_symbols)
+
+    def stencils_block(self, arrays: tuple[str, ...]) -> Block:
+        """The stencils' contributions to the arrays named (b, K or both), each array zeroed first."""
+        loops = [loop for stencil in self.eq.stencils for loop in [self.stencil_loop(stencil, arrays)] if loop]
+        return self.looped_block([], loops, cleared=arrays)
 
     def outputs_block(self) -> Block:
         stores = self.output_stores()
         if not any(ENERGY in value.free_symbols for _, _, value in stores):
             return self.block(stores)
-        loops = [loop for stencil in self.eq.stencils for loop in [self.stencil_loop(stencil, "energy")] if loop]
+        loops = [loop for stencil in self.eq.stencils for loop in [self.stencil_loop(stencil, ("energy",))] if loop]
         return self.looped_block(stores, loops, accumulators=(self.names[ENERGY],))
 
     def looped_block(self, stores, loops: list[Loop], cleared=(), accumulators=()) -> Block:
@@ -58,18 +75,20 @@ class LocalLowering(_Lowering):
         return Block(tuple(sorted(inputs.items(), key=lambda item: order.get(item[0], (9, 0)))),
                      plain.assignments, plain.stores, tuple(loops), accumulators, cleared)
 
-    def stencil_loop(self, stencil: Stencil, channel: str) -> Loop | None:
-        """The loop of one stencil: its contributions to b and K ("system") or to the energy."""
+    def stencil_loop(self, stencil: Stencil, arrays: tuple[str, ...]) -> Loop | None:
+        """The loop of one stencil: its contributions to the arrays named, among b, K and the
+        energy ("energy")."""
         targets, values = [], []
-        if channel == "system":
+        if "b" in arrays:
             for a, value in enumerate(stencil.forcing):
                 if value != 0:
                     targets.append(("b", (self._member(stencil, a),)))
                     values.append(value)
+        if "K" in arrays:
             for a, b, value in stencil.mass:
                 targets.append(("K", (self._member(stencil, a), self._member(stencil, b))))
                 values.append(value)
-        elif stencil.energy != 0:
+        if "energy" in arrays and stencil.energy != 0:
             targets.append((self.names[ENERGY], ()))
             values.append(stencil.energy)
         if not values:

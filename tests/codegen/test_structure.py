@@ -98,8 +98,31 @@ def test_fem_string_mass_matrix_is_banded_and_fpu_chain_is_diagonal():
     assert lagdsl.load(MODELS / "fem_string.lag").emit("c").text.count("lag_order[LAG_NQ]") == 1
     fpu = lagdsl.load(MODELS / "fermi_pasta_ulam.lag")
     text = fpu.emit("c").text
-    assert "b[i] /= K[i];" in text and "lag_cholesky_factor" not in text
+    assert "b[i] *= K[i];" in text and "lag_cholesky_factor" not in text
     assert "K = numpy.zeros((NK,) + shape)" in fpu.emit("numpy").text
+
+
+def test_a_constant_mass_matrix_is_factored_once_per_run_with_the_runs_parameters(tmp_path):
+    """M = diag(m, 2 m) depends on a parameter only: lag_system_prepare factors it before the
+    first step, so the run must see the m it was given (x = cos(sqrt(k/m) t), y = cos(sqrt(k/2m) t))."""
+    model = tmp_path / "springs.lag"
+    model.write_text("model Springs\n  parameter m = 1.0;\n  parameter k = 1.0;\n  coordinate x(start = 1);\n"
+                     "  coordinate y(start = 1);\n  T = m/2*der(x)^2 + m*der(y)^2;\n  U = k/2*(x^2 + y^2);\n"
+                     "  scene s\n    time(stop = 3, interval = 1);\n    integrator dop853(rtol = 1e-12, atol = 1e-12);\n"
+                     "    output x, y;\n  end s;\nend Springs;\n")
+    loaded = lagdsl.load(model)
+    text = loaded.emit("c").text
+    accelerations = text[text.index("static int lag_accelerations"):text.index("/* dy/dt")]
+    assert "lag_assemble_mass(sys->par, sys->mass)" in text and "lag_factor" not in accelerations
+    for backend in ("c", "numpy"):
+        result = loaded.simulate(backend=backend, m=4.0, k=9.0)
+        assert np.allclose(result["x"], np.cos(1.5 * result.t), atol=1e-9)
+        assert np.allclose(result["y"], np.cos(np.sqrt(9 / 8) * result.t), atol=1e-9)
+
+
+def test_a_mass_matrix_that_varies_is_factored_at_every_evaluation():
+    text = lagdsl.load(MODELS / "double_pendulum.lag").emit("c").text
+    assert "lag_assemble_mass" not in text and "lag_solve(LAG_NK, K, b, &rcond)" in text
 
 
 def test_a_diagonal_mass_matrix_that_is_not_positive_is_singular(tmp_path):

@@ -312,6 +312,12 @@ typedef struct lag_system {
     real par[3];
 } lag_system;
 
+/* Nothing to compute from the parameters before a run. */
+static void lag_system_prepare(lag_system *sys)
+{
+    (void)sys;
+}
+
 static const char *const lag_parameter_names[] = { "m", "e", "B" };
 static const char *const lag_coordinate_names[] = { "x", "y", "z" };
 static const char *const lag_column_names[] = { "x", "y", "z", "energy", "momentum(z)" };     /* CSV header fields */
@@ -1230,8 +1236,8 @@ static long lag_last_row(real t0, real t1, real dt)
 }
 
 /* Integrate from (t0, y0) to t1 and deliver the outputs on the grid of lag_last_row. The caller
- * has checked the grid (finite, t1 > t0, dt > 0, at most LAG_MAX_ROWS rows). */
-static int lag_integrate(const lag_system *sys, const real *y0, real t0, real t1, real dt,
+ * has checked the grid (finite, t1 > t0, dt > 0, at most LAG_MAX_ROWS rows) and set sys->par. */
+static int lag_integrate(lag_system *sys, const real *y0, real t0, real t1, real dt,
                          const lag_options *options, lag_sink sink, void *context, lag_report *report)
 {
     lag_stepper *stepper = malloc(sizeof *stepper);
@@ -1241,6 +1247,7 @@ static int lag_integrate(const lag_system *sys, const real *y0, real t0, real t1
     int status = LAG_OK;
     memset(report, 0, sizeof *report);
     memcpy(y, y0, sizeof y);
+    lag_system_prepare(sys);
     if (stepper == NULL)
         return report->status = LAG_ERR_MAX_STEPS;
     memset(stepper, 0, sizeof *stepper);

@@ -155,6 +155,9 @@ static void lag_print_real(FILE *file, real x)
 
 typedef struct lag_system {
     real par[4];
+    real mass[LAG_NM];          /* M factored (lag_factor), by lag_system_prepare */
+    real mass_scale[LAG_NQ];    /* its equilibration */
+    int mass_status;            /* LAG_OK, or why M cannot be solved with */
 } lag_system;
 
 static const char *const lag_parameter_names[] = { "rho", "tension", "h", "a" };
@@ -288,10 +291,28 @@ static int lag_solve(int n, real *K, real *b, real *rcond)
 
 /* The linear system K x = b for x = (q''):
  * K = M, the mass matrix d2L/dq'dq', and b = f, so that M q'' = f. */
-static void lag_assemble(const real *par, real t, const real *y, real *K, real *b)
+static void lag_assemble_mass(const real *par, real *K)
+{
+    const real p_rho = par[0];
+    const real p_h = par[2];
+    const real c0 = p_h*p_rho;
+    const real c1 = (LAG_LIT(2.0)/3)*c0;
+    const real c2 = (LAG_LIT(1.0)/6)*c0;
+    K[0] = c1;
+    K[1] = c2;
+    K[2] = c1;
+    K[3] = c2;
+    K[4] = c1;
+    K[5] = c2;
+    K[6] = c1;
+    K[7] = c2;
+    K[8] = c1;
+}
+
+/* f at (t, y). */
+static void lag_forces(const real *par, real t, const real *y, real *b)
 {
     (void)t;
-    const real p_rho = par[0];
     const real p_tension = par[1];
     const real p_h = par[2];
     const real q_u_1 = y[0];
@@ -299,9 +320,6 @@ static void lag_assemble(const real *par, real t, const real *y, real *K, real *
     const real q_u_3 = y[2];
     const real q_u_4 = y[3];
     const real q_u_5 = y[4];
-    const real c4 = p_h*p_rho;
-    const real c5 = (LAG_LIT(2.0)/3)*c4;
-    const real c6 = (LAG_LIT(1.0)/6)*c4;
     const real c0 = 2*q_u_2;
     const real c1 = 0.5*p_tension/p_h;
     const real w11 = -c1*(-c0 + 4*q_u_1);
@@ -311,15 +329,6 @@ static void lag_assemble(const real *par, real t, const real *y, real *K, real *
     const real w13 = -c1*(-c0 - c3 + 4*q_u_3);
     const real w14 = -c1*(-c2 + 4*q_u_4 - 2*q_u_5);
     const real w15 = -c1*(-c3 + 4*q_u_5);
-    K[0] = c5;
-    K[1] = c6;
-    K[2] = c5;
-    K[3] = c6;
-    K[4] = c5;
-    K[5] = c6;
-    K[6] = c5;
-    K[7] = c6;
-    K[8] = c5;
     b[0] = w11;
     b[1] = w12;
     b[2] = w13;
@@ -327,20 +336,34 @@ static void lag_assemble(const real *par, real t, const real *y, real *K, real *
     b[4] = w15;
 }
 
-/* q'' at (t, y): assemble K and b, and solve. */
+/* K = M and b = f (for the Jacobian and the failure report; a run factors M once). */
+static void lag_assemble(const real *par, real t, const real *y, real *K, real *b)
+{
+    lag_assemble_mass(par, K);
+    lag_forces(par, t, y, b);
+}
+
+/* M depends on the parameters alone: factor it once per run, before the first step. */
+static void lag_system_prepare(lag_system *sys)
+{
+    real rcond;
+    lag_assemble_mass(sys->par, sys->mass);
+    sys->mass_status = lag_factor(sys->mass, sys->mass_scale, &rcond);
+    if (sys->mass_status == LAG_OK && !(rcond >= LAG_RCOND_MIN))
+        sys->mass_status = LAG_ERR_SINGULAR;
+}
+
+/* q'' at (t, y): f, solved with the factor of M that lag_system_prepare made. */
 static int lag_accelerations(const lag_system *sys, real t, const real *y, real *acc)
 {
-    real K[LAG_NM], b[LAG_NK], rcond;
-    int i, status;
-    lag_assemble(sys->par, t, y, K, b);
-    if ((status = lag_solve(LAG_NK, K, b, &rcond)) != LAG_OK)
-        return status;
-    for (i = 0; i < LAG_NQ; ++i)
-        acc[i] = b[i];
-    for (i = 0; i < LAG_NK; ++i)
-        if (!r_isfinite(b[i]))
-            return LAG_ERR_NONFINITE;
-    return LAG_OK;
+    int i, finite = 1;
+    if (sys->mass_status != LAG_OK)
+        return sys->mass_status;
+    lag_forces(sys->par, t, y, acc);
+    lag_substitute(sys->mass, sys->mass_scale, acc);
+    for (i = 0; i < LAG_NQ; ++i)        /* no early exit: the loop vectorises */
+        finite &= r_isfinite(acc[i]);
+    return finite ? LAG_OK : LAG_ERR_NONFINITE;
 }
 
 /* dy/dt = (q', q''). */
@@ -457,10 +480,29 @@ static int lag_control_rhs(const lag_system *sys, lag_stats *stats, real t, cons
     return lag_rhs(sys, t, y, f);
 }
 
-/* The scale of component i in the error norm (4.11). */
+/* The scale of component i in the error norm (4.11). max(|y0|, |y1|) is written out rather
+ * than called (fmax is a libm call that GCC keeps, and the error loops would not vectorise); it
+ * takes |y0| when y1 is NaN, as fmax does. */
 static real lag_control_scale(const lag_control *c, real y0, real y1)
 {
-    return c->atol + c->rtol * r_fmax(r_fabs(y0), r_fabs(y1));
+    real a0 = r_fabs(y0), a1 = r_fabs(y1);
+    return c->atol + c->rtol * (a1 > a0 ? a1 : a0);
+}
+
+/* The sum of x_i^2 over n entries, in four interleaved partial sums: the additions of one
+ * partial sum wait for each other, the four do not, so the loop runs at the adder's throughput
+ * instead of its latency (one long chain of additions is what vectorising compilers may not
+ * reorder). A NaN stays a NaN. */
+static real lag_sum_of_squares(int n, const real *x)
+{
+    real partial[4] = {0, 0, 0, 0};
+    int i, j;
+    for (i = 0; i + 4 <= n; i += 4)
+        for (j = 0; j < 4; ++j)
+            partial[j] += x[i + j] * x[i + j];
+    for (; i < n; ++i)
+        partial[0] += x[i] * x[i];
+    return (partial[0] + partial[1]) + (partial[2] + partial[3]);
 }
 
 /* The first step: opt->step if given, else HNW I, II.4, steps (a)-(f).  f = f(t, y). */
@@ -807,6 +849,7 @@ typedef struct lag_stepper {
     real k14[LAG_NY], k15[LAG_NY], k16[LAG_NY];  /* the dense output's stages */
     real y_stage[LAG_NY];         /* argument of the stage being evaluated */
     real y_new[LAG_NY];           /* the order-8 solution of the current trial */
+    real error5[LAG_NY], error3[LAG_NY];   /* its scaled error estimates, component by component */
     real dense[8][LAG_NY];        /* r1..r8 of the continuous extension on [t_old, t] */
     int dense_built;              /* r3..r8 are those of the last accepted step */
 } lag_stepper;
@@ -880,19 +923,20 @@ static int dop853_stages(lag_stepper *s, real h, real t_new)
 /* The order-8 solution y_new of the trial and its combined scaled error estimate. */
 static real dop853_solution(lag_stepper *s, real h)
 {
-    real sum5 = 0, sum3 = 0, increment, e5, e3, w, denominator;
+    real sum5, sum3, increment, w, denominator;
     int i;
     for (i = 0; i < LAG_NY; ++i) {
         increment = dp8_b1 * s->k1[i] + dp8_b6 * s->k6[i] + dp8_b7 * s->k7[i] + dp8_b8 * s->k8[i]
                     + dp8_b9 * s->k9[i] + dp8_b10 * s->k10[i] + dp8_b11 * s->k11[i] + dp8_b12 * s->k12[i];
         s->y_new[i] = s->y[i] + h * increment;
         w = lag_control_scale(&s->control, s->y[i], s->y_new[i]);
-        e3 = (increment - dp8_bhat1 * s->k1[i] - dp8_bhat9 * s->k9[i] - dp8_bhat12 * s->k12[i]) / w;
-        e5 = (dp8_e1 * s->k1[i] + dp8_e6 * s->k6[i] + dp8_e7 * s->k7[i] + dp8_e8 * s->k8[i]
-              + dp8_e9 * s->k9[i] + dp8_e10 * s->k10[i] + dp8_e11 * s->k11[i] + dp8_e12 * s->k12[i]) / w;
-        sum3 += e3 * e3;
-        sum5 += e5 * e5;
+        s->error3[i] = (increment - dp8_bhat1 * s->k1[i] - dp8_bhat9 * s->k9[i] - dp8_bhat12 * s->k12[i]) / w;
+        s->error5[i] = (dp8_e1 * s->k1[i] + dp8_e6 * s->k6[i] + dp8_e7 * s->k7[i] + dp8_e8 * s->k8[i]
+                        + dp8_e9 * s->k9[i] + dp8_e10 * s->k10[i] + dp8_e11 * s->k11[i]
+                        + dp8_e12 * s->k12[i]) / w;
     }
+    sum3 = lag_sum_of_squares(LAG_NY, s->error3);
+    sum5 = lag_sum_of_squares(LAG_NY, s->error5);
     /* h err5^2 / sqrt(err5^2 + 0.01 err3^2) with err_q^2 = sum_q / n; a NaN stays a NaN */
     denominator = sum5 + LAG_LIT(0.01) * sum3;
     return denominator == 0 ? 0 : h * sum5 / r_sqrt(LAG_NY * denominator);
@@ -1112,8 +1156,8 @@ static long lag_last_row(real t0, real t1, real dt)
 }
 
 /* Integrate from (t0, y0) to t1 and deliver the outputs on the grid of lag_last_row. The caller
- * has checked the grid (finite, t1 > t0, dt > 0, at most LAG_MAX_ROWS rows). */
-static int lag_integrate(const lag_system *sys, const real *y0, real t0, real t1, real dt,
+ * has checked the grid (finite, t1 > t0, dt > 0, at most LAG_MAX_ROWS rows) and set sys->par. */
+static int lag_integrate(lag_system *sys, const real *y0, real t0, real t1, real dt,
                          const lag_options *options, lag_sink sink, void *context, lag_report *report)
 {
     lag_stepper *stepper = malloc(sizeof *stepper);
@@ -1123,6 +1167,7 @@ static int lag_integrate(const lag_system *sys, const real *y0, real t0, real t1
     int status = LAG_OK;
     memset(report, 0, sizeof *report);
     memcpy(y, y0, sizeof y);
+    lag_system_prepare(sys);
     if (stepper == NULL)
         return report->status = LAG_ERR_MAX_STEPS;
     memset(stepper, 0, sizeof *stepper);

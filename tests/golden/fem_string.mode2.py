@@ -58,6 +58,19 @@ def assemble(par, t, y):
     K = numpy.zeros((NK, NK) + shape)
     b = numpy.zeros((NK,) + shape)
     p_rho = par[0]
+    p_h = par[2]
+    c0 = p_h*p_rho
+    c1 = (2/3)*c0
+    c2 = (1/6)*c0
+    K[0, 0] = c1
+    K[1, 0] = K[0, 1] = c2
+    K[1, 1] = c1
+    K[2, 1] = K[1, 2] = c2
+    K[2, 2] = c1
+    K[3, 2] = K[2, 3] = c2
+    K[3, 3] = c1
+    K[4, 3] = K[3, 4] = c2
+    K[4, 4] = c1
     p_tension = par[1]
     p_h = par[2]
     q_u_1 = y[0]
@@ -65,9 +78,6 @@ def assemble(par, t, y):
     q_u_3 = y[2]
     q_u_4 = y[3]
     q_u_5 = y[4]
-    c4 = p_h*p_rho
-    c5 = (2/3)*c4
-    c6 = (1/6)*c4
     c0 = 2*q_u_2
     c1 = (1/2)*p_tension/p_h
     w11 = -c1*(-c0 + 4*q_u_1)
@@ -77,15 +87,6 @@ def assemble(par, t, y):
     w13 = -c1*(-c0 - c3 + 4*q_u_3)
     w14 = -c1*(-c2 + 4*q_u_4 - 2*q_u_5)
     w15 = -c1*(-c3 + 4*q_u_5)
-    K[0, 0] = c5
-    K[1, 0] = K[0, 1] = c6
-    K[1, 1] = c5
-    K[2, 1] = K[1, 2] = c6
-    K[2, 2] = c5
-    K[3, 2] = K[2, 3] = c6
-    K[3, 3] = c5
-    K[4, 3] = K[3, 4] = c6
-    K[4, 4] = c5
     b[0] = w11
     b[1] = w12
     b[2] = w13

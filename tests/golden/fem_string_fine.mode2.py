@@ -101,11 +101,12 @@ def assemble(par, t, y):
     K = numpy.zeros((NK, NK) + shape)
     b = numpy.zeros((NK,) + shape)
     p_rho = par[2]
-    p_tension = par[3]
     p_h = par[4]
     K[numpy.arange(0, 40, 1), numpy.arange(0, 40, 1)] += (2/3)*p_h*p_rho
     K[numpy.arange(1, 40, 1), numpy.arange(0, 39, 1)] += (1/6)*p_h*p_rho
     K[numpy.arange(0, 39, 1), numpy.arange(1, 40, 1)] += (1/6)*p_h*p_rho
+    p_tension = par[3]
+    p_h = par[4]
     x0 = y[0:40:39]
     b[0:40:39] += -p_tension*x0/p_h
     x0 = y[0:39]

@@ -60,10 +60,11 @@ def assemble(par, t, y):
     shape = numpy.shape(y[0])
     K = numpy.zeros((NK,) + shape)
     b = numpy.zeros((NK,) + shape)
+    p_mu = par[2]
+    K[0:200] += p_mu
     p_omega = par[1]
     p_mu = par[2]
     p_kappa = par[3]
-    K[0:200] += p_mu
     x0 = y[0:200:199]
     b[0:200:199] += -4*p_kappa*x0**3
     x0 = y[1:198:2]

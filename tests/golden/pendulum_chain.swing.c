@@ -218,6 +218,12 @@ typedef struct lag_system {
     real par[4];
 } lag_system;
 
+/* Nothing to compute from the parameters before a run. */
+static void lag_system_prepare(lag_system *sys)
+{
+    (void)sys;
+}
+
 static const char *const lag_parameter_names[] = { "n", "m", "l", "g" };
 static const char *const lag_coordinate_names[] = { "theta[1]", "theta[2]", "theta[3]", "theta[4]", "theta[5]", "theta[6]", "theta[7]", "theta[8]", "theta[9]", "theta[10]", "theta[11]", "theta[12]" };
 static const char *const lag_column_names[] = { "theta[1]", "theta[n]", "energy" };     /* CSV header fields */
@@ -973,10 +979,29 @@ static int lag_control_rhs(const lag_system *sys, lag_stats *stats, real t, cons
     return lag_rhs(sys, t, y, f);
 }
 
-/* The scale of component i in the error norm (4.11). */
+/* The scale of component i in the error norm (4.11). max(|y0|, |y1|) is written out rather
+ * than called (fmax is a libm call that GCC keeps, and the error loops would not vectorise); it
+ * takes |y0| when y1 is NaN, as fmax does. */
 static real lag_control_scale(const lag_control *c, real y0, real y1)
 {
-    return c->atol + c->rtol * r_fmax(r_fabs(y0), r_fabs(y1));
+    real a0 = r_fabs(y0), a1 = r_fabs(y1);
+    return c->atol + c->rtol * (a1 > a0 ? a1 : a0);
+}
+
+/* The sum of x_i^2 over n entries, in four interleaved partial sums: the additions of one
+ * partial sum wait for each other, the four do not, so the loop runs at the adder's throughput
+ * instead of its latency (one long chain of additions is what vectorising compilers may not
+ * reorder). A NaN stays a NaN. */
+static real lag_sum_of_squares(int n, const real *x)
+{
+    real partial[4] = {0, 0, 0, 0};
+    int i, j;
+    for (i = 0; i + 4 <= n; i += 4)
+        for (j = 0; j < 4; ++j)
+            partial[j] += x[i + j] * x[i + j];
+    for (; i < n; ++i)
+        partial[0] += x[i] * x[i];
+    return (partial[0] + partial[1]) + (partial[2] + partial[3]);
 }
 
 /* The first step: opt->step if given, else HNW I, II.4, steps (a)-(f).  f = f(t, y). */
@@ -1323,6 +1348,7 @@ typedef struct lag_stepper {
     real k14[LAG_NY], k15[LAG_NY], k16[LAG_NY];  /* the dense output's stages */
     real y_stage[LAG_NY];         /* argument of the stage being evaluated */
     real y_new[LAG_NY];           /* the order-8 solution of the current trial */
+    real error5[LAG_NY], error3[LAG_NY];   /* its scaled error estimates, component by component */
     real dense[8][LAG_NY];        /* r1..r8 of the continuous extension on [t_old, t] */
     int dense_built;              /* r3..r8 are those of the last accepted step */
 } lag_stepper;
@@ -1396,19 +1422,20 @@ static int dop853_stages(lag_stepper *s, real h, real t_new)
 /* The order-8 solution y_new of the trial and its combined scaled error estimate. */
 static real dop853_solution(lag_stepper *s, real h)
 {
-    real sum5 = 0, sum3 = 0, increment, e5, e3, w, denominator;
+    real sum5, sum3, increment, w, denominator;
     int i;
     for (i = 0; i < LAG_NY; ++i) {
         increment = dp8_b1 * s->k1[i] + dp8_b6 * s->k6[i] + dp8_b7 * s->k7[i] + dp8_b8 * s->k8[i]
                     + dp8_b9 * s->k9[i] + dp8_b10 * s->k10[i] + dp8_b11 * s->k11[i] + dp8_b12 * s->k12[i];
         s->y_new[i] = s->y[i] + h * increment;
         w = lag_control_scale(&s->control, s->y[i], s->y_new[i]);
-        e3 = (increment - dp8_bhat1 * s->k1[i] - dp8_bhat9 * s->k9[i] - dp8_bhat12 * s->k12[i]) / w;
-        e5 = (dp8_e1 * s->k1[i] + dp8_e6 * s->k6[i] + dp8_e7 * s->k7[i] + dp8_e8 * s->k8[i]
-              + dp8_e9 * s->k9[i] + dp8_e10 * s->k10[i] + dp8_e11 * s->k11[i] + dp8_e12 * s->k12[i]) / w;
-        sum3 += e3 * e3;
-        sum5 += e5 * e5;
+        s->error3[i] = (increment - dp8_bhat1 * s->k1[i] - dp8_bhat9 * s->k9[i] - dp8_bhat12 * s->k12[i]) / w;
+        s->error5[i] = (dp8_e1 * s->k1[i] + dp8_e6 * s->k6[i] + dp8_e7 * s->k7[i] + dp8_e8 * s->k8[i]
+                        + dp8_e9 * s->k9[i] + dp8_e10 * s->k10[i] + dp8_e11 * s->k11[i]
+                        + dp8_e12 * s->k12[i]) / w;
     }
+    sum3 = lag_sum_of_squares(LAG_NY, s->error3);
+    sum5 = lag_sum_of_squares(LAG_NY, s->error5);
     /* h err5^2 / sqrt(err5^2 + 0.01 err3^2) with err_q^2 = sum_q / n; a NaN stays a NaN */
     denominator = sum5 + LAG_LIT(0.01) * sum3;
     return denominator == 0 ? 0 : h * sum5 / r_sqrt(LAG_NY * denominator);
@@ -1628,8 +1655,8 @@ static long lag_last_row(real t0, real t1, real dt)
 }
 
 /* Integrate from (t0, y0) to t1 and deliver the outputs on the grid of lag_last_row. The caller
- * has checked the grid (finite, t1 > t0, dt > 0, at most LAG_MAX_ROWS rows). */
-static int lag_integrate(const lag_system *sys, const real *y0, real t0, real t1, real dt,
+ * has checked the grid (finite, t1 > t0, dt > 0, at most LAG_MAX_ROWS rows) and set sys->par. */
+static int lag_integrate(lag_system *sys, const real *y0, real t0, real t1, real dt,
                          const lag_options *options, lag_sink sink, void *context, lag_report *report)
 {
     lag_stepper *stepper = malloc(sizeof *stepper);
@@ -1639,6 +1666,7 @@ static int lag_integrate(const lag_system *sys, const real *y0, real t0, real t1
     int status = LAG_OK;
     memset(report, 0, sizeof *report);
     memcpy(y, y0, sizeof y);
+    lag_system_prepare(sys);
     if (stepper == NULL)
         return report->status = LAG_ERR_MAX_STEPS;
     memset(stepper, 0, sizeof *stepper);

@@ -155,6 +155,9 @@ static void lag_print_real(FILE *file, real x)
 
 typedef struct lag_system {
     real par[5];
+    real mass[LAG_NM];          /* M factored (lag_factor), by lag_system_prepare */
+    real mass_scale[LAG_NQ];    /* its equilibration */
+    int mass_status;            /* LAG_OK, or why M cannot be solved with */
 } lag_system;
 
 static const char *const lag_parameter_names[] = { "M", "m", "alpha", "H", "g" };
@@ -262,38 +265,58 @@ static int lag_solve(int n, real *K, real *b, real *rcond)
 
 /* The linear system K x = b for x = (q''):
  * K = M, the mass matrix d2L/dq'dq', and b = f, so that M q'' = f. */
-static void lag_assemble(const real *par, real t, const real *y, real *K, real *b)
+static void lag_assemble_mass(const real *par, real *K)
 {
-    (void)t;
-    (void)y;
     const real p_M = par[0];
     const real p_m = par[1];
     const real p_alpha = par[2];
-    const real p_g = par[4];
     const real c0 = r_cos(p_alpha);
-    const real c1 = r_sin(p_alpha);
-    const real w6 = 0.5*p_m*(2*(c0*c0) + 2*(c1*c1));
+    const real w6 = 0.5*p_m*(2*(c0*c0) + 2*r_pow(r_sin(p_alpha), 2));
     K[0] = p_M + p_m;
     K[1] = c0*p_m;
     K[2] = w6;
-    b[0] = 0;
-    b[1] = c1*p_g*p_m;
 }
 
-/* q'' at (t, y): assemble K and b, and solve. */
+/* f at (t, y). */
+static void lag_forces(const real *par, real t, const real *y, real *b)
+{
+    (void)t;
+    (void)y;
+    const real p_m = par[1];
+    const real p_alpha = par[2];
+    const real p_g = par[4];
+    b[0] = 0;
+    b[1] = p_g*p_m*r_sin(p_alpha);
+}
+
+/* K = M and b = f (for the Jacobian and the failure report; a run factors M once). */
+static void lag_assemble(const real *par, real t, const real *y, real *K, real *b)
+{
+    lag_assemble_mass(par, K);
+    lag_forces(par, t, y, b);
+}
+
+/* M depends on the parameters alone: factor it once per run, before the first step. */
+static void lag_system_prepare(lag_system *sys)
+{
+    real rcond;
+    lag_assemble_mass(sys->par, sys->mass);
+    sys->mass_status = lag_factor(sys->mass, sys->mass_scale, &rcond);
+    if (sys->mass_status == LAG_OK && !(rcond >= LAG_RCOND_MIN))
+        sys->mass_status = LAG_ERR_SINGULAR;
+}
+
+/* q'' at (t, y): f, solved with the factor of M that lag_system_prepare made. */
 static int lag_accelerations(const lag_system *sys, real t, const real *y, real *acc)
 {
-    real K[LAG_NM], b[LAG_NK], rcond;
-    int i, status;
-    lag_assemble(sys->par, t, y, K, b);
-    if ((status = lag_solve(LAG_NK, K, b, &rcond)) != LAG_OK)
-        return status;
-    for (i = 0; i < LAG_NQ; ++i)
-        acc[i] = b[i];
-    for (i = 0; i < LAG_NK; ++i)
-        if (!r_isfinite(b[i]))
-            return LAG_ERR_NONFINITE;
-    return LAG_OK;
+    int i, finite = 1;
+    if (sys->mass_status != LAG_OK)
+        return sys->mass_status;
+    lag_forces(sys->par, t, y, acc);
+    lag_substitute(sys->mass, sys->mass_scale, acc);
+    for (i = 0; i < LAG_NQ; ++i)        /* no early exit: the loop vectorises */
+        finite &= r_isfinite(acc[i]);
+    return finite ? LAG_OK : LAG_ERR_NONFINITE;
 }
 
 /* dy/dt = (q', q''). */
@@ -543,8 +566,8 @@ static long lag_last_row(real t0, real t1, real dt)
 }
 
 /* Integrate from (t0, y0) to t1 and deliver the outputs on the grid of lag_last_row. The caller
- * has checked the grid (finite, t1 > t0, dt > 0, at most LAG_MAX_ROWS rows). */
-static int lag_integrate(const lag_system *sys, const real *y0, real t0, real t1, real dt,
+ * has checked the grid (finite, t1 > t0, dt > 0, at most LAG_MAX_ROWS rows) and set sys->par. */
+static int lag_integrate(lag_system *sys, const real *y0, real t0, real t1, real dt,
                          const lag_options *options, lag_sink sink, void *context, lag_report *report)
 {
     lag_stepper *stepper = malloc(sizeof *stepper);
@@ -554,6 +577,7 @@ static int lag_integrate(const lag_system *sys, const real *y0, real t0, real t1
     int status = LAG_OK;
     memset(report, 0, sizeof *report);
     memcpy(y, y0, sizeof y);
+    lag_system_prepare(sys);
     if (stepper == NULL)
         return report->status = LAG_ERR_MAX_STEPS;
     memset(stepper, 0, sizeof *stepper);

@@ -53,15 +53,16 @@ def assemble(par, t, y):
     p_M = par[0]
     p_m = par[1]
     p_alpha = par[2]
-    p_g = par[4]
     c0 = numpy.cos(p_alpha)
-    c1 = numpy.sin(p_alpha)
-    w6 = (1/2)*p_m*(2*c0**2 + 2*c1**2)
+    w6 = (1/2)*p_m*(2*c0**2 + 2*numpy.sin(p_alpha)**2)
     K[0, 0] = p_M + p_m
     K[1, 0] = K[0, 1] = c0*p_m
     K[1, 1] = w6
+    p_m = par[1]
+    p_alpha = par[2]
+    p_g = par[4]
     b[0] = 0
-    b[1] = c1*p_g*p_m
+    b[1] = p_g*p_m*numpy.sin(p_alpha)
     return K, b
 
 

@@ -198,6 +198,7 @@ typedef struct lag_stepper {
     real k14[LAG_NY], k15[LAG_NY], k16[LAG_NY];  /* the dense output's stages */
     real y_stage[LAG_NY];         /* argument of the stage being evaluated */
     real y_new[LAG_NY];           /* the order-8 solution of the current trial */
+    real error5[LAG_NY], error3[LAG_NY];   /* its scaled error estimates, component by component */
     real dense[8][LAG_NY];        /* r1..r8 of the continuous extension on [t_old, t] */
     int dense_built;              /* r3..r8 are those of the last accepted step */
 } lag_stepper;
@@ -271,19 +272,20 @@ static int dop853_stages(lag_stepper *s, real h, real t_new)
 /* The order-8 solution y_new of the trial and its combined scaled error estimate. */
 static real dop853_solution(lag_stepper *s, real h)
 {
-    real sum5 = 0, sum3 = 0, increment, e5, e3, w, denominator;
+    real sum5, sum3, increment, w, denominator;
     int i;
     for (i = 0; i < LAG_NY; ++i) {
         increment = dp8_b1 * s->k1[i] + dp8_b6 * s->k6[i] + dp8_b7 * s->k7[i] + dp8_b8 * s->k8[i]
                     + dp8_b9 * s->k9[i] + dp8_b10 * s->k10[i] + dp8_b11 * s->k11[i] + dp8_b12 * s->k12[i];
         s->y_new[i] = s->y[i] + h * increment;
         w = lag_control_scale(&s->control, s->y[i], s->y_new[i]);
-        e3 = (increment - dp8_bhat1 * s->k1[i] - dp8_bhat9 * s->k9[i] - dp8_bhat12 * s->k12[i]) / w;
-        e5 = (dp8_e1 * s->k1[i] + dp8_e6 * s->k6[i] + dp8_e7 * s->k7[i] + dp8_e8 * s->k8[i]
-              + dp8_e9 * s->k9[i] + dp8_e10 * s->k10[i] + dp8_e11 * s->k11[i] + dp8_e12 * s->k12[i]) / w;
-        sum3 += e3 * e3;
-        sum5 += e5 * e5;
+        s->error3[i] = (increment - dp8_bhat1 * s->k1[i] - dp8_bhat9 * s->k9[i] - dp8_bhat12 * s->k12[i]) / w;
+        s->error5[i] = (dp8_e1 * s->k1[i] + dp8_e6 * s->k6[i] + dp8_e7 * s->k7[i] + dp8_e8 * s->k8[i]
+                        + dp8_e9 * s->k9[i] + dp8_e10 * s->k10[i] + dp8_e11 * s->k11[i]
+                        + dp8_e12 * s->k12[i]) / w;
     }
+    sum3 = lag_sum_of_squares(LAG_NY, s->error3);
+    sum5 = lag_sum_of_squares(LAG_NY, s->error5);
     /* h err5^2 / sqrt(err5^2 + 0.01 err3^2) with err_q^2 = sum_q / n; a NaN stays a NaN */
     denominator = sum5 + LAG_LIT(0.01) * sum3;
     return denominator == 0 ? 0 : h * sum5 / r_sqrt(LAG_NY * denominator);

@@ -50,6 +50,7 @@ typedef struct lag_stepper {
     real k2[LAG_NY], k3[LAG_NY], k4[LAG_NY], k5[LAG_NY], k6[LAG_NY], k7[LAG_NY];
     real y_stage[LAG_NY];         /* argument of the stage being evaluated */
     real y_new[LAG_NY];           /* the order-5 solution of the current trial */
+    real error[LAG_NY];           /* its scaled local error estimate, component by component */
     real dense[5][LAG_NY];        /* r1..r5 of the continuous extension on [t_old, t] */
     int dense_built;              /* r3..r5 are those of the last accepted step */
 } lag_stepper;
@@ -63,7 +64,6 @@ static int dopri5_stage(lag_stepper *s, real t, real *k)
 /* Stages 2..7 of a trial of size h from (t, y) to t_new, and the scaled error estimate. */
 static int dopri5_trial(lag_stepper *s, real h, real t_new, real *err)
 {
-    real sum = 0, e;
     int i, status;
     for (i = 0; i < LAG_NY; ++i)
         s->y_stage[i] = s->y[i] + h * (dp5_a21 * s->k1[i]);
@@ -92,13 +92,11 @@ static int dopri5_trial(lag_stepper *s, real h, real t_new, real *err)
                                      + dp5_b5 * s->k5[i] + dp5_b6 * s->k6[i]);
     if ((status = lag_control_rhs(s->sys, &s->stats, t_new, s->y_new, s->k7)) != LAG_OK)
         return status;
-    for (i = 0; i < LAG_NY; ++i) {
-        e = h * (dp5_e1 * s->k1[i] + dp5_e3 * s->k3[i] + dp5_e4 * s->k4[i] + dp5_e5 * s->k5[i]
-                 + dp5_e6 * s->k6[i] + dp5_e7 * s->k7[i]);
-        e /= lag_control_scale(&s->control, s->y[i], s->y_new[i]);
-        sum += e * e;
-    }
-    *err = r_sqrt(sum / LAG_NY);
+    for (i = 0; i < LAG_NY; ++i)
+        s->error[i] = h * (dp5_e1 * s->k1[i] + dp5_e3 * s->k3[i] + dp5_e4 * s->k4[i] + dp5_e5 * s->k5[i]
+                           + dp5_e6 * s->k6[i] + dp5_e7 * s->k7[i])
+                      / lag_control_scale(&s->control, s->y[i], s->y_new[i]);
+    *err = r_sqrt(lag_sum_of_squares(LAG_NY, s->error) / LAG_NY);
     return LAG_OK;
 }
 

@@ -59,10 +59,29 @@ static int lag_control_rhs(const lag_system *sys, lag_stats *stats, real t, cons
     return lag_rhs(sys, t, y, f);
 }
 
-/* The scale of component i in the error norm (4.11). */
+/* The scale of component i in the error norm (4.11). max(|y0|, |y1|) is written out rather
+ * than called (fmax is a libm call that GCC keeps, and the error loops would not vectorise); it
+ * takes |y0| when y1 is NaN, as fmax does. */
 static real lag_control_scale(const lag_control *c, real y0, real y1)
 {
-    return c->atol + c->rtol * r_fmax(r_fabs(y0), r_fabs(y1));
+    real a0 = r_fabs(y0), a1 = r_fabs(y1);
+    return c->atol + c->rtol * (a1 > a0 ? a1 : a0);
+}
+
+/* The sum of x_i^2 over n entries, in four interleaved partial sums: the additions of one
+ * partial sum wait for each other, the four do not, so the loop runs at the adder's throughput
+ * instead of its latency (one long chain of additions is what vectorising compilers may not
+ * reorder). A NaN stays a NaN. */
+static real lag_sum_of_squares(int n, const real *x)
+{
+    real partial[4] = {0, 0, 0, 0};
+    int i, j;
+    for (i = 0; i + 4 <= n; i += 4)
+        for (j = 0; j < 4; ++j)
+            partial[j] += x[i + j] * x[i + j];
+    for (; i < n; ++i)
+        partial[0] += x[i] * x[i];
+    return (partial[0] + partial[1]) + (partial[2] + partial[3]);
 }
 
 /* The first step: opt->step if given, else HNW I, II.4, steps (a)-(f).  f = f(t, y). */
