@@ -130,11 +130,19 @@ def _parameter_values(model: ir.Model, set_values: dict[str, float]) -> tuple[fl
 
 def _initial_state(model: ir.Model, parameters, initial: dict) -> tuple[float, ...]:
     values = {p.symbol: sympy.Float(v, 30) for p, v in zip(model.parameters, parameters)}
+
+    def evaluated(expression: sympy.Expr) -> float:
+        # a plain number (most start values: the zeros of a chain at rest) needs no evalf, which
+        # costs more than a short run of a 200-mass chain
+        if expression is sympy.S.Zero:
+            return 0.0
+        return float(expression) if expression.is_Number else float(expression.xreplace(values).evalf(30))
+
     starts, velocities = [], []
     for c in model.coordinates:
         start, velocity = initial.get(c.name, (None, None))
-        starts.append(start if start is not None else float(c.start.xreplace(values).evalf(30)))
-        velocities.append(velocity if velocity is not None else float(c.velocity.xreplace(values).evalf(30)))
+        starts.append(start if start is not None else evaluated(c.start))
+        velocities.append(velocity if velocity is not None else evaluated(c.velocity))
         _require_finite(starts[-1], f"the start value of {c.name}")
         _require_finite(velocities[-1], f"the start velocity of {c.name}")
     return tuple(starts + velocities)
