@@ -241,6 +241,10 @@ class ExpressionBuilder:
             raise LagError(f"{this} is not a real number", span)
         if value.is_Rational and abs(value) > MAX_DOUBLE:
             raise LagError(f"{this} is not finite in double precision", span)
+        if not value.is_Rational and _magnitude(value) > MAX_DOUBLE:
+            # exp(1000) is exact to sympy; checked here, node by node, no constant beyond a double
+            # ever reaches a power, where 2^2^exp(1000) would make evalf's precision explode
+            raise LagError(f"{this} is out of the range of double precision", span)
 
     def _number(self, node, scope):
         return number_value(str(node.children[0]), self.span(node))
@@ -642,3 +646,12 @@ def body_rates(convention: str, angles, rates) -> Vector:
     return Vector((dphi - dpsi * sin(theta),
                    dtheta * cos(phi) + dpsi * cos(theta) * sin(phi),
                    dpsi * cos(theta) * cos(phi) - dtheta * sin(phi)))
+
+
+def _magnitude(number: sympy.Expr) -> sympy.Expr:
+    """|number| to 17 digits; infinite when sympy cannot evaluate it (its working precision
+    overflows on a value far beyond any float)."""
+    try:
+        return abs(number.evalf(17))
+    except (OverflowError, ValueError, ZeroDivisionError, RecursionError):
+        return sympy.oo
