@@ -153,8 +153,8 @@ def test_ctrl_c_stops_lagc_run_with_the_rows_so_far(oscillator, tmp_path):
     cache = tmp_path / "cache"
     environment = {**os.environ, "LAGDSL_CACHE": str(cache)}
     out = tmp_path / "out.csv"
-    process = subprocess.Popen([sys.executable, "-m", "lagdsl", "run", str(oscillator), "--stop", "1e6",
-                                "--interval", "1", "--rtol", "1e-13", "--max-steps", "1000000000000", "-o", str(out)],
+    process = subprocess.Popen([sys.executable, "-m", "lagdsl", "run", str(oscillator), "--stop", "1e7",
+                                "--interval", "10", "--rtol", "1e-13", "--max-steps", "1000000000000", "-o", str(out)],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=environment)
     assert _wait_for_the_library(process, cache)
     time.sleep(0.5)
@@ -199,7 +199,7 @@ def test_the_standalone_program_checks_its_arguments(oscillator, tmp_path):
 
 def test_ctrl_c_stops_the_standalone_program_with_a_valid_csv(oscillator, tmp_path):
     program = _standalone(oscillator, tmp_path)
-    process = subprocess.Popen([program, "t.stop=5e6", "t.interval=1", "rtol=1e-13", "max_steps=1e15"],
+    process = subprocess.Popen([program, "t.stop=5e7", "t.interval=10", "rtol=1e-13", "max_steps=1e15"],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     time.sleep(1.0)
     process.send_signal(signal.SIGINT)
