@@ -323,12 +323,15 @@ class _Lowering:
         return self.block(self.mass_stores("K"))
 
     def forces_block(self) -> Block:
-        return self.block([("b", (k,), f) for k, f in enumerate(self.eq.forcing)])
+        return self.block(self.force_stores())
+
+    def force_stores(self) -> list[tuple[str, tuple[int, ...], sympy.Expr]]:
+        return [("b", (k,), f) for k, f in enumerate(self.eq.forcing)]
 
     def system_block(self) -> Block:
         n, m = self.n, len(self.active)
         if not self.active:
-            return self.block(self.mass_stores("K") + [("b", (k,), f) for k, f in enumerate(self.eq.forcing)])
+            return self.block(self.mass_stores("K") + self.force_stores())
         stores = []
         for k in range(n):
             for j in range(n):
@@ -340,7 +343,7 @@ class _Lowering:
                 stores.append(("K", (n + i, j), c.jacobian[j]))
             for l in range(m):
                 stores.append(("K", (n + i, n + l), sympy.S.Zero))
-        stores += [("b", (k,), f) for k, f in enumerate(self.eq.forcing)]
+        stores += self.force_stores()
         stores += [("b", (n + i,), c.gamma) for i, c in enumerate(self.active)]
         return self.block(stores)
 
