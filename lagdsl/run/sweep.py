@@ -365,7 +365,10 @@ def run_dask(client, library: bytes, source: str, stem: str, layout: BatchLayout
     count = len(initial)
     size = max(1, math.ceil(count / (CHUNKS_PER_THREAD * threads)))
     bounds = [(lo, min(lo + size, count)) for lo in range(0, count, size)]
-    shipped = client.scatter(library, broadcast=True, hash=True)
+    # A key of its own (hash=False): with the content hash as key, a second sweep of the same
+    # program could scatter while the first one's copy is being released, and its chunks then
+    # lost their dependency ("failed to acquire keys", the chunks cancelled).
+    shipped = client.scatter(library, broadcast=True, hash=False)
     futures = [client.submit(run_chunk, shipped, source, stem, layout, parameters[lo:hi], initial[lo:hi],
                              retries=3, pure=False, key=f"lagdsl-sweep-{stem}-{lo}-{os.getpid()}-{clock.time_ns()}")
                for lo, hi in bounds]
