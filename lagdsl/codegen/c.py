@@ -16,7 +16,7 @@ FUNCTION_PARAMETERS = {
     "initial": ("par", "y0"),
     "system": ("par", "t", "y", "K", "b"),
     "constant_mass": ("par", "K"),
-    "jacobian": ("par", "t", "y", "acc", "lam", "dR"),
+    "jacobian": ("par", "t", "y", "acc", "lam", "Dq", "Dv", "Dz"),
     "momenta": ("par", "t", "y", "p"),
     "mass": ("par", "t", "y", "M"),
     "momentum_rate": ("par", "t", "y", "dp"),
@@ -61,7 +61,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
                      for i, (name, value) in enumerate(kernel.parameters)],
         "derived": [f"if (!fixed[{i}])\n        par[{i}] = {printer.doprint(expr)};"
                     for i, expr in kernel.derived_parameters],
-        "solver": kernel.solver, "jacobian": kernel.jacobian is not None,
+        "solver": kernel.solver, "jacobian": kernel.jacobian is not None, "jac": kernel.jacobian_layout,
         "layout": layout_kind(kernel), "bandwidth": kernel.layout.bandwidth if kernel.layout else 0, "stored": kernel.layout.size if kernel.layout else kernel.size ** 2,
         "factor": factorisation_text(kernel.layout),
         "canonical": kernel.momenta is not None,
@@ -102,7 +102,7 @@ def layout_kind(kernel: Kernel) -> str:
 def _linear_algebra(kernel: Kernel) -> str:
     """Only the factorisations the scene calls: unused static functions are warnings."""
     dense = layout_kind(kernel) == "dense"
-    needs_lu = kernel.solver == "lu" or kernel.jacobian is not None or bool(kernel.constraints)   # radau5 too
+    needs_lu = kernel.solver == "lu" or bool(kernel.constraints)
     needs_cholesky = kernel.solver == "cholesky" and dense
     files = (("cholesky.c", needs_cholesky), ("lu.c", needs_lu), ("lu_condition.c", kernel.solver == "lu"))
     return "".join(c_file(name) + "\n" for name, needed in files if needed)
@@ -162,11 +162,12 @@ def _print_block(block: Block, signature: tuple[str, ...], kernel: Kernel, print
 
 
 # Arrays set to zero before a block fills them, so that their structurally zero entries need
-# no statement: the mostly empty dR of a large model (a derivative of each residual by each
-# state entry) would otherwise be one store per entry. A block may ask for more (Block.cleared):
-# the loops of the local form add into K and b.
-CLEARED = ("dR",)
-ARRAY_SIZES = {"y0": "sizeof(real) * LAG_NY", "dR": "sizeof(real) * LAG_NK * LAG_NY", "K": "sizeof(real) * LAG_NM", "b": "sizeof(real) * LAG_NK"}
+# no statement: the mostly empty Dq and Dv of a large model (a derivative of each residual by
+# each state entry) would otherwise be one store per entry. A block may ask for more
+# (Block.cleared): the loops of the local form add into K and b.
+CLEARED = ("Dq", "Dv", "Dz")
+ARRAY_SIZES = {"y0": "sizeof(real) * LAG_NY", "K": "sizeof(real) * LAG_NM", "b": "sizeof(real) * LAG_NK",
+               **{array: "sizeof(real) * LAG_JAC_SIZE" for array in CLEARED}}
 
 
 def _print_loop(loop: Loop, kernel: Kernel, printer: CPrinter) -> dict:
@@ -174,7 +175,8 @@ def _print_loop(loop: Loop, kernel: Kernel, printer: CPrinter) -> dict:
     def element(array: str, index) -> str:
         if not index:
             return array                                            # an accumulator
-        offset, stride = index[0] if len(index) == 1 else _band_position(index, kernel)
+        offset, stride = index[0] if len(index) == 1 else \
+            _jacobian_position(index, kernel) if array in CLEARED else _band_position(index, kernel)
         return f"{array}[{_affine(offset, stride if loop.count > 1 else 0)}]"
     return {"count": loop.count,
             "inputs": [(name, element(array, ((offset, stride),))) for name, array, offset, stride in loop.inputs],
@@ -192,6 +194,14 @@ def _band_position(index, kernel: Kernel) -> tuple[int, int]:
     return row * width + row - column, stride * width
 
 
+def _jacobian_position(index, kernel: Kernel) -> tuple[int, int]:
+    """(offset, stride) of entry (row, column) of Dq, Dv or Dz over the members: the slots of
+    both layouts are affine in (row, column)."""
+    (row, stride), (column, _) = index
+    slot = kernel.jacobian_layout.slot
+    return slot(row, column), slot(row + stride, column + stride) - slot(row, column)
+
+
 def _affine(offset: int, stride: int) -> str:
     """offset + stride·i as C or Python: "i", "2 * i + 1", "7"."""
     if stride == 0:
@@ -207,5 +217,7 @@ def _position(store: Store, kernel: Kernel) -> int:
     row, column = store.index
     if store.array in ("K", "M") and kernel.layout is not None:
         return kernel.layout.coordinate_slot(row, column)
-    columns = {"K": kernel.size, "dR": 2 * kernel.n, "A": kernel.n, "M": kernel.n}[store.array]
+    if store.array in CLEARED:
+        return kernel.jacobian_layout.slot(row, column)
+    columns = {"K": kernel.size, "A": kernel.n, "M": kernel.n}[store.array]
     return row * columns + column

@@ -18,8 +18,10 @@ The blocks are exactly what the scene needs:
                one block so that what they share (the energy, say) is computed once
   constraints  residuals g (holonomic, position level), c (velocity level) and rows A, for
                projection onto the constraint manifold and the residual report
-  jacobian     implicit integrators only: ∂R/∂y for R = [f - M q'' + Aᵀλ; γ - A q''] at fixed
-               (q'', λ); then ∂(q'', λ)/∂y = K⁻¹ ∂R/∂y, solved numerically
+  jacobian     implicit integrators only: Dq = ∂R/∂q, Dv = ∂R/∂q' and Dz = ∂R/∂(q'', λ) = -K
+               for R = [f - M q'' + Aᵀλ; γ - A q''] at fixed (q'', λ), stored as
+               `jacobian_layout` says (dense, or a band); radau5 forms its iteration matrices
+               from them (∂(q'', λ)/∂y = -Dz⁻¹ [Dq Dv] is never formed)
   canonical    gauss only: p = ∂L/∂q', M, and ṗ = ∂L/∂q + Q for Hamilton's equations
   initial      the initial state y0 from the start values (expressions of parameters)
   stop         a scene with `stop when ...` only: the function e(t, y) whose sign change to
@@ -43,7 +45,7 @@ from ..mechanics import Equations
 from ..mechanics.families import LocalEquations
 from ..scene import ScenePlan
 from .cse import eliminate_common_subexpressions
-from .structure import MassLayout, mass_layout
+from .structure import JacobianLayout, MassLayout, jacobian_layout, mass_layout
 
 
 @dataclass(frozen=True)
@@ -103,6 +105,7 @@ class Kernel:
     stop: Block | None = None                    # e(t, y) of the scene's stop condition
     stop_text: str = ""                          # the condition as written
     constant_mass: Block | None = None           # M from the parameters alone (system then gives b)
+    jacobian_layout: JacobianLayout | None = None     # how the jacobian block stores Dq, Dv, Dz
 
     @property
     def n(self) -> int:
@@ -118,17 +121,19 @@ def lower_to_kernel(equations: Equations | LocalEquations, plan: ScenePlan) -> K
     """Build every block the scene needs (see the module docstring): from the local form of the
     equations (loops over stencils) where the scene allows it, else from the expanded equations."""
     if isinstance(equations, LocalEquations):
-        if local_form_serves(plan):
-            from .loops import LocalLowering
+        from .loops import LocalLowering, mass_is_constant
+        if local_form_serves(plan, mass_is_constant(equations)):
             return LocalLowering(equations, plan).kernel()
         equations = equations.expanded
     return _Lowering(equations, plan).kernel()
 
 
-def local_form_serves(plan: ScenePlan) -> bool:
-    """The local form gives M, f and the energy: enough for an explicit integrator whose outputs
-    need no momenta, multipliers or residuals."""
-    return not (plan.implicit or plan.canonical) and all(o.kind in ("expression", "energy") for o in plan.outputs)
+def local_form_serves(plan: ScenePlan, constant_mass: bool) -> bool:
+    """The local form gives M, f, their derivatives and the energy: enough for an integrator
+    whose outputs need no momenta, multipliers or residuals, other than gauss (the canonical
+    form), and for an implicit one when M is constant (∂(M q'')/∂q = 0)."""
+    return (not plan.canonical and (constant_mass or not plan.implicit)
+            and all(o.kind in ("expression", "energy") for o in plan.outputs))
 
 
 def safe_name(text: str) -> str:
@@ -277,7 +282,7 @@ class _Lowering:
             outputs_need_multipliers=any(o.kind == "multiplier" or o.kind == "expression" and
                                          o.expression.free_symbols & set(self.multipliers) for o in plan.outputs),
             constraint_rows=self.constraint_block() if self.active else None,
-            jacobian=self.jacobian_block() if plan.implicit else None,
+            **self.jacobian_fields(),
             **self.canonical_blocks(),
             stop=self.block([("ev", (0,), plan.stop.function)]) if plan.stop else None,
             stop_text=plan.stop.text if plan.stop else "")
@@ -379,7 +384,16 @@ class _Lowering:
         stores += [("A", (i, k), a) for i, c in enumerate(self.active) for k, a in enumerate(c.jacobian)]
         return self.block(stores)
 
-    def jacobian_block(self) -> Block:
+    def jacobian_block(self) -> tuple[Block, JacobianLayout]:
+        """Dq, Dv and Dz (structure.JacobianLayout) at fixed (q'', λ): each structurally nonzero
+        entry, in the layout their pattern allows."""
+        stores = [store for store in self.residual_derivatives() if store[2] != 0]
+        layout = jacobian_layout(self.n + len(self.active), bool(self.active),
+                                 {index for _, index, _ in stores} | {(r, r) for r in range(self.n)})
+        return self.block(stores), layout
+
+    def residual_derivatives(self) -> list[tuple[str, tuple[int, int], sympy.Expr]]:
+        """Dq = ∂R/∂q, Dv = ∂R/∂q' of R = [f - M q'' + Aᵀλ; γ - A q''], and Dz = ∂R/∂(q'', λ) = -K."""
         eq, n = self.eq, self.n
         residuals = []
         for k in range(n):
@@ -388,10 +402,22 @@ class _Lowering:
             residuals.append(r)
         for c in self.active:
             residuals.append(c.gamma - sum((a * x for a, x in zip(c.jacobian, self.accelerations)), sympy.S.Zero))
-        state = (*eq.coordinates, *eq.velocities)
-        stores = [("dR", (r, j), self.calculus.partial(residual, y))
-                  for r, residual in enumerate(residuals) for j, y in enumerate(state)]
-        return self.block(stores)
+        stores = [(array, (r, j), self.calculus.partial(residual, x))
+                  for r, residual in enumerate(residuals)
+                  for array, variables in (("Dq", eq.coordinates), ("Dv", eq.velocities))
+                  for j, x in enumerate(variables)]
+        for k in range(n):
+            stores += [("Dz", (k, j), -eq.mass_matrix[k][j]) for j in range(n)]
+            stores += [("Dz", (k, n + i), c.jacobian[k]) for i, c in enumerate(self.active)]
+        for i, c in enumerate(self.active):
+            stores += [("Dz", (n + i, j), -a) for j, a in enumerate(c.jacobian)]
+        return stores
+
+    def jacobian_fields(self) -> dict:
+        if not self.plan.implicit:
+            return {"jacobian": None, "jacobian_layout": None}
+        block, layout = self.jacobian_block()
+        return {"jacobian": block, "jacobian_layout": layout}
 
     def canonical_blocks(self) -> dict:
         if not self.plan.canonical:

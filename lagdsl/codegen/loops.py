@@ -18,7 +18,7 @@ from .. import ir
 from ..mechanics.families import ENERGY, PARAMETER, POSITION, VELOCITY, LocalEquations, Stencil
 from .cse import eliminate_common_subexpressions
 from .kernel import Block, Loop, _Lowering
-from .structure import MassLayout, local_layout
+from .structure import JacobianLayout, MassLayout, jacobian_layout, local_layout
 
 LOOPS = "loops"         # the source of a value the block's loops compute
 
@@ -44,10 +44,30 @@ class LocalLowering(_Lowering):
         return self.stencils_block(("b",))
 
     def mass_is_constant(self) -> bool:
-        """No stencil's M reads a position, a velocity or the time."""
-        return not any(symbol == ir.TIME or symbol.name.startswith((POSITION, VELOCITY))
-                       for stencil in self.eq.stencils for _, _, entry in stencil.mass
-                       for symbol in entry.free_symbols)
+        return mass_is_constant(self.eq)
+
+    def jacobian_block(self) -> tuple[Block, JacobianLayout]:
+        """Dq, Dv and Dz = -M (M is constant here) from the stencils: each member's forcing
+        differentiated by its own slots, in a band as wide as the widest stencil."""
+        loops = [loop for stencil in self.eq.stencils for loop in [self.jacobian_loop(stencil)] if loop]
+        reach = max([self.eq.bandwidth, *(max(s.offsets) - min(s.offsets) for s in self.eq.stencils)])
+        layout = jacobian_layout(self.n, False, {(reach, 0), (0, reach)})
+        return self.looped_block([], loops, cleared=("Dq", "Dv", "Dz")), layout
+
+    def jacobian_loop(self, stencil: Stencil) -> Loop | None:
+        targets, values = [], []
+        for a, force in enumerate(stencil.forcing):
+            for b, offset in enumerate(stencil.offsets):
+                for array, kind in (("Dq", POSITION), ("Dv", VELOCITY)):
+                    slope = force.diff(sympy.Symbol(f"{kind}{offset}", real=True)) if force != 0 else 0
+                    if slope != 0:
+                        targets.append((array, (self._member(stencil, a), self._member(stencil, b))))
+                        values.append(slope)
+        for a, b, entry in stencil.mass:
+            for row, column in [(a, b), (b, a)][:1 if a == b else 2]:
+                targets.append(("Dz", (self._member(stencil, row), self._member(stencil, column))))
+                values.append(-entry)
+        return self.member_loop(stencil, targets, values)
 
     def stencils_block(self, arrays: tuple[str, ...]) -> Block:
         """The stencils' contributions to the arrays named (b, K or both), each array zeroed first."""
@@ -91,6 +111,10 @@ class LocalLowering(_Lowering):
         if "energy" in arrays and stencil.energy != 0:
             targets.append((self.names[ENERGY], ()))
             values.append(stencil.energy)
+        return self.member_loop(stencil, targets, values)
+
+    def member_loop(self, stencil: Stencil, targets, values: list[sympy.Expr]) -> Loop | None:
+        """The loop over the stencil's members that adds each value into its target."""
         if not values:
             return None
         bases, values = name_power_bases(values)
@@ -126,6 +150,13 @@ class LocalLowering(_Lowering):
                 rename[symbol] = sympy.Symbol(f"pm{offset}", real=True)
                 inputs.append((f"pm{offset}", "par", stencil.parameter_first + offset, stencil.parameter_step))
         return rename, inputs
+
+
+def mass_is_constant(equations: LocalEquations) -> bool:
+    """No stencil's M reads a position, a velocity or the time."""
+    return not any(symbol == ir.TIME or symbol.name.startswith((POSITION, VELOCITY))
+                   for stencil in equations.stencils for _, _, entry in stencil.mass
+                   for symbol in entry.free_symbols)
 
 
 def name_power_bases(values: list[sympy.Expr]) -> tuple[list[tuple[sympy.Symbol, sympy.Expr]], list[sympy.Expr]]:

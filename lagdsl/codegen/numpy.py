@@ -35,7 +35,7 @@ def render_numpy(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSou
 
 
 # Matrices that the generated functions create as zeros: their zero entries need no statement.
-ZEROED = ("K", "M", "dR")
+ZEROED = ("K", "M", "Dq", "Dv", "Dz")
 
 
 def _print_block(block: Block, layout: str, printer: PythonPrinter) -> dict:
@@ -50,7 +50,8 @@ def _print_block(block: Block, layout: str, printer: PythonPrinter) -> dict:
 def _print_loop(loop: Loop, layout: str, printer: PythonPrinter) -> dict:
     """A Loop as array operations on all members at once: each input is a strided slice of y or
     par, each store adds into one (the members of one slot never share an entry). A diagonal M
-    is the vector K[k]; any other M is a full matrix, set on both sides of the diagonal."""
+    is the vector K[k]; any other M is a full matrix, set on both sides of the diagonal; Dq, Dv
+    and Dz are full matrices with every entry stored."""
     def members(offset: int, stride: int) -> str:
         if loop.count == 1:
             return str(offset)
@@ -60,12 +61,13 @@ def _print_loop(loop: Loop, layout: str, printer: PythonPrinter) -> dict:
     def stores(array, index, value):
         if not index:
             return [f"{array} += {value}" if loop.count == 1 else f"{array} += _total({value}, {loop.count})"]
-        if len(index) == 1 or layout == "diagonal":
+        if len(index) == 1 or layout == "diagonal" and array == "K":
             return [f"{array}[{members(*index[0])}] += {value}"]
         (row, stride), (column, _) = index
         rows, columns = _indices(row, stride, loop.count), _indices(column, stride, loop.count)
         lines = [f"{array}[{rows}, {columns}] += {value}"]
-        return lines + ([f"{array}[{columns}, {rows}] += {value}"] if row != column else [])
+        mirrored = array == "K" and row != column          # M is stored once per pair; Dq, Dv, Dz whole
+        return lines + ([f"{array}[{columns}, {rows}] += {value}"] if mirrored else [])
 
     def read(array, offset, stride):
         if array == "par" and loop.count > 1:       # one value per member, against a batch of states

@@ -153,3 +153,49 @@ def minimum_degree(neighbours: list[set[int]]) -> tuple[tuple[int, ...], tuple[t
     order = tuple(sorted(eliminated, key=eliminated.__getitem__))
     columns = tuple(tuple(sorted(eliminated[j] for j in rows)) for rows in pattern)
     return order, columns
+
+
+# A band LU of E pays when its width 2 lower + upper + 1 is at most this fraction of the order.
+BANDED_JACOBIAN = 4
+
+
+@dataclass(frozen=True)
+class JacobianLayout:
+    """How an implicit integrator stores the derivatives of the residual
+    R = [f - M q'' + Aᵀλ; γ - A q''], Dq = ∂R/∂q, Dv = ∂R/∂q' and Dz = ∂R/∂(q'', λ) = -K, from
+    which radau5 forms its iteration matrices E(g) = [g Dz_a + Dv + Dq/g | Dz_λ] (radau5.c).
+    Each is a matrix of `order` = n + constraints rows, stored
+
+      dense   row-major, order x order (the columns of Dq and Dv past n stay zero);
+      banded  without constraints, when R couples near coordinates only (a chain): row r holds
+              columns r - lower .. r + upper, at r·(lower + upper + 1) + c - r + lower.
+
+    A dense layout has lower = upper = order - 1, so the band LU of radau5 covers it too."""
+    kind: str                                   # "dense" or "banded"
+    order: int
+    lower: int
+    upper: int
+
+    @property
+    def width(self) -> int:
+        return self.lower + self.upper + 1 if self.kind == "banded" else self.order
+
+    @property
+    def size(self) -> int:
+        """How many reals hold each of Dq, Dv and Dz."""
+        return self.order * self.width
+
+    def slot(self, row: int, column: int) -> int:
+        if self.kind == "dense":
+            return row * self.order + column
+        return row * self.width + column - row + self.lower
+
+
+def jacobian_layout(order: int, constrained: bool, pattern) -> JacobianLayout:
+    """The layout for the structurally nonzero positions (row, column) of Dq, Dv and Dz."""
+    lower = max((row - column for row, column in pattern), default=0)
+    upper = max((column - row for row, column in pattern), default=0)
+    lower, upper = max(lower, 0), max(upper, 0)
+    if not constrained and BANDED_JACOBIAN * (2 * lower + upper + 1) <= order:
+        return JacobianLayout("banded", order, lower, upper)
+    return JacobianLayout("dense", order, order - 1, order - 1)

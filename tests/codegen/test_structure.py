@@ -7,7 +7,8 @@ import sympy
 
 import lagdsl
 from lagdsl.codegen.c_factor import factorisation_text
-from lagdsl.codegen.structure import MassLayout, mass_layout
+from lagdsl.codegen.structure import JacobianLayout, MassLayout, jacobian_layout, mass_layout
+from lagdsl.settings import Overrides
 from tests.conftest import MODELS
 
 a, b, c = sympy.symbols("a b c", positive=True)
@@ -133,3 +134,20 @@ def test_a_diagonal_mass_matrix_that_is_not_positive_is_singular(tmp_path):
     for backend in ("c", "numpy"):
         with pytest.raises(lagdsl.SimulationError, match="singular"):
             lagdsl.load(model).simulate(backend=backend, m=-1.0)
+
+
+def test_the_newton_matrices_of_radau5_are_banded_for_a_chain_and_dense_otherwise():
+    """E(g) = [g Dz + Dv + Dq/g | Dz_λ] has the pattern of M and of the forces' reach (radau5.c)."""
+    assert jacobian_layout(200, False, {(1, 0), (0, 1)}) == JacobianLayout("banded", 200, 1, 1)
+    assert jacobian_layout(8, False, {(1, 0), (0, 1)}).kind == "dense"        # a band would not pay
+    assert jacobian_layout(200, True, {(1, 0), (0, 1)}) == JacobianLayout("dense", 200, 199, 199)
+    band = JacobianLayout("banded", 10, 2, 1)
+    assert [band.slot(4, c) for c in (2, 3, 4, 5)] == [16, 17, 18, 19] and band.size == 40
+    implicit = Overrides(integrator="radau5")
+    fpu = lagdsl.load(MODELS / "fpu_chain.lag").emit("c", scene="implicit").text
+    assert "#define LAG_JAC_LOWER 1\n#define LAG_JAC_UPPER 1\n#define LAG_JAC_SIZE 600" in fpu
+    assert "for (int i = 0; i < 100; ++i)" in fpu                # Dq from the stiff springs' loop
+    chain = lagdsl.load(MODELS / "pendulum_chain.lag").emit("c", overrides=implicit).text
+    assert "#define LAG_JAC_AT(r, c) ((r) * LAG_NK + (c))" in chain and "#define LAG_JAC_LOWER 11" in chain
+    penny = lagdsl.load(MODELS / "rolling_penny.lag").emit("c", overrides=implicit).text
+    assert "#define LAG_NK 6" in penny and "#define LAG_JAC_SIZE 36" in penny     # 4 coordinates, 2 constraints

@@ -306,6 +306,13 @@ static real lag_lu_rcond(int n, const real *lu, const int *piv, real norm, real 
 #define LAG_NM 9     /* reals that hold K */
 #define LAG_NP 3     /* parameters */
 #define LAG_NOUT 5     /* output columns */
+/* Dq, Dv, Dz of the Jacobian (lag_jacobian): dense, row-major */
+#define LAG_JAC_AT(r, c) ((r) * LAG_NK + (c))
+#define LAG_JAC_LOWER 2
+#define LAG_JAC_UPPER 2
+#define LAG_JAC_SIZE 9
+#define LAG_JAC_FIRST(r) ((r) > LAG_JAC_LOWER ? (r) - LAG_JAC_LOWER : 0)
+#define LAG_JAC_LAST(r) ((r) + LAG_JAC_UPPER < LAG_NK ? (r) + LAG_JAC_UPPER : LAG_NK - 1)
 #define LAG_NINV 2     /* conserved quantities watched */
 
 typedef struct lag_system {
@@ -451,42 +458,38 @@ static int lag_rhs(const lag_system *sys, real t, const real *y, real *dydt)
     return lag_accelerations(sys, t, y, dydt + LAG_NQ);
 }
 
-/* dR/dy for R = [f - M q''] at fixed (q''), generated symbolically. */
-static void lag_residual_jacobian(const real *par, real t, const real *y, const real *acc, real *dR)
+/* Dq, Dv, Dz: the derivatives of R = [f - M q''] by q, q' and (q'') at fixed
+ * (q''), generated symbolically, each stored as LAG_JAC_AT says. */
+static void lag_residual_jacobian(const real *par, real t, const real *y, const real *acc,
+                                  real *Dq, real *Dv, real *Dz)
 {
     (void)t;
     (void)y;
     (void)acc;
+    (void)Dq;
+    const real p_m = par[0];
     const real p_e = par[1];
     const real p_B = par[2];
-    memset(dR, 0, sizeof(real) * LAG_NK * LAG_NY);
+    memset(Dv, 0, sizeof(real) * LAG_JAC_SIZE);
+    memset(Dz, 0, sizeof(real) * LAG_JAC_SIZE);
     const real c0 = p_B*p_e;
-    dR[4] = c0;
-    dR[9] = -c0;
+    const real c1 = -p_m;
+    Dv[1] = c0;
+    Dv[3] = -c0;
+    Dz[0] = c1;
+    Dz[4] = c1;
+    Dz[8] = c1;
 }
 
-/* Jacobian of dy/dt = (q', q''): jac[i*LAG_NY + j] = d(dy_i/dt)/dy_j, row-major.
- * The rows of q'' come from K d(q'')/dy = dR/dy, solved with one factorisation of K. */
+/* The Jacobian for radau5 (radau5.c, "The iteration matrices"): Dq, Dv and Dz one after the
+ * other in jac, at (t, y) and its q''. */
 static int lag_jacobian(const lag_system *sys, real t, const real *y, real *jac)
 {
-    real K[LAG_NK * LAG_NK], b[LAG_NK], dR[LAG_NK * LAG_NY], column[LAG_NK];
-    int pivots[LAG_NK];
-    int i, j;
-    lag_assemble(sys->par, t, y, K, b);
-    if (lag_lu_factor(LAG_NK, K, pivots) != 0)
-        return LAG_ERR_SINGULAR;
-    lag_lu_solve(LAG_NK, K, pivots, b);
-    lag_residual_jacobian(sys->par, t, y, b, dR);
-    for (i = 0; i < LAG_NQ; ++i)
-        for (j = 0; j < LAG_NY; ++j)
-            jac[i * LAG_NY + j] = (j == LAG_NQ + i) ? 1 : 0;
-    for (j = 0; j < LAG_NY; ++j) {
-        for (i = 0; i < LAG_NK; ++i)
-            column[i] = dR[i * LAG_NY + j];
-        lag_lu_solve(LAG_NK, K, pivots, column);
-        for (i = 0; i < LAG_NQ; ++i)
-            jac[(LAG_NQ + i) * LAG_NY + j] = column[i];
-    }
+    real acc[LAG_NQ];
+    int status = lag_accelerations(sys, t, y, acc);
+    if (status != LAG_OK)
+        return status;
+    lag_residual_jacobian(sys->par, t, y, acc, jac, jac + LAG_JAC_SIZE, jac + 2 * LAG_JAC_SIZE);
     return LAG_OK;
 }
 
@@ -558,6 +561,25 @@ static int lag_outputs(const lag_system *sys, real t, const real *y, real *out, 
  * Both count as rejected steps.  A singular iteration matrix halves h as well; five in a row
  * end the integration with LAG_ERR_NO_CONVERGENCE.
  *
+ * The iteration matrices of a mechanical system (as RADAU5 does for "second order" problems,
+ * HNW II, IV.8, and for a mass matrix, the implicit form of the equations).  The state is
+ * y = (q, v), LAG_NQ entries q with q' = the first LAG_NQ entries of v (a first-order system
+ * has none), and v' = a, where z = (a, lambda) solves R(q, v, z) = 0; for a model
+ * R = [f - M q'' + A^T lambda; gamma - A q''] and a = q''.  The model's lag_jacobian gives Dq,
+ * Dv, Dz, the partial derivatives of R at the start of the step, in LAG_NK = dim z rows.  Then
+ * J = [[0, [I 0]], [P, Q]] with the a rows of -Dz^-1 [Dq Dv], and (g I - J)(x, y) = (r1, r2)
+ * is equivalent to
+ *     E(g) (y, mu) = Dz_a r2 - Dq r1 / g,    E(g) = [g Dz_a + Dv + Dq / g | Dz_lambda],
+ *     x = (r1 + y_q) / g,
+ * (Dz_a, Dz_lambda: the columns of Dz for a and lambda; Dq fills the first LAG_NQ columns; y_q
+ * the first LAG_NQ entries of y; mu is a by-product), a system of the order of K
+ * (n + constraints) instead of 2n, with no factorisation of K at all, and banded
+ * when M and the forces couple near coordinates only (a chain): lag_jacobian stores Dq, Dv and
+ * Dz in the band of half-widths LAG_JAC_LOWER, LAG_JAC_UPPER (a dense model: the whole matrix),
+ * and E is factored by band Gaussian elimination with partial pivoting, whose work is
+ * n (lower + upper) lower instead of n^3 / 3.  For g = (alpha + i beta)/h the same with complex
+ * g, in real arithmetic.
+ *
  * Error estimate (8.19-8.20).  err = (I - h gamma0 J)^-1 (gamma0 h f(t0, y0) + sum e_i z_i),
  * gamma0 = 1/gamma, e = gamma0 (-13 - 7 sqrt6, -13 + 7 sqrt6, -1) / 3: the filter keeps the
  * estimate bounded for stiff components.  When the first step, or a step after a rejection,
@@ -598,6 +620,13 @@ static int lag_outputs(const lag_system *sys, real t, const real *y, real *out, 
 #define RADAU_FACR LAG_LIT(0.125)    /* h_new <= 8 h */
 #define RADAU_QUOT2 LAG_LIT(1.2)     /* keep h and the LU factors when 1 <= h_new/h <= 1.2 */
 #define RADAU_MAX_SINGULAR 5         /* singular iteration matrices in a row before giving up */
+#define RADAU_NV (LAG_NY - LAG_NQ)   /* the entries v of y = (q, v) */
+
+/* The band LU of E: row i holds columns i - LAG_JAC_LOWER .. i + LAG_JAC_UPPER + LAG_JAC_LOWER,
+ * the LAG_JAC_LOWER extra superdiagonals take the fill of the row interchanges. */
+#define RADAU_LU_WIDTH (2 * LAG_JAC_LOWER + LAG_JAC_UPPER + 1)
+#define RADAU_LU_SIZE (LAG_NK * RADAU_LU_WIDTH)
+#define RADAU_LU(a, i, j) (a)[(i) * RADAU_LU_WIDTH + (j) - (i) + LAG_JAC_LOWER]
 
 /* Work counters, printed by the run summary (see "Work counters" above). */
 typedef struct lag_stats {
@@ -619,11 +648,13 @@ typedef struct lag_stepper {
      * T^-1 A^-1 T = [[gamma, 0, 0], [0, alpha, -beta], [0, beta, alpha]], error weights dd = e/gamma0 */
     real c1, c2, gamma, alpha, beta;
     real T[3][3], TI[3][3], dd[3];
-    /* iteration matrices: J, the LU of gamma/h I - J, the complex LU of (alpha + i beta)/h I - J */
-    real jac[LAG_NY * LAG_NY];
-    real e1[LAG_NY * LAG_NY];
-    real e2re[LAG_NY * LAG_NY], e2im[LAG_NY * LAG_NY];
-    int piv1[LAG_NY], piv2[LAG_NY];
+    /* iteration matrices: Dq, Dv, Dz (lag_jacobian), the band LU of E(gamma/h) and the complex
+     * band LU of E((alpha + i beta)/h) */
+    real jac[3 * LAG_JAC_SIZE];
+    real e1[RADAU_LU_SIZE];
+    real e2re[RADAU_LU_SIZE], e2im[RADAU_LU_SIZE];
+    int piv1[LAG_NK], piv2[LAG_NK];
+    real rhs_re[LAG_NK], rhs_im[LAG_NK];    /* right-hand sides of E */
     real h_lu;                 /* the h the factors belong to, 0 = none */
     /* the step */
     real f0[LAG_NY];           /* f(t, y) */
@@ -643,7 +674,71 @@ typedef struct lag_stepper {
     int need_jac, have_f0;
 } lag_stepper;
 
-/* ---- complex LU with partial pivoting, in real arithmetic ---- */
+/* ---- band LU with partial pivoting (Golub & Van Loan, Matrix Computations, 4th ed., 4.3.5) ----
+ * The multipliers stay in the row where they were formed (as in LAPACK's gbtrf), so the solve
+ * applies each interchange just before its elimination step.  The diagonal of U is stored
+ * inverted, so that the solves multiply instead of divide. */
+
+static int radau_min(int a, int b)
+{
+    return a < b ? a : b;
+}
+
+/* P a = L U in place.  Returns 0, or k+1 when column k has no nonzero pivot. */
+static int radau_band_factor(real *a, int *piv)
+{
+    int i, j, k;
+    for (k = 0; k < LAG_NK; ++k) {
+        int p = k, last = radau_min(LAG_NK - 1, k + LAG_JAC_LOWER);
+        int right = radau_min(LAG_NK - 1, k + LAG_JAC_LOWER + LAG_JAC_UPPER);
+        real big = r_fabs(RADAU_LU(a, k, k)), d;
+        for (i = k + 1; i <= last; ++i)
+            if (r_fabs(RADAU_LU(a, i, k)) > big) {
+                big = r_fabs(RADAU_LU(a, i, k));
+                p = i;
+            }
+        piv[k] = p;
+        if (!(big > 0))
+            return k + 1;
+        if (p != k)
+            for (j = k; j <= right; ++j) {
+                real t = RADAU_LU(a, k, j);
+                RADAU_LU(a, k, j) = RADAU_LU(a, p, j);
+                RADAU_LU(a, p, j) = t;
+            }
+        d = 1 / RADAU_LU(a, k, k);
+        RADAU_LU(a, k, k) = d;
+        for (i = k + 1; i <= last; ++i) {
+            real m = RADAU_LU(a, i, k) * d;
+            RADAU_LU(a, i, k) = m;
+            if (m != 0)
+                for (j = k + 1; j <= right; ++j)
+                    RADAU_LU(a, i, j) -= m * RADAU_LU(a, k, j);
+        }
+    }
+    return 0;
+}
+
+/* Solve a x = b with the factors of radau_band_factor; x overwrites b. */
+static void radau_band_solve(const real *a, const int *piv, real *b)
+{
+    int i, j, k;
+    for (k = 0; k < LAG_NK; ++k) {
+        int last = radau_min(LAG_NK - 1, k + LAG_JAC_LOWER);
+        real bk = b[piv[k]];
+        b[piv[k]] = b[k];
+        b[k] = bk;
+        for (i = k + 1; i <= last; ++i)
+            b[i] -= RADAU_LU(a, i, k) * bk;
+    }
+    for (i = LAG_NK - 1; i >= 0; --i) {
+        int right = radau_min(LAG_NK - 1, i + LAG_JAC_LOWER + LAG_JAC_UPPER);
+        real sum = b[i];
+        for (j = i + 1; j <= right; ++j)
+            sum -= RADAU_LU(a, i, j) * b[j];
+        b[i] = sum * RADAU_LU(a, i, i);
+    }
+}
 
 /* 1/(a + ib) without overflow in the intermediate a^2 + b^2 (Smith's algorithm). */
 static void radau_reciprocal(real a, real b, real *re, real *im)
@@ -662,17 +757,17 @@ static void radau_reciprocal(real a, real b, real *re, real *im)
     }
 }
 
-/* P (ar + i ai) = L U in place, pivoting on |re| + |im| (a modulus without a square root).
- * The diagonal of U is stored inverted, so that the solves multiply instead of divide.
- * Returns 0, or k+1 when column k has no nonzero pivot. */
-static int radau_complex_factor(int n, real *ar, real *ai, int *piv)
+/* The same for the complex matrix ar + i ai, pivoting on |re| + |im| (a modulus without a
+ * square root). */
+static int radau_complex_band_factor(real *ar, real *ai, int *piv)
 {
     int i, j, k;
-    for (k = 0; k < n; ++k) {
-        int p = k;
-        real big = r_fabs(ar[k * n + k]) + r_fabs(ai[k * n + k]), dr, di;
-        for (i = k + 1; i < n; ++i) {
-            real size = r_fabs(ar[i * n + k]) + r_fabs(ai[i * n + k]);
+    for (k = 0; k < LAG_NK; ++k) {
+        int p = k, last = radau_min(LAG_NK - 1, k + LAG_JAC_LOWER);
+        int right = radau_min(LAG_NK - 1, k + LAG_JAC_LOWER + LAG_JAC_UPPER);
+        real big = r_fabs(RADAU_LU(ar, k, k)) + r_fabs(RADAU_LU(ai, k, k)), dr, di;
+        for (i = k + 1; i <= last; ++i) {
+            real size = r_fabs(RADAU_LU(ar, i, k)) + r_fabs(RADAU_LU(ai, i, k));
             if (size > big) {
                 big = size;
                 p = i;
@@ -682,62 +777,57 @@ static int radau_complex_factor(int n, real *ar, real *ai, int *piv)
         if (!(big > 0))
             return k + 1;
         if (p != k)
-            for (j = 0; j < n; ++j) {
-                real t = ar[k * n + j];
-                ar[k * n + j] = ar[p * n + j];
-                ar[p * n + j] = t;
-                t = ai[k * n + j];
-                ai[k * n + j] = ai[p * n + j];
-                ai[p * n + j] = t;
+            for (j = k; j <= right; ++j) {
+                real t = RADAU_LU(ar, k, j);
+                RADAU_LU(ar, k, j) = RADAU_LU(ar, p, j);
+                RADAU_LU(ar, p, j) = t;
+                t = RADAU_LU(ai, k, j);
+                RADAU_LU(ai, k, j) = RADAU_LU(ai, p, j);
+                RADAU_LU(ai, p, j) = t;
             }
-        radau_reciprocal(ar[k * n + k], ai[k * n + k], &dr, &di);
-        ar[k * n + k] = dr;
-        ai[k * n + k] = di;
-        for (i = k + 1; i < n; ++i) {
-            real mr = ar[i * n + k] * dr - ai[i * n + k] * di;
-            real mi = ar[i * n + k] * di + ai[i * n + k] * dr;
-            ar[i * n + k] = mr;
-            ai[i * n + k] = mi;
+        radau_reciprocal(RADAU_LU(ar, k, k), RADAU_LU(ai, k, k), &dr, &di);
+        RADAU_LU(ar, k, k) = dr;
+        RADAU_LU(ai, k, k) = di;
+        for (i = k + 1; i <= last; ++i) {
+            real mr = RADAU_LU(ar, i, k) * dr - RADAU_LU(ai, i, k) * di;
+            real mi = RADAU_LU(ar, i, k) * di + RADAU_LU(ai, i, k) * dr;
+            RADAU_LU(ar, i, k) = mr;
+            RADAU_LU(ai, i, k) = mi;
             if (mr != 0 || mi != 0)
-                for (j = k + 1; j < n; ++j) {
-                    ar[i * n + j] -= mr * ar[k * n + j] - mi * ai[k * n + j];
-                    ai[i * n + j] -= mr * ai[k * n + j] + mi * ar[k * n + j];
+                for (j = k + 1; j <= right; ++j) {
+                    RADAU_LU(ar, i, j) -= mr * RADAU_LU(ar, k, j) - mi * RADAU_LU(ai, k, j);
+                    RADAU_LU(ai, i, j) -= mr * RADAU_LU(ai, k, j) + mi * RADAU_LU(ar, k, j);
                 }
         }
     }
     return 0;
 }
 
-/* Solve (ar + i ai) x = br + i bi with the factors of radau_complex_factor; x overwrites b. */
-static void radau_complex_solve(int n, const real *ar, const real *ai, const int *piv, real *br, real *bi)
+/* Solve (ar + i ai) x = br + i bi with the factors of radau_complex_band_factor; x overwrites b. */
+static void radau_complex_band_solve(const real *ar, const real *ai, const int *piv, real *br, real *bi)
 {
-    int i, k;
-    for (k = 0; k < n; ++k)
-        if (piv[k] != k) {
-            real t = br[k];
-            br[k] = br[piv[k]];
-            br[piv[k]] = t;
-            t = bi[k];
-            bi[k] = bi[piv[k]];
-            bi[piv[k]] = t;
+    int i, j, k;
+    for (k = 0; k < LAG_NK; ++k) {
+        int last = radau_min(LAG_NK - 1, k + LAG_JAC_LOWER);
+        real sr = br[piv[k]], si = bi[piv[k]];
+        br[piv[k]] = br[k];
+        bi[piv[k]] = bi[k];
+        br[k] = sr;
+        bi[k] = si;
+        for (i = k + 1; i <= last; ++i) {
+            br[i] -= RADAU_LU(ar, i, k) * sr - RADAU_LU(ai, i, k) * si;
+            bi[i] -= RADAU_LU(ar, i, k) * si + RADAU_LU(ai, i, k) * sr;
         }
-    for (i = 1; i < n; ++i) {
-        real sr = br[i], si = bi[i];
-        for (k = 0; k < i; ++k) {
-            sr -= ar[i * n + k] * br[k] - ai[i * n + k] * bi[k];
-            si -= ar[i * n + k] * bi[k] + ai[i * n + k] * br[k];
-        }
-        br[i] = sr;
-        bi[i] = si;
     }
-    for (i = n - 1; i >= 0; --i) {
+    for (i = LAG_NK - 1; i >= 0; --i) {
+        int right = radau_min(LAG_NK - 1, i + LAG_JAC_LOWER + LAG_JAC_UPPER);
         real sr = br[i], si = bi[i];
-        for (k = i + 1; k < n; ++k) {
-            sr -= ar[i * n + k] * br[k] - ai[i * n + k] * bi[k];
-            si -= ar[i * n + k] * bi[k] + ai[i * n + k] * br[k];
+        for (j = i + 1; j <= right; ++j) {
+            sr -= RADAU_LU(ar, i, j) * br[j] - RADAU_LU(ai, i, j) * bi[j];
+            si -= RADAU_LU(ar, i, j) * bi[j] + RADAU_LU(ai, i, j) * br[j];
         }
-        br[i] = sr * ar[i * n + i] - si * ai[i * n + i];
-        bi[i] = sr * ai[i * n + i] + si * ar[i * n + i];
+        br[i] = sr * RADAU_LU(ar, i, i) - si * RADAU_LU(ai, i, i);
+        bi[i] = sr * RADAU_LU(ai, i, i) + si * RADAU_LU(ar, i, i);
     }
 }
 
@@ -834,28 +924,97 @@ static void radau_retry(lag_stepper *s, real h_new)
     radau_clip(s);
 }
 
-/* Factor gamma/h I - J and (alpha + i beta)/h I - J.  Returns 0, or nonzero when singular. */
+/* E(g) = [g Dz_a + Dv + Dq / g | Dz_lambda] in band LU storage, g = gr + i gi: the real part
+ * into er, the imaginary part into ei (NULL for real g). */
+static void radau_iteration_matrix(const lag_stepper *s, real gr, real gi, real *er, real *ei)
+{
+    const real *dq = s->jac, *dv = s->jac + LAG_JAC_SIZE, *dz = s->jac + 2 * LAG_JAC_SIZE;
+    real inv_r, inv_i;
+    int r, j;
+    radau_reciprocal(gr, gi, &inv_r, &inv_i);
+    memset(er, 0, sizeof(real) * RADAU_LU_SIZE);
+    if (ei != NULL)
+        memset(ei, 0, sizeof(real) * RADAU_LU_SIZE);
+    for (r = 0; r < LAG_NK; ++r)
+        for (j = LAG_JAC_FIRST(r); j <= LAG_JAC_LAST(r); ++j) {
+            int at = LAG_JAC_AT(r, j);
+            if (j >= RADAU_NV) {
+                RADAU_LU(er, r, j) = dz[at];
+                continue;
+            }
+            RADAU_LU(er, r, j) = gr * dz[at] + dv[at] + inv_r * dq[at];
+            if (ei != NULL)
+                RADAU_LU(ei, r, j) = gi * dz[at] + inv_i * dq[at];
+        }
+}
+
+/* Factor E(gamma/h) and E((alpha + i beta)/h).  Returns 0, or nonzero when singular. */
 static int radau_factor(lag_stepper *s)
 {
-    const int n = LAG_NY;
-    real g = s->gamma / s->h, a = s->alpha / s->h, b = s->beta / s->h;
-    int i;
-    for (i = 0; i < n * n; ++i) {
-        s->e1[i] = -s->jac[i];
-        s->e2re[i] = -s->jac[i];
-        s->e2im[i] = 0;
-    }
-    for (i = 0; i < n; ++i) {
-        s->e1[i * n + i] += g;
-        s->e2re[i * n + i] += a;
-        s->e2im[i * n + i] = b;
-    }
     s->stats.lu_decomps += 1;
     s->h_lu = 0;
-    if (lag_lu_factor(n, s->e1, s->piv1) != 0 || radau_complex_factor(n, s->e2re, s->e2im, s->piv2) != 0)
+    radau_iteration_matrix(s, s->gamma / s->h, 0, s->e1, NULL);
+    radau_iteration_matrix(s, s->alpha / s->h, s->beta / s->h, s->e2re, s->e2im);
+    if (radau_band_factor(s->e1, s->piv1) != 0 || radau_complex_band_factor(s->e2re, s->e2im, s->piv2) != 0)
         return 1;
     s->h_lu = s->h;
     return 0;
+}
+
+/* rhs = Dz_a r2 - Dq r1g, the right-hand side of E (r1g = r1 / g, one of its real parts). */
+static void radau_reduce(const lag_stepper *s, const real *r1g, const real *r2, real *rhs)
+{
+    const real *dq = s->jac, *dz = s->jac + 2 * LAG_JAC_SIZE;
+    int r, j;
+    for (r = 0; r < LAG_NK; ++r) {
+        int first = LAG_JAC_FIRST(r), last = LAG_JAC_LAST(r);
+        real sum = 0;
+        for (j = first; j <= radau_min(RADAU_NV - 1, last); ++j)
+            sum += dz[LAG_JAC_AT(r, j)] * r2[j];
+        for (j = first; j <= radau_min(LAG_NQ - 1, last); ++j)
+            sum -= dq[LAG_JAC_AT(r, j)] * r1g[j];
+        rhs[r] = sum;
+    }
+}
+
+/* (g I - J)(x, y) = (r1, r2) for g = gamma/h through E(g); (x, y) overwrites r = (r1, r2). */
+static void radau_solve_real(lag_stepper *s, real *r)
+{
+    real g = s->gamma / s->h_lu;
+    int j;
+    for (j = 0; j < LAG_NQ; ++j)
+        r[j] /= g;
+    radau_reduce(s, r, r + LAG_NQ, s->rhs_re);
+    radau_band_solve(s->e1, s->piv1, s->rhs_re);
+    for (j = 0; j < RADAU_NV; ++j)
+        r[LAG_NQ + j] = s->rhs_re[j];
+    for (j = 0; j < LAG_NQ; ++j)
+        r[j] += s->rhs_re[j] / g;          /* x = (r1 + y_q) / g */
+}
+
+/* The same for g = (alpha + i beta)/h, with (r1, r2) = re + i im. */
+static void radau_solve_complex(lag_stepper *s, real *re, real *im)
+{
+    real ir, ii;                            /* 1/g */
+    int j;
+    radau_reciprocal(s->alpha / s->h_lu, s->beta / s->h_lu, &ir, &ii);
+    for (j = 0; j < LAG_NQ; ++j) {
+        real u = re[j], w = im[j];
+        re[j] = u * ir - w * ii;
+        im[j] = u * ii + w * ir;
+    }
+    radau_reduce(s, re, re + LAG_NQ, s->rhs_re);
+    radau_reduce(s, im, im + LAG_NQ, s->rhs_im);
+    radau_complex_band_solve(s->e2re, s->e2im, s->piv2, s->rhs_re, s->rhs_im);
+    for (j = 0; j < RADAU_NV; ++j) {
+        re[LAG_NQ + j] = s->rhs_re[j];
+        im[LAG_NQ + j] = s->rhs_im[j];
+    }
+    for (j = 0; j < LAG_NQ; ++j) {
+        real yr = s->rhs_re[j], yi = s->rhs_im[j];
+        re[j] += yr * ir - yi * ii;
+        im[j] += yr * ii + yi * ir;
+    }
 }
 
 /* Starting values: the previous collocation polynomial continued to the new nodes t + c_i h. */
@@ -903,8 +1062,8 @@ static int radau_correction(lag_stepper *s)
         s->r[1][i] = s->TI[1][0] * f1 + s->TI[1][1] * f2 + s->TI[1][2] * f3 - (a * w2 - b * w3);
         s->r[2][i] = s->TI[2][0] * f1 + s->TI[2][1] * f2 + s->TI[2][2] * f3 - (b * w2 + a * w3);
     }
-    lag_lu_solve(LAG_NY, s->e1, s->piv1, s->r[0]);
-    radau_complex_solve(LAG_NY, s->e2re, s->e2im, s->piv2, s->r[1], s->r[2]);
+    radau_solve_real(s, s->r[0]);
+    radau_solve_complex(s, s->r[1], s->r[2]);
     return LAG_OK;
 }
 
@@ -996,7 +1155,7 @@ static int radau_error(lag_stepper *s, real *err)
         e[i] = s->f0[i] + g[i];
     }
     /* (gamma/h I - J)^-1 = h gamma0 (I - h gamma0 J)^-1 */
-    lag_lu_solve(LAG_NY, s->e1, s->piv1, e);
+    radau_solve_real(s, e);
     *err = radau_norm(s, e);
     if (*err >= 1 && (s->first || s->reject)) {
         for (i = 0; i < LAG_NY; ++i)
@@ -1007,7 +1166,7 @@ static int radau_error(lag_stepper *s, real *err)
             return status;
         for (i = 0; i < LAG_NY; ++i)
             e[i] += g[i];
-        lag_lu_solve(LAG_NY, s->e1, s->piv1, e);
+        radau_solve_real(s, e);
         *err = radau_norm(s, e);
     }
     *err = r_isfinite(*err) ? r_fmax(*err, LAG_LIT(1e-10)) : REAL_MAX;

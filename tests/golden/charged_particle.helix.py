@@ -114,27 +114,32 @@ def rhs(t, y, par):
 
 
 def residual_jacobian(par, t, y, acc, lam):
-    """dR/dy for R = [f - M q''] at fixed (q'')."""
+    """Dq, Dv, Dz: the derivatives of R = [f - M q''] by q, q' and (q'') at fixed (q''), each (NK, NK)."""
     shape = numpy.shape(y[0])
-    dR = numpy.zeros((NK, 6) + shape)
+    Dq, Dv, Dz = (numpy.zeros((NK, NK) + shape) for _ in range(3))
+    p_m = par[0]
     p_e = par[1]
     p_B = par[2]
     c0 = p_B*p_e
-    dR[0, 4] = c0
-    dR[1, 3] = -c0
-    return dR
+    c1 = -p_m
+    Dv[0, 1] = c0
+    Dv[1, 0] = -c0
+    Dz[0, 0] = c1
+    Dz[1, 1] = c1
+    Dz[2, 2] = c1
+    return Dq, Dv, Dz
 
 
 def jacobian(t, y, par):
-    """d(dy/dt)/dy, shape (2 NQ, 2 NQ) or (2 NQ, 2 NQ, B); the q'' rows solve K X = dR/dy."""
+    """d(dy/dt)/dy, shape (2 NQ, 2 NQ) or (2 NQ, 2 NQ, B); the q'' rows solve K X = [Dq Dv] (K = -Dz)."""
     y = numpy.asarray(y, dtype=float)
     K, b = assemble(par, t, y)
     x = solve(K, b)
-    dR = residual_jacobian(par, t, y, x[:NQ], x[NQ:])
+    Dq, Dv, _ = residual_jacobian(par, t, y, x[:NQ], x[NQ:])
     shape = numpy.shape(y[0])
     J = numpy.zeros((2 * NQ, 2 * NQ) + shape)
     J[:NQ, NQ:] = numpy.eye(NQ).reshape((NQ, NQ) + (1,) * len(shape))
-    J[NQ:] = solve_columns(K, dR)[:NQ]
+    J[NQ:] = solve_columns(K, numpy.concatenate([Dq[:, :NQ], Dv[:, :NQ]], axis=1))[:NQ]
     return J
 
 

@@ -2,7 +2,8 @@
 
 The integrator tests write a test model (LAG_NQ, LAG_NY, struct lag_system, lag_rhs, ...) and a
 `main` that drives the stepper, in C, and use this helper to assemble the single translation unit
-exactly as the code generator does: runtime.h, cholesky.c, lu.c, model, integrator, main.
+as the code generator does: runtime.h, the linear algebra used (cholesky.c, lu.c), model,
+integrator, main.
 """
 from __future__ import annotations
 
@@ -27,16 +28,12 @@ def find_cc() -> str | None:
 def assemble(model_c: str, integrator: str, main_c: str) -> str:
     """The integrator's files (with the fragments it shares; a composite's parts renamed) between
     the model and main."""
-    parts = [
-        SYSTEM_HEADERS,
-        (C_SOURCES / "runtime.h").read_text(),
-        (C_SOURCES / "cholesky.c").read_text(),
-        (C_SOURCES / "lu.c").read_text(),
-        model_c,
-        integrator_source(integrator),
-        main_c,
-    ]
-    return "\n".join(parts)
+    integrator_c = integrator_source(integrator)
+    users = model_c + integrator_c + main_c
+    # only the linear algebra someone calls, as the generator does: unused static functions are warnings
+    shared = [(C_SOURCES / name).read_text() for name, prefix in (("cholesky.c", "lag_cholesky"), ("lu.c", "lag_lu_"))
+              if prefix in users]
+    return "\n".join([SYSTEM_HEADERS, (C_SOURCES / "runtime.h").read_text(), *shared, model_c, integrator_c, main_c])
 
 
 def build_and_run(tmp_path: Path, model_c: str, integrator: str, main_c: str,

@@ -31,4 +31,8 @@ def test_c_and_numpy_agree(model, scene):
     assert c.columns == py.columns
     assert np.array_equal(c.t, py.t)
     scale = np.maximum(1.0, np.abs(py.values))
-    assert np.max(np.abs(c.values - py.values) / scale) < 1e-9
+    # radau5 works to rtol' = 0.1 rtol^(2/3) = 1e-9 at rtol 1e-12 (as RADAU5 does; SciPy's Radau
+    # to rtol itself): the velocities of the FPU chain's stiff springs agree to 2.5e-9 only
+    bound = 1e-8 if lagdsl.load(MODELS / f"{model}.lag").plan(None if scene == "default" else scene) \
+        .integrator.name == "radau5" else 1e-9
+    assert np.max(np.abs(c.values - py.values) / scale) < bound

@@ -1,7 +1,10 @@
 """The C integrator radau5 (Radau IIA, order 5) on stiff and non-stiff test problems.
 
-Each model is a small C fragment (LAG_NY, struct lag_system, lag_rhs, lag_jacobian and
-`model_start`, the initial state); one `main` drives the stepper for all of them:
+Each model is a small C fragment (LAG_NQ, LAG_NY, the dense Jacobian layout, struct
+lag_system, lag_rhs, lag_jacobian and `model_start`, the initial state); one `main` drives the
+stepper for all of them. radau5 takes the Jacobian in the implicit form of radau5.c ("The
+iteration matrices"): a first-order system y' = F(y) (LAG_NQ = 0) is R(y, z) = F(y) - z, so
+Dv = dF/dy and Dz = -I; a second-order one q'' = F(q, q') has Dq = dF/dq, Dv = dF/dq', Dz = -1.
 
     prog rtol atol t_end max_step samples restart
 
@@ -19,10 +22,21 @@ from scipy.integrate import solve_ivp
 
 from tests.run.c_harness import build_and_run
 
+# The dense layout of Dq, Dv and Dz (lagdsl.codegen.structure.JacobianLayout), for every model.
+DENSE_JACOBIAN = r"""
+#define LAG_NK (LAG_NY - LAG_NQ)
+#define LAG_JAC_AT(r, c) ((r) * LAG_NK + (c))
+#define LAG_JAC_LOWER (LAG_NK - 1)
+#define LAG_JAC_UPPER (LAG_NK - 1)
+#define LAG_JAC_SIZE (LAG_NK * LAG_NK)
+#define LAG_JAC_FIRST(r) 0
+#define LAG_JAC_LAST(r) (LAG_NK - 1)
+"""
+
 VAN_DER_POL = r"""
 #define LAG_NQ 1
 #define LAG_NY 2
-typedef struct lag_system lag_system;
+""" + DENSE_JACOBIAN + r"""typedef struct lag_system lag_system;
 struct lag_system { real mu; };
 
 /* y1' = y2, y2' = mu^2 ((1 - y1^2) y2 - y1): the stiff scaling of HW II, IV.1 (eps = 1/mu^2) */
@@ -38,10 +52,9 @@ static int lag_jacobian(const lag_system *sys, real t, const real *y, real *jac)
 {
     real m2 = sys->mu * sys->mu;
     (void)t;
-    jac[0] = 0;
-    jac[1] = 1;
-    jac[2] = m2 * (-2 * y[0] * y[1] - 1);
-    jac[3] = m2 * (1 - y[0] * y[0]);
+    jac[0] = m2 * (-2 * y[0] * y[1] - 1);     /* Dq */
+    jac[1] = m2 * (1 - y[0] * y[0]);          /* Dv */
+    jac[2] = -1;                               /* Dz */
     return LAG_OK;
 }
 
@@ -56,7 +69,7 @@ static void model_start(lag_system *sys, real *y)
 ROBERTSON = r"""
 #define LAG_NQ 0
 #define LAG_NY 3
-typedef struct lag_system lag_system;
+""" + DENSE_JACOBIAN + r"""typedef struct lag_system lag_system;
 struct lag_system { real mu; };
 
 /* Robertson's chemical kinetics, HW II, IV.1 (1.4) */
@@ -74,15 +87,19 @@ static int lag_jacobian(const lag_system *sys, real t, const real *y, real *jac)
 {
     (void)sys;
     (void)t;
-    jac[0] = LAG_LIT(-0.04);
-    jac[1] = LAG_LIT(1e4) * y[2];
-    jac[2] = LAG_LIT(1e4) * y[1];
-    jac[6] = 0;
-    jac[7] = LAG_LIT(6e7) * y[1];
-    jac[8] = 0;
-    jac[3] = -jac[0] - jac[6];
-    jac[4] = -jac[1] - jac[7];
-    jac[5] = -jac[2] - jac[8];
+    real *dv = jac + LAG_JAC_SIZE, *dz = jac + 2 * LAG_JAC_SIZE;   /* no q: Dq is empty */
+    int i;
+    dv[0] = LAG_LIT(-0.04);
+    dv[1] = LAG_LIT(1e4) * y[2];
+    dv[2] = LAG_LIT(1e4) * y[1];
+    dv[6] = 0;
+    dv[7] = LAG_LIT(6e7) * y[1];
+    dv[8] = 0;
+    dv[3] = -dv[0] - dv[6];
+    dv[4] = -dv[1] - dv[7];
+    dv[5] = -dv[2] - dv[8];
+    for (i = 0; i < LAG_JAC_SIZE; ++i)
+        dz[i] = i % (LAG_NK + 1) == 0 ? -1 : 0;
     return LAG_OK;
 }
 
@@ -99,7 +116,7 @@ static void model_start(lag_system *sys, real *y)
 LINEAR_STIFF = r"""
 #define LAG_NQ 0
 #define LAG_NY 1
-typedef struct lag_system lag_system;
+""" + DENSE_JACOBIAN + r"""typedef struct lag_system lag_system;
 struct lag_system { real mu; };
 
 static int lag_rhs(const lag_system *sys, real t, const real *y, real *dydt)
@@ -112,7 +129,8 @@ static int lag_jacobian(const lag_system *sys, real t, const real *y, real *jac)
 {
     (void)t;
     (void)y;
-    jac[0] = -sys->mu;
+    jac[1] = -sys->mu;     /* Dv */
+    jac[2] = -1;           /* Dz */
     return LAG_OK;
 }
 
@@ -127,7 +145,7 @@ static void model_start(lag_system *sys, real *y)
 OSCILLATOR = r"""
 #define LAG_NQ 1
 #define LAG_NY 2
-typedef struct lag_system lag_system;
+""" + DENSE_JACOBIAN + r"""typedef struct lag_system lag_system;
 struct lag_system { real mu; };
 
 static int lag_rhs(const lag_system *sys, real t, const real *y, real *dydt)
@@ -142,10 +160,9 @@ static int lag_jacobian(const lag_system *sys, real t, const real *y, real *jac)
 {
     (void)t;
     (void)y;
-    jac[0] = 0;
-    jac[1] = 1;
-    jac[2] = -sys->mu;
-    jac[3] = 0;
+    jac[0] = -sys->mu;     /* Dq */
+    jac[1] = 0;            /* Dv */
+    jac[2] = -1;           /* Dz */
     return LAG_OK;
 }
 
@@ -366,7 +383,7 @@ def test_restart_without_projection_changes_nothing(tmp_path):
 LEAVES_DOMAIN = r"""
 #define LAG_NQ 0
 #define LAG_NY 1
-typedef struct lag_system lag_system;
+""" + DENSE_JACOBIAN + r"""typedef struct lag_system lag_system;
 struct lag_system { real mu; };
 
 static int lag_rhs(const lag_system *sys, real t, const real *y, real *dydt)
@@ -381,7 +398,8 @@ static int lag_jacobian(const lag_system *sys, real t, const real *y, real *jac)
     (void)sys;
     (void)t;
     (void)y;
-    jac[0] = 0;
+    jac[1] = 0;            /* Dv */
+    jac[2] = -1;           /* Dz */
     return LAG_OK;
 }
 
@@ -408,3 +426,77 @@ def test_long_double(tmp_path):
     # beyond double precision (where rtol is floored at 10 eps and the error is ~1e-13): the
     # method constants are computed in the working precision (measured: 3e-15 in 2043 steps)
     assert error < 1e-14, error
+
+
+# y' = A y, A = N^2 (tridiagonal Laplacian) + c (y[i+1] - y[i-1]) / 2: diffusion and advection
+# on N = 16 points between walls, c = 4000, so that |c/2 - N^2| can exceed |g + 2 N^2| and the
+# band LU pivots (3 times in this run). LAYOUT is the band of half-widths 1 or the dense layout:
+# the same steps, the same numbers.
+ADVECTION_DIFFUSION = r"""
+#define LAG_NQ 0
+#define LAG_NY 16
+LAYOUT
+typedef struct lag_system lag_system;
+struct lag_system { real c; };
+
+static int lag_rhs(const lag_system *sys, real t, const real *y, real *dydt)
+{
+    int i;
+    (void)t;
+    for (i = 0; i < LAG_NY; ++i) {
+        real left = i > 0 ? y[i - 1] : 0, right = i + 1 < LAG_NY ? y[i + 1] : 0;
+        dydt[i] = 256 * (left - 2 * y[i] + right) + sys->c * (right - left) / 2;
+    }
+    return LAG_OK;
+}
+
+static int lag_jacobian(const lag_system *sys, real t, const real *y, real *jac)
+{
+    real *dv = jac + LAG_JAC_SIZE, *dz = jac + 2 * LAG_JAC_SIZE;
+    int i;
+    (void)t;
+    (void)y;
+    memset(jac, 0, sizeof(real) * 3 * LAG_JAC_SIZE);
+    for (i = 0; i < LAG_NY; ++i) {
+        dv[LAG_JAC_AT(i, i)] = -512;
+        if (i > 0)
+            dv[LAG_JAC_AT(i, i - 1)] = 256 - sys->c / 2;
+        if (i + 1 < LAG_NY)
+            dv[LAG_JAC_AT(i, i + 1)] = 256 + sys->c / 2;
+        dz[LAG_JAC_AT(i, i)] = -1;
+    }
+    return LAG_OK;
+}
+
+static void model_start(lag_system *sys, real *y)
+{
+    int i;
+    sys->c = 4000;
+    for (i = 0; i < LAG_NY; ++i)
+        y[i] = r_sin(LAG_LIT(3.14159265358979) * (i + 1) / (LAG_NY + 1));
+}
+"""
+BANDED_JACOBIAN = r"""
+#define LAG_NK LAG_NY
+#define LAG_JAC_AT(r, c) ((r) * 3 + (c) - (r) + 1)
+#define LAG_JAC_LOWER 1
+#define LAG_JAC_UPPER 1
+#define LAG_JAC_SIZE (LAG_NK * 3)
+#define LAG_JAC_FIRST(r) ((r) > LAG_JAC_LOWER ? (r) - LAG_JAC_LOWER : 0)
+#define LAG_JAC_LAST(r) ((r) + LAG_JAC_UPPER < LAG_NK ? (r) + LAG_JAC_UPPER : LAG_NK - 1)
+"""
+
+
+def test_band_factorisation_pivots_and_agrees_with_the_dense_one(tmp_path):
+    from scipy.linalg import expm
+    n, c = 16, 4000.0
+    a = np.diag(np.full(n, -512.0)) + np.diag(np.full(n - 1, 256 - c / 2), -1) + np.diag(np.full(n - 1, 256 + c / 2), 1)
+    y0 = np.sin(np.pi * np.arange(1, n + 1) / (n + 1))
+    exact = expm(a * 0.05) @ y0
+    (tmp_path / "band").mkdir()
+    (tmp_path / "dense").mkdir()
+    banded = run(tmp_path / "band", ADVECTION_DIFFUSION.replace("LAYOUT", BANDED_JACOBIAN), 1e-8, 1e-10, 0.05)
+    dense = run(tmp_path / "dense", ADVECTION_DIFFUSION.replace("LAYOUT", DENSE_JACOBIAN), 1e-8, 1e-10, 0.05)
+    assert np.max(np.abs(np.array(banded.y) - exact)) < 1e-7 * np.max(np.abs(y0))
+    assert banded.stats == dense.stats
+    assert np.max(np.abs(np.array(banded.y) - np.array(dense.y))) < 1e-12

@@ -14,7 +14,7 @@
  * accepted step, continued from the previous v): the eigenvalues of a mechanical system's
  * stiff modes come in pairs +-i omega (or a +- i b) of equal modulus, which J^2 maps to one
  * real eigenvalue -omega^2 (or one modulus), so ||J^2 v|| / ||v|| -> rho^2 where ||J v|| / ||v||
- * would oscillate.  The margin of 2 and the 15 steps keep the two methods from alternating when
+ * would oscillate.  The products are differences of the right-hand side (two per step).  The margin of 2 and the 15 steps keep the two methods from alternating when
  * the problem sits at the border; so does patience: after each return to dop853, its stiffness
  * verdict is heeded only after twice as many accepted steps as the time before (30, 60, ...),
  * since a fast mode that radau5 had to resolve as well (it is active above the tolerance) makes
@@ -130,25 +130,52 @@ static int auto_switch(lag_stepper *s, int method, real h0)
     return status;
 }
 
-/* rho(J)^2 from one step of power iteration on J^2, with J radau5's current Jacobian. */
+/* J u by a forward difference of the right-hand side at radau5's (t, y), whose f(t, y) is f0:
+ * J u ~ (f(t, y + delta u) - f0) / delta, delta = sqrt(eps) (1 + |y|) / |u| (radau5 keeps J
+ * only in the reduced form of its iteration matrices). */
+static int auto_product(lag_stepper *s, const real *f0, const real *u, real *ju)
+{
+    radau5_stepper *r = &s->implicit_method;
+    real size_u = 0, size_y = 0, delta;
+    int i, status;
+    for (i = 0; i < LAG_NY; ++i) {
+        size_u += u[i] * u[i];
+        size_y += r->y[i] * r->y[i];
+    }
+    if (!(size_u > 0) || !r_isfinite(size_u))
+        return LAG_ERR_NONFINITE;
+    delta = r_sqrt(REAL_EPSILON) * (1 + r_sqrt(size_y)) / r_sqrt(size_u);
+    for (i = 0; i < LAG_NY; ++i)
+        r->tmp[i] = r->y[i] + delta * u[i];
+    status = lag_rhs(s->sys, r->t, r->tmp, ju);
+    r->stats.rhs_evals += 1;
+    for (i = 0; i < LAG_NY; ++i)
+        ju[i] = (ju[i] - f0[i]) / delta;
+    return status;
+}
+
+/* rho(J)^2 from one step of power iteration on J^2, J (J v) by two differences; f(t, y) is
+ * left to radau5 as the start of its next step.  0 when nothing was learnt. */
 static real auto_spectral_radius_squared(lag_stepper *s)
 {
-    const real *jac = s->implicit_method.jac;
+    radau5_stepper *r = &s->implicit_method;
     real size = 0, before = 0;
-    int i, j;
-    for (i = 0; i < LAG_NY; ++i) {
-        s->jv[i] = 0;
-        for (j = 0; j < LAG_NY; ++j)
-            s->jv[i] += jac[i * LAG_NY + j] * s->v[j];
+    int i;
+    if (!r->have_f0) {
+        if (lag_rhs(s->sys, r->t, r->y, r->f0) != LAG_OK)
+            return 0;
+        r->stats.rhs_evals += 1;
+        r->have_f0 = 1;
     }
-    for (i = 0; i < LAG_NY; ++i) {
-        real x = 0;
-        for (j = 0; j < LAG_NY; ++j)
-            x += jac[i * LAG_NY + j] * s->jv[j];
+    for (i = 0; i < LAG_NY; ++i)
         before += s->v[i] * s->v[i];
-        size += x * x;
-        s->v[i] = x;
+    if (auto_product(s, r->f0, s->v, s->jv) != LAG_OK || auto_product(s, r->f0, s->jv, s->v) != LAG_OK) {
+        for (i = 0; i < LAG_NY; ++i)
+            s->v[i] = 1;
+        return 0;
     }
+    for (i = 0; i < LAG_NY; ++i)
+        size += s->v[i] * s->v[i];
     size = r_sqrt(size);
     if (!(size > 0) || !r_isfinite(size)) {
         /* J^2 v = 0 (no stiff direction seen from v) or overflow: start the iteration afresh */
