@@ -1,7 +1,7 @@
 """Large systems: how generation, compilation and integration grow with the number of coordinates.
 
     python benchmarks/large_systems.py [--fpu 50 200 1000 5000] [--chain 8 16 32 64]
-                                       [--kane-max 12] [--limit 900]
+                                       [--implicit 50 200 1000] [--kane-max 12] [--limit 900]
 
 Two families, each size measured in its own process (so that peak memory is that size's own):
 
@@ -10,6 +10,9 @@ Two families, each size measured in its own process (so that peak memory is that
               soft quartic ones between them and to the walls): an identity, so diagonal, mass
               matrix. lagdsl's C backend against scipy's DOP853 on a vectorised NumPy right-hand
               side (a few array operations), 10 s of motion at rtol 1e-8, atol 1e-10.
+  implicit    the FPU chain with radau5 (rtol 1e-6, atol 1e-8), whose Newton matrices are banded
+              (radau5.c), against scipy's Radau given the sparsity of the Jacobian (jac_sparsity,
+              so that it estimates J by grouped differences and factors it with sparse LU).
   n-link      models/pendulum_chain.lag with n links: a dense mass matrix. lagdsl against
               sympy.physics.mechanics.KanesMethod + lambdify + scipy DOP853 (numpy.linalg.solve
               of M q'' = F in each call), up to --kane-max links (Kane's derivation grows fast).
@@ -37,6 +40,7 @@ import time
 from pathlib import Path
 
 RTOL, ATOL, STOP, INTERVAL = 1e-8, 1e-10, 10.0, 0.1
+IMPLICIT_RTOL, IMPLICIT_ATOL = 1e-6, 1e-8
 REPEAT = 3          # integrations of each kind; the fastest counts (the machine is shared)
 
 
@@ -122,7 +126,8 @@ def measure_lagdsl(path: Path, scene: str) -> dict:
     return {"derive": derived - started, "generate": generated - started, "compile": compile_cpu,
             "compile_wall": compile_seconds, "compiled": done.returncode == 0, "kb": len(source) / 1024,
             "layout": (kernel.layout.kind if kernel.layout else "lu") + (" loops" if kernel.system and kernel.system.loops
-                                                                         else ""),
+                                                                         else "")
+            + (f", {kernel.jacobian_layout.kind} E" if kernel.jacobian_layout else ""),
             "integration": integration, "rhs": summary.count("rhs_evals"),
             "final": [float(result.values[-1, 0])]}
 
@@ -154,6 +159,30 @@ def one_fpu(n: int) -> dict:
     times = np.arange(0, STOP + INTERVAL / 2, INTERVAL)
     runs = [cpu_call(solve_ivp, rhs, (0, STOP), y0, method="DOP853", rtol=RTOL, atol=ATOL, t_eval=times)
             for _ in range(REPEAT)]
+    row["scipy"], reference = min(runs, key=lambda run: run[0])
+    row["scipy_rhs"] = reference.nfev
+    row["difference"] = abs(reference.y[0, -1] - row["final"][0])
+    return row
+
+
+def one_fpu_implicit(n: int) -> dict:
+    import numpy as np
+    from scipy import sparse
+    from scipy.integrate import solve_ivp
+    text = fpu_text(n).replace(f"dop853(rtol = {RTOL}, atol = {ATOL})",
+                               f"radau5(rtol = {IMPLICIT_RTOL}, atol = {IMPLICIT_ATOL})")
+    with tempfile.TemporaryDirectory() as work:
+        path = Path(work) / f"fpu{n}.lag"
+        path.write_text(text)
+        row = measure_lagdsl(path, "run")
+        row["cold_cpu"], row["cold_wall"] = cold_run(path)
+    y0 = np.zeros(2 * n)
+    y0[0] = 1.0
+    # J = [[0, I], [T, 0]], T tridiagonal (each force involves the neighbours)
+    pattern = sparse.bmat([[None, sparse.identity(n)], [sparse.diags([1, 1, 1], [-1, 0, 1], shape=(n, n)), None]])
+    times = np.arange(0, STOP + INTERVAL / 2, INTERVAL)
+    runs = [cpu_call(solve_ivp, fpu_rhs(n), (0, STOP), y0, method="Radau", rtol=IMPLICIT_RTOL, atol=IMPLICIT_ATOL,
+                     t_eval=times, jac_sparsity=pattern) for _ in range(REPEAT)]
     row["scipy"], reference = min(runs, key=lambda run: run[0])
     row["scipy_rhs"] = reference.nfev
     row["difference"] = abs(reference.y[0, -1] - row["final"][0])
@@ -205,7 +234,7 @@ def kane_chain(n: int) -> dict:
 
 
 def child(kind: str, n: int, kane: bool) -> None:
-    row = one_fpu(n) if kind == "fpu" else one_chain(n, kane)
+    row = one_fpu(n) if kind == "fpu" else one_fpu_implicit(n) if kind == "implicit" else one_chain(n, kane)
     row["peak_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(json.dumps(row))
 
@@ -234,7 +263,7 @@ def report(kind: str, sizes, rows) -> None:
     ok = [r if isinstance(r, dict) else {} for r in rows]
     per_rhs = [r["integration"] / r["rhs"] if r.get("rhs") else None for r in ok]
     headers = ["n", "layout", "generate", "compile", "C KB", "per rhs", "per sim. s", "peak MB"]
-    if kind == "fpu":
+    if kind != "chain":
         headers += ["scipy per sim. s", "speed-up", "|q1 - scipy|", "cold lagc run"]
     else:
         headers += ["Kane generate", "Kane per sim. s"]
@@ -246,7 +275,7 @@ def report(kind: str, sizes, rows) -> None:
         line = [n, r["layout"], benchtools.seconds(r["generate"]), benchtools.seconds(r["compile"]),
                 f"{r['kb']:.0f}", f"{rhs * 1e6:.3g} us" if rhs else "n/a",
                 benchtools.seconds(r["integration"] / STOP), f"{r['peak_mb']:.0f}"]
-        if kind == "fpu":
+        if kind != "chain":
             line += [benchtools.seconds(r["scipy"] / STOP), benchtools.ratio(r["scipy"], r["integration"]),
                      f"{r['difference']:.1e}",
                      f"{benchtools.seconds(r['cold_cpu'])} CPU, {benchtools.seconds(r['cold_wall'])} wall"]
@@ -264,6 +293,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--fpu", type=int, nargs="*", default=[50, 200, 1000, 5000])
     parser.add_argument("--chain", type=int, nargs="*", default=[8, 16, 32, 64])
+    parser.add_argument("--implicit", type=int, nargs="*", default=[50, 200, 1000])
     parser.add_argument("--kane-max", type=int, default=12)
     parser.add_argument("--limit", type=float, default=900, help="seconds allowed for one size")
     parser.add_argument("--child", nargs=2, help=argparse.SUPPRESS)
@@ -275,6 +305,9 @@ def main() -> None:
     print(benchtools.machine_description())
     if arguments.fpu:
         report("fpu", arguments.fpu, [measure("fpu", n, False, arguments.limit) for n in arguments.fpu])
+    if arguments.implicit:
+        report("implicit", arguments.implicit, [measure("implicit", n, False, arguments.limit)
+                                                for n in arguments.implicit])
     if arguments.chain:
         report("chain", arguments.chain, [measure("chain", n, n <= arguments.kane_max, arguments.limit)
                                           for n in arguments.chain])
