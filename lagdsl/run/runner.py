@@ -16,6 +16,7 @@ import ctypes
 import hashlib
 import importlib.abc
 import importlib.util
+import signal
 import threading
 import time as clock
 import warnings
@@ -217,19 +218,65 @@ def _interruptible(library: ctypes.CDLL, call: Callable[[], int],
     # the thread looking finished while it still runs. The wait ends as soon as the run does, so
     # a run of milliseconds does not wait out a poll interval. Ctrl-C is caught wherever the
     # main thread is in the loop, in the wait, the test of the event or the poll: Python raises
-    # KeyboardInterrupt at whichever bytecode it reaches next.
-    while True:
-        try:
-            while not done.is_set():
-                done.wait(POLL_SECONDS)
-                if poll is not None:
-                    poll()
-            break
-        except KeyboardInterrupt:
-            interrupt.value = 1
+    # KeyboardInterrupt at whichever bytecode it reaches next (and CtrlC has set the flag even
+    # if that bytecode was a finaliser's, which drops the exception).
+    with CtrlC(lambda: setattr(interrupt, "value", 1)):
+        while True:
+            try:
+                while not done.is_set():
+                    done.wait(POLL_SECONDS)
+                    if poll is not None:
+                        poll()
+                break
+            except KeyboardInterrupt:
+                interrupt.value = 1
     if not outcome:
         raise InternalError("the C run ended without a status")
     return outcome[0]
+
+
+class CtrlC:
+    """Ctrl-C during a run, never lost.
+
+    Python's SIGINT handler raises KeyboardInterrupt at the next bytecode the main thread runs,
+    and when that bytecode belongs to a finaliser (the __del__ of some object the cyclic
+    collector frees just then) Python prints "Exception ignored" and drops it: the press is lost
+    and the run goes on. Within this context, in the main thread and if SIGINT has Python's
+    default handler, a press first calls `on_press` and sets `pressed`, which the run's loops
+    test between steps (`check`), and then raises as usual.
+    """
+
+    def __init__(self, on_press: Callable[[], None] = lambda: None):
+        self.pressed = False
+        self._on_press = on_press
+        self._previous = None
+
+    def __enter__(self) -> CtrlC:
+        if (threading.current_thread() is threading.main_thread()
+                and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
+            self._previous = signal.signal(signal.SIGINT, self._handle)
+        return self
+
+    def __exit__(self, *exception) -> None:
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+
+    def _handle(self, signal_number, frame) -> None:
+        self.pressed = True
+        self._on_press()
+        raise KeyboardInterrupt
+
+    def check(self) -> None:
+        """Raise KeyboardInterrupt if Ctrl-C was pressed (its own exception may have been dropped)."""
+        if self.pressed:
+            raise KeyboardInterrupt
+
+    def checked(self, function: Callable) -> Callable:
+        """`function`, checking for Ctrl-C before each call: the right-hand side of a Python loop."""
+        def checked_function(*arguments):
+            self.check()
+            return function(*arguments)
+        return checked_function
 
 
 # ---- NumPy -----------------------------------------------------------------------------------
@@ -307,10 +354,12 @@ def run_numpy(kernel: Kernel, source: GeneratedSource, plan: RunPlan, progress: 
             states = [y0]
         elif failure is None:
             started = clock.perf_counter()
-            if plan.integrator.name in SCIPY_METHODS:
-                states, counts, failure = _run_scipy(module, par, times, y0, plan, progress or _no_progress, stop)
-            else:
-                states, counts, failure = _run_fixed_step(module, par, times, y0, plan, stop)
+            with CtrlC() as ctrl_c:
+                if plan.integrator.name in SCIPY_METHODS:
+                    states, counts, failure = _run_scipy(module, par, times, y0, plan, progress or _no_progress,
+                                                         stop, ctrl_c)
+                else:
+                    states, counts, failure = _run_fixed_step(module, par, times, y0, plan, stop, ctrl_c)
             elapsed = clock.perf_counter() - started
         states = np.array(states).reshape(len(states), len(y0))
         stopped = Stop(plan.stop, stop.time) if stop is not None and stop.time is not None else None
@@ -408,7 +457,7 @@ def _no_progress(t: float, start: float, stop: float) -> None:
     pass
 
 
-def _run_scipy(module, par, times, y0, plan, progress, stop=None):
+def _run_scipy(module, par, times, y0, plan, progress, stop: StopCondition | None, ctrl_c: CtrlC):
     """scipy's solver step by step: rows from its dense output, the step limit and a step-size floor
     counted here (scipy's own floor, 10 ulp of t, is no floor at t = 0), Ctrl-C between steps.
     A stop condition is checked after every step, as the C driver does (not with solve_ivp's
@@ -420,6 +469,7 @@ def _run_scipy(module, par, times, y0, plan, progress, stop=None):
     if options.get("max_step"):
         extra["max_step"] = options["max_step"]
 
+    @ctrl_c.checked
     def fun(t, y):
         return module.rhs(t, y, par)
 
@@ -564,15 +614,16 @@ def _tally(counts, solver):
     return counts
 
 
-def _run_fixed_step(module, par, times, y0, plan, stop=None):
+def _run_fixed_step(module, par, times, y0, plan, stop: StopCondition | None, ctrl_c: CtrlC):
     options = dict(plan.integrator.options)
+    checked = ctrl_c.checked
     try:
         if plan.integrator.name == "rk4" and plan.constraints:
-            Y, stats = _rk4_projected(module, par, times, y0, options["step"], plan.time.stop, stop)
+            Y, stats = _rk4_projected(module, par, times, y0, options["step"], plan.time.stop, stop, checked)
         elif plan.integrator.name == "rk4":
-            Y, stats = integrate_rk4(lambda t, y: module.rhs(t, y, par), times, y0, options["step"], stop)
+            Y, stats = integrate_rk4(checked(lambda t, y: module.rhs(t, y, par)), times, y0, options["step"], stop)
         else:
-            Y, stats = integrate_gauss(lambda t, z: module.hamilton_rhs(t, z, par),
+            Y, stats = integrate_gauss(checked(lambda t, z: module.hamilton_rhs(t, z, par)),
                                        lambda t, y: module.to_canonical(t, y, par),
                                        lambda t, z: module.from_canonical(t, z, par),
                                        times, y0, options["step"], int(options["stages"]), stop)
@@ -581,7 +632,7 @@ def _run_fixed_step(module, par, times, y0, plan, stop=None):
     return list(Y), stats, None
 
 
-def _rk4_projected(module, par, times, y0, step, t_stop, stop=None):
+def _rk4_projected(module, par, times, y0, step, t_stop, stop: StopCondition | None, checked: Callable):
     """rk4 step by step, projecting onto the constraints after each step as the C driver does;
     output rows inside a step come from that step's dense output (and the stop condition's row)."""
     rows, stats, k, n, y = [y0], {"accepted": 0, "rejected": 0, "rhs_evals": 0}, 1, 0, y0
@@ -591,7 +642,7 @@ def _rk4_projected(module, par, times, y0, step, t_stop, stop=None):
             inside = [t for t in times[k:] if t <= end]
             grid = np.array([start, *inside] + ([] if inside and inside[-1] == end else [end]))
             try:
-                Y, counts = integrate_rk4(lambda t, x: module.rhs(t, x, par), grid, y, end - start, stop)
+                Y, counts = integrate_rk4(checked(lambda t, x: module.rhs(t, x, par)), grid, y, end - start, stop)
                 if stop is not None and stop.time is not None:     # the last row is at the stop time
                     inside = [*inside[:len(Y) - 2], stop.time]
                 projected = [project(module, par, t, row)[0] for t, row in zip(inside, Y[1:1 + len(inside)])]
