@@ -9,6 +9,11 @@ statement by statement, touching only the entries of L that are not structurally
 
 where a_ip is the equilibrated entry of M, or 0 where L_ip is fill (fill always has terms: it
 arises from some k in both rows). Where row p is empty, d_p = 1 and L_ip = a_ip are left as they are.
+
+In a saddle-point layout (structure.kkt_layout) the last positions are constraint rows, factored
+as those of Kₛ = [[M, -Aᵀ], [-A, 0]]: each is equilibrated by its largest scaled entry (its
+diagonal is 0), its stored entries of A are negated as they are scaled, and its pivot is
+d_p = -Σ_{k in row p} L_pk² d_k, which must be negative.
 """
 from __future__ import annotations
 
@@ -23,17 +28,24 @@ def factorisation_text(layout: MassLayout | None) -> dict:
         return {"tables": [], "scale": [], "columns": [], "forward": [], "backward": []}
     slot, rows = layout.slots, layout.rows
     pivots = [slot[(p, p)] for p in range(layout.n)]
-    tables = [f"static const int lag_order[LAG_NQ] = {{ {_list(layout.order)} }};",
-              f"static const int lag_pivots[LAG_NQ] = {{ {_list(pivots)} }};"]
-    scale = [f"K[{slot[entry]}] *= scale[{entry[0]}] * scale[{entry[1]}];"
-             for entry in sorted(layout.original, key=slot.__getitem__) if entry[0] != entry[1]]
+    tables = [f"static const int lag_order[LAG_NK] = {{ {_list(layout.order)} }};",
+              f"static const int lag_pivots[LAG_NK] = {{ {_list(pivots)} }};"]
+    off_diagonal = sorted((entry for entry in layout.original if entry[0] != entry[1]), key=slot.__getitem__)
+    scale = _constraint_row_scales(layout, off_diagonal)
+    scale += [f"K[{slot[(i, p)]}] *= {'-' if i >= layout.coordinates else ''}scale[{i}] * scale[{p}];"
+              for i, p in off_diagonal]
     columns = []
     for p, column in enumerate(layout.columns):
         pivot = pivots[p]
-        terms = "".join(f" - K[{slot[(p, k)]}] * K[{slot[(p, k)]}] * K[{pivots[k]}]" for k in rows[p])
-        columns.append(f"K[{pivot}] = 1{terms};")
-        if terms:                   # else d_p = 1 and L_ip = a_ip: nothing to compute
-            columns.append(f"if (!(K[{pivot}] > 0))\n        return LAG_ERR_SINGULAR;")
+        products = [f"K[{slot[(p, k)]}] * K[{slot[(p, k)]}] * K[{pivots[k]}]" for k in rows[p]]
+        terms = "".join(f" - {product}" for product in products)
+        if p >= layout.coordinates:                 # a constraint row: its diagonal is 0
+            columns.append(f"K[{pivot}] = -({' + '.join(products) or '0'});")
+            columns.append(f"if (!(K[{pivot}] < 0))\n        return LAG_ERR_SINGULAR;")
+        else:
+            columns.append(f"K[{pivot}] = 1{terms};")
+            if terms:                               # else d_p = 1 and L_ip = a_ip: nothing to compute
+                columns.append(f"if (!(K[{pivot}] > 0))\n        return LAG_ERR_SINGULAR;")
         for i in column:
             shared = sorted(set(rows[i]) & set(rows[p]))
             start = f"K[{slot[(i, p)]}]" if (i, p) in layout.original else "0"
@@ -47,6 +59,18 @@ def factorisation_text(layout: MassLayout | None) -> dict:
     backward = [f"x[{p}] -= {' + '.join(f'K[{slot[(i, p)]}] * x[{i}]' for i in layout.columns[p])};"
                 for p in reversed(range(layout.n)) if layout.columns[p]]
     return {"tables": tables, "scale": scale, "columns": columns, "forward": forward, "backward": backward}
+
+
+def _constraint_row_scales(layout: MassLayout, off_diagonal: list[tuple[int, int]]) -> list[str]:
+    """scale[p] of each constraint row p: 1 / its largest entry |A_pj| scale[j] (1 if there is
+    none, or it is not finite: the pivot then shows what is wrong)."""
+    statements = []
+    for p in range(layout.coordinates, layout.n):
+        statements.append(f"scale[{p}] = 0;")
+        statements += [f"scale[{p}] = r_fmax(scale[{p}], r_fabs(K[{layout.slots[(i, j)]}] * scale[{j}]));"
+                       for i, j in off_diagonal if i == p]
+        statements.append(f"scale[{p}] = scale[{p}] > 0 && r_isfinite(scale[{p}]) ? 1 / scale[{p}] : 1;")
+    return statements
 
 
 def _list(values) -> str:

@@ -11,6 +11,8 @@ The blocks are exactly what the scene needs:
                so that M q'' = f + Aᵀλ and A q'' = γ. K is solved numerically, never inverted.
                Without constraints M is stored as `layout` says (structure.py): a compact
                layout stores each structurally nonzero entry once, at K[(k, j)] with k >= j.
+               So does the compact layout of a large system with constraints (solver "ldl"):
+               M's entries k >= j and A's, at K[(n + i, j)]; the upper block -Aᵀ is implied.
   constant_mass  M, in a block of its own, when it depends on the parameters alone and is
                stored in a compact layout (no constraints): the C program assembles and factors
                it once per run, and `system` then gives b alone
@@ -45,7 +47,7 @@ from ..mechanics import Equations
 from ..mechanics.families import LocalEquations
 from ..scene import ScenePlan
 from .cse import eliminate_common_subexpressions
-from .structure import JacobianLayout, MassLayout, jacobian_layout, mass_layout
+from .structure import JacobianLayout, MassLayout, jacobian_layout, kkt_layout, mass_layout
 
 
 @dataclass(frozen=True)
@@ -91,8 +93,8 @@ class Kernel:
     invariant_names: tuple[str, ...]
     integrator: ir.IntegratorChoice
     time: ir.TimeGrid
-    solver: str                                  # "cholesky" or "lu"
-    layout: MassLayout | None                    # how M is stored and factored (cholesky only)
+    solver: str                                  # "cholesky", "ldl" (sparse, constrained) or "lu"
+    layout: MassLayout | None                    # how K is stored and factored (not lu)
     initial: Block
     system: Block | None                         # None for gauss, which uses the canonical form
     outputs: Block
@@ -176,8 +178,7 @@ class _Lowering:
         self.active = [c for c in equations.constraints if not c.dropped]
         self.active.sort(key=lambda c: c.kind != "holonomic")      # holonomic rows first
         self.n = equations.size
-        self.solver = "lu" if self.active or not self.model.lagrangian.is_natural else "cholesky"
-        self.layout = self.mass_layout() if self.solver == "cholesky" else None
+        self.solver, self.layout = self.linear_system()
         q, v = equations.coordinates, equations.velocities
         self.accelerations = [sympy.Symbol(f"{c.name}''", real=True) for c in self.model.coordinates]
         self.multipliers = [ir.multiplier_symbol(c.name) for c in self.active]
@@ -190,6 +191,17 @@ class _Lowering:
         self.names: dict[sympy.Symbol, str] = {ir.TIME: "t"}
         self._taken: set[str] = {"t"}
         self._name_table()
+
+    def linear_system(self) -> tuple[str, MassLayout | None]:
+        """How K is factored, and its layout: Cholesky or LDLᵀ for a positive definite M
+        (structure.py), LU with partial pivoting where M may not be (a Lagrangian that is not
+        natural) or a system with constraints is small or dense."""
+        if not self.model.lagrangian.is_natural:
+            return "lu", None
+        if not self.active:
+            return "cholesky", self.mass_layout()
+        layout = kkt_layout(self.eq.mass_matrix, [c.jacobian for c in self.active])
+        return ("ldl", layout) if layout is not None else ("lu", None)
 
     def mass_layout(self) -> MassLayout:
         return mass_layout(self.eq.mass_matrix)
@@ -337,6 +349,10 @@ class _Lowering:
         n, m = self.n, len(self.active)
         if not self.active:
             return self.block(self.mass_stores("K") + self.force_stores())
+        gamma = [("b", (n + i,), c.gamma) for i, c in enumerate(self.active)]
+        if self.layout is not None:
+            rows = [("K", (n + i, j), a) for i, c in enumerate(self.active) for j, a in enumerate(c.jacobian) if a != 0]
+            return self.block(self.mass_stores("K") + rows + self.force_stores() + gamma)
         stores = []
         for k in range(n):
             for j in range(n):
@@ -348,9 +364,7 @@ class _Lowering:
                 stores.append(("K", (n + i, j), c.jacobian[j]))
             for l in range(m):
                 stores.append(("K", (n + i, n + l), sympy.S.Zero))
-        stores += self.force_stores()
-        stores += [("b", (n + i,), c.gamma) for i, c in enumerate(self.active)]
-        return self.block(stores)
+        return self.block(stores + self.force_stores() + gamma)
 
     def outputs_block(self) -> Block:
         return self.block(self.output_stores())

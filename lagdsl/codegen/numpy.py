@@ -10,7 +10,7 @@ from .printers import PythonPrinter
 
 def render_numpy(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
     printer = PythonPrinter()
-    blocks = {name: _print_block(getattr(kernel, name), layout_kind(kernel), printer)
+    blocks = {name: _print_block(getattr(kernel, name), layout_kind(kernel), printer, kernel.n)
               for name in FUNCTION_PARAMETERS if getattr(kernel, name) is not None}
     context = {
         "title": f"{kernel.model_name}, scene {kernel.scene_name}: generated NumPy functions",
@@ -38,8 +38,8 @@ def render_numpy(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSou
 ZEROED = ("K", "M", "Dq", "Dv", "Dz")
 
 
-def _print_block(block: Block, layout: str, printer: PythonPrinter) -> dict:
-    stores = [(_target(s, layout), printer.doprint(s.value))
+def _print_block(block: Block, layout: str, printer: PythonPrinter, coordinates: int) -> dict:
+    stores = [(_target(s, layout, coordinates), printer.doprint(s.value))
               for s in block.stores if not (s.array in ZEROED and s.value == 0)]
     return {"inputs": block.inputs,
             "assignments": [(name, printer.doprint(value)) for name, value in block.assignments],
@@ -83,13 +83,15 @@ def _indices(offset: int, stride: int, count: int) -> str:
     return str(offset) if count == 1 else f"numpy.arange({offset}, {offset + stride * (count - 1) + 1}, {stride})"
 
 
-def _target(store: Store, layout: str) -> str:
+def _target(store: Store, layout: str, coordinates: int) -> str:
     """The array element(s) a store sets. A diagonal M is held as the vector of its diagonal; a
-    sparse one is stored once per pair (k, j), k >= j, and set on both sides of the diagonal."""
+    sparse one is stored once per pair (k, j), k >= j, and set on both sides of the diagonal.
+    A compact K with constraints stores A (rows from `coordinates` on) once: assemble() sets
+    the block -Aᵀ from it."""
     if store.array in ("K", "M") and layout != "dense":
         row, column = store.index
         if layout == "diagonal":
             return f"{store.array}[{row}]"
-        if row != column:
+        if row != column and row < coordinates:
             return f"{store.array}[{row}, {column}] = {store.array}[{column}, {row}]"
     return f"{store.array}[{', '.join(str(i) for i in store.index)}]"

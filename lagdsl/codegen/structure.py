@@ -13,6 +13,10 @@ derived expressions. A natural system (M positive definite, no constraints) is s
             M_ij is stored at i·(w + 1) + (i - j) for i - w <= j <= i, w the half-bandwidth, and
             a band factors without fill.
 
+A large system with constraints solves the saddle-point system [[M, -Aᵀ], [A, 0]] by the sparse
+form too, with every multiplier eliminated after the coordinates (`kkt_layout`); a small one
+keeps the dense LU with partial pivoting.
+
 All three work on the equilibrated matrix (unit diagonal, see docs/numerics.md) and report the
 same reciprocal condition estimate: min d_j / max d_j over the pivots of LDLᵀ, which is
 (min l_jj / max l_jj)² of the Cholesky factor.
@@ -47,6 +51,12 @@ class MassLayout:
     columns: tuple[tuple[int, ...], ...]
     original: frozenset[tuple[int, int]]        # positions (i, p), i >= p, that M itself fills
     bandwidth: int = 0                          # of the banded layout
+    multipliers: int = 0                        # the last positions that are constraint rows (kkt_layout)
+
+    @property
+    def coordinates(self) -> int:
+        """How many positions are coordinates (the others, last, are constraint rows)."""
+        return self.n - self.multipliers
 
     @property
     def size(self) -> int:
@@ -127,19 +137,21 @@ def mass_layout(mass_matrix: tuple[tuple[sympy.Expr, ...], ...]) -> MassLayout:
     return layout
 
 
-def minimum_degree(neighbours: list[set[int]]) -> tuple[tuple[int, ...], tuple[tuple[int, ...], ...]]:
-    """Greedy minimum-degree ordering with its symbolic factorisation (ties: lowest index).
+def minimum_degree(neighbours: list[set[int]], last: frozenset[int] = frozenset()
+                   ) -> tuple[tuple[int, ...], tuple[tuple[int, ...], ...]]:
+    """Greedy minimum-degree ordering with its symbolic factorisation (ties: lowest index); the
+    vertices in `last` are eliminated after all the others.
 
     Eliminating a vertex joins its remaining neighbours into a clique: those are the rows of
     its column of L, and the new edges are the fill. -> (order, columns in positions).
     """
     graph = [set(s) for s in neighbours]
-    heap = [(len(s), k) for k, s in enumerate(graph)]
+    heap = [(k in last, len(s), k) for k, s in enumerate(graph)]
     heapq.heapify(heap)
     eliminated: dict[int, int] = {}
     pattern: list[set[int]] = []
     while heap:
-        degree, k = heapq.heappop(heap)
+        _, degree, k = heapq.heappop(heap)
         if k in eliminated or degree != len(graph[k]):
             continue                                  # a stale entry: k's degree changed
         eliminated[k] = len(pattern)
@@ -148,11 +160,48 @@ def minimum_degree(neighbours: list[set[int]]) -> tuple[tuple[int, ...], tuple[t
         for j in clique:
             graph[j].discard(k)
             graph[j] |= clique - {j}
-            heapq.heappush(heap, (len(graph[j]), j))
+            heapq.heappush(heap, (j in last, len(graph[j]), j))
         graph[k] = set()
     order = tuple(sorted(eliminated, key=eliminated.__getitem__))
     columns = tuple(tuple(sorted(eliminated[j] for j in rows)) for rows in pattern)
     return order, columns
+
+
+# The smallest saddle-point system (coordinates and constraints) solved in the sparse form: the
+# library's mechanisms (Andrews' has 13 unknowns) keep the dense LU and its condition estimate.
+SPARSE_KKT_ORDER = 16
+
+
+def kkt_layout(mass_matrix: tuple[tuple[sympy.Expr, ...], ...],
+               constraint_rows: list[tuple[sympy.Expr, ...]]) -> MassLayout | None:
+    """The sparse layout of the saddle-point matrix K = [[M, -Aᵀ], [A, 0]] (M positive definite,
+    the rows of A given), or None where the dense LU with partial pivoting serves.
+
+    The generated code factors the symmetric Kₛ = [[M, -Aᵀ], [-A, 0]] (the constraint rows
+    negated, and their right-hand sides) as LDLᵀ without pivoting. That is safe when every
+    coordinate is eliminated before any multiplier: the coordinates' pivots are those of M's
+    Cholesky factorisation (positive), and what is left for the multipliers is the Schur
+    complement -A M⁻¹ Aᵀ, negative definite while the constraints are independent (a pivot that
+    is not negative means they are not). Minimum degree orders each group.
+    """
+    n, m = len(mass_matrix), len(constraint_rows)
+    size = n + m
+    if m == 0 or size < SPARSE_KKT_ORDER:
+        return None
+    neighbours = [{j for j in range(n) if j != k and (mass_matrix[k][j] != 0 or mass_matrix[j][k] != 0)}
+                  for k in range(n)] + [set() for _ in range(m)]
+    for i, row in enumerate(constraint_rows):
+        for j, entry in enumerate(row):
+            if entry != 0:
+                neighbours[n + i].add(j)
+                neighbours[j].add(n + i)
+    order, columns = minimum_degree(neighbours, last=frozenset(range(n, size)))
+    position = {unknown: p for p, unknown in enumerate(order)}
+    original = frozenset((max(position[k], position[j]), min(position[k], position[j]))
+                         for k in range(size) for j in neighbours[k] | ({k} if k < n else set()))
+    layout = MassLayout("sparse", size, order, columns, original, multipliers=m)
+    fixed, per_unknown = STRAIGHT_LINE_WORK
+    return layout if layout.work() <= fixed + per_unknown * size else None
 
 
 # A band LU of E pays when its width 2 lower + upper + 1 is at most this fraction of the order.

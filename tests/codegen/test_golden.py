@@ -25,13 +25,14 @@ GOLDEN = ROOT / "tests" / "golden"
 # the chaotic benchmark, and a banded mass matrix. The mass matrices: dense 2 x 2 (wedge,
 # double_pendulum: a straight-line LDLᵀ), dense 12 x 12 (pendulum_chain: the Cholesky loops),
 # diagonal (charged_particle, kepler), tridiagonal (fem_string: a sparse LDLᵀ), with constraints
-# (rolling_penny: LU of the saddle-point system), and the local form's loops over members
+# (rolling_penny: LU of the saddle-point system; cartesian_chain, 16 coordinates and 8
+# constraints: the sparse LDLᵀ of the saddle-point system), and the local form's loops over members
 # (fpu_chain: diagonal, 200 masses; fem_string_fine: a band, 40 nodes). The Jacobians of radau5:
 # dense (charged_particle.helix) and banded (fpu_chain.implicit, the local form's loops).
 CASES = [("wedge", "slide"), ("rolling_penny", "roll"), ("charged_particle", "helix"),
          ("kepler", "symplectic"), ("double_pendulum", "chaos"), ("fem_string", "mode2"),
          ("pendulum_chain", "swing"), ("fpu_chain", "spread"), ("fpu_chain", "implicit"),
-         ("fem_string_fine", "mode2")]
+         ("fem_string_fine", "mode2"), ("cartesian_chain", "swing")]
 EXTENSIONS = {"c": "c", "numpy": "py"}
 
 

@@ -7,7 +7,7 @@ import sympy
 
 import lagdsl
 from lagdsl.codegen.c_factor import factorisation_text
-from lagdsl.codegen.structure import JacobianLayout, MassLayout, jacobian_layout, mass_layout
+from lagdsl.codegen.structure import JacobianLayout, MassLayout, jacobian_layout, kkt_layout, mass_layout
 from lagdsl.settings import Overrides
 from tests.conftest import MODELS
 
@@ -42,6 +42,33 @@ def test_minimum_degree_eliminates_the_hub_of_an_arrow_late():
 def test_small_dense_matrices_are_straight_line_and_large_ones_loop():
     assert mass_layout(pattern(["xxxx"] * 4)).kind == "sparse"
     assert mass_layout(pattern(["xxxxx"] * 5)).kind == "dense"
+
+
+def cartesian_chain(links: int) -> tuple[tuple, list[tuple]]:
+    """M (diagonal) and the rows of A of a planar chain in Cartesian coordinates (x_1..x_n,
+    y_1..y_n): link i joins bob i - 1 (or the pivot) and bob i."""
+    n = 2 * links
+    mass = tuple(tuple(a if j == k else sympy.S.Zero for j in range(n)) for k in range(n))
+    rows = []
+    for i in range(links):
+        touched = {i, links + i} | ({i - 1, links + i - 1} if i else set())
+        rows.append(tuple(sympy.Symbol(f"A{i}_{j}") if j in touched else sympy.S.Zero for j in range(n)))
+    return mass, rows
+
+
+def test_a_large_saddle_point_system_is_factored_sparse_with_the_multipliers_last():
+    mass, rows = cartesian_chain(8)
+    layout = kkt_layout(mass, rows)
+    assert layout is not None and (layout.n, layout.coordinates, layout.multipliers) == (24, 16, 8)
+    assert sorted(layout.order[16:]) == list(range(16, 24))    # every multiplier after the coordinates
+    assert layout.size <= 24 + 2 * 32      # the pivots, A's 30 entries, the multipliers' tridiagonal fill
+    assert kkt_layout(*cartesian_chain(2)) is None             # 6 unknowns: the dense LU
+
+
+def test_the_library_solves_a_chain_in_cartesian_coordinates_by_the_sparse_ldlt():
+    text = lagdsl.load(MODELS / "cartesian_chain.lag").emit("c").text
+    assert "static const int lag_pivots[LAG_NK]" in text and "lag_lu_rcond" not in text
+    assert "lag_lu_rcond" in lagdsl.load(MODELS / "andrews.lag").emit("c").text     # 13 unknowns: LU
 
 
 def random_matrix(layout_pattern: list[str], seed: int) -> np.ndarray:
@@ -96,7 +123,7 @@ def test_the_straight_line_ldlt_solves_the_system(picture):
 
 
 def test_fem_string_mass_matrix_is_banded_and_fpu_chain_is_diagonal():
-    assert lagdsl.load(MODELS / "fem_string.lag").emit("c").text.count("lag_order[LAG_NQ]") == 1
+    assert lagdsl.load(MODELS / "fem_string.lag").emit("c").text.count("lag_order[LAG_NK]") == 1
     fpu = lagdsl.load(MODELS / "fermi_pasta_ulam.lag")
     text = fpu.emit("c").text
     assert "b[i] *= K[i];" in text and "lag_cholesky_factor" not in text

@@ -1410,6 +1410,8 @@ static int lag_integrate(lag_system *sys, const real *y0, real t0, real t1, real
     if (stepper == NULL)
         return report->status = LAG_ERR_MAX_STEPS;
     memset(stepper, 0, sizeof *stepper);
+    stepper->t = t0;           /* where a failure before the first step (projecting y0) is reported */
+    memcpy(stepper->y, y, sizeof stepper->y);
     if (limited.max_steps <= 0)
         limited.max_steps = last + 1 > LAG_DEFAULT_MAX_STEPS / 100 ? 100 * (last + 1) : LAG_DEFAULT_MAX_STEPS;
     lag_progress_t = (double)t0;

@@ -205,8 +205,8 @@ static void lag_initial_state(const real *par, real *y0)
 /* M is sparse: K holds its structurally nonzero entries, and the factor L D L^T with the fill of
  * the elimination order lag_order (minimum degree, chosen when this file was generated), column
  * by column: the pivot d_p at K[lag_pivots[p]], then the entries of L below it. */
-static const int lag_order[LAG_NQ] = { 0, 1 };
-static const int lag_pivots[LAG_NQ] = { 0, 2 };
+static const int lag_order[LAG_NK] = { 0, 1 };
+static const int lag_pivots[LAG_NK] = { 0, 2 };
 
 /* L D L^T of the equilibrated M in place (S M S, S = diag(M)^-1/2 in scale[], so that the
  * equilibrated M has unit diagonal). *rcond receives min d_p / max d_p, the reciprocal condition
@@ -228,10 +228,10 @@ static int lag_factor(real *K, real *scale, real *rcond)
     K[2] = 1 - K[1] * K[1] * K[0];
     if (!(K[2] > 0))
         return LAG_ERR_SINGULAR;
-    smallest = largest = K[lag_pivots[0]];
-    for (p = 1; p < LAG_NQ; ++p) {
-        smallest = r_fmin(smallest, K[lag_pivots[p]]);
-        largest = r_fmax(largest, K[lag_pivots[p]]);
+    smallest = largest = r_fabs(K[lag_pivots[0]]);
+    for (p = 1; p < LAG_NK; ++p) {
+        smallest = r_fmin(smallest, r_fabs(K[lag_pivots[p]]));
+        largest = r_fmax(largest, r_fabs(K[lag_pivots[p]]));
     }
     *rcond = smallest / largest;
     return LAG_OK;
@@ -240,24 +240,24 @@ static int lag_factor(real *K, real *scale, real *rcond)
 /* x = M^-1 b from the factor of lag_factor, overwriting b: L z = S b, D w = z, L^T v = w, x = S v. */
 static void lag_substitute(const real *K, const real *scale, real *b)
 {
-    real x[LAG_NQ];
+    real x[LAG_NK];
     int p;
-    for (p = 0; p < LAG_NQ; ++p)
+    for (p = 0; p < LAG_NK; ++p)
         x[p] = b[lag_order[p]] * scale[p];
     x[1] -= K[1] * x[0];
-    for (p = 0; p < LAG_NQ; ++p)
+    for (p = 0; p < LAG_NK; ++p)
         x[p] /= K[lag_pivots[p]];
     x[0] -= K[1] * x[1];
-    for (p = 0; p < LAG_NQ; ++p)
+    for (p = 0; p < LAG_NK; ++p)
         b[lag_order[p]] = x[p] * scale[p];
 }
 
-/* Solve M x = b in place (K as lag_assemble stores M, destroyed; n = LAG_NQ). *rcond receives the
- * reciprocal condition estimate of the equilibrated M; LAG_ERR_SINGULAR when it is below
+/* Solve M x = b in place (K as lag_assemble stores it, destroyed; n = LAG_NK). *rcond receives
+ * the reciprocal condition estimate of the equilibrated M; LAG_ERR_SINGULAR when it is below
  * LAG_RCOND_MIN or a pivot vanishes (then *rcond is 0). */
 static int lag_solve(int n, real *K, real *b, real *rcond)
 {
-    real scale[LAG_NQ];
+    real scale[LAG_NK];
     int status;
     (void)n;
     if ((status = lag_factor(K, scale, rcond)) != LAG_OK)
@@ -1142,6 +1142,8 @@ static int lag_integrate(lag_system *sys, const real *y0, real t0, real t1, real
     if (stepper == NULL)
         return report->status = LAG_ERR_MAX_STEPS;
     memset(stepper, 0, sizeof *stepper);
+    stepper->t = t0;           /* where a failure before the first step (projecting y0) is reported */
+    memcpy(stepper->y, y, sizeof stepper->y);
     if (limited.max_steps <= 0)
         limited.max_steps = last + 1 > LAG_DEFAULT_MAX_STEPS / 100 ? 100 * (last + 1) : LAG_DEFAULT_MAX_STEPS;
     lag_progress_t = (double)t0;

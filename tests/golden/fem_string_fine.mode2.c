@@ -305,12 +305,12 @@ static void lag_substitute(const real *K, const real *scale, real *b)
         b[i] *= scale[i];
 }
 
-/* Solve M x = b in place (K as lag_assemble stores M, destroyed; n = LAG_NQ). *rcond receives the
- * reciprocal condition estimate of the equilibrated M; LAG_ERR_SINGULAR when it is below
+/* Solve M x = b in place (K as lag_assemble stores it, destroyed; n = LAG_NK). *rcond receives
+ * the reciprocal condition estimate of the equilibrated M; LAG_ERR_SINGULAR when it is below
  * LAG_RCOND_MIN or a pivot vanishes (then *rcond is 0). */
 static int lag_solve(int n, real *K, real *b, real *rcond)
 {
-    real scale[LAG_NQ];
+    real scale[LAG_NK];
     int status;
     (void)n;
     if ((status = lag_factor(K, scale, rcond)) != LAG_OK)
@@ -1198,6 +1198,8 @@ static int lag_integrate(lag_system *sys, const real *y0, real t0, real t1, real
     if (stepper == NULL)
         return report->status = LAG_ERR_MAX_STEPS;
     memset(stepper, 0, sizeof *stepper);
+    stepper->t = t0;           /* where a failure before the first step (projecting y0) is reported */
+    memcpy(stepper->y, y, sizeof stepper->y);
     if (limited.max_steps <= 0)
         limited.max_steps = last + 1 > LAG_DEFAULT_MAX_STEPS / 100 ? 100 * (last + 1) : LAG_DEFAULT_MAX_STEPS;
     lag_progress_t = (double)t0;

@@ -155,10 +155,12 @@ def test_non_finite_tolerances_are_option_errors(tmp_path, option):
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])
 def test_initial_state_off_a_singular_constraint(backend):
+    """The state reported is the initial one (the C driver reported zeros before its stepper began)."""
     model = lagdsl.load(MODELS / "cartesian_pendulum.lag")
-    error = failure(model, backend, set={"x.start": 0.0, "y.start": 0.0})
+    error = failure(model, backend, set={"x.start": 0.0, "y.start": 0.0, "x.velocity": 0.5}, start=0.25)
     assert error.message == "projection onto the constraints did not converge"
-    assert error.time == 0 and len(error.partial.t) == 0
+    assert error.time == 0.25 and len(error.partial.t) == 0
+    assert error.state == {"x": 0.0, "y": 0.0, "x'": 0.5, "y'": 0.0}
     done = lagc("run", MODELS / "cartesian_pendulum.lag", "--backend", backend, "--set", "x.start=0",
                 "--set", "y.start=0")
     assert done.returncode == 1 and "Traceback" not in done.stderr
