@@ -64,11 +64,14 @@ def factorisation_text(layout: MassLayout | None) -> dict:
 def _constraint_row_scales(layout: MassLayout, off_diagonal: list[tuple[int, int]]) -> list[str]:
     """scale[p] of each constraint row p: 1 / its largest entry |A_pj| scale[j] (1 if there is
     none, or it is not finite: the pivot then shows what is wrong)."""
+    columns_of: dict[int, list[int]] = {}
+    for i, j in off_diagonal:
+        columns_of.setdefault(i, []).append(j)
     statements = []
     for p in range(layout.coordinates, layout.n):
         statements.append(f"scale[{p}] = 0;")
-        statements += [f"scale[{p}] = r_fmax(scale[{p}], r_fabs(K[{layout.slots[(i, j)]}] * scale[{j}]));"
-                       for i, j in off_diagonal if i == p]
+        statements += [f"scale[{p}] = r_fmax(scale[{p}], r_fabs(K[{layout.slots[(p, j)]}] * scale[{j}]));"
+                       for j in columns_of.get(p, [])]
         statements.append(f"scale[{p}] = scale[{p}] > 0 && r_isfinite(scale[{p}]) ? 1 / scale[{p}] : 1;")
     return statements
 
