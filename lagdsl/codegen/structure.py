@@ -119,22 +119,34 @@ def local_layout(n: int, bandwidth: int) -> MassLayout:
 def mass_layout(mass_matrix: tuple[tuple[sympy.Expr, ...], ...]) -> MassLayout:
     """Choose the storage and factorisation of M from its structurally nonzero entries."""
     n = len(mass_matrix)
-    neighbours = [{j for j in range(n) if j != k and (mass_matrix[k][j] != 0 or mass_matrix[j][k] != 0)}
-                  for k in range(n)]
+    neighbours = _coupled(mass_matrix)
     if not any(neighbours):
         return MassLayout("diagonal", n, tuple(range(n)), ((),) * n,
                           frozenset((p, p) for p in range(n)))
     order, columns = minimum_degree(neighbours)
-    position = {coordinate: p for p, coordinate in enumerate(order)}
-    original = frozenset((max(position[k], position[j]), min(position[k], position[j]))
-                         for k in range(n) for j in neighbours[k] | {k})
-    layout = MassLayout("sparse", n, order, columns, original)
+    layout = MassLayout("sparse", n, order, columns, _stored(order, neighbours, n))
     dense = 2 * layout.size - n >= n * n
     fixed, per_coordinate = STRAIGHT_LINE_WORK
     if (dense and n > STRAIGHT_LINE_DENSE) or layout.work() > fixed + per_coordinate * n:
         return MassLayout("dense", n, tuple(range(n)), tuple(tuple(range(p + 1, n)) for p in range(n)),
                           frozenset((i, p) for p in range(n) for i in range(p, n)))
     return layout
+
+
+def _coupled(mass_matrix) -> list[set[int]]:
+    """For each coordinate, the others it shares a structurally nonzero entry of M with."""
+    n = len(mass_matrix)
+    return [{j for j in range(n) if j != k and (mass_matrix[k][j] != 0 or mass_matrix[j][k] != 0)}
+            for k in range(n)]
+
+
+def _stored(order: tuple[int, ...], neighbours: list[set[int]], diagonals: int) -> frozenset[tuple[int, int]]:
+    """The entries (i, p), i >= p, in elimination positions that the matrix itself fills: its
+    off-diagonal couplings and the diagonals of the first `diagonals` unknowns (the coordinates;
+    a constraint row's diagonal is 0)."""
+    position = {unknown: p for p, unknown in enumerate(order)}
+    return frozenset((max(position[k], position[j]), min(position[k], position[j]))
+                     for k in range(len(order)) for j in neighbours[k] | ({k} if k < diagonals else set()))
 
 
 def minimum_degree(neighbours: list[set[int]], last: frozenset[int] = frozenset()
@@ -188,18 +200,14 @@ def kkt_layout(mass_matrix: tuple[tuple[sympy.Expr, ...], ...],
     size = n + m
     if m == 0 or size < SPARSE_KKT_ORDER:
         return None
-    neighbours = [{j for j in range(n) if j != k and (mass_matrix[k][j] != 0 or mass_matrix[j][k] != 0)}
-                  for k in range(n)] + [set() for _ in range(m)]
+    neighbours = _coupled(mass_matrix) + [set() for _ in range(m)]
     for i, row in enumerate(constraint_rows):
         for j, entry in enumerate(row):
             if entry != 0:
                 neighbours[n + i].add(j)
                 neighbours[j].add(n + i)
     order, columns = minimum_degree(neighbours, last=frozenset(range(n, size)))
-    position = {unknown: p for p, unknown in enumerate(order)}
-    original = frozenset((max(position[k], position[j]), min(position[k], position[j]))
-                         for k in range(size) for j in neighbours[k] | ({k} if k < n else set()))
-    layout = MassLayout("sparse", size, order, columns, original, multipliers=m)
+    layout = MassLayout("sparse", size, order, columns, _stored(order, neighbours, n), multipliers=m)
     fixed, per_unknown = STRAIGHT_LINE_WORK
     return layout if layout.work() <= fixed + per_unknown * size else None
 
