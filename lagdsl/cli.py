@@ -148,12 +148,12 @@ def _run_options(parser: argparse.ArgumentParser) -> None:
     """What `lagc run` and `lagc sweep` take: the backend, the inputs and the integrator's options."""
     parser.add_argument("--backend", choices=("c", "numpy"), default="c", help="generated code to run (default: c)")
     _input_options(parser)
-    parser.add_argument("--integrator", help="rk4, dopri5, dop853, radau5, gauss or auto")
+    parser.add_argument("--integrator", help="rk4, dopri5, dop853, rkn8, radau5, gauss or auto")
     parser.add_argument("--rtol", type=float, help="relative tolerance (adaptive integrators)")
     parser.add_argument("--atol", type=float, help="absolute tolerance (adaptive integrators)")
     parser.add_argument("--step", type=float, help="step size (rk4, gauss)")
     parser.add_argument("--stages", type=int, help="number of stages (gauss)")
-    parser.add_argument("--max-step", type=float, help="largest step (dopri5, dop853, radau5)")
+    parser.add_argument("--max-step", type=float, help="largest step (dopri5, dop853, rkn8, radau5)")
     parser.add_argument("--max-steps", type=int, help="step limit, accepted + rejected "
                         "(default: 100000, or 100 per output row if that is more)")
 

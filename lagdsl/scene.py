@@ -64,11 +64,23 @@ def plan_scene(model: ir.Model, equations: Equations, scene_name: str | None = N
         ir.OutputRequest(c.name, "expression", c.symbol, None, None) for c in model.coordinates)
     _check_outputs(outputs, equations)
     settings.check_integrator(integrator)
+    if integrator.name == "rkn8":
+        _check_velocity_free(equations, integrator)
     return ScenePlan(model, settings.scene_name, scene.description if scene else None,
                      time, integrator, parameters, frozenset(set_values),
                      tuple((name, start, velocity) for name, (start, velocity) in initial.items()),
                      outputs, tuple(q.name for q in equations.conserved), settings.constraints,
                      _initial_state(model, parameters, initial), scene.stop if scene else None)
+
+
+def _check_velocity_free(equations: Equations, integrator: ir.IntegratorChoice) -> None:
+    """rkn8 integrates q'' = a(t, q): refuse a model whose M or f reads a velocity."""
+    velocity = equations.velocity_in_accelerations()
+    if velocity:
+        raise LagError(f"the Nystrom integrator rkn8 needs accelerations that do not depend on the velocities, "
+                       f"and {velocity} appears in this model's equations of motion (through a mass matrix "
+                       "that changes with the coordinates, dissipation, or a velocity-dependent force); "
+                       "use dop853", integrator.span)
 
 
 def scene_defaults(model: ir.Model, equations: Equations,

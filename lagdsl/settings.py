@@ -15,11 +15,12 @@ from dataclasses import dataclass, replace
 from .errors import LagError, LagWarning, Setting, suggest
 from .source import Span
 
-INTEGRATORS = ("rk4", "dopri5", "dop853", "radau5", "gauss", "auto")
+INTEGRATORS = ("rk4", "dopri5", "dop853", "rkn8", "radau5", "gauss", "auto")
 IMPLICIT_INTEGRATORS = ("radau5", "auto")      # they need the Jacobian (auto switches to radau5)
 INTEGRATOR_OPTIONS = {
     "rk4": ("step", "max_steps"), "dopri5": ("rtol", "atol", "max_step", "max_steps"),
-    "dop853": ("rtol", "atol", "max_step", "max_steps"), "radau5": ("rtol", "atol", "max_step", "max_steps"),
+    "dop853": ("rtol", "atol", "max_step", "max_steps"), "rkn8": ("rtol", "atol", "max_step", "max_steps"),
+    "radau5": ("rtol", "atol", "max_step", "max_steps"),
     "gauss": ("stages", "step", "max_steps"),
     "auto": ("rtol", "atol", "max_step", "max_steps"),
 }
@@ -152,6 +153,9 @@ class SceneSettings:
         if integrator.name == "gauss" and self.constraints:
             raise LagError("the symplectic gauss integrator does not handle constraints; use radau5 or dop853",
                            integrator.span)
+        if integrator.name == "rkn8" and self.constraints:
+            raise LagError("the Nystrom integrator rkn8 does not handle constraints; use dop853 or radau5",
+                           integrator.span)
 
     def _apply_override(self, name: str, value: float, set_values: dict, initial: dict) -> None:
         if not math.isfinite(value):
@@ -261,7 +265,7 @@ def validate_integrator(name: str, values: dict[str, float], span: Span | Settin
         stages = values.setdefault("stages", 2)
         if stages != int(stages) or not 1 <= stages <= 6:
             raise LagError("gauss(stages = s) takes s = 1 to 6", origins.get("stages", span))
-    if name in ("dopri5", "dop853", "radau5", "auto"):
+    if name in ("dopri5", "dop853", "rkn8", "radau5", "auto"):
         values.setdefault("rtol", 1e-8)
         values.setdefault("atol", 1e-10)
     return IntegratorChoice(name, tuple(sorted(values.items())), span)

@@ -9,8 +9,9 @@ from importlib import resources
 SHARED_FRAGMENTS = {
     "rk4": ("fixed_step.c",),
     "gauss": ("fixed_step.c",),
-    "dopri5": ("explicit_control.c",),
-    "dop853": ("explicit_control.c",),
+    "dopri5": ("explicit_control.c", "stiffness_test.c"),
+    "dop853": ("explicit_control.c", "stiffness_test.c"),
+    "rkn8": ("explicit_control.c",),
     "radau5": (),
     "auto": (),
 }
@@ -29,6 +30,7 @@ COUNTERS = {
     "gauss": ("accepted", "rhs_evals", "newton_iters"),
     "dopri5": ("accepted", "rejected", "rhs_evals"),
     "dop853": ("accepted", "rejected", "rhs_evals"),
+    "rkn8": ("accepted", "rejected", "rhs_evals"),
     "radau5": ("accepted", "rejected", "rhs_evals", "jac_evals", "lu_decomps", "newton_iters"),
     "auto": ("accepted", "rejected", "rhs_evals", "jac_evals", "lu_decomps", "newton_iters"),
 }

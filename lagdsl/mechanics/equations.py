@@ -87,6 +87,13 @@ class Equations:
         """A differentiator over these equations' intermediates, for later passes."""
         return Differentiator(self.intermediates, (*self.coordinates, *self.velocities, ir.TIME))
 
+    def velocity_in_accelerations(self) -> str:
+        """The first velocity, as der(q), that M or f depends on ("" if none: q'' = a(t, q))."""
+        calculus = self.calculus()
+        entries = (*self.forcing, *(entry for row in self.mass_matrix for entry in row))
+        read = set().union(*(calculus.dependencies(entry) for entry in entries))
+        return next((f"der({c.name})" for c in self.model.coordinates if c.velocity_symbol in read), "")
+
 
 def lagrange_terms(model: ir.Model, calculus: Differentiator):
     """L, p, M, ∂L/∂q, the generalized forces and f for `model`, as intermediates of `calculus`.

@@ -125,6 +125,17 @@ class LocalEquations:
     def size(self) -> int:
         return len(self.coordinates)
 
+    def velocity_in_accelerations(self) -> str:
+        """The first velocity, as der(q) of its first member, that a stencil's M or f reads ("" if
+        none: q'' = a(t, q))."""
+        for stencil in self.stencils:
+            for expression in (*stencil.forcing, *(entry for _, _, entry in stencil.mass)):
+                offsets = sorted(int(s.name[len(VELOCITY):]) for s in expression.free_symbols
+                                 if s.name.startswith(VELOCITY))
+                if offsets:
+                    return f"der({self.model.coordinates[stencil.first + offsets[0]].name})"
+        return ""
+
     def calculus(self) -> Differentiator:
         """A differentiator over the model's lets (the outputs and the stop condition use them)."""
         return Differentiator(((let.symbol, let.expression) for let in self.model.lets),

@@ -30,6 +30,7 @@ import numpy as np
 from ..errors import InternalError, LagError, LagWarning, SimulationError, SimulationInterrupted
 from ..integrators import COUNTERS, STIFFNESS_TESTED, SWITCH_TIMES, summary_extras
 from ..integrators.python.fixed_step import IntegrationFailure, integrate_gauss, integrate_rk4
+from ..integrators.python.nystrom import integrate_rkn8
 from ..integrators.python.stiffness import STABILITY_BOUNDARY, StiffnessTest, SwitchLog
 from ..settings import RunPlan, check_step_count, grid_rows
 from .cache import cached_entry
@@ -359,7 +360,7 @@ def run_numpy(kernel: Kernel, source: GeneratedSource, plan: RunPlan, progress: 
                     states, counts, failure = _run_scipy(module, par, times, y0, plan, progress or _no_progress,
                                                          stop, ctrl_c)
                 else:
-                    states, counts, failure = _run_fixed_step(module, par, times, y0, plan, stop, ctrl_c)
+                    states, counts, failure = _run_bundled(module, par, times, y0, plan, stop, ctrl_c)
             elapsed = clock.perf_counter() - started
         states = np.array(states).reshape(len(states), len(y0))
         stopped = Stop(plan.stop, stop.time) if stop is not None and stop.time is not None else None
@@ -614,7 +615,9 @@ def _tally(counts, solver):
     return counts
 
 
-def _run_fixed_step(module, par, times, y0, plan, stop: StopCondition | None, ctrl_c: CtrlC):
+def _run_bundled(module, par, times, y0, plan, stop: StopCondition | None, ctrl_c: CtrlC):
+    """The NumPy backend's own integrators (lagdsl/integrators/python), for the methods scipy lacks:
+    rk4, gauss and rkn8."""
     options = dict(plan.integrator.options)
     checked = ctrl_c.checked
     try:
@@ -622,6 +625,10 @@ def _run_fixed_step(module, par, times, y0, plan, stop: StopCondition | None, ct
             Y, stats = _rk4_projected(module, par, times, y0, options["step"], plan.time.stop, stop, checked)
         elif plan.integrator.name == "rk4":
             Y, stats = integrate_rk4(checked(lambda t, y: module.rhs(t, y, par)), times, y0, options["step"], stop)
+        elif plan.integrator.name == "rkn8":
+            Y, stats = integrate_rkn8(checked(lambda t, y: module.accelerations(par, t, y)[0]),
+                                      checked(lambda t, y: module.rhs(t, y, par)), times, y0, options["rtol"],
+                                      options["atol"], options.get("max_step", 0.0), plan.max_steps, stop)
         else:
             Y, stats = integrate_gauss(checked(lambda t, z: module.hamilton_rhs(t, z, par)),
                                        lambda t, y: module.to_canonical(t, y, par),

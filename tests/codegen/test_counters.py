@@ -22,8 +22,9 @@ OPTIONS = {"rk4": (("step", 0.01),), "gauss": (("step", 0.01),)}
 
 @pytest.mark.parametrize("integrator", ir.INTEGRATORS)
 def test_the_c_file_names_exactly_the_counters_of_its_integrator(integrator):
-    kepler = lagdsl.load(MODELS / "kepler.lag")
-    text = kepler.emit("c", None, Overrides(integrator=integrator, options=OPTIONS.get(integrator, ()))).text
+    # Kepler in polar coordinates; the Nystrom pair needs accelerations free of the velocities
+    model = lagdsl.load(MODELS / ("pleiades.lag" if integrator == "rkn8" else "kepler.lag"))
+    text = model.emit("c", None, Overrides(integrator=integrator, options=OPTIONS.get(integrator, ()))).text
     named = {counter for counter in ALL_COUNTERS if re.search(rf"\b{counter}\b", text)}
     assert named == set(COUNTERS[integrator])
     assert ("Jacobians" in text) == ("jac_evals" in COUNTERS[integrator])

@@ -28,11 +28,12 @@ GOLDEN = ROOT / "tests" / "golden"
 # (rolling_penny: LU of the saddle-point system; cartesian_chain, 16 coordinates and 8
 # constraints: the sparse LDLᵀ of the saddle-point system), and the local form's loops over members
 # (fpu_chain: diagonal, 200 masses; fem_string_fine: a band, 40 nodes). The Jacobians of radau5:
-# dense (charged_particle.helix) and banded (fpu_chain.implicit, the local form's loops).
+# dense (charged_particle.helix) and banded (fpu_chain.implicit, the local form's loops). The
+# Nystrom pair rkn8: pleiades.nystrom.
 CASES = [("wedge", "slide"), ("rolling_penny", "roll"), ("charged_particle", "helix"),
          ("kepler", "symplectic"), ("double_pendulum", "chaos"), ("fem_string", "mode2"),
          ("pendulum_chain", "swing"), ("fpu_chain", "spread"), ("fpu_chain", "implicit"),
-         ("fem_string_fine", "mode2"), ("cartesian_chain", "swing")]
+         ("fem_string_fine", "mode2"), ("cartesian_chain", "swing"), ("pleiades", "nystrom")]
 EXTENSIONS = {"c": "c", "numpy": "py"}
 
 
@@ -143,6 +144,15 @@ def test_fem_string_golden_moves_in_its_discrete_mode(tmp_path):
     omega = np.sqrt(6 / 5)          # omega^2 = 6 tension/(rho h^2) (1 - cos theta)/(2 + cos theta), theta = pi/3
     assert np.allclose(table["u[1]"], 0.1 * np.sqrt(3) / 2 * np.cos(omega * t), atol=1e-9)
     assert np.max(np.abs(table["u[3]"])) < 1e-12
+
+
+def test_pleiades_golden_with_the_nystrom_pair_reaches_the_test_sets_state(tmp_path):
+    from tests.models.test_celestial import PLEIADES_AT_3
+    table, summary = run_golden(tmp_path, "pleiades", "nystrom")
+    assert table["t"][-1] == 3.0
+    for axis, values in PLEIADES_AT_3.items():
+        assert np.allclose([table[f"{axis}[{i}]"][-1] for i in range(1, 8)], values, atol=1e-8, rtol=0)
+    assert "integrator rkn8(rtol = 1e-12, atol = 1e-12)" in summary
 
 
 def test_standalone_program_takes_overrides(tmp_path):

@@ -574,26 +574,28 @@ static int lag_outputs(const lag_system *sys, real t, const real *y, real *out, 
 }
 
 /* ---- integrator: dop853 ---- */
-/* Step-size control shared by the embedded explicit Runge-Kutta pairs dopri5.c and dop853.c.
+/* Step-size control shared by the embedded explicit pairs dopri5.c, dop853.c and rkn8.c.
  *
- * Pasted once, after the model and before dopri5.c or dop853.c (rk4.c does not use it).
+ * Pasted once, after the model and before dopri5.c, dop853.c or rkn8.c (rk4.c does not use it).
  *
  * - Error norm: the root mean square of e_i / (atol + rtol max(|y0_i|, |y1_i|)),
  *   Hairer-Norsett-Wanner I (HNW I), Section II.4, (4.11); a step is accepted when err <= 1.
  * - New step size: h_new = h * min(10, max(0.2, 0.9 err^(-1/p))), HNW I, II.4, (4.13), p being
- *   the order of the error estimate's leading term (5 for DOPRI5, 8 for DOP853).  After a
- *   rejection the step size may not grow until a step is accepted.  These are the constants of
- *   scipy's RK45 and DOP853, so that both take the same steps on a smooth problem; Hairer's codes
- *   limit the factor to [1/3, 6] (DOP853) and add a PI factor err_old^0.04 (DOPRI5), whose
- *   smaller average error per step costs about 6% more steps at tight tolerances.
+ *   the order of the error estimate's leading term (5 for DOPRI5, 8 for DOP853, 7 for RKN8).
+ *   After a rejection the step size may not grow until a step is accepted.  These are the
+ *   constants of scipy's RK45 and DOP853, so that both take the same steps on a smooth
+ *   problem; Hairer's codes limit the factor to [1/3, 6] (DOP853) and add a PI factor
+ *   err_old^0.04 (DOPRI5), whose smaller average error per step costs about 6% more steps at
+ *   tight tolerances.
  * - Starting step size: the algorithm of HNW I, II.4 ("Starting Step Size"), which costs one
  *   right-hand side evaluation.
  * Integration runs forward only (t_end > t0), as the driver does.
  */
 
-/* Work counters of dopri5 and dop853, printed by the run summary; and the stiffness test's
- * verdict: stiff = 1 once it has fired, at stiff_time, when the counters stood at
- * stiff_accepted, stiff_rejected, stiff_rhs_evals (lag_stiffness_record below). */
+/* Work counters of the explicit pairs, printed by the run summary; and the verdict of the
+ * stiffness test of dopri5 and dop853: stiff = 1 once it has fired, at stiff_time, when the
+ * counters stood at stiff_accepted, stiff_rejected, stiff_rhs_evals (lag_stiffness_record in
+ * stiffness_test.c). */
 typedef struct lag_stats {
     long accepted, rejected, rhs_evals;
     int stiff;
@@ -615,7 +617,7 @@ static const real lag_control_safety = LAG_LIT(0.9),
                   lag_control_facmin = LAG_LIT(0.2),   /* the largest decrease of h, 5x */
                   lag_control_facmax = 10;             /* the largest increase */
 
-/* `order` is p, the power of h in the local error estimate (5 for DOPRI5, 8 for DOP853). */
+/* `order` is p, the power of h in the local error estimate (5 DOPRI5, 8 DOP853, 7 RKN8). */
 static void lag_control_init(lag_control *c, const lag_options *opt, real t0, real t_end, int order)
 {
     c->rtol = opt->rtol;
@@ -747,8 +749,9 @@ static int lag_control_update(lag_control *c, lag_stats *stats, int status, real
 }
 
 /* Stiffness detection, Hairer-Norsett-Wanner I, Section IV.2 ("Automatic Stiffness Detection"),
- * as in the codes DOPRI5 and DOP853.  The last two stages of the pairs evaluate f at the same
- * time t + h, at the stage argument y_stage and at the new solution y_new (FSAL), so
+ * as in the codes DOPRI5 and DOP853 (pasted after explicit_control.c, for those two only).  The
+ * last two stages of the pairs evaluate f at the same time t + h, at the stage argument y_stage
+ * and at the new solution y_new (FSAL), so
  *     h lambda = h ||f(t+h, y_new) - f(t+h, y_stage)|| / ||y_new - y_stage||
  * estimates h times the dominant eigenvalue of df/dy.  A step whose h lambda exceeds the method's
  * stability boundary (3.25 for DOPRI5, 6.1 for DOP853) was limited by stability rather than

@@ -37,6 +37,26 @@ def test_fpu_chain_follows_the_vectorised_numpy_equations(backend):
     assert drift(result, "energy") < 1e-8       # rtol 1e-10
 
 
+@pytest.mark.parametrize("backend", ["c", "numpy"])
+def test_fpu_chain_with_the_nystrom_pair(backend):
+    """rkn8 integrates q'' = a(q) (the chain's M is constant, its forces read positions only) over
+    the positions alone: the same trajectory to 1e-9 at the scene's rtol 1e-10, and the energy
+    to the tolerance. (Its efficiency at equal accuracy: benchmarks/large_systems.py --accuracy.)"""
+    result = run("fpu_chain", "spread", stop=1.0, integrator="rkn8", backend=backend)
+    reference = fpu_reference(result.t)
+    for column, k in (("q[1]", 0), ("q[2]", 1), ("q[3]", 2)):
+        assert np.max(np.abs(result[column] - reference.y[k])) < 1e-9
+    assert drift(result, "energy") < 1e-8
+
+
+def test_the_nystrom_pair_is_the_same_on_both_backends():
+    """The Python rkn8 mirrors rkn8.c operation for operation: the same steps, the same rows to
+    round-off (the accelerations are evaluated in a different order by the two backends)."""
+    c, numpy = (run("fpu_chain", "spread", stop=1.0, integrator="rkn8", backend=b) for b in ("c", "numpy"))
+    assert c.summary.counters == numpy.summary.counters
+    assert np.max(np.abs(c.values - numpy.values)) < 1e-12
+
+
 def fpu_reference(t):
     """The book's start (fpu_chain.lag) integrated by SciPy's DOP853 at rtol 1e-12."""
     n, omega = 200, 50.0

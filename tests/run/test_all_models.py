@@ -66,15 +66,29 @@ SAMPLED = [model for model in MODEL_NAMES if model not in FULL_MATRIX and model 
 IN_TURN = ("rk4", "dopri5", "gauss", "auto")
 
 
+@functools.cache
+def load(model: str) -> lagdsl.Model:
+    return lagdsl.load(MODELS / f"{model}.lag")
+
+
+def refuses(integrator: str, model: str) -> bool:
+    """gauss refuses constraints; rkn8 refuses them too, and accelerations that read velocities."""
+    if integrator == "gauss":
+        return model in REFUSES_GAUSS
+    if integrator == "rkn8":
+        return model in CONSTRAINED or bool(load(model).equations.velocity_in_accelerations())
+    return False
+
+
 def integrators(model: str) -> tuple[str, ...]:
-    """The integrators a model runs with here (gauss only where the rule admits it)."""
+    """The integrators a model runs with here (gauss and rkn8 only where their rules admit them)."""
     if model in LOOPED_ONLY:
         return LOOPED_ONLY[model]
     if model in FULL_MATRIX:
         chosen = ir.INTEGRATORS
     else:
         chosen = ("dop853", "radau5", IN_TURN[SAMPLED.index(model) % len(IN_TURN)])
-    return tuple(name for name in chosen if not (name == "gauss" and model in REFUSES_GAUSS))
+    return tuple(name for name in chosen if not refuses(name, model))
 
 
 CASES = [(model, integrator) for model in MODEL_NAMES for integrator in integrators(model)]
@@ -93,11 +107,6 @@ class Build:
     kernel: Kernel
     sources: dict[str, GeneratedSource]    # by backend
     library: Future                        # the C build
-
-
-@functools.cache
-def load(model: str) -> lagdsl.Model:
-    return lagdsl.load(MODELS / f"{model}.lag")
 
 
 @functools.cache

@@ -34,7 +34,7 @@ def test_option_errors_point_at_the_option():
              (dict(options=(("stages", 3.0),)), "lagc: error: --stages: dop853 has no option 'stages' "
               "(options: rtol, atol, max_step, max_steps)"),
              (dict(integrator="rk5"), "lagc: error: --integrator rk5: unknown integrator 'rk5'; did you "
-              "mean 'rk4'? (available: rk4, dopri5, dop853, radau5, gauss, auto)")]
+              "mean 'rk4'? (available: rk4, dopri5, dop853, rkn8, radau5, gauss, auto)")]
     for overrides, message in cases:
         with pytest.raises(LagError) as caught:
             plan("cartesian_pendulum", **overrides)
@@ -77,3 +77,35 @@ def test_the_c_program_prints_the_settings_it_used(tmp_path):
     done = subprocess.run([program, "t.stop=0.1", "rtol=1e-9", "max_step=0.01"], capture_output=True, text=True)
     assert done.returncode == 0
     assert done.stderr.startswith("integrator dop853(rtol = 1e-09, atol = 1e-12, max_step = 0.01): ")
+
+
+def test_rkn8_refuses_accelerations_that_read_velocities_and_constraints(tmp_path):
+    """The Nystrom pair integrates q'' = a(t, q): the double pendulum's M changes with the angles,
+    so its f holds the velocities squared; a damped oscillator's f reads der(x); a constrained
+    model is refused before any derivation, as gauss is."""
+    def refusal(model, **overrides):
+        with pytest.raises(LagError) as caught:
+            lagdsl.load(model).simulate(integrator="rkn8", stop=0.1, **overrides)
+        return caught.value.render()
+
+    assert refusal(MODELS / "double_pendulum.lag") == (
+        "lagc: error: --integrator rkn8: the Nystrom integrator rkn8 needs accelerations that do not depend on "
+        "the velocities, and der(theta1) appears in this model's equations of motion (through a mass matrix "
+        "that changes with the coordinates, dissipation, or a velocity-dependent force); use dop853")
+    damped = tmp_path / "damped.lag"
+    damped.write_text("model Damped\n  coordinate x(start = 1);\n  T = der(x)^2/2;\n  U = x^2/2;\n"
+                      "  dissipation = 0.1*der(x)^2/2;\nend Damped;\n", encoding="utf-8")
+    assert "der(x) appears" in refusal(damped)
+    assert refusal(MODELS / "cartesian_pendulum.lag") == (
+        "lagc: error: --integrator rkn8: the Nystrom integrator rkn8 does not handle constraints; use dop853 "
+        "or radau5")
+
+
+def test_rkn8_refuses_a_damped_chain_in_the_local_form(tmp_path):
+    """The local form (loops over members) finds the velocity a stencil's forcing reads."""
+    chain = tmp_path / "chain.lag"
+    chain.write_text("model Chain\n  coordinate q[40](start = {1" + ", 0" * 39 + "});\n"
+                     "  T = sum(der(q[i])^2/2, i in 1:40);\n  U = sum((q[i + 1] - q[i])^2/2, i in 1:39);\n"
+                     "  dissipation = sum(0.1*der(q[i])^2/2, i in 1:40);\nend Chain;\n", encoding="utf-8")
+    with pytest.raises(LagError, match=r"der\(q\[1\]\) appears in this model's equations of motion"):
+        lagdsl.load(chain).simulate(integrator="rkn8", stop=0.1)

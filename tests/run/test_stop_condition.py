@@ -61,7 +61,7 @@ ROD = """model Rod "a pendulum in Cartesian coordinates, held by a rod"
   end fall;
 end Rod;
 """
-INTEGRATORS = {"dopri5": {}, "dop853": {}, "radau5": {}, "auto": {}, "rk4": {"step": 0.01},
+INTEGRATORS = {"dopri5": {}, "dop853": {}, "rkn8": {}, "radau5": {}, "auto": {}, "rk4": {"step": 0.01},
                "gauss": {"step": 0.01}}
 
 
