@@ -165,6 +165,71 @@ def one_fpu(n: int) -> dict:
     return row
 
 
+ACCURACY = 1e-9                          # the error of q[1] over the grid that each method must reach
+LADDER = [10 ** (-7 - k / 4) for k in range(21)]     # rtol 1e-7 .. 1e-12, atol = rtol / 100
+REFERENCE_RTOL = 1e-13
+
+
+def one_fpu_accuracy(n: int) -> dict:
+    """Each method at the loosest rtol of LADDER whose largest error of q[1] over the output grid
+    is at most ACCURACY, against dop853 at rtol 1e-13: SciPy's DOP853, lagdsl's dop853 and
+    lagdsl's rkn8 (the Nystrom pair for q'' = a(q)); CPU seconds of the whole call (the fastest
+    of REPEAT for lagdsl, one call for SciPy), as in one_fpu."""
+    import numpy as np
+    import lagdsl
+    from scipy.integrate import solve_ivp
+    with tempfile.TemporaryDirectory() as work:
+        path = Path(work) / f"fpu{n}.lag"
+        path.write_text(fpu_text(n))
+        loaded = lagdsl.load(path)
+        reference = loaded.simulate("run", rtol=REFERENCE_RTOL, atol=REFERENCE_RTOL / 100).values[:, 0]
+
+        def lagdsl_run(method, rtol):
+            loaded.simulate("run", integrator=method, rtol=rtol, atol=rtol / 100)      # compiles
+            seconds, result = min((cpu_call(loaded.simulate, "run", integrator=method, rtol=rtol, atol=rtol / 100)
+                                   for _ in range(REPEAT)), key=lambda run: run[0])
+            return seconds, result.values[:, 0], result.summary.count("rhs_evals")
+
+        y0 = np.zeros(2 * n)
+        y0[0] = 1.0
+        times = np.arange(0, STOP + INTERVAL / 2, INTERVAL)
+
+        def scipy_run(rtol):
+            seconds, solution = cpu_call(solve_ivp, fpu_rhs(n), (0, STOP), y0, method="DOP853", rtol=rtol,
+                                         atol=rtol / 100, t_eval=times)
+            return seconds, solution.y[0], solution.nfev
+
+        row = {}
+        for name, run in (("rkn8", lambda rtol: lagdsl_run("rkn8", rtol)),
+                          ("dop853", lambda rtol: lagdsl_run("dop853", rtol)), ("scipy", scipy_run)):
+            for rtol in LADDER:
+                seconds, q1, evaluations = run(rtol)
+                error = float(np.max(np.abs(q1 - reference)))
+                if error <= ACCURACY:
+                    row[name] = {"rtol": rtol, "error": error, "seconds": seconds, "evaluations": evaluations}
+                    break
+    return row
+
+
+def report_accuracy(sizes, rows) -> None:
+    headers = ["n", "method", "rtol needed", "error of q[1]", "evaluations", "CPU", "SciPy / this"]
+    table = []
+    for n, row in zip(sizes, rows):
+        if not isinstance(row, dict):
+            table.append([n, row] + [""] * (len(headers) - 2))
+            continue
+        scipy = row.get("scipy", {}).get("seconds")
+        for name, label in (("rkn8", "lagdsl rkn8"), ("dop853", "lagdsl dop853"), ("scipy", "SciPy DOP853")):
+            r = row.get(name)
+            if r is None:
+                table.append([n, label, f"none down to {LADDER[-1]:.0e}"] + [""] * (len(headers) - 3))
+                continue
+            table.append([n, label, f"{r['rtol']:.2g}", f"{r['error']:.1e}", r["evaluations"],
+                          benchtools.seconds(r["seconds"]), benchtools.ratio(scipy, r["seconds"]) if scipy else "n/a"])
+    print(f"equal accuracy: each method at the loosest rtol whose error of q[1] is at most {ACCURACY:g}")
+    print(benchtools.markdown_table(headers, table))
+
+
 def one_fpu_implicit(n: int) -> dict:
     import numpy as np
     from scipy import sparse
@@ -234,7 +299,8 @@ def kane_chain(n: int) -> dict:
 
 
 def child(kind: str, n: int, kane: bool) -> None:
-    row = one_fpu(n) if kind == "fpu" else one_fpu_implicit(n) if kind == "implicit" else one_chain(n, kane)
+    row = {"fpu": one_fpu, "accuracy": one_fpu_accuracy, "implicit": one_fpu_implicit}.get(
+        kind, lambda n: one_chain(n, kane))(n)
     row["peak_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(json.dumps(row))
 
@@ -293,6 +359,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--fpu", type=int, nargs="*", default=[50, 200, 1000, 5000])
     parser.add_argument("--chain", type=int, nargs="*", default=[8, 16, 32, 64])
+    parser.add_argument("--accuracy", type=int, nargs="*", default=[200])
     parser.add_argument("--implicit", type=int, nargs="*", default=[50, 200, 1000])
     parser.add_argument("--kane-max", type=int, default=12)
     parser.add_argument("--limit", type=float, default=900, help="seconds allowed for one size")
@@ -305,6 +372,9 @@ def main() -> None:
     print(benchtools.machine_description())
     if arguments.fpu:
         report("fpu", arguments.fpu, [measure("fpu", n, False, arguments.limit) for n in arguments.fpu])
+    if arguments.accuracy:
+        report_accuracy(arguments.accuracy, [measure("accuracy", n, False, arguments.limit)
+                                             for n in arguments.accuracy])
     if arguments.implicit:
         report("implicit", arguments.implicit, [measure("implicit", n, False, arguments.limit)
                                                 for n in arguments.implicit])
