@@ -1,6 +1,6 @@
 """Large systems: how generation, compilation and integration grow with the number of coordinates.
 
-    python benchmarks/large_systems.py [--fpu 50 200 1000 5000] [--chain 8 16 32 64]
+    python benchmarks/large_systems.py [--fpu 50 200 1000 5000] [--accuracy 200] [--chain 8 16 32 64]
                                        [--implicit 50 200 1000] [--kane-max 12] [--limit 900]
 
 Two families, each size measured in its own process (so that peak memory is that size's own):
@@ -10,6 +10,9 @@ Two families, each size measured in its own process (so that peak memory is that
               soft quartic ones between them and to the walls): an identity, so diagonal, mass
               matrix. lagdsl's C backend against scipy's DOP853 on a vectorised NumPy right-hand
               side (a few array operations), 10 s of motion at rtol 1e-8, atol 1e-10.
+  accuracy    the FPU chain at equal accuracy: lagdsl's rkn8 (the Nystrom pair for q'' = a(q)),
+              lagdsl's dop853 and SciPy's DOP853, each at the loosest rtol whose largest error
+              of q[1] over the output grid is at most 1e-9 (against dop853 at rtol 1e-13).
   implicit    the FPU chain with radau5 (rtol 1e-6, atol 1e-8), whose Newton matrices are banded
               (radau5.c), against scipy's Radau given the sparsity of the Jacobian (jac_sparsity,
               so that it estimates J by grouped differences and factors it with sparse LU).

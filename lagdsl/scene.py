@@ -155,8 +155,12 @@ def _initial_state(model: ir.Model, parameters, initial: dict) -> tuple[float, .
         start, velocity = initial.get(c.name, (None, None))
         starts.append(start if start is not None else evaluated(c.start))
         velocities.append(velocity if velocity is not None else evaluated(c.velocity))
-        _require_finite(starts[-1], f"the start value of {c.name}")
-        _require_finite(velocities[-1], f"the start velocity of {c.name}")
+    # checked after the loop, and the message written only for a value that fails: a chain of
+    # thousands of masses is planned at every simulate()
+    for what, values in (("start value", starts), ("start velocity", velocities)):
+        for c, value in zip(model.coordinates, values):
+            if not math.isfinite(value):
+                _require_finite(value, f"the {what} of {c.name}")
     return tuple(starts + velocities)
 
 

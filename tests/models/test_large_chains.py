@@ -42,7 +42,7 @@ def test_fpu_chain_with_the_nystrom_pair(backend):
     """rkn8 integrates q'' = a(q) (the chain's M is constant, its forces read positions only) over
     the positions alone: the same trajectory to 1e-9 at the scene's rtol 1e-10, and the energy
     to the tolerance. (Its efficiency at equal accuracy: benchmarks/large_systems.py --accuracy.)"""
-    result = run("fpu_chain", "spread", stop=1.0, integrator="rkn8", backend=backend)
+    result = run("fpu_chain", "nystrom", stop=1.0, backend=backend)
     reference = fpu_reference(result.t)
     for column, k in (("q[1]", 0), ("q[2]", 1), ("q[3]", 2)):
         assert np.max(np.abs(result[column] - reference.y[k])) < 1e-9
@@ -52,7 +52,7 @@ def test_fpu_chain_with_the_nystrom_pair(backend):
 def test_the_nystrom_pair_is_the_same_on_both_backends():
     """The Python rkn8 mirrors rkn8.c operation for operation: the same steps, the same rows to
     round-off (the accelerations are evaluated in a different order by the two backends)."""
-    c, numpy = (run("fpu_chain", "spread", stop=1.0, integrator="rkn8", backend=b) for b in ("c", "numpy"))
+    c, numpy = (run("fpu_chain", "nystrom", stop=1.0, backend=b) for b in ("c", "numpy"))
     assert c.summary.counters == numpy.summary.counters
     assert np.max(np.abs(c.values - numpy.values)) < 1e-12
 
