@@ -79,6 +79,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
         "option_fields": _option_fields(kernel),
         "tolerances": "rtol" in _allowed_options(kernel),
         "stop_text": kernel.stop_text, "stop": None, "constant_mass": None,      # blocks a scene may not have (below)
+        **_gram_tables(kernel),
         **blocks,
     }
     context["driver"] = template_environment().get_template("c/driver.c.j2").render(context)
@@ -106,6 +107,25 @@ def _linear_algebra(kernel: Kernel) -> str:
     needs_cholesky = kernel.solver == "cholesky" and dense
     files = (("cholesky.c", needs_cholesky), ("lu.c", needs_lu), ("lu_condition.c", kernel.solver == "lu"))
     return "".join(c_file(name) + "\n" for name, needed in files if needed)
+
+
+def _gram_tables(kernel: Kernel) -> dict:
+    """The pattern of the constraints' Jacobian A, for the projection's G = A Aᵀ (driver.c.j2):
+    the columns where each row may be nonzero (row i's are a_columns[a_start[i] .. a_start[i + 1])),
+    and the pairs of rows (i >= j, by i) that share a column, the entries of G that are not zero."""
+    if kernel.constraint_rows is None:
+        return {}
+    columns = [[] for _ in kernel.constraints]
+    for store in kernel.constraint_rows.stores:
+        if store.array == "A" and store.value != 0:
+            columns[store.index[0]].append(store.index[1])
+    columns = [sorted(row) for row in columns]
+    starts = [0]
+    for row in columns:
+        starts.append(starts[-1] + len(row))
+    pairs = [f"{{ {i}, {j} }}" for i in range(len(columns)) for j in range(i + 1) if set(columns[i]) & set(columns[j])]
+    return {"a_start": starts, "a_columns": [k for row in columns for k in row], "gram_pair_count": len(pairs),
+            "gram_pair_lines": [", ".join(pairs[at:at + 8]) for at in range(0, len(pairs), 8)]}
 
 
 def stem(kernel: Kernel) -> str:

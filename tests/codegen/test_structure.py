@@ -71,6 +71,15 @@ def test_the_library_solves_a_chain_in_cartesian_coordinates_by_the_sparse_ldlt(
     assert "lag_lu_rcond" in lagdsl.load(MODELS / "andrews.lag").emit("c").text     # 13 unknowns: LU
 
 
+def test_the_projection_forms_only_the_nonzero_entries_of_its_gram_matrix():
+    """G = A Aᵀ of the projection onto the constraints: link i of a chain involves bobs i - 1 and
+    i, so A has 2 or 4 columns a row and G is tridiagonal: 8 + 7 of its 64 entries are formed."""
+    text = lagdsl.load(MODELS / "cartesian_chain.lag").emit("c").text
+    assert "static const int lag_a_start[LAG_NC + 1] = { 0, 2, 6, 10, 14, 18, 22, 26, 30 };" in text
+    assert "#define LAG_GRAM_PAIRS 15" in text
+    assert "{ 0, 0 }, { 1, 0 }, { 1, 1 }, { 2, 1 }" in text
+
+
 def random_matrix(layout_pattern: list[str], seed: int) -> np.ndarray:
     """A symmetric positive definite matrix with the given pattern (diagonally dominant)."""
     generator = np.random.default_rng(seed)

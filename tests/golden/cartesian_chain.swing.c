@@ -1707,6 +1707,36 @@ typedef struct lag_report {
 /* Receives each output row (t and the LAG_NOUT columns); returns nonzero to stop. */
 typedef int (*lag_sink)(void *context, real t, const real *out);
 
+/* The pattern of A, the constraints' Jacobian: row i may be nonzero in the columns
+ * lag_a_columns[lag_a_start[i] .. lag_a_start[i + 1]), and the pairs of rows (i >= j) that share
+ * a column are the entries of G = A A^T that are not zero (a chain's G is tridiagonal). */
+static const int lag_a_start[LAG_NC + 1] = { 0, 2, 6, 10, 14, 18, 22, 26, 30 };
+static const int lag_a_columns[] = { 0, 8, 0, 1, 8, 9, 1, 2, 9, 10, 2, 3, 10, 11, 3, 4, 11, 12, 4, 5, 12, 13, 5, 6, 13, 14, 6, 7, 14, 15 };
+#define LAG_GRAM_PAIRS 15
+static const int lag_gram_pairs[LAG_GRAM_PAIRS][2] = {
+    { 0, 0 }, { 1, 0 }, { 1, 1 }, { 2, 1 }, { 2, 2 }, { 3, 2 }, { 3, 3 }, { 4, 3 },
+    { 4, 4 }, { 5, 4 }, { 5, 5 }, { 6, 5 }, { 6, 6 }, { 7, 6 }, { 7, 7 }
+};
+
+/* G = A A^T for the first `rows` rows of A (LAG_NQ columns, row-major), and x = the right-hand
+ * side r: only the entries above, each a sum over row i's columns, which leaves out only terms
+ * that are exactly 0 (the sums are those of the dense product, bit for bit): O(pairs k) for k
+ * columns a row, where the dense product costs O(rows^2 LAG_NQ). */
+static void lag_gram(int rows, const real *A, const real *r, real *G, real *x)
+{
+    int p, i, k;
+    memset(G, 0, sizeof(real) * rows * rows);
+    for (p = 0; p < LAG_GRAM_PAIRS && lag_gram_pairs[p][0] < rows; ++p) {
+        const real *row = A + lag_gram_pairs[p][0] * LAG_NQ, *other = A + lag_gram_pairs[p][1] * LAG_NQ;
+        real s = 0;
+        for (k = lag_a_start[lag_gram_pairs[p][0]]; k < lag_a_start[lag_gram_pairs[p][0] + 1]; ++k)
+            s += row[lag_a_columns[k]] * other[lag_a_columns[k]];
+        G[lag_gram_pairs[p][0] * rows + lag_gram_pairs[p][1]] = G[lag_gram_pairs[p][1] * rows + lag_gram_pairs[p][0]] = s;
+    }
+    for (i = 0; i < rows; ++i)
+        x[i] = r[i];
+}
+
 /* Project y onto the constraint manifold: positions by Gauss-Newton on g(q, t) = 0
  * (q <- q - A_h^T (A_h A_h^T)^-1 g), then velocities onto A q' + b = 0
  * (q' <- q' - A^T (A A^T)^-1 c). Hairer, Lubich, Wanner, GNI, IV.4. Returns the size of the move. */
@@ -1714,21 +1744,13 @@ static int lag_project(const lag_system *sys, real t, real *y, real *moved)
 {
     real c[LAG_NC], A[LAG_NC * LAG_NQ], G[LAG_NC * LAG_NC], x[LAG_NC];
     int pivots[LAG_NC];
-    int i, j, k, iteration;
+    int i, k, iteration;
     real g[LAG_NH];
     *moved = 0;
     for (iteration = 0;; ++iteration) {
         real step = 0, size = 0;
         lag_constraint_rows(sys->par, t, y, g, c, A);
-        for (i = 0; i < LAG_NH; ++i) {
-            for (j = 0; j < LAG_NH; ++j) {
-                real s = 0;
-                for (k = 0; k < LAG_NQ; ++k)
-                    s += A[i * LAG_NQ + k] * A[j * LAG_NQ + k];
-                G[i * LAG_NH + j] = s;
-            }
-            x[i] = g[i];
-        }
+        lag_gram(LAG_NH, A, g, G, x);
         if (lag_lu_factor(LAG_NH, G, pivots) != 0)
             return LAG_ERR_PROJECTION;
         lag_lu_solve(LAG_NH, G, pivots, x);
@@ -1747,15 +1769,7 @@ static int lag_project(const lag_system *sys, real t, real *y, real *moved)
             return LAG_ERR_PROJECTION;
     }
     lag_constraint_rows(sys->par, t, y, g, c, A);
-    for (i = 0; i < LAG_NC; ++i) {
-        for (j = 0; j < LAG_NC; ++j) {
-            real s = 0;
-            for (k = 0; k < LAG_NQ; ++k)
-                s += A[i * LAG_NQ + k] * A[j * LAG_NQ + k];
-            G[i * LAG_NC + j] = s;
-        }
-        x[i] = c[i];
-    }
+    lag_gram(LAG_NC, A, c, G, x);
     if (lag_lu_factor(LAG_NC, G, pivots) != 0)
         return LAG_ERR_PROJECTION;
     lag_lu_solve(LAG_NC, G, pivots, x);
