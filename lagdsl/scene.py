@@ -75,7 +75,7 @@ def plan_scene(model: ir.Model, equations: Equations, scene_name: str | None = N
 
 def _check_velocity_free(equations: Equations, integrator: ir.IntegratorChoice) -> None:
     """rkn8 integrates q'' = a(t, q): refuse a model whose M or f reads a velocity."""
-    velocity = equations.velocity_in_accelerations()
+    velocity = equations.velocity_in_accelerations
     if velocity:
         raise LagError(f"the Nystrom integrator rkn8 needs accelerations that do not depend on the velocities, "
                        f"and {velocity} appears in this model's equations of motion (through a mass matrix "

@@ -24,6 +24,7 @@ the textbook formula are never generated, which keeps the kernels as small as Ka
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import sympy
 
@@ -87,8 +88,10 @@ class Equations:
         """A differentiator over these equations' intermediates, for later passes."""
         return Differentiator(self.intermediates, (*self.coordinates, *self.velocities, ir.TIME))
 
+    @cached_property
     def velocity_in_accelerations(self) -> str:
-        """The first velocity, as der(q), that M or f depends on ("" if none: q'' = a(t, q))."""
+        """The first velocity, as der(q), that M or f depends on ("" if none: q'' = a(t, q)).
+        Planning a scene asks at every simulate(); the answer is the model's."""
         calculus = self.calculus()
         entries = (*self.forcing, *(entry for row in self.mass_matrix for entry in row))
         read = set().union(*(calculus.dependencies(entry) for entry in entries))

@@ -125,6 +125,7 @@ class LocalEquations:
     def size(self) -> int:
         return len(self.coordinates)
 
+    @cached_property
     def velocity_in_accelerations(self) -> str:
         """The first velocity, as der(q) of its first member, that a stencil's M or f reads ("" if
         none: q'' = a(t, q))."""

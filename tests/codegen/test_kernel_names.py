@@ -45,7 +45,7 @@ def kernels(text: str, integrators=ir.INTEGRATORS) -> dict[str, Kernel]:
     for integrator in integrators:
         if integrator == "gauss" and equations.active_constraints:
             continue
-        if integrator == "rkn8" and (equations.active_constraints or equations.velocity_in_accelerations()):
+        if integrator == "rkn8" and (equations.active_constraints or equations.velocity_in_accelerations):
             continue
         options = (("step", 0.01),) if integrator in ("rk4", "gauss") else ()
         plan = plan_scene(model, equations, None, Overrides(integrator=integrator, options=options))

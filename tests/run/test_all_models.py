@@ -76,7 +76,7 @@ def refuses(integrator: str, model: str) -> bool:
     if integrator == "gauss":
         return model in REFUSES_GAUSS
     if integrator == "rkn8":
-        return model in CONSTRAINED or bool(load(model).equations.velocity_in_accelerations())
+        return model in CONSTRAINED or bool(load(model).equations.velocity_in_accelerations)
     return False
 
 
