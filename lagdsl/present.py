@@ -57,6 +57,8 @@ def describe_model(model: ir.Model, equations: Equations) -> str:
     lines.append("conserved quantities:" + ("" if equations.conserved else " none found"))
     for q in equations.conserved:
         lines.append(f"  {q.name}: {q.reason}")
+    if not equations.active_constraints and not equations.velocity_in_accelerations:
+        lines.append("accelerations: independent of the velocities, q'' = a(t, q): the Nystrom integrator rkn8 applies")
     lines.append("scenes:" + ("" if model.scenes else " none (lagc run uses the default set-up)"))
     for s in model.scenes:
         options = ", ".join(f"{k} = {format_number(v)}" for k, v in s.integrator.options)

@@ -32,6 +32,14 @@ def test_check_reports_the_double_pendulum():
     assert "chaos" in done.stdout
 
 
+def test_check_says_where_the_nystrom_integrator_applies():
+    """rkn8 needs q'' = a(t, q): the Pleiades (Cartesian bodies) qualify, the double pendulum
+    (M depends on the angles, so f holds the velocities squared) does not."""
+    line = "accelerations: independent of the velocities, q'' = a(t, q): the Nystrom integrator rkn8 applies"
+    assert line in lagc("check", MODELS / "pleiades.lag").stdout
+    assert "accelerations:" not in lagc("check", MODELS / "double_pendulum.lag").stdout
+
+
 def test_eom_prints_text_and_latex():
     text = lagc("eom", MODELS / "double_pendulum.lag")
     assert text.returncode == 0
