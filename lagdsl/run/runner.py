@@ -244,27 +244,37 @@ class CtrlC:
     collector frees just then) Python prints "Exception ignored" and drops it: the press is lost
     and the run goes on. Within this context, in the main thread and if SIGINT has Python's
     default handler, a press first calls `on_press` and sets `pressed`, which the run's loops
-    test between steps (`check`), and then raises as usual.
+    test between steps (`check`), and then raises as usual. A context within another (a run of
+    a NumPy sweep) leaves the handler to the outer one, which presses for every open context.
     """
+
+    _innermost: CtrlC | None = None      # the context of the main thread that is open now
 
     def __init__(self, on_press: Callable[[], None] = lambda: None):
         self.pressed = False
         self._on_press = on_press
         self._previous = None
+        self._outer: CtrlC | None = None
 
     def __enter__(self) -> CtrlC:
-        if (threading.current_thread() is threading.main_thread()
-                and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
-            self._previous = signal.signal(signal.SIGINT, self._handle)
+        if threading.current_thread() is threading.main_thread():
+            self._outer, CtrlC._innermost = CtrlC._innermost, self
+            if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+                self._previous = signal.signal(signal.SIGINT, self._handle)
         return self
 
     def __exit__(self, *exception) -> None:
         if self._previous is not None:
             signal.signal(signal.SIGINT, self._previous)
+        if CtrlC._innermost is self:
+            CtrlC._innermost = self._outer
 
     def _handle(self, signal_number, frame) -> None:
-        self.pressed = True
-        self._on_press()
+        context = CtrlC._innermost
+        while context is not None:
+            context.pressed = True
+            context._on_press()
+            context = context._outer
         raise KeyboardInterrupt
 
     def check(self) -> None:

@@ -28,7 +28,8 @@ from ..integrators import COUNTERS, summary_extras
 from ..scene import RUN_OPTIONS, Overrides, ScenePlan
 from .cache import cached_entry
 from .output import SETTINGS_ORDER
-from .runner import INTERRUPTED, SCIPY_METHODS, SCIPY_RTOL_FLOOR, STATUS, _interruptible, load, output_times, run_numpy
+from .runner import (INTERRUPTED, SCIPY_METHODS, SCIPY_RTOL_FLOOR, STATUS, CtrlC, _interruptible, load, output_times,
+                     run_numpy)
 
 CHUNKS_PER_THREAD = 4        # Dask: chunks per worker thread, so that a lost worker costs little
 NUMPY_CHUNK = 256            # NumPy: members integrated as one stacked system
@@ -436,18 +437,33 @@ def run_numpy_batch(module, kernel, source, members: Members, on_progress: Calla
     # (a stop condition ends each member at its own time: members run one at a time then)
     stacked = plan.integrator.name in ("dopri5", "dop853") and not plan.constraints and plan.stop is None
     size = NUMPY_CHUNK if stacked else 1
-    for lo in range(0, count, size):
-        hi = min(lo + size, count)
-        if not (stacked and _stacked_chunk(module, members, lo, hi, values, summaries)):
-            for b in range(lo, hi):
-                _single_member(module, kernel, source, members, b, values, summaries)
-        if on_progress is not None:
-            on_progress(hi)
+    interrupted = False
+    with CtrlC() as ctrl_c:
+        try:
+            for lo in range(0, count, size):
+                hi = min(lo + size, count)
+                if not (stacked and _stacked_chunk(module, members, lo, hi, values, summaries, ctrl_c)):
+                    for b in range(lo, hi):
+                        if not ctrl_c.pressed:
+                            _single_member(module, kernel, source, members, b, values, summaries)
+                if ctrl_c.pressed:
+                    break
+                if on_progress is not None:
+                    on_progress(hi)
+        except KeyboardInterrupt:
+            interrupted = True
+    if interrupted or ctrl_c.pressed:
+        # Ctrl-C stops the sweep, as in C: the member it stopped keeps its rows and is marked
+        # interrupted (by run_numpy or the stacked chunk), and so are the members not begun
+        summaries[(summaries[:, 0] == 0) & (summaries[:, 1] == 0), 0] = INTERRUPTED
     return values, summaries, counters
 
 
-def _stacked_chunk(module, members: Members, lo: int, hi: int, values: np.ndarray, summaries: np.ndarray) -> bool:
-    """Integrate members lo..hi-1 as one system; False (nothing written) if it fails anywhere."""
+def _stacked_chunk(module, members: Members, lo: int, hi: int, values: np.ndarray, summaries: np.ndarray,
+                   ctrl_c: CtrlC) -> bool:
+    """Integrate members lo..hi-1 as one system; False (nothing written) if it fails anywhere.
+    After Ctrl-C the rows reached are written, the members marked interrupted, and
+    KeyboardInterrupt raised again."""
     from scipy import integrate
     plan = members.plan
     times = output_times(plan)
@@ -461,10 +477,11 @@ def _stacked_chunk(module, members: Members, lo: int, hi: int, values: np.ndarra
     extra = {"max_step": options["max_step"]} if options.get("max_step") else {}
     method = getattr(integrate, SCIPY_METHODS[plan.integrator.name])
 
+    @ctrl_c.checked
     def fun(t, y):
         return module.rhs(t, y.reshape(n, count), par).reshape(-1)
 
-    states, steps = [y0.reshape(-1)], 0
+    states, steps, solver, interrupted = [y0.reshape(-1)], 0, None, False
     with np.errstate(all="ignore"):
         try:
             solver = method(fun, times[0], y0.reshape(-1), times[-1], rtol=rtol, atol=atol, **extra)
@@ -476,15 +493,25 @@ def _stacked_chunk(module, members: Members, lo: int, hi: int, values: np.ndarra
                 dense = solver.dense_output()
                 states += [solver.y.copy() if t == solver.t else dense(t)
                            for t in times[len(states):] if t <= solver.t]
-            grid = np.array(states).reshape(len(times), n, count)
-            observed = [module.observables(times, grid[:, :, j].T, members.parameters[lo + j])[0]
+        except (np.linalg.LinAlgError, ValueError, ArithmeticError):
+            return False
+        except KeyboardInterrupt:
+            interrupted = True
+        rows = len(states)
+        grid = np.array(states).reshape(rows, n, count)
+        try:
+            observed = [module.observables(times[:rows], grid[:, :, j].T, members.parameters[lo + j])[0]
                         for j in range(count)]
         except (np.linalg.LinAlgError, ValueError, ArithmeticError):
             return False
-    values[lo:hi] = np.transpose(np.array(observed), (0, 2, 1))
-    summaries[lo:hi, 1] = len(times)
+    values[lo:hi, :rows] = np.transpose(np.array(observed), (0, 2, 1))
+    summaries[lo:hi, 1] = rows
     summaries[lo:hi, 6] = steps
-    summaries[lo:hi, 7] = solver.nfev
+    summaries[lo:hi, 7] = solver.nfev if solver is not None else 0
+    if interrupted:
+        summaries[lo:hi, 0] = INTERRUPTED
+        summaries[lo:hi, 2] = solver.t if solver is not None else times[0]
+        raise KeyboardInterrupt
     return True
 
 

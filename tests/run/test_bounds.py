@@ -291,3 +291,27 @@ def test_a_ctrl_c_python_drops_in_a_finaliser_still_stops_the_run(oscillator, ba
     with pytest.raises(SimulationInterrupted):
         oscillator.simulate_plan(None, backend, long_run, progress)
     assert dropped == [KeyboardInterrupt]
+
+
+@pytest.mark.parametrize("integrator", ["dop853", "rk4"])
+def test_ctrl_c_stops_a_numpy_sweep_and_keeps_the_rows_reached(oscillator, integrator):
+    """dop853: the three members run as one stacked system, which stops with the rows it reached;
+    rk4: the members run one after another, and those not begun are marked as interrupted too.
+    Ctrl-C comes half a second in; the sweep raises SimulationInterrupted with itself as
+    `.partial`."""
+    options = {"rtol": 1e-13} if integrator == "dop853" else {"step": 1e-3}
+    timer = threading.Timer(0.5, _thread.interrupt_main)
+    timer.start()
+    try:
+        with pytest.raises(SimulationInterrupted) as stopped:
+            oscillator.sweep(backend="numpy", set={"k": [1.0, 1.0, 1.0]}, stop=1e5, interval=10.0,
+                             integrator=integrator, max_steps=10**9, **options)
+    finally:
+        timer.cancel()
+    sweep = stopped.value.partial
+    assert list(sweep.status) == ["interrupted"] * 3
+    begun = sweep.rows > 0
+    assert begun[0] and 1 < sweep.rows[0] < len(sweep.t)
+    assert list(begun) == ([True] * 3 if integrator == "dop853" else [True, False, False])
+    reached = sweep.rows[0]
+    assert np.allclose(sweep["x"][0, :reached], np.cos(sweep.t[:reached]), atol=1e-6)
