@@ -38,6 +38,9 @@ NOISE = 65536
 # The C status codes (runtime.h) a failure corresponds to.
 SINGULAR, NONFINITE, STEP_TOO_SMALL, NO_CONVERGENCE, INTERRUPTED = 1, 2, 3, 5, 7
 
+# What a step of the Python integrators may raise that ends the run (_Output.failure_of).
+STEP_ERRORS = (np.linalg.LinAlgError, ArithmeticError, KeyboardInterrupt)
+
 STATS_KEYS = ("accepted", "rejected", "rhs_evals", "jac_evals", "lu_decomps", "newton_iters")
 
 
@@ -96,6 +99,15 @@ class _Output:
     def failure(self, message, t, y, status=NONFINITE):
         return IntegrationFailure(message, t, y, self.Y[:self.completed].copy(), self.completed, status)
 
+    def failure_of(self, error: BaseException, method: str, t, y):
+        """The failure of an exception raised in `method`'s step from t (one of STEP_ERRORS):
+        a singular mass matrix, an overflow (numpy set to raise), or Ctrl-C."""
+        if isinstance(error, np.linalg.LinAlgError):
+            return self.failure(f"{method}: the mass matrix is singular in the step from t = {t}", t, y, SINGULAR)
+        if isinstance(error, KeyboardInterrupt):
+            return self.failure(f"{method}: interrupted", t, y, INTERRUPTED)
+        return self.failure(f"{method}: the state became infinite or NaN in the step from t = {t}", t, y)
+
 
 def _steps(output, step):
     """(last, t_new) of each step to the last output time, the times from t0 rather than by
@@ -129,12 +141,8 @@ def integrate_rk4(rhs, t_grid, y0, step, stop=None):
             output.deliver(t_new, y_new, lambda s: _hermite(t, y, f, t_new, y_new, f_new, s))
             t, y, f = t_new, y_new, f_new
             stats["accepted"] += 1
-    except np.linalg.LinAlgError:
-        raise output.failure(f"rk4: the mass matrix is singular in the step from t = {t}", t, y, SINGULAR) from None
-    except ArithmeticError:
-        raise output.failure(f"rk4: the state became infinite or NaN in the step from t = {t}", t, y) from None
-    except KeyboardInterrupt:
-        raise output.failure("rk4: interrupted", t, y, INTERRUPTED) from None
+    except STEP_ERRORS as error:
+        raise output.failure_of(error, "rk4", t, y) from None
     return output.Y[:output.completed], stats
 
 
@@ -185,12 +193,8 @@ def integrate_gauss(hamilton_rhs, to_canonical, from_canonical, t_grid, y0, step
             z_new, error, y_new = _gauss_step(method, output, from_canonical, as_given, t, z, error, y, t_new,
                                               t_grid[-1] - t if last else step)
             t, z, y = t_new, z_new, y_new
-    except np.linalg.LinAlgError:
-        raise output.failure(f"gauss: the mass matrix is singular in the step from t = {t}", t, y, SINGULAR) from None
-    except ArithmeticError:
-        raise output.failure(f"gauss: the state became infinite or NaN in the step from t = {t}", t, y) from None
-    except KeyboardInterrupt:
-        raise output.failure("gauss: interrupted", t, y, INTERRUPTED) from None
+    except STEP_ERRORS as error:
+        raise output.failure_of(error, "gauss", t, y) from None
     return output.Y[:output.completed], method.stats
 
 

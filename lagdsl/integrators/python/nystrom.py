@@ -52,7 +52,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from .fixed_step import (INTERRUPTED, NONFINITE, SINGULAR, STATS_KEYS, STEP_TOO_SMALL, IntegrationFailure,
+from .fixed_step import (NONFINITE, SINGULAR, STATS_KEYS, STEP_ERRORS, STEP_TOO_SMALL, IntegrationFailure,
                          _Output)
 
 __all__ = ["MAX_STEPS", "RKN8", "IntegrationFailure", "integrate_rkn8"]
@@ -368,10 +368,6 @@ def integrate_rkn8(accelerations, rhs, t_grid, y0, rtol, atol, max_step=0, max_s
     except _StageFailure as failure:
         what = "the mass matrix is singular" if failure.status == SINGULAR else "the state became infinite or NaN"
         raise output.failure(f"rkn8: {what} at t = {t}", t, y, failure.status) from None
-    except np.linalg.LinAlgError:
-        raise output.failure(f"rkn8: the mass matrix is singular in the step from t = {t}", t, y, SINGULAR) from None
-    except ArithmeticError:
-        raise output.failure(f"rkn8: the state became infinite or NaN in the step from t = {t}", t, y) from None
-    except KeyboardInterrupt:
-        raise output.failure("rkn8: interrupted", t, y, INTERRUPTED) from None
+    except STEP_ERRORS as error:
+        raise output.failure_of(error, "rkn8", t, y) from None
     return output.Y[:output.completed], stats
