@@ -17,7 +17,7 @@ from .pipeline import compile_model, execute, generate, plan
 from .run import plans
 from .run.output import Result
 from .run import sweep as batch
-from .run.runner import load as load_program
+from .run.loading import load as load_program
 from .scene import (RUN_OPTIONS, Overrides, ScenePlan, check_step_count, given_options, parameters_in_expressions,
                     scene_defaults)
 from .source import SourceFile

@@ -22,16 +22,16 @@ import numpy as np
 from . import ir
 from .errors import LagError, SimulationError
 from .escape import csv_field
+from .integrators import registry
 from .pipeline import execute, generate
 from .reference import Reference, atol_ratio, reference_solution
-from .run.runner import load as load_program
-from .run.runner import output_times
+from .run.loading import load as load_program
+from .run.output import output_times
 from .scene import ScenePlan
-from .settings import Overrides
+from .settings import Overrides, check_integrator_name
 
 ADAPTIVE_RTOLS = tuple(10.0 ** -k for k in range(3, 14))
 STEP_FACTORS = tuple(2.0 ** j for j in range(2, -7, -1))     # steps of 4 .. 1/64 output intervals
-FIXED_STEP = ("rk4", "gauss")
 MIN_TIMED = 0.05            # seconds: runs shorter than this are repeated (up to MAX_RUNS) for a stable best time
 MAX_RUNS = 50
 LADDER_TIME_LIMIT = 20.0     # seconds: a setting slower than this ends its ladder (tighter ones are slower still)
@@ -111,7 +111,7 @@ class BenchReport:
 
     def sorted_rows(self) -> list[BenchRow]:
         """By method (lagdsl's integrators first, then the peers), then by time."""
-        return sorted(self.rows, key=lambda r: (r.setting.integrator not in ir.INTEGRATORS, r.setting.integrator,
+        return sorted(self.rows, key=lambda r: (not registry.known(r.setting.integrator), r.setting.integrator,
                                                 r.setting.backend, math.inf if r.seconds is None else r.seconds))
 
     def records(self) -> list[dict]:
@@ -171,7 +171,7 @@ def step_ladder(integrator: str, backend: str, plan: ScenePlan) -> list[Setting]
 
 
 def ladder(integrator: str, backend: str, plan: ScenePlan) -> list[Setting]:
-    if integrator in FIXED_STEP:
+    if registry.get(integrator).fixed_step:
         return step_ladder(integrator, backend, plan)
     return adaptive_ladder(integrator, backend, atol_ratio(plan))
 
@@ -240,14 +240,13 @@ def run_bench(model, scene: str | None = None, overrides: Overrides = Overrides(
 def _admitted(model, scene, base: Overrides, interval: float, integrators, backends) -> tuple[list[tuple[str, str]], list[str]]:
     """The (integrator, backend) pairs asked for (default: every integrator) that the scene admits,
     and a note for each it does not (gauss with constraints, auto on NumPy with constraints)."""
-    names = integrators or ir.INTEGRATORS
-    unknown = [name for name in names if name not in ir.INTEGRATORS]
-    if unknown:
-        raise LagError(f"unknown integrator '{unknown[0]}' (available: {', '.join(ir.INTEGRATORS)})")
+    names = integrators or registry.names()
+    for name in names:
+        check_integrator_name(name, None)
     chosen, notes = [], []
     for backend in backends:
         for name in names:
-            step = (("step", interval),) if name in FIXED_STEP else ()
+            step = (("step", interval),) if registry.get(name).fixed_step else ()
             reason = _refusal(model, scene, replace(base, integrator=name, options=step), backend)
             if reason is None:
                 chosen.append((name, backend))
@@ -264,9 +263,7 @@ def _refusal(model, scene, overrides: Overrides, backend: str) -> str | None:
         plan = model.plan(scene, overrides)
     except LagError as error:
         return error.diagnostics[0].message
-    if backend == "numpy" and plan.integrator.name == "auto" and plan.constraints:
-        return "auto on the NumPy backend (scipy's LSODA) does not handle constraints"
-    return None
+    return registry.get(plan.integrator.name).refusal(backend, bool(plan.constraints))
 
 
 def _advance(progress) -> None:

@@ -19,11 +19,13 @@ import warnings
 
 
 from . import __version__
-from .errors import LagError, LagWarning, Setting, SimulationError, SimulationInterrupted, suggest
+from .errors import LagError, LagWarning, Setting, SimulationError, SimulationInterrupted
 from .escape import visible
+from .integrators import registry
+from .integrators.registry import OPTION_ORDER, OPTIONS
 from .run import cache
 from .run.output import check_writable, write_output
-from .settings import INTEGRATORS, Overrides, given_options
+from .settings import Overrides, check_integrator_name, given_options
 from .source import SourceFile
 
 
@@ -148,14 +150,13 @@ def _run_options(parser: argparse.ArgumentParser) -> None:
     """What `lagc run` and `lagc sweep` take: the backend, the inputs and the integrator's options."""
     parser.add_argument("--backend", choices=("c", "numpy"), default="c", help="generated code to run (default: c)")
     _input_options(parser)
-    parser.add_argument("--integrator", help="rk4, dopri5, dop853, rkn8, radau5, gauss or auto")
-    parser.add_argument("--rtol", type=float, help="relative tolerance (adaptive integrators)")
-    parser.add_argument("--atol", type=float, help="absolute tolerance (adaptive integrators)")
-    parser.add_argument("--step", type=float, help="step size (rk4, gauss)")
-    parser.add_argument("--stages", type=int, help="number of stages (gauss)")
-    parser.add_argument("--max-step", type=float, help="largest step (dopri5, dop853, rkn8, radau5)")
-    parser.add_argument("--max-steps", type=int, help="step limit, accepted + rejected "
-                        "(default: 100000, or 100 per output row if that is more)")
+    methods = "; ".join(f"{record.name}: {record.description}" for record in map(registry.get, registry.names()))
+    parser.add_argument("--integrator", metavar="NAME", help=f"the integration method ({methods})")
+    for name in OPTION_ORDER:
+        option = OPTIONS[name]
+        users = ", ".join(record for record in registry.names() if name in registry.get(record).options)
+        parser.add_argument("--" + name.replace("_", "-"), type=int if option.c_cast else float,
+                            help=f"{option.meaning}: {option.requirement} ({users})")
 
 
 def _scene_options(parser: argparse.ArgumentParser) -> None:
@@ -380,9 +381,7 @@ def _integrator_list(text: str | None) -> tuple[str, ...] | None:
         return None
     names = tuple(name.strip() for name in text.split(",") if name.strip())
     for name in names:
-        if name not in INTEGRATORS:
-            _refuse("--integrators", f"unknown integrator '{name}'{suggest(name, INTEGRATORS)} "
-                    f"(available: {', '.join(INTEGRATORS)})")
+        check_integrator_name(name, Setting("--integrators"))
     return names or _refuse("--integrators", "expected a comma-separated list of integrators")
 
 

@@ -93,12 +93,13 @@ class ErrorCollector:
 
 
 class SimulationError(Exception):
-    """The integration failed; `partial` holds what was computed before the failure."""
+    """The integration failed; `partial` holds what was computed before the failure, `status`
+    the run's status code (run/status.py), 0 where no run ended with one."""
 
     def __init__(self, message: str, time: float, state: dict[str, float], remedy: str,
-                 partial: Any = None):
+                 partial: Any = None, status: int = 0):
         self.message, self.time, self.state, self.remedy = message, time, state, remedy
-        self.partial = partial
+        self.partial, self.status = partial, status
         super().__init__(self.render())
 
     def render(self) -> str:

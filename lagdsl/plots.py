@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from .ir import INTEGRATORS
+from .integrators import registry
 
 
 def _pyplot():
@@ -38,7 +38,7 @@ def work_precision_png(report) -> bytes:
             lines.setdefault(row.setting.method, []).append(row)
     colors = _method_colors(sorted(lines))
     for method, rows in sorted(lines.items()):
-        peer = rows[0].setting.integrator not in INTEGRATORS
+        peer = not registry.known(rows[0].setting.integrator)
         diagram.loglog([r.seconds for r in rows], [r.error for r in rows], marker="o" if not peer else "s",
                        linestyle="--" if peer else "-", markersize=4, label=method, color=colors[method])
     diagram.axhline(report.reference.accuracy, color="grey", linestyle=":", linewidth=1,

@@ -113,7 +113,7 @@ def oscillator(tmp_path):
     (["--stop", "inf"], "error: the stop time must be a finite number, not inf"),
     (["--set", "k=nan"], "error: cannot set 'k' to nan: values must be finite numbers"),
     (["--interval", "1e-300"], "would have 1e+300 rows, more than the limit of 1e+07; choose a larger --interval"),
-    (["--max-step", "-1"], "lagc: error: --max-step: dop853(max_step = ...) must be a positive finite number"),
+    (["--max-step", "-1"], "lagc: error: --max-step: dop853(max_step = ...) must be a finite number > 0"),
     (["--atol", "nan"], "lagc: error: --atol: dop853(atol = ...) must be a finite number >= 0"),
 ])
 def test_run_refuses_bad_inputs(oscillator, arguments, words):

@@ -3,9 +3,8 @@ from __future__ import annotations
 
 from .. import __version__
 from ..escape import c_comment, csv_field
-from ..integrators import (COMPOSITES, COUNTER_LABELS, COUNTERS, STIFFNESS_TESTED, c_file, integrator_source,
-                           summary_extras)
-from ..settings import INTEGRATOR_OPTIONS
+from ..integrators import COUNTER_LABELS, c_file, integrator_source, registry, summary_extras
+from ..integrators.registry import OPTION_ORDER, OPTIONS
 from . import GeneratedSource, template_environment
 from .c_factor import factorisation_text
 from .kernel import Block, Kernel, Loop, Store
@@ -24,33 +23,19 @@ FUNCTION_PARAMETERS = {
     "outputs": ("par", "t", "y", "out", "inv"),
     "stop": ("par", "t", "y", "ev"),
 }
-# Command-line names of the integrator options, and the lag_options field each sets.
-OPTION_FIELDS = {"rtol": "rtol", "atol": "atol", "step": "step", "max_step": "max_step", "stages": "stages",
-                 "max_steps": "max_steps"}
-# What the standalone program accepts for each option (the checks of validate_integrator):
-# a C condition on the parsed `value`, the requirement in words, and the cast to the field's type.
-OPTION_CHECKS = {
-    "rtol": ("r_isfinite(value) && value >= 0", "a finite number >= 0", ""),
-    "atol": ("r_isfinite(value) && value >= 0", "a finite number >= 0", ""),
-    "step": ("r_isfinite(value) && value > 0", "a finite number > 0", ""),
-    "max_step": ("r_isfinite(value) && value > 0", "a finite number > 0", ""),
-    "stages": ("value >= 1 && value <= 6 && value == r_floor(value)", "a whole number from 1 to 6", "(int)"),
-    "max_steps": ("value >= 1 && value <= LAG_LIT(1e15) && value == r_floor(value)",
-                  "a whole number from 1 to 1e15", "(long)"),
-}
-
-
 def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
     printer = CPrinter()
     blocks = {name: _print_block(getattr(kernel, name), signature(kernel, name), kernel, printer)
               for name in FUNCTION_PARAMETERS if getattr(kernel, name) is not None}
     options = dict(kernel.integrator.options)
+    method = registry.get(kernel.integrator.name)
+    counters = method.counters
     context = {
         "title": f"{kernel.model_name}, scene {kernel.scene_name}: generated C simulation",
         "version": __version__, "source_name": source_name, "scene": kernel.scene_name,
         "stem": stem(kernel), "model": kernel.model_name, "integrator": kernel.integrator.name,
         "parameter_list": ", ".join(name for name, _ in kernel.parameters) or "none",
-        "option_list": ", ".join(k for k in OPTION_FIELDS if k in _allowed_options(kernel)),
+        "option_list": ", ".join(k for k in OPTION_ORDER if k in method.options),
         "runtime": c_file("runtime.h"), "linalg": _linear_algebra(kernel),
         "n": kernel.n, "size": kernel.size, "parameters": kernel.parameters,
         "columns": kernel.columns, "constraints": kernel.constraints, "holonomic": kernel.holonomic,
@@ -67,17 +52,17 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
         "canonical": kernel.momenta is not None,
         "outputs_need_multipliers": kernel.outputs_need_multipliers,
         "integrator_source": integrator_source(kernel.integrator.name),
-        "switching": kernel.integrator.name in COMPOSITES,
-        "stiffness_test": kernel.integrator.name in STIFFNESS_TESTED,
-        "summary_fixed": 6 + len(COUNTERS[kernel.integrator.name]) + summary_extras(kernel.integrator.name),
-        "counters": COUNTERS[kernel.integrator.name],
-        "counter_format": ", ".join(f"%ld {COUNTER_LABELS[c]}" for c in COUNTERS[kernel.integrator.name]),
-        "counter_fields": ", ".join(f"report.stats.{c}" for c in COUNTERS[kernel.integrator.name]),
+        "switching": bool(method.parts),
+        "stiffness_test": method.stiffness_test,
+        "summary_fixed": 6 + len(counters) + summary_extras(method.name),
+        "counters": counters,
+        "counter_format": ", ".join(f"%ld {COUNTER_LABELS[c]}" for c in counters),
+        "counter_fields": ", ".join(f"report.stats.{c}" for c in counters),
         "t_start": _literal(kernel.time.start), "t_stop": _literal(kernel.time.stop),
         "t_interval": _literal(kernel.time.interval),
         "options_init": _options_initializer(options),
-        "option_fields": _option_fields(kernel),
-        "tolerances": "rtol" in _allowed_options(kernel),
+        "option_fields": _option_fields(method.options),
+        "tolerances": "rtol" in method.options,
         "stop_text": kernel.stop_text, "stop": None, "constant_mass": None,      # blocks a scene may not have (below)
         **_gram_tables(kernel),
         **blocks,
@@ -132,18 +117,11 @@ def stem(kernel: Kernel) -> str:
     return f"{kernel.model_name}_{kernel.scene_name}"
 
 
-def _allowed_options(kernel: Kernel) -> tuple[str, ...]:
-    return INTEGRATOR_OPTIONS[kernel.integrator.name]
-
-
-def _option_fields(kernel: Kernel) -> list[dict[str, str]]:
-    """The options the standalone program accepts, with their checks."""
-    fields = []
-    for key, field in OPTION_FIELDS.items():
-        if key in _allowed_options(kernel):
-            check, requirement, cast = OPTION_CHECKS[key]
-            fields.append({"key": key, "field": field, "check": check, "requirement": requirement, "cast": cast})
-    return fields
+def _option_fields(allowed: tuple[str, ...]) -> list[dict[str, str]]:
+    """The options the standalone program accepts (each sets the lag_options field of its name),
+    with their checks."""
+    return [{"key": key, "field": key, "check": OPTIONS[key].c_accepts, "requirement": OPTIONS[key].requirement,
+             "cast": OPTIONS[key].c_cast} for key in OPTION_ORDER if key in allowed]
 
 
 def _options_initializer(options: dict[str, float]) -> str:

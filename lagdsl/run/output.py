@@ -13,8 +13,16 @@ import numpy as np
 
 from ..escape import csv_field
 from ..integrators import COUNTER_LABELS
+from ..integrators.registry import OPTION_ORDER
+from ..settings import RunPlan, grid_rows
 
-SETTINGS_ORDER = ("rtol", "atol", "step", "max_step", "stages")
+
+def output_times(plan: RunPlan) -> np.ndarray:
+    """start + k*interval while below stop, then stop (the rule of settings.grid_rows)."""
+    start, stop, interval = plan.time.start, plan.time.stop, plan.time.interval
+    times = start + interval * np.arange(grid_rows(start, stop, interval))
+    times[-1] = stop
+    return times
 
 
 @dataclass(frozen=True)
@@ -122,7 +130,7 @@ class RunSummary:
     def settings_text(self) -> str:
         """"rtol = 1e-10, atol = 1e-12" or "step = 0.01, stages = 2", as in a scene."""
         values = dict(self.settings)
-        return ", ".join(f"{key} = {values[key]:g}" for key in SETTINGS_ORDER if key in values)
+        return ", ".join(f"{key} = {values[key]:g}" for key in OPTION_ORDER if key in values and key != "max_steps")
 
 
 @dataclass(frozen=True)

@@ -24,12 +24,16 @@ import numpy as np
 from ..codegen import GeneratedSource
 from ..escape import csv_field
 from ..errors import LagError, LagWarning, Setting, SimulationError, SimulationInterrupted
-from ..integrators import COUNTERS, summary_extras
+from ..integrators import registry, summary_extras
 from ..scene import RUN_OPTIONS, Overrides, ScenePlan
 from .cache import cached_entry
-from .output import SETTINGS_ORDER
-from .runner import (INTERRUPTED, SCIPY_METHODS, SCIPY_RTOL_FLOOR, STATUS, CtrlC, _interruptible, load, output_times,
-                     run_numpy)
+from .c_backend import settings_array
+from .interrupt import CtrlC, interruptible
+from .loading import load
+from .numpy_backend import run_numpy
+from .output import output_times
+from .scipy_steps import SCIPY_RTOL_FLOOR, ScipyProblem, integrate_scipy
+from .status import INTERRUPTED, status_message
 
 CHUNKS_PER_THREAD = 4        # Dask: chunks per worker thread, so that a lost worker costs little
 NUMPY_CHUNK = 256            # NumPy: members integrated as one stacked system
@@ -280,10 +284,8 @@ class BatchLayout:
 
 
 def batch_layout(plan: ScenePlan) -> BatchLayout:
-    options = dict(plan.integrator.options)
-    settings = (plan.time.start, plan.time.stop, plan.time.interval,
-                *(float(options.get(k, 0.0)) for k in SETTINGS_ORDER), float(plan.max_steps))
-    counters = COUNTERS[plan.integrator.name]
+    settings = settings_array(plan)
+    counters = registry.get(plan.integrator.name).counters
     stride = 6 + len(counters) + summary_extras(plan.integrator.name) + 2 * len(plan.invariants) \
         + 2 * len(plan.model.coordinates) + (2 if plan.stop else 0)
     return BatchLayout(settings, len(output_times(plan)), len(plan.columns), stride, counters)
@@ -312,7 +314,7 @@ def run_c_batch(library: ctypes.CDLL, layout: BatchLayout, parameters: np.ndarra
               pointer(summaries), layout.stride, threads)
         return 0
 
-    _interruptible(library, call, None if on_progress is None else lambda: on_progress(done.value))
+    interruptible(library, call, None if on_progress is None else lambda: on_progress(done.value))
     if on_progress is not None:
         on_progress(count)
     return values, summaries
@@ -390,8 +392,7 @@ def statuses(plan: ScenePlan, summaries: np.ndarray) -> np.ndarray:
     codes = summaries[:, 0].astype(int)
     messages = np.full(len(codes), "ok", dtype=object)
     for code in np.unique(codes[codes != 0]):
-        text = STATUS.get(int(code), ("unknown failure",))[0].format(max_steps=plan.max_steps)
-        messages[codes == code] = text
+        messages[codes == code] = status_message(int(code), plan.max_steps)
     return messages
 
 
@@ -435,7 +436,7 @@ def run_numpy_batch(module, kernel, source, members: Members, on_progress: Calla
     values = np.full((count, len(output_times(plan)), len(plan.columns)), np.nan)
     summaries = np.zeros((count, 6 + len(counters)))
     # (a stop condition ends each member at its own time: members run one at a time then)
-    stacked = plan.integrator.name in ("dopri5", "dop853") and not plan.constraints and plan.stop is None
+    stacked = registry.get(plan.integrator.name).stacks_in_sweeps and not plan.constraints and plan.stop is None
     size = NUMPY_CHUNK if stacked else 1
     interrupted = False
     with CtrlC() as ctrl_c:
@@ -464,7 +465,6 @@ def _stacked_chunk(module, members: Members, lo: int, hi: int, values: np.ndarra
     """Integrate members lo..hi-1 as one system; False (nothing written) if it fails anywhere.
     After Ctrl-C the rows reached are written, the members marked interrupted, and
     KeyboardInterrupt raised again."""
-    from scipy import integrate
     plan = members.plan
     times = output_times(plan)
     options = dict(plan.integrator.options)
@@ -474,29 +474,17 @@ def _stacked_chunk(module, members: Members, lo: int, hi: int, values: np.ndarra
     rtol, atol = options["rtol"] / math.sqrt(count), options["atol"] / math.sqrt(count)
     if not (atol > 0 and rtol >= SCIPY_RTOL_FLOOR):
         return False        # what scipy would change or cannot start with: as single runs
-    extra = {"max_step": options["max_step"]} if options.get("max_step") else {}
-    method = getattr(integrate, SCIPY_METHODS[plan.integrator.name])
 
     @ctrl_c.checked
     def fun(t, y):
         return module.rhs(t, y.reshape(n, count), par).reshape(-1)
 
-    states, steps, solver, interrupted = [y0.reshape(-1)], 0, None, False
+    problem = ScipyProblem(registry.get(plan.integrator.name).scipy, fun, None, rtol, atol, options.get("max_step"),
+                           plan.max_steps, watch=False)
     with np.errstate(all="ignore"):
-        try:
-            solver = method(fun, times[0], y0.reshape(-1), times[-1], rtol=rtol, atol=atol, **extra)
-            while len(states) < len(times):
-                solver.step()
-                steps += 1
-                if solver.status == "failed" or steps > plan.max_steps or not np.all(np.isfinite(solver.y)):
-                    return False
-                dense = solver.dense_output()
-                states += [solver.y.copy() if t == solver.t else dense(t)
-                           for t in times[len(states):] if t <= solver.t]
-        except (np.linalg.LinAlgError, ValueError, ArithmeticError):
+        states, counts, failure = integrate_scipy(problem, times, y0.reshape(-1))
+        if failure is not None and failure[0] != INTERRUPTED:
             return False
-        except KeyboardInterrupt:
-            interrupted = True
         rows = len(states)
         grid = np.array(states).reshape(rows, n, count)
         try:
@@ -506,11 +494,11 @@ def _stacked_chunk(module, members: Members, lo: int, hi: int, values: np.ndarra
             return False
     values[lo:hi, :rows] = np.transpose(np.array(observed), (0, 2, 1))
     summaries[lo:hi, 1] = rows
-    summaries[lo:hi, 6] = steps
-    summaries[lo:hi, 7] = solver.nfev if solver is not None else 0
-    if interrupted:
+    summaries[lo:hi, 6] = counts["accepted"]
+    summaries[lo:hi, 7] = counts["rhs_evals"]
+    if failure is not None:
         summaries[lo:hi, 0] = INTERRUPTED
-        summaries[lo:hi, 2] = solver.t if solver is not None else times[0]
+        summaries[lo:hi, 2] = failure[1]
         raise KeyboardInterrupt
     return True
 
@@ -522,17 +510,8 @@ def _single_member(module, kernel, source, members: Members, b: int, values: np.
     try:
         result, status, t_fail = run_numpy(kernel, source, plan, None, module), 0, 0.0
     except SimulationError as error:
-        result, status, t_fail = error.partial, _status_code(error), error.time
+        result, status, t_fail = error.partial, error.status, error.time
     values[b, :len(result.t)] = result.values
     summaries[b, :3] = (status, len(result.t), t_fail)
     summaries[b, 6] = result.summary.count("accepted") or 0
     summaries[b, 7] = result.summary.count("rhs_evals") or 0
-
-
-def _status_code(error: SimulationError) -> int:
-    if isinstance(error, SimulationInterrupted):
-        return INTERRUPTED
-    for code, (message, _) in STATUS.items():
-        if error.message.startswith(message.split("{")[0].rstrip()):
-            return code
-    return 2

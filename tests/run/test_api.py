@@ -6,7 +6,7 @@ import pytest
 
 import lagdsl
 from lagdsl import api, pipeline
-from lagdsl.run import runner, toolchain
+from lagdsl.run import loading, toolchain
 from tests.conftest import MODELS
 
 COLLIDING = """
@@ -84,7 +84,7 @@ def test_a_model_keeps_its_loaded_code(backend, monkeypatch):
         monkeypatch.setattr(module, name, lambda *a, **k: calls.append(name) or original(*a, **k))
 
     for module, name in ((pipeline, "lower_to_kernel"), (pipeline, "render_c"), (pipeline, "render_numpy"),
-                         (runner, "load"), (runner, "shared_library"), (runner, "load_module"),
+                         (loading, "load"), (loading, "shared_library"), (loading, "load_module"),
                          (toolchain, "compile_c"), (api, "load_program")):
         counted(module, name)
     again = model.simulate(backend=backend, stop=1.0)

@@ -10,7 +10,7 @@ import pytest
 import lagdsl
 from lagdsl.errors import LagError
 from lagdsl.run import sweep as batch
-from lagdsl.run.runner import load_library
+from lagdsl.run.loading import load_library
 from lagdsl.run.toolchain import shared_library
 from tests.conftest import MODELS
 from tests.run.test_failures import SINGULAR_LATER, load

@@ -26,9 +26,14 @@ Output times between step ends are interpolated; a step ending exactly on one is
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .gauss_coefficients import gauss_legendre_tableau, integrated_basis, symplectic_mu
+
+if TYPE_CHECKING:
+    from . import PythonRun
 
 EPSILON = np.finfo(float).eps
 MAX_ITERATIONS = 100
@@ -36,7 +41,7 @@ MAX_ITERATIONS = 100
 # (as in gauss.c); above it a stagnating iteration keeps iterating.
 NOISE = 65536
 # The C status codes (runtime.h) a failure corresponds to.
-SINGULAR, NONFINITE, STEP_TOO_SMALL, NO_CONVERGENCE, INTERRUPTED = 1, 2, 3, 5, 7
+SINGULAR, NONFINITE, STEP_TOO_SMALL, NO_CONVERGENCE, PROJECTION_FAILED, INTERRUPTED = 1, 2, 3, 5, 6, 7
 
 # What a step of the Python integrators may raise that ends the run (_Output.failure_of).
 STEP_ERRORS = (np.linalg.LinAlgError, ArithmeticError, KeyboardInterrupt)
@@ -301,3 +306,55 @@ class _Gauss:
         for j in range(len(self.b)):
             z += weights[j] * self.dz[j]
         return z
+
+
+def run_rk4(run: PythonRun):
+    """The NumPy backend's rk4 (its record's stepper): (Y, stats), projected after every step
+    where the scene has constraints."""
+    if run.project is not None:
+        return _rk4_projected(run)
+    return integrate_rk4(run.rhs(), run.times, run.y0, run.options["step"], run.stop)
+
+
+def run_gauss(run: PythonRun):
+    """The NumPy backend's gauss (its record's stepper), on Hamilton's equations in (q, p)."""
+    program, par = run.program, run.par
+    return integrate_gauss(run.checked(lambda t, z: program.hamilton_rhs(t, z, par)),
+                           lambda t, y: program.to_canonical(t, y, par),
+                           lambda t, z: program.from_canonical(t, z, par),
+                           run.times, run.y0, run.options["step"], int(run.options["stages"]), run.stop)
+
+
+def _rk4_projected(run: PythonRun):
+    """rk4 step by step, projecting onto the constraints after each step as the C driver does;
+    output rows inside a step come from that step's dense output (and the stop condition's row)."""
+    times, step, stop = run.times, run.options["step"], run.stop
+    rows, stats, k, n, y = [run.y0], {"accepted": 0, "rejected": 0, "rhs_evals": 0}, 1, 0, run.y0
+    try:
+        while k < len(times):
+            start, end = times[0] + n * step, min(times[0] + (n + 1) * step, times[-1])
+            inside = [t for t in times[k:] if t <= end]
+            grid = np.array([start, *inside] + ([] if inside and inside[-1] == end else [end]))
+            try:
+                Y, counts = integrate_rk4(run.rhs(), grid, y, end - start, stop)
+                if stop is not None and stop.time is not None:     # the last row is at the stop time
+                    inside = [*inside[:len(Y) - 2], stop.time]
+                projected = [run.project(t, row) for t, row in zip(inside, Y[1:1 + len(inside)])]
+                y_end = run.project(end, Y[-1])
+            except IntegrationFailure as failure:       # with the rows of this run, not of the one step
+                raise IntegrationFailure(str(failure), failure.t, failure.y, np.array(rows), len(rows),
+                                         failure.status) from None
+            except np.linalg.LinAlgError:
+                raise IntegrationFailure("projection failed", start, y, np.array(rows), len(rows),
+                                         PROJECTION_FAILED) from None
+            rows.extend(projected)
+            for key in stats:
+                stats[key] += counts.get(key, 0)
+            if stop is not None and stop.time is not None:
+                break
+            y = y_end
+            k, n = k + len(inside), n + 1
+    except KeyboardInterrupt:
+        raise IntegrationFailure("rk4: interrupted", times[0] + n * step, y, np.array(rows),
+                                 status=INTERRUPTED) from None
+    return np.array(rows), stats

@@ -49,11 +49,15 @@ from __future__ import annotations
 import math
 from fractions import Fraction
 from types import SimpleNamespace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .fixed_step import (NONFINITE, SINGULAR, STATS_KEYS, STEP_ERRORS, STEP_TOO_SMALL, IntegrationFailure,
                          _Output)
+
+if TYPE_CHECKING:
+    from . import PythonRun
 
 __all__ = ["MAX_STEPS", "RKN8", "IntegrationFailure", "integrate_rkn8"]
 
@@ -371,3 +375,11 @@ def integrate_rkn8(accelerations, rhs, t_grid, y0, rtol, atol, max_step=0, max_s
     except STEP_ERRORS as error:
         raise output.failure_of(error, "rkn8", t, y) from None
     return output.Y[:output.completed], stats
+
+
+def run_rkn8(run: PythonRun):
+    """The NumPy backend's rkn8 (its record's stepper): (Y, stats) of integrate_rkn8."""
+    options = run.options
+    accelerations = run.checked(lambda t, y: run.program.accelerations(run.par, t, y)[0])
+    return integrate_rkn8(accelerations, run.rhs(), run.times, run.y0, options["rtol"], options["atol"],
+                          options.get("max_step", 0.0), run.max_steps, run.stop)
