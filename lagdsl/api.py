@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import contextlib
-import sys
 import time as clock
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -14,6 +13,7 @@ from .codegen.kernel import Kernel
 from .errors import LagError
 from .mechanics import Equations
 from .pipeline import compile_model, execute, generate, plan
+from .progress import bar as progress_bar
 from .run import plans
 from .run.output import Result
 from .run import sweep as batch
@@ -215,12 +215,11 @@ def _run_members(program: Program, members: batch.Members, backend: str, workers
 
 @contextlib.contextmanager
 def _progress_bar(show: bool, members: int):
-    """A tqdm bar over the members on stderr when `show`; yields a callable(members finished)."""
+    """A progress bar over the members when `show`; yields a callable(members finished)."""
     if not show:
         yield None
         return
-    from tqdm import tqdm
-    with tqdm(total=members, unit="member", file=sys.stderr, dynamic_ncols=True) as bar:
+    with progress_bar(members, "member") as bar:
         yield lambda finished: bar.update(max(0, finished - bar.n))
 
 

@@ -12,7 +12,6 @@ and CyRK (when installed) on the NumPy backend's right-hand side.
 from __future__ import annotations
 
 import math
-import sys
 import time as clock
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -21,12 +20,12 @@ import numpy as np
 
 from . import ir
 from .errors import LagError, SimulationError
-from .escape import csv_field
 from .integrators import registry
+from . import progress as progress_module
 from .pipeline import execute, generate
 from .reference import Reference, atol_ratio, reference_solution
 from .run.loading import load as load_program
-from .run.output import output_times
+from .run.output import csv_text, output_times
 from .scene import ScenePlan
 from .settings import Overrides, check_integrator_name
 
@@ -119,10 +118,8 @@ class BenchReport:
         return [row.record() for row in self.sorted_rows() if row.failure is None]
 
     def csv(self) -> str:
-        lines = [",".join(CSV_HEADER)]
-        for record in self.records():
-            lines.append(",".join(_csv_field(record[name]) for name in CSV_HEADER))
-        return "\n".join(lines) + "\n"
+        records = self.records()
+        return csv_text(CSV_HEADER, [[record[name] for record in records] for name in CSV_HEADER])
 
     def render(self) -> str:
         """The table for the terminal: the reference, then one line per setting."""
@@ -145,15 +142,6 @@ class BenchReport:
 
 def _short(value: float | None) -> str:
     return "" if value is None else f"{value:.3g}"
-
-
-def _csv_field(value) -> str:
-    """Empty where a column does not apply; numbers as Python writes them (they read back exactly)."""
-    if value is None:
-        return ""
-    if isinstance(value, str):
-        return csv_field(value)
-    return str(value) if isinstance(value, int) else repr(float(value))
 
 
 # ---- ladders ---------------------------------------------------------------------------------
@@ -184,9 +172,8 @@ def backends(choice: str) -> tuple[str, ...]:
 
 
 def progress_bar():
-    """A tqdm bar on standard error that follows the settings (its total is set by run_bench)."""
-    from tqdm import tqdm
-    return tqdm(total=0, file=sys.stderr, unit="setting", dynamic_ncols=True, disable=None)  # None: not on a pipe
+    """A progress bar that follows the settings (its total is set by run_bench)."""
+    return progress_module.bar(0, "setting")
 
 
 # ---- the bench -------------------------------------------------------------------------------

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from lagdsl.cli import ProgressLine
+from lagdsl.progress import TimeProgress
 from tests.conftest import MODELS
 from tests.run.test_bounds import OSCILLATOR
 
@@ -218,18 +218,18 @@ def test_ctrl_c_stops_the_standalone_program_with_a_valid_csv(oscillator, tmp_pa
     assert 1 < len(rows) < 5000001
 
 
-def test_the_progress_line_is_rewritten_in_place_on_a_terminal_only():
+def test_the_progress_bar_shows_on_a_terminal_only_and_erases_itself(monkeypatch):
+    """A run's bar appears once it has taken DELAY seconds, on a terminal, never on a log."""
     class Terminal(io.StringIO):
         def isatty(self):
             return True
 
+    monkeypatch.setattr("lagdsl.progress.DELAY", 0.0)
     terminal, log = Terminal(), io.StringIO()
     for stream in (terminal, log):
-        line = ProgressLine(stream)
-        line.started -= 10                  # a run that has taken 10 s
-        line.show(12.5, 0.0, 50.0)
-        line.show(13.0, 0.0, 50.0)          # within REFRESH seconds: not rewritten
-        line.clear()
-    assert terminal.getvalue().startswith("\rlagc: t = 12.5 of 50 (25%), 10.0 s")
-    assert "13" not in terminal.getvalue() and terminal.getvalue().endswith("\r")
+        progress = TimeProgress(stream, mininterval=0)
+        progress(12.5, 0.0, 50.0)
+        progress(13.0, 0.0, 50.0)
+        progress.close()
+    assert "t - t0 = 12.5 of 50" in terminal.getvalue()
     assert log.getvalue() == ""

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import errno
-import io
 import os
 import secrets
 import stat
@@ -15,6 +14,26 @@ from ..escape import csv_field
 from ..integrators import COUNTER_LABELS
 from ..integrators.registry import OPTION_ORDER
 from ..settings import RunPlan, grid_rows
+
+
+def csv_text(header, columns) -> str:
+    """The one CSV format of lagdsl's tables: a header of RFC 4180 fields, then one line per row
+    of `columns` (equal-length sequences). Numbers are written as C's printf("%.17g") writes a
+    double, so that `lagc run`, the Python API and the standalone C program write the same bytes:
+    17 significant digits (they read back to the same double), no trailing zeros, `-0`, `inf`,
+    `-inf`, `nan`; integers as integers, text quoted where it must be, None as an empty field."""
+    cells = [_csv_cells(column) for column in columns]
+    lines = [",".join(csv_field(str(name)) for name in header), *map(",".join, zip(*cells))]
+    return "\n".join(lines) + "\n"
+
+
+def _csv_cells(column) -> list[str]:
+    array = np.asarray(column)
+    if array.dtype.kind == "f":
+        return list(map("%.17g".__mod__, array.tolist()))
+    if array.dtype.kind in "iub":
+        return list(array.astype(np.int64).astype(str))
+    return ["" if x is None else format(x, ".17g") if isinstance(x, float) else csv_field(str(x)) for x in column]
 
 
 def output_times(plan: RunPlan) -> np.ndarray:
@@ -155,18 +174,12 @@ class Result:
 
         With `units` (one per column, "?" where unknown), the header names them: `t [s],x [m]`.
 
-        Numbers are written as C's printf("%.17g") writes a double, so that `lagc run`,
-        `to_csv` and the standalone C program write the same bytes: 17 significant digits
-        (they read back to the same double), no trailing zeros, `-0`, `inf`, `-inf`, `nan`.
+        Numbers as csv_text writes them (as the standalone C program does).
         """
-        buffer = io.StringIO()
         names = ("t", *self.columns)
         if units is not None:
             names = tuple(f"{name} [{unit}]" for name, unit in zip(names, ("s", *units)))
-        buffer.write(",".join(csv_field(name) for name in names) + "\n")
-        for time, row in zip(self.t, self.values):
-            buffer.write(",".join(format(float(x), ".17g") for x in (time, *row)) + "\n")
-        return buffer.getvalue()
+        return csv_text(names, (np.asarray(self.t, dtype=float), *np.asarray(self.values, dtype=float).T))
 
     def to_csv(self, path: str | os.PathLike) -> None:
         write_output(path, self.csv())

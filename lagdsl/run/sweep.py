@@ -15,23 +15,21 @@ import io
 import math
 import os
 import time as clock
-import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from ..codegen import GeneratedSource
-from ..escape import csv_field
-from ..errors import LagError, LagWarning, Setting, SimulationError, SimulationInterrupted
+from ..errors import LagError, SimulationError, SimulationInterrupted
 from ..integrators import registry, summary_extras
-from ..scene import RUN_OPTIONS, Overrides, ScenePlan
+from ..scene import Overrides, ScenePlan
 from .cache import cached_entry
 from .c_backend import settings_array
 from .interrupt import CtrlC, interruptible
 from .loading import load
 from .numpy_backend import run_numpy
-from .output import output_times
+from .output import csv_text, output_times
 from .scipy_steps import SCIPY_RTOL_FLOOR, ScipyProblem, integrate_scipy
 from .status import INTERRUPTED, status_message
 
@@ -103,16 +101,9 @@ class Sweep:
         return table
 
     def csv(self) -> str:
-        """The tidy table as CSV: numbers as Result.csv writes them (17 significant digits)."""
+        """The tidy table as CSV (run.output.csv_text)."""
         table = self.tidy()
-        cells = [np.char.mod("%.17g", column) if column.dtype.kind == "f" else
-                 np.array([csv_field(str(x)) for x in column]) if column.dtype == object else column.astype(str)
-                 for column in table.values()]
-        lines = cells[0]
-        for column in cells[1:]:
-            lines = np.char.add(np.char.add(lines, ","), column)
-        header = ",".join(csv_field(name) for name in table)
-        return "\n".join([header, *lines]) + "\n"
+        return csv_text(table, table.values())
 
     def parquet(self) -> bytes:
         """The tidy table as a Parquet file (needs pyarrow)."""
@@ -211,64 +202,6 @@ def _check_finite(inputs: dict[str, np.ndarray]) -> None:
         bad = np.flatnonzero(~np.isfinite(values))
         if len(bad):
             raise LagError(f"cannot set '{name}' to {values[bad[0]]} (member {bad[0]}): values must be finite numbers")
-
-
-# ---- `lagc sweep`: the members from the command line, the table to a file ---------------------
-RUN_KEYWORDS = ("start", "stop", "interval", "integrator", *RUN_OPTIONS)     # model.sweep's overrides
-
-
-def sweep_values(vary: list[str], sample: list[str], count: int | None, seed: int) -> dict[str, np.ndarray]:
-    """The members of `lagc sweep`: the grid of all combinations of the --vary ranges (the last
-    varying fastest), or -n uniform random draws in each --random range, from `seed`."""
-    if vary and sample:
-        raise LagError("give either --vary (a grid) or --random (a sample), not both", Setting("--random"))
-    if sample and count is None:
-        raise LagError("needs -n, the number of members", Setting("--random"))
-    if count is not None and not sample:
-        raise LagError("-n is the size of a --random sample; a --vary grid has the size of its ranges", Setting("-n"))
-    if count is not None and count < 1:
-        raise LagError(f"the sample needs at least one member, not {count}", Setting("-n"))
-    if not vary and not sample:
-        raise LagError("nothing varies: give --vary NAME=START:STOP:COUNT or --random NAME=LOW:HIGH with -n N")
-    option = "--vary" if vary else "--random"
-    ranges = [_range(option, item, 3 if vary else 2) for item in vary or sample]
-    names = [name for name, _ in ranges]
-    for name in names:
-        if names.count(name) > 1:
-            raise LagError(f"'{name}' is varied twice", Setting(option))
-    if sample:
-        rng = np.random.default_rng(seed)
-        return {name: rng.uniform(low, high, count) for name, (low, high) in ranges}
-    axes = [np.linspace(start, stop, int(points)) for _, (start, stop, points) in ranges]
-    grid = np.meshgrid(*axes, indexing="ij")
-    return {name: axis.reshape(-1) for name, axis in zip(names, grid)}
-
-
-def _range(option: str, item: str, fields: int) -> tuple[str, tuple[float, ...]]:
-    form = "NAME=START:STOP:COUNT" if fields == 3 else "NAME=LOW:HIGH"
-    name, equals, text = item.partition("=")
-    parts = text.split(":")
-    try:
-        numbers = tuple(float(part) for part in parts)
-    except ValueError:
-        numbers = ()
-    if not equals or not name.strip() or len(numbers) != fields or not all(map(math.isfinite, numbers)):
-        raise LagError(f"expected {form} with finite numbers, got '{item}'", Setting(f"{option} {item}"))
-    if fields == 3 and not (numbers[2] >= 1 and numbers[2] == int(numbers[2])):
-        raise LagError(f"COUNT must be a whole number >= 1, got '{parts[2]}'", Setting(f"{option} {item}"))
-    if fields == 2 and not numbers[0] < numbers[1]:
-        raise LagError(f"need LOW < HIGH, got '{text}'", Setting(f"{option} {item}"))
-    return name.strip(), numbers
-
-
-def sweep_table(sweep: Sweep, path: str) -> str | bytes:
-    """The tidy table for `path`: Parquet when it ends in .parquet and pyarrow is installed, else CSV."""
-    if str(path).endswith(".parquet"):
-        try:
-            return sweep.parquet()
-        except ImportError:
-            warnings.warn(f"pyarrow is not installed; writing CSV to {path}", LagWarning, stacklevel=2)
-    return sweep.csv()
 
 
 # ---- the C batch entry point -------------------------------------------------------------------
