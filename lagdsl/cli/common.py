@@ -3,12 +3,11 @@ delivering a text."""
 from __future__ import annotations
 
 import argparse
-import sys
 
 from ..errors import LagError, Setting
 from ..integrators import registry
 from ..integrators.registry import OPTION_ORDER, OPTIONS
-from ..run.output import write_output
+from ..run.files import write_output, write_stdout
 from ..settings import Overrides, check_integrator_name, given_options
 from ..source import SourceFile
 
@@ -90,7 +89,7 @@ def integrator_list(text: str | None) -> tuple[str, ...] | None:
 
 def deliver(text: str, output: str | None) -> None:
     """To the -o file (see `write_output`), or to standard output."""
-    if output:
+    if output is not None:
         write_output(output, text)
     else:
-        sys.stdout.write(text)
+        write_stdout(text)

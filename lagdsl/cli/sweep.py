@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import LagError, LagWarning, Setting, SimulationInterrupted
-from ..run.output import check_writable, write_output
+from ..run.files import check_writable, write_output
 from ..settings import RUN_OPTIONS
 from ..source import SourceFile
 from . import common
@@ -47,7 +47,7 @@ def run(arguments) -> int:
     """Run the members of a grid or random sample; write the tidy table and the summary. Members
     that fail are rows with their status; Ctrl-C writes the members finished so far."""
     model = common.load_model(SourceFile.read(arguments.model))
-    check_writable(arguments.output)
+    check_writable(arguments.output, arguments.model)
     varied = sweep_values(arguments.vary, arguments.random, arguments.count, arguments.seed)
     overrides = common.overrides(arguments)
     keywords = {k: getattr(arguments, k) for k in RUN_KEYWORDS if getattr(arguments, k) is not None}
