@@ -60,7 +60,7 @@ def compile_c(source: str, output: Path, flags=STRICT_FLAGS, compiler: str | Non
     """Compile one C file; a compiler error in generated code is our bug, reported in full."""
     compiler = compiler or find_compiler()
     with tempfile.TemporaryDirectory() as work:
-        source_path = Path(work) / f"{output.stem}.c"
+        source_path = Path(work) / "model.c"        # the output's name may be long; this one never is
         source_path.write_text(source, encoding="utf-8")
         result = subprocess.run([compiler, *flags, str(source_path), "-o", str(output), *libraries, "-lm"],
                                 capture_output=True, text=True)
