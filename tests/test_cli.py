@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 
+from lagdsl.cli import main
 from lagdsl.progress import TimeProgress
 from tests.conftest import MODELS
 from tests.run.test_bounds import OSCILLATOR
@@ -233,3 +234,30 @@ def test_the_progress_bar_shows_on_a_terminal_only_and_erases_itself(monkeypatch
         progress.close()
     assert "t - t0 = 12.5 of 50" in terminal.getvalue()
     assert log.getvalue() == ""
+
+
+def test_sigterm_stops_lagc_run_as_ctrl_c_does_keeping_the_rows(oscillator, tmp_path, capsys, monkeypatch):
+    """`kill` (a batch system's time limit) ends the run with the rows computed so far, exit 143.
+    The signal is sent once the run has passed t = 1000 (its progress report says so)."""
+    class KillAfterTime:
+        def __init__(self):
+            self.sent = False
+
+        def __call__(self, t, start, stop):
+            if t > 1000 and not self.sent:
+                self.sent = True
+                os.kill(os.getpid(), signal.SIGTERM)
+
+        def close(self):
+            pass
+
+    monkeypatch.setattr("lagdsl.cli.simulate.TimeProgress", KillAfterTime)
+    out = tmp_path / "out.csv"
+    status = main(["run", str(oscillator), "--stop", "1e7", "--interval", "10", "--rtol", "1e-13",
+                   "--max-steps", "1000000000000", "-o", str(out)])
+    stderr = capsys.readouterr().err
+    assert status == 143, stderr
+    assert re.search(r"lagc: interrupted at t = [0-9.e+]+, after \d+ rows", stderr)
+    rows = _assert_valid_partial_csv(out.read_text(), "t,x,energy")
+    assert rows[-1][0] >= 1000 and len(rows) > 100
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL      # lagc's handler is gone after it

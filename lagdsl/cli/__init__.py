@@ -12,12 +12,15 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
+import threading
 import warnings
 
 from .. import __version__
 from ..errors import LagError, LagWarning, SimulationError
 from ..escape import visible
+from ..run.interrupt import terminate_as_interrupt
 from . import bench, common, describe, simulate, sweep
 
 COMMANDS = (describe, simulate, sweep, bench)      # each adds its subcommands to the parser
@@ -25,14 +28,16 @@ COMMANDS = (describe, simulate, sweep, bench)      # each adds its subcommands t
 
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
+    previous = signal.getsignal(signal.SIGTERM)
     try:
+        terminate_as_interrupt()        # a `kill` keeps the rows computed so far, as Ctrl-C does
         with warnings.catch_warnings():
             warnings.simplefilter("default", LagWarning)
             warnings.showwarning = _show_warning
             return _dispatch(argv)
     except KeyboardInterrupt:
         print("lagc: interrupted", file=sys.stderr)
-        return common.INTERRUPTED_EXIT
+        return common.interrupted_exit()
     except LagError as error:
         print(error.render(), file=sys.stderr)
         return 1
@@ -47,6 +52,9 @@ def main(argv: list[str] | None = None) -> int:
         where = f": {visible(str(error.filename))}" if error.filename else ""
         print(f"lagc: error: {error.strerror}{where}", file=sys.stderr)
         return 1
+    finally:
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGTERM, previous)
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:

@@ -3,15 +3,21 @@ delivering a text."""
 from __future__ import annotations
 
 import argparse
+import signal
 
 from ..errors import LagError, Setting
 from ..integrators import registry
 from ..integrators.registry import OPTION_ORDER, OPTIONS
 from ..run.files import write_output, write_stdout
+from ..run.interrupt import terminated
 from ..settings import Overrides, check_integrator_name, given_options
 from ..source import SourceFile
 
-INTERRUPTED_EXIT = 130
+
+def interrupted_exit() -> int:
+    """The exit status after an interrupt, as shells report a death by the signal: 128 + SIGINT
+    (Ctrl-C) or 128 + SIGTERM (`kill`)."""
+    return 128 + (signal.SIGTERM if terminated() else signal.SIGINT)
 
 
 def load_model(source: SourceFile):

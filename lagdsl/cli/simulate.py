@@ -65,7 +65,7 @@ def _simulate(arguments) -> int:
         common.deliver(stopped.partial.csv(units), arguments.output)
         print(stopped.partial.summary.render(), file=sys.stderr)
         print(f"lagc: {stopped.render()}, after {len(stopped.partial.t)} rows", file=sys.stderr)
-        return common.INTERRUPTED_EXIT
+        return common.interrupted_exit()
     except SimulationError as error:
         progress.close()
         if error.partial is not None:

@@ -62,7 +62,7 @@ def run(arguments) -> int:
             print(stopped.partial.summary.render(), file=sys.stderr)
             print(f"lagc: interrupted; the table in {arguments.output} has every member, those not finished "
                   "with status 'interrupted'", file=sys.stderr)
-            return common.INTERRUPTED_EXIT
+            return common.interrupted_exit()
     write_output(arguments.output, sweep_table(sweep, arguments.output))
     print(sweep.summary.render(), file=sys.stderr)
     return 0
