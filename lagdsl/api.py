@@ -16,6 +16,7 @@ from .pipeline import compile_model, execute, generate, plan
 from .progress import bar as progress_bar
 from .run import plans
 from .run.output import Result
+from .run import dask_sweep
 from .run import sweep as batch
 from .run.loading import load as load_program
 from .scene import (RUN_OPTIONS, Overrides, ScenePlan, check_step_count, given_options, parameters_in_expressions,
@@ -203,7 +204,7 @@ def _run_members(program: Program, members: batch.Members, backend: str, workers
                 "one process")
     layout = batch.batch_layout(members.plan)
     if client is not None:
-        values, summaries, chunks = batch.run_dask(client, program.library_bytes(), program.source.text,
+        values, summaries, chunks = dask_sweep.run_dask(client, program.library_bytes(), program.source.text,
                                                    program.source.suggested_name, layout, members.parameters,
                                                    members.initial, advance)
         return values, summaries, layout.counters, f"Dask, {chunks} chunks"

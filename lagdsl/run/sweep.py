@@ -10,30 +10,24 @@ step-size collapse, step limit) is marked with its status and time and ends alon
 from __future__ import annotations
 
 import ctypes
-import hashlib
 import io
 import math
 import os
-import time as clock
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..codegen import GeneratedSource
 from ..errors import LagError, SimulationError, SimulationInterrupted
 from ..integrators import registry, summary_extras
 from ..scene import Overrides, ScenePlan
-from .cache import cached_entry
 from .c_backend import settings_array
 from .interrupt import CtrlC, interruptible
-from .loading import load
 from .numpy_backend import run_numpy
 from .output import csv_text, output_times
 from .scipy_steps import SCIPY_RTOL_FLOOR, ScipyProblem, integrate_scipy
 from .status import INTERRUPTED, status_message
 
-CHUNKS_PER_THREAD = 4        # Dask: chunks per worker thread, so that a lost worker costs little
 NUMPY_CHUNK = 256            # NumPy: members integrated as one stacked system
 
 
@@ -263,61 +257,6 @@ def default_threads(workers: int | None) -> int:
     if given.isdigit() and int(given) > 0:
         return int(given)
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-
-
-# ---- Dask --------------------------------------------------------------------------------------
-_worker_libraries: dict[str, ctypes.CDLL] = {}
-
-
-def run_chunk(library: bytes, source: str, stem: str, layout: BatchLayout, parameters: np.ndarray,
-              initial: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """A chunk of members on a Dask worker: the shipped library (kept in the worker's build cache
-    under the hash of its bytes), or, when this machine cannot load it, one built here from the
-    source. One thread per chunk: Dask runs the chunks in parallel."""
-    return run_c_batch(_worker_library(library, source, stem), layout, parameters, initial, 1)
-
-
-def _worker_library(library: bytes, source: str, stem: str) -> ctypes.CDLL:
-    key = hashlib.sha256(library).hexdigest()
-    if key not in _worker_libraries:
-        path = cached_entry(f"{stem}-shipped-{key[:20]}.so", key, lambda entry: entry.write_bytes(library))
-        try:
-            _worker_libraries[key] = ctypes.CDLL(str(path))
-        except OSError:         # another architecture or C library: build it here
-            _worker_libraries[key] = load(GeneratedSource("c", source, stem))
-    return _worker_libraries[key]
-
-
-def run_dask(client, library: bytes, source: str, stem: str, layout: BatchLayout, parameters: np.ndarray,
-             initial: np.ndarray, on_progress: Callable[[int], None] | None = None) -> tuple[np.ndarray, np.ndarray, int]:
-    """Send chunks of members to the cluster behind `client`; results come back in member order.
-
-    Dask reschedules the chunks of a worker that dies (and `retries` covers errors raised in a
-    chunk), so every member arrives exactly once. Returns the values, the summaries and the
-    number of chunks.
-    """
-    from dask.distributed import as_completed
-    threads = max(1, sum(client.nthreads().values()))
-    count = len(initial)
-    size = max(1, math.ceil(count / (CHUNKS_PER_THREAD * threads)))
-    bounds = [(lo, min(lo + size, count)) for lo in range(0, count, size)]
-    # A key of its own (hash=False): with the content hash as key, a second sweep of the same
-    # program could scatter while the first one's copy is being released, and its chunks then
-    # lost their dependency ("failed to acquire keys", the chunks cancelled).
-    shipped = client.scatter(library, broadcast=True, hash=False)
-    futures = [client.submit(run_chunk, shipped, source, stem, layout, parameters[lo:hi], initial[lo:hi],
-                             retries=3, pure=False, key=f"lagdsl-sweep-{stem}-{lo}-{os.getpid()}-{clock.time_ns()}")
-               for lo, hi in bounds]
-    finished = 0
-    for future in as_completed(futures):
-        lo, hi = bounds[futures.index(future)]
-        finished += hi - lo
-        if on_progress is not None:
-            on_progress(finished)
-    parts = client.gather(futures)
-    values = np.concatenate([p[0] for p in parts])
-    summaries = np.concatenate([p[1] for p in parts])
-    return values, summaries, len(bounds)
 
 
 # ---- reading the summaries ---------------------------------------------------------------------
