@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import contextlib
-import time as clock
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -16,10 +15,11 @@ from .pipeline import compile_model, execute, generate, plan
 from .progress import bar as progress_bar
 from .run import plans
 from .run.output import Result
-from .run import dask_sweep
 from .run import sweep as batch
 from .run.loading import load as load_program
-from .scene import (RUN_OPTIONS, Overrides, ScenePlan, check_step_count, given_options, parameters_in_expressions,
+from .run.sweep_job import SweepJob
+from .run.tables import TableFile
+from .scene import (RUN_OPTIONS, Overrides, ScenePlan, given_options, parameters_in_expressions,
                     scene_defaults)
 from .source import SourceFile
 
@@ -130,24 +130,35 @@ class Model:
         parallel on `workers` threads (default: OMP_NUM_THREADS, else every CPU), or on the Dask
         cluster behind `client` (a dask.distributed.Client); member b equals
         simulate(set={k: v[b]}) bit for bit. A member that fails is marked in `.status` with its
-        `.failure_time`; the others complete. `progress` shows a tqdm bar on stderr.
+        `.failure_time`; the others complete. `progress` shows a progress bar on stderr. A sweep
+        whose values would not fit in memory is refused before it runs: see sweep_to_file.
         """
+        job = self._sweep_job(scene, backend, set, client, overrides)
+        job.check_fits()
+        with _progress_bar(progress, job.count) as advance:
+            return job.run(0, job.count, workers, client, advance)
+
+    def sweep_to_file(self, path: str | Path, scene: str | None = None, backend: str = "c", *, set: dict,
+                      workers: int | None = None, client=None, progress: bool = False,
+                      **overrides) -> batch.SweepSummary:
+        """`sweep`, its tidy table (Sweep.tidy) written to `path` block by block, in memory bounded
+        by a block whatever the number of members: Parquet if the name ends in .parquet (and
+        pyarrow is installed), else CSV. The file appears complete or not at all; after Ctrl-C it
+        holds the members run so far and SimulationInterrupted carries their summary."""
+        job = self._sweep_job(scene, backend, set, client, overrides)
+        with TableFile(path) as table, _progress_bar(progress, job.count) as advance:
+            return job.stream(table, workers, client, advance)
+
+    def _sweep_job(self, scene: str | None, backend: str, varied: dict, client, overrides: dict) -> SweepJob:
         _check_backend(backend)
         if client is not None and backend != "c":
             raise LagError("sweep: a Dask client runs the C backend only; use backend='c'")
         grid = {k: overrides.pop(k) for k in GRID_OVERRIDES if k in overrides}
         options = {k: overrides.pop(k) for k in RUN_OPTIONS if k in overrides}
-        varied = {**overrides, **dict(set)}
         base = Overrides((), grid.get("start"), grid.get("stop"), grid.get("interval"), grid.get("integrator"),
                          given_options(options))
-        members = batch.member_inputs(lambda o: self.plan(scene, o), base, varied)
-        check_step_count(members.plan)
-        program = self._program(scene, members.plan, backend, base)
-        with _progress_bar(progress, len(members.initial)) as advance:
-            started = clock.perf_counter()
-            values, summaries, counters, how = _run_members(program, members, backend, workers, client, advance)
-            elapsed = clock.perf_counter() - started
-        return batch.assemble(members.plan, members, values, summaries, backend, counters, elapsed, how)
+        return SweepJob(lambda o: self.plan(scene, o), lambda p: self._program(scene, p, backend, base), base,
+                        {**overrides, **dict(varied)}, backend)
 
     def _program(self, scene: str | None, scene_plan: ScenePlan, backend: str, overrides: Overrides) -> Program:
         """The generated, loaded code for a scene, integrator and backend: built on first use, then kept.
@@ -194,24 +205,6 @@ class Program:
 def load(path: str | Path) -> Model:
     """Read, check and derive a model file; raises LagError with located diagnostics."""
     return Model(SourceFile.read(path))
-
-
-def _run_members(program: Program, members: batch.Members, backend: str, workers: int | None, client,
-                 advance: Callable[[int], None] | None):
-    """(values, summaries, counters, how they ran) of the members: NumPy, a Dask cluster, or C threads."""
-    if backend == "numpy":
-        return (*batch.run_numpy_batch(program.loaded, program.kernel, program.source, members, advance),
-                "one process")
-    layout = batch.batch_layout(members.plan)
-    if client is not None:
-        values, summaries, chunks = dask_sweep.run_dask(client, program.library_bytes(), program.source.text,
-                                                   program.source.suggested_name, layout, members.parameters,
-                                                   members.initial, advance)
-        return values, summaries, layout.counters, f"Dask, {chunks} chunks"
-    threads = batch.default_threads(workers)
-    values, summaries = batch.run_c_batch(program.loaded, layout, members.parameters, members.initial, threads,
-                                          advance)
-    return values, summaries, layout.counters, f"{threads} thread{'s' if threads > 1 else ''}"
 
 
 @contextlib.contextmanager

@@ -44,24 +44,77 @@ def _probe(target: Path) -> None:
 
 
 def write_output(path: str | os.PathLike, text: str | bytes) -> None:
-    """Write `text` (UTF-8, or bytes as they are: a Parquet file, a PNG) to `path` without damaging what is there.
+    """Write `text` (UTF-8, or bytes as they are: a Parquet file, a PNG) to `path` without
+    damaging what is there (see OutputFile)."""
+    with OutputFile(path, binary=isinstance(text, bytes)) as stream:
+        stream.write(text)
+
+
+class OutputFile:
+    """`path` opened for writing piece by piece, committed when the block ends without an exception.
 
     A regular file (new, or existing and writable) is written to a temporary file beside it and
     renamed over it, so readers never see half a file; an existing file keeps its mode, a new one
     gets the default mode (umask). A symbolic link is followed: its target is written and the link
     stays. A device or FIFO (/dev/null, a pipe) is written in place, never replaced. A directory,
     a read-only file or a missing directory is refused with CannotWrite, and no temporary file is
-    left behind.
+    left behind; so is a write that fails, and after an exception the temporary file is removed.
+    `commit()` ends the file early (what a table interrupted by Ctrl-C does with the rows it has).
     """
-    try:
-        target, existing = _destination(path)
-        if existing is not None and not stat.S_ISREG(existing.st_mode):
-            with _open(target, text) as stream:
-                stream.write(text)
+
+    def __init__(self, path: str | os.PathLike, binary: bool = False):
+        self.path, self.binary = path, binary
+        self.stream = self.partial = self.target = self.mode = None
+
+    def __enter__(self):
+        try:
+            self.target, existing = _destination(self.path)
+            in_place = existing is not None and not stat.S_ISREG(existing.st_mode)
+            self.mode = stat.S_IMODE(existing.st_mode) if existing is not None and not in_place else None
+            if in_place:
+                self.stream = _open(self.target, self.binary)
+            else:
+                self.partial = _temporary(self.target)
+                descriptor = os.open(self.partial, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)  # & ~umask
+                self.stream = _open(self.partial, self.binary, descriptor)
+        except OSError as error:
+            raise CannotWrite(self.path, error) from None
+        return self
+
+    def write(self, data: str | bytes) -> None:
+        try:
+            self.stream.write(data)
+        except OSError as error:
+            raise CannotWrite(self.path, error) from None
+
+    def commit(self) -> None:
+        if self.stream is None:
+            return
+        try:
+            if self.mode is not None:
+                os.fchmod(self.stream.fileno(), self.mode)
+            self.stream.close()
+            self.stream = None
+            if self.partial is not None:
+                os.replace(self.partial, self.target)
+                self.partial = None
+        except OSError as error:
+            self._discard()
+            raise CannotWrite(self.path, error) from None
+
+    def __exit__(self, kind, error, traceback) -> None:
+        if kind is None:
+            self.commit()
         else:
-            _replace(target, text, stat.S_IMODE(existing.st_mode) if existing is not None else None)
-    except OSError as error:
-        raise CannotWrite(path, error) from None
+            self._discard()
+
+    def _discard(self) -> None:
+        if self.stream is not None:
+            self.stream.close()
+            self.stream = None
+        if self.partial is not None:
+            self.partial.unlink(missing_ok=True)
+            self.partial = None
 
 
 def _destination(path: str | os.PathLike) -> tuple[Path, os.stat_result | None]:
@@ -86,25 +139,10 @@ def _destination(path: str | os.PathLike) -> tuple[Path, os.stat_result | None]:
     return target, existing
 
 
-def _open(target, text: str | bytes, descriptor: int | None = None):
+def _open(target, binary: bool, descriptor: int | None = None):
     opener = open if descriptor is None else os.fdopen
     where = target if descriptor is None else descriptor
-    return opener(where, "wb") if isinstance(text, bytes) else opener(where, "w", encoding="utf-8")
-
-
-def _replace(target: Path, text: str | bytes, mode: int | None) -> None:
-    """Write a temporary file beside `target` (unique per process and thread) and rename it over `target`."""
-    partial = _temporary(target)
-    descriptor = os.open(partial, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)   # 0o666 & ~umask
-    try:
-        with _open(partial, text, descriptor) as stream:
-            stream.write(text)
-            if mode is not None:
-                os.fchmod(stream.fileno(), mode)
-        os.replace(partial, target)
-    except BaseException:
-        partial.unlink(missing_ok=True)
-        raise
+    return opener(where, "wb") if binary else opener(where, "w", encoding="utf-8")
 
 
 def _describe(error: OSError) -> str:

@@ -1,4 +1,4 @@
-"""Results of a run: the table of outputs, the run summary, and writing them safely."""
+"""Results of a run: the output grid, the table of outputs (its CSV by run.tables) and the run summary."""
 from __future__ import annotations
 
 import os
@@ -6,30 +6,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..escape import csv_field
 from ..integrators import COUNTER_LABELS
 from ..integrators.registry import OPTION_ORDER
 from ..settings import RunPlan, grid_rows
-
-
-def csv_text(header, columns) -> str:
-    """The one CSV format of lagdsl's tables: a header of RFC 4180 fields, then one line per row
-    of `columns` (equal-length sequences). Numbers are written as C's printf("%.17g") writes a
-    double, so that `lagc run`, the Python API and the standalone C program write the same bytes:
-    17 significant digits (they read back to the same double), no trailing zeros, `-0`, `inf`,
-    `-inf`, `nan`; integers as integers, text quoted where it must be, None as an empty field."""
-    cells = [_csv_cells(column) for column in columns]
-    lines = [",".join(csv_field(str(name)) for name in header), *map(",".join, zip(*cells))]
-    return "\n".join(lines) + "\n"
-
-
-def _csv_cells(column) -> list[str]:
-    array = np.asarray(column)
-    if array.dtype.kind == "f":
-        return list(map("%.17g".__mod__, array.tolist()))
-    if array.dtype.kind in "iub":
-        return list(array.astype(np.int64).astype(str))
-    return ["" if x is None else format(x, ".17g") if isinstance(x, float) else csv_field(str(x)) for x in column]
 
 
 def output_times(plan: RunPlan) -> np.ndarray:
@@ -166,6 +145,7 @@ class Result:
             raise KeyError(f"no column '{column}' (columns: {', '.join(self.columns)})") from None
 
     def csv(self, units: tuple[str, ...] | None = None) -> str:
+        from .tables import csv_text
         """The header `t,<columns>` (RFC 4180 fields) and one row per output time.
 
         With `units` (one per column, "?" where unknown), the header names them: `t [s],x [m]`.

@@ -10,7 +10,6 @@ step-size collapse, step limit) is marked with its status and time and ends alon
 from __future__ import annotations
 
 import ctypes
-import io
 import math
 import os
 from collections.abc import Callable
@@ -24,7 +23,8 @@ from ..scene import Overrides, ScenePlan
 from .c_backend import settings_array
 from .interrupt import CtrlC, interruptible
 from .numpy_backend import run_numpy
-from .output import csv_text, output_times
+from .output import output_times
+from .tables import csv_text, parquet_bytes
 from .scipy_steps import SCIPY_RTOL_FLOOR, ScipyProblem, integrate_scipy
 from .status import INTERRUPTED, status_message
 
@@ -56,6 +56,21 @@ class SweepSummary:
         return "\n".join(lines)
 
 
+def merge(first: SweepSummary | None, then: SweepSummary) -> SweepSummary:
+    """The summary of two parts of one sweep (`first` None: `then` alone)."""
+    if first is None:
+        return then
+    failures = dict(first.failures)
+    for message, count in then.failures:
+        failures[message] = failures.get(message, 0) + count
+    counters = dict(first.counters)
+    for name, count in then.counters:
+        counters[name] = counters.get(name, 0) + count
+    return replace(first, members=first.members + then.members,
+                   failures=tuple(sorted(failures.items(), key=lambda kv: -kv[1])),
+                   counters=tuple(counters.items()), wall_time=first.wall_time + then.wall_time)
+
+
 @dataclass(frozen=True)
 class Sweep:
     """The runs of a sweep on their common grid `t` (T,).
@@ -74,6 +89,7 @@ class Sweep:
     counters: dict[str, np.ndarray]
     summary: SweepSummary
     rows: np.ndarray = field(repr=False)        # rows delivered per member
+    first_member: int = 0                       # the number of member 0 in a larger sweep (a block)
 
     def __len__(self) -> int:
         return len(self.values)
@@ -87,7 +103,7 @@ class Sweep:
     def tidy(self) -> dict[str, np.ndarray]:
         """One row per member and output time: member, the inputs, t, the columns, status."""
         members, times = len(self.values), len(self.t)
-        table = {"member": np.repeat(np.arange(members), times)}
+        table = {"member": np.repeat(np.arange(self.first_member, self.first_member + members), times)}
         table.update({name: np.repeat(values, times) for name, values in self.inputs.items()})
         table["t"] = np.tile(self.t, members)
         table.update({name: self.values[:, :, j].reshape(-1) for j, name in enumerate(self.columns)})
@@ -101,12 +117,7 @@ class Sweep:
 
     def parquet(self) -> bytes:
         """The tidy table as a Parquet file (needs pyarrow)."""
-        import pyarrow
-        import pyarrow.parquet
-        buffer = io.BytesIO()
-        table = {name: column.astype(str) if column.dtype == object else column for name, column in self.tidy().items()}
-        pyarrow.parquet.write_table(pyarrow.table(table), buffer)
-        return buffer.getvalue()
+        return parquet_bytes(self.tidy())
 
     def to_dataframe(self):
         """The tidy table as a pandas DataFrame (a dict of columns when pandas is not installed)."""
@@ -135,7 +146,7 @@ def member_inputs(plan: Callable[[Overrides], ScenePlan], base: Overrides, varie
     start value that is an expression), member b's inputs are member 0's with its values put in
     place, as plan_scene would put them; otherwise every member is planned.
     """
-    inputs = _broadcast(varied)
+    inputs = broadcast(varied)
     count = len(next(iter(inputs.values()))) if inputs else 1
     first = plan(_with_values(base, inputs, 0))
     parameters = np.tile(np.array(first.parameters, dtype=float), (count, 1))
@@ -159,7 +170,7 @@ def member_inputs(plan: Callable[[Overrides], ScenePlan], base: Overrides, varie
     return Members(first, parameters, initial, inputs)
 
 
-def _broadcast(varied: dict) -> dict[str, np.ndarray]:
+def broadcast(varied: dict) -> dict[str, np.ndarray]:
     arrays = {name: np.asarray(value, dtype=float) for name, value in varied.items()}
     for name, array in arrays.items():
         if array.ndim > 1:
@@ -269,7 +280,7 @@ def statuses(plan: ScenePlan, summaries: np.ndarray) -> np.ndarray:
 
 
 def assemble(plan: ScenePlan, members: Members, values: np.ndarray, summaries: np.ndarray, backend: str,
-             counters: tuple[str, ...], wall_time: float, workers: str) -> Sweep:
+             counters: tuple[str, ...], wall_time: float, workers: str, first_member: int = 0) -> Sweep:
     """The Sweep of a batch run; raises SimulationInterrupted (with the sweep as `.partial`) after Ctrl-C."""
     status = statuses(plan, summaries)
     codes = summaries[:, 0].astype(int)
@@ -282,7 +293,7 @@ def assemble(plan: ScenePlan, members: Members, values: np.ndarray, summaries: n
                            tuple((name, int(c.sum())) for name, c in counts.items()), wall_time, backend,
                            plan.integrator.name, workers)
     sweep = Sweep(output_times(plan), plan.columns, values, members.inputs, status, failure_time, counts, summary,
-                  summaries[:, 1].astype(np.int64))
+                  summaries[:, 1].astype(np.int64), first_member)
     if np.any(codes == INTERRUPTED):
         first = int(np.flatnonzero(codes == INTERRUPTED)[0])
         raise SimulationInterrupted("interrupted", float(summaries[first, 2]), {}, "", sweep)
