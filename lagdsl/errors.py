@@ -39,7 +39,7 @@ class Diagnostic:
         if self.span is None:
             return f"{self.severity}: {message}"
         if isinstance(self.span, Setting):
-            return f"lagc: error: {self.span.option}: {message}"
+            return f"lagc: error: {visible(self.span.option)}: {message}"
         span = self.span
         line = span.source.line(span.line)
         before = line[:span.column - 1]

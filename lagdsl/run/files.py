@@ -14,12 +14,14 @@ import stat
 import sys
 from pathlib import Path
 
+from ..escape import visible
+
 
 class CannotWrite(OSError):
     """An output file that cannot be written; the message names the path as the user gave it."""
 
     def __init__(self, path: str | os.PathLike, reason: OSError):
-        super().__init__(reason.errno, f"cannot write '{os.fspath(path)}': {_describe(reason)}")
+        super().__init__(reason.errno, visible(f"cannot write '{os.fspath(path)}': {_describe(reason)}"))
 
 
 def check_writable(path: str | os.PathLike, model: str | os.PathLike | None = None) -> None:
