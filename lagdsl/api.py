@@ -17,6 +17,7 @@ from .run import plans
 from .run.output import Result
 from .run import sweep as batch
 from .run.loading import load as load_program
+from .run.runner import run
 from .run.sweep_job import SweepJob
 from .run.tables import TableFile
 from .scene import (RUN_OPTIONS, Overrides, ScenePlan, given_options, parameters_in_expressions,
@@ -36,6 +37,7 @@ class Model:
         self.equations: Equations
         self.ir, self.equations = compile_model(source)
         self._programs: dict[tuple[str, str, str], Program] = {}
+        self._quick_plans: dict[str | None, plans.StoredPlan] = {}     # by the scene asked for
 
     @property
     def name(self) -> str:
@@ -90,9 +92,13 @@ class Model:
         """`simulate` with the overrides already gathered (what `lagc run` calls); `progress` is
         called as progress(t reached, start, stop) every so often."""
         _check_backend(backend)
+        quick = None if estimate_error else self._quick_run(scene, backend, overrides)
+        if quick is not None:
+            return run(quick[0], backend, quick[1].loaded, progress)
         scene_plan = self.plan(scene, overrides)
         program = self._program(scene, scene_plan, backend, overrides)
         result = execute(program.kernel, program.source, scene_plan, progress, program.loaded)
+        self._keep_quick_plan(scene, scene_plan)
         if not estimate_error:
             return result
 
@@ -159,6 +165,26 @@ class Model:
                          given_options(options))
         return SweepJob(lambda o: self.plan(scene, o), lambda p: self._program(scene, p, backend, base), base,
                         {**overrides, **dict(varied)}, backend)
+
+    def _quick_run(self, scene: str | None, backend: str, overrides: Overrides):
+        """(run plan, program) for a repeated run, planned without sympy from the scene's settings
+        and values (as a warm `lagc run` plans, run/plans.py), or None where that cannot serve: the
+        first run of a scene, a value computed from the overrides, code not yet generated."""
+        quick = self._quick_plans.get(scene)
+        run_plan = quick.resolve(overrides) if quick is not None else None
+        program = run_plan and self._programs.get((run_plan.scene_name, run_plan.integrator.name, backend))
+        return None if program is None else (run_plan, program)
+
+    def _keep_quick_plan(self, scene: str | None, scene_plan: ScenePlan) -> None:
+        if scene in self._quick_plans:
+            return
+        try:
+            settings, parameters, initial_state = scene_defaults(self.ir, self.equations, scene)
+        except LagError:        # a value computed from the others is not finite unless overridden
+            return
+        self._quick_plans[scene] = plans.StoredPlan(
+            settings, parameters, initial_state, parameters_in_expressions(self.ir), scene_plan.columns,
+            scene_plan.invariants, scene_plan.stop.text if scene_plan.stop else None, None)
 
     def _program(self, scene: str | None, scene_plan: ScenePlan, backend: str, overrides: Overrides) -> Program:
         """The generated, loaded code for a scene, integrator and backend: built on first use, then kept.
