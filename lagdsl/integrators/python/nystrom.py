@@ -332,38 +332,11 @@ def integrate_rkn8(accelerations, rhs, t_grid, y0, rtol, atol, max_step=0, max_s
     control = _Control(rtol, atol, t0, t_end, max_step, max_steps, stats)
     stepper = _Stepper(accelerations, n, stats)
     try:
-        # lag_stepper_init: f = (v, a) at the start gives g_1 and the first step
-        stats["rhs_evals"] += 1
-        try:
-            f = np.array(rhs(t, y), dtype=float)
-        except np.linalg.LinAlgError:
-            raise _StageFailure(SINGULAR) from None
-        except ArithmeticError:
-            raise _StageFailure(NONFINITE) from None
-        if not np.all(np.isfinite(f[n:])):
-            raise _StageFailure(NONFINITE)
+        f = _first_derivative(rhs, t, y, n, stats)
         stepper.g[0] = f[n:].copy()
         h = control.first_step(t, y, f, rhs, n)
         while t < t_end and not output.stopped:
-            while True:         # lag_stepper_step: trials until one is accepted
-                status, h_trial, t_new = control.trial(t, h)
-                if status == MAX_STEPS:
-                    raise output.failure(f"rkn8: the step limit of {max_steps} steps was reached at t = {t}",
-                                         t, y, MAX_STEPS)
-                if status == STEP_TOO_SMALL:
-                    raise output.failure(f"rkn8: the step size collapsed below the resolution of t at t = {t}",
-                                         t, y, STEP_TOO_SMALL)
-                err = 0.0
-                try:
-                    y_new, err = stepper.trial(control, t, y, h_trial, t_new)
-                    status = OK
-                except _StageFailure as failure:
-                    status = failure.status
-                except ArithmeticError:     # numpy set to raise: where C would get an inf or NaN
-                    status = NONFINITE
-                accepted, h = control.update(status, h_trial, err)
-                if accepted:
-                    break
+            t_new, y_new, h = _accepted_step(control, stepper, output, t, y, h, max_steps)
             # rkn8_accept: the start of the step is kept for the dense output
             t_old, y_old, g_old = t, y, stepper.g[0]
             t, y, stepper.g[0] = t_new, y_new, stepper.g[8]
@@ -375,6 +348,43 @@ def integrate_rkn8(accelerations, rhs, t_grid, y0, rtol, atol, max_step=0, max_s
     except STEP_ERRORS as error:
         raise output.failure_of(error, "rkn8", t, y) from None
     return output.Y[:output.completed], stats
+
+
+def _first_derivative(rhs, t, y, n, stats):
+    """lag_stepper_init: f = (v, a) at the start, which gives g_1 and the first step."""
+    stats["rhs_evals"] += 1
+    try:
+        f = np.array(rhs(t, y), dtype=float)
+    except np.linalg.LinAlgError:
+        raise _StageFailure(SINGULAR) from None
+    except ArithmeticError:
+        raise _StageFailure(NONFINITE) from None
+    if not np.all(np.isfinite(f[n:])):
+        raise _StageFailure(NONFINITE)
+    return f
+
+
+def _accepted_step(control, stepper, output, t, y, h, max_steps):
+    """lag_stepper_step: trials from (t, y) until one is accepted; (t_new, y_new, the next step)."""
+    while True:
+        status, h_trial, t_new = control.trial(t, h)
+        if status == MAX_STEPS:
+            raise output.failure(f"rkn8: the step limit of {max_steps} steps was reached at t = {t}",
+                                 t, y, MAX_STEPS)
+        if status == STEP_TOO_SMALL:
+            raise output.failure(f"rkn8: the step size collapsed below the resolution of t at t = {t}",
+                                 t, y, STEP_TOO_SMALL)
+        err, y_new = 0.0, None
+        try:
+            y_new, err = stepper.trial(control, t, y, h_trial, t_new)
+            status = OK
+        except _StageFailure as failure:
+            status = failure.status
+        except ArithmeticError:     # numpy set to raise: where C would get an inf or NaN
+            status = NONFINITE
+        accepted, h = control.update(status, h_trial, err)
+        if accepted:
+            return t_new, y_new, h
 
 
 def run_rkn8(run: PythonRun):
