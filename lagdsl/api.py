@@ -166,6 +166,23 @@ class Model:
         return SweepJob(lambda o: self.plan(scene, o), lambda p: self._program(scene, p, backend, base), base,
                         {**overrides, **dict(varied)}, backend)
 
+    def equilibrium(self, scene: str | None = None, *, guess: dict | None = None, set: dict | None = None):
+        """An equilibrium near `guess` ({"q": value, "q.velocity": value}; what is not given is the
+        scene's start) with `set` applied: Newton on the accelerations at the given velocities
+        (zero, or the rates of cyclic coordinates), the constraints kept. Returns a
+        linear.Equilibrium (`.at`, `.residual`); raises AnalysisError when Newton does not converge."""
+        from .linear import evaluator, find_equilibrium
+        return find_equilibrium(evaluator(self, scene, guess, set))
+
+    def linearize(self, scene: str | None = None, *, at: dict | None = None, set: dict | None = None,
+                  inputs=(), outputs=None, find: bool = False):
+        """The linear model about `at` (or, with `find`, about the equilibrium near it): a
+        linear.LinearModel with .M .D .G .K .N .A .B .C .Dm, .coordinates, .modes(), .to_control().
+        `inputs` are parameter names (B), `outputs` names of scene columns, outputs, coordinates,
+        `energy` or `momentum(q)` (C, Dm; default: the scene's columns). See docs/numerics.md."""
+        from .linear import linearize_model
+        return linearize_model(self, scene, at, set, tuple(inputs), outputs, find)[0]
+
     def _quick_run(self, scene: str | None, backend: str, overrides: Overrides):
         """(run plan, program) for a repeated run, planned without sympy from the scene's settings
         and values (as a warm `lagc run` plans, run/plans.py), or None where that cannot serve: the

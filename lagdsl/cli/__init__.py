@@ -1,7 +1,8 @@
 """The `lagc` command: a thin layer over the Python API.
 
 This is the only place that catches LagError: it prints `file:line:column: error: ...`
-with the source line and a caret, and exits 1. Anything else escaping is a bug in lagdsl.
+with the source line and a caret, and exits 1 (`lagc modes` and `lagc linearize` exit 2 for bad
+input and 1 for a numerical failure: cli/modes.py). Anything else escaping is a bug in lagdsl.
 Ctrl-C exits 130 (128 + SIGINT, as shells report it) without a traceback; during `lagc run`
 the rows computed so far are written and the summary says where the run stopped.
 
@@ -21,9 +22,9 @@ from .. import __version__
 from ..errors import LagError, LagWarning, SimulationError
 from ..escape import visible
 from ..run.interrupt import terminate_as_interrupt
-from . import bench, common, describe, simulate, sweep
+from . import bench, common, describe, modes, simulate, sweep
 
-COMMANDS = (describe, simulate, sweep, bench)      # each adds its subcommands to the parser
+COMMANDS = (describe, simulate, sweep, bench, modes)      # each adds its subcommands to the parser
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -58,7 +58,8 @@ def overrides(arguments) -> Overrides:
                      arguments.integrator, options)
 
 
-def set_values(items: list[str]) -> tuple[tuple[str, float], ...]:
+def set_values(items: list[str], option: str = "--set") -> tuple[tuple[str, float], ...]:
+    """NAME=VALUE items of `option` (--set, or --at of `lagc modes`) as (name, number) pairs."""
     values = []
     for item in items:
         name, equals, text = item.partition("=")
@@ -67,7 +68,7 @@ def set_values(items: list[str]) -> tuple[tuple[str, float], ...]:
         except ValueError:
             value = None
         if not equals or value is None:
-            raise LagError(f"--set takes NAME=VALUE with a number, got '{item}'")
+            raise LagError(f"{option} takes NAME=VALUE with a number, got '{item}'")
         values.append((name.strip(), value))
     return tuple(values)
 
