@@ -12,7 +12,9 @@ Newton's step solves J [δq; δλ] = -F with the exact Jacobian
 
 Dq read from the generated code at q'' = 0. It is solved in the least-squares sense (minimum
 norm): a cyclic coordinate, whose column of J is zero, keeps its value, and an equilibrium
-that is not isolated (the rest positions of a free body) is reached where the guess was.
+that is not isolated (the rest positions of a free body) is reached where the guess was. The
+step is halved while it does not decrease |F| (at most HALVINGS times), so that a guess on the
+far side of a maximum of the potential does not leap past the equilibrium it was near.
 """
 from __future__ import annotations
 
@@ -26,6 +28,7 @@ from .point import Evaluator
 
 MAX_NEWTON_STEPS = 60
 STEP_TOLERANCE = 1e-12        # converged when |δq| <= STEP_TOLERANCE (1 + |q|), largest entries
+HALVINGS = 12
 
 
 @dataclass(frozen=True)
@@ -58,16 +61,34 @@ def find_equilibrium(evaluator: Evaluator) -> Equilibrium:
     state = evaluator.state.copy()
     n = evaluator.n
     _, lam = evaluator.accelerations(state)
+    residual, jacobian = _newton_system(evaluator, state, lam)
     for step in range(1, MAX_NEWTON_STEPS + 1):
-        residual, jacobian = _newton_system(evaluator, state, lam)
         change = scipy.linalg.lstsq(jacobian, -residual, lapack_driver="gelsd")[0]
-        state[:n] += change[:n]
-        lam = lam + change[n:]
+        state, lam, residual, jacobian, change = _damped_step(evaluator, state, lam, residual, jacobian, change)
         if not (np.all(np.isfinite(state)) and np.all(np.isfinite(lam))):
             break
         if np.max(np.abs(change[:n]), initial=0.0) <= STEP_TOLERANCE * (1 + np.max(np.abs(state[:n]))):
             return _equilibrium(evaluator, state, step)
     _fail(evaluator, state)
+
+
+def _damped_step(evaluator: Evaluator, state, lam, residual, jacobian, change):
+    """The Newton step, halved while |F| does not decrease; the new (state, λ, F, J, step)."""
+    n = evaluator.n
+    size = np.linalg.norm(residual)
+    for _ in range(HALVINGS):
+        trial = state.copy()
+        trial[:n] += change[:n]
+        trial_lam = lam + change[n:]
+        if np.all(np.isfinite(trial)):
+            trial_residual, trial_jacobian = _newton_system(evaluator, trial, trial_lam)
+            if np.linalg.norm(trial_residual) < size or size == 0:
+                break
+        change = change / 2
+    else:
+        trial_residual, trial_jacobian = _newton_system(evaluator, trial, trial_lam) \
+            if np.all(np.isfinite(trial)) else (residual, jacobian)
+    return trial, trial_lam, trial_residual, trial_jacobian, change
 
 
 def _newton_system(evaluator: Evaluator, state: np.ndarray, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

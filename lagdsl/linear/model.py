@@ -54,8 +54,8 @@ class LinearModel:
         solve = _mass_solver(mass)
         A = np.zeros((2 * n, 2 * n))
         A[:n, n:] = np.eye(n)
-        A[n:, :n] = -solve(stiffness)
-        A[n:, n:] = -solve(damping)
+        A[n:, :n] = -solve(stiffness) + 0.0        # + 0.0: no -0 in the files written
+        A[n:, n:] = -solve(damping) + 0.0
         B = np.vstack([np.zeros_like(Bq), solve(Bq)])
         return cls((mass + mass.T) / 2, (damping + damping.T) / 2, (damping - damping.T) / 2,
                    (stiffness + stiffness.T) / 2, (stiffness - stiffness.T) / 2, Bq, A, B, C, Dm, **names)
