@@ -44,6 +44,7 @@ from .symbolic import input_output
 # ON_CONSTRAINT (1 + |q|).
 EQUILIBRIUM_TOLERANCE = 1e-8
 ON_CONSTRAINT = 1e-9
+WARNING_LEVEL = 5       # a warning names the caller of Model.linearize
 
 
 def linearize_model(model, scene: str | None = None, at: dict | None = None, set: dict | None = None,
@@ -118,13 +119,13 @@ def _warn_if_moving(evaluator: Evaluator, state, acc, Dq) -> None:
     largest = np.max(np.abs(acc), initial=0.0)
     if largest > EQUILIBRIUM_TOLERANCE:
         warnings.warn(f"the point is not an equilibrium (largest |q''| = {largest:.3g}): the linear model holds "
-                      "for deviations from the motion through it, at this instant only", LagWarning, stacklevel=3)
+                      "for deviations from the motion through it, at this instant only", LagWarning, stacklevel=WARNING_LEVEL)
     n = evaluator.n
     for k, name in enumerate(evaluator.coordinates):
         if state[n + k] != 0 and np.any(Dq[:, k] != 0):
             warnings.warn(f"{name} moves at the point and the equations depend on it: the linear model's "
                           "coefficients hold at this instant only (a steady motion moves cyclic coordinates)",
-                          LagWarning, stacklevel=3)
+                          LagWarning, stacklevel=WARNING_LEVEL)
 
 
 def _structure(evaluator: Evaluator) -> Structure:
