@@ -15,4 +15,5 @@ from .model import LinearModel
 from .modes import Modes, analyse
 from .point import evaluator
 
-__all__ = ["Equilibrium", "LinearModel", "Modes", "analyse", "evaluator", "find_equilibrium", "linearize", "linearize_model"]
+__all__ = ["Equilibrium", "LinearModel", "Modes", "analyse", "evaluator", "find_equilibrium", "linearize",
+           "linearize_model"]

@@ -44,6 +44,7 @@ from .symbolic import input_output
 # ON_CONSTRAINT (1 + |q|).
 EQUILIBRIUM_TOLERANCE = 1e-8
 ON_CONSTRAINT = 1e-9
+RANK_TOLERANCE = 1e-12  # a constraint row within this (relative) of the others' span is redundant
 WARNING_LEVEL = 5       # a warning names the caller of Model.linearize
 
 
@@ -103,9 +104,9 @@ def _constraint_basis(model, evaluator: Evaluator, state, acc):
         raise LagError(f"the state is not an equilibrium (largest |q''| = {np.max(np.abs(acc)):.3g}): a model "
                        "with constraints is linearized about an equilibrium only; find one with --find",
                        Setting("--at"))
-    _, _, pivots = scipy.linalg.qr(A, pivoting=True, mode="economic")
-    rank = int(np.sum(np.abs(np.diag(scipy.linalg.qr(A[:, pivots], mode="r")[0])) >
-                      1e-12 * max(1.0, np.max(np.abs(A)))))
+    _, triangle, pivots = scipy.linalg.qr(A, pivoting=True, mode="economic")
+    diagonal = np.abs(np.diag(triangle))
+    rank = int(np.sum(diagonal > RANK_TOLERANCE * diagonal[0]))        # redundant constraints drop out
     dependent = sorted(pivots[:rank])
     independent = [k for k in range(n) if k not in dependent]
     basis = np.zeros((n, len(independent)))
@@ -119,7 +120,8 @@ def _warn_if_moving(evaluator: Evaluator, state, acc, Dq) -> None:
     largest = np.max(np.abs(acc), initial=0.0)
     if largest > EQUILIBRIUM_TOLERANCE:
         warnings.warn(f"the point is not an equilibrium (largest |q''| = {largest:.3g}): the linear model holds "
-                      "for deviations from the motion through it, at this instant only", LagWarning, stacklevel=WARNING_LEVEL)
+                      "for deviations from the motion through it, at this instant only", LagWarning,
+                      stacklevel=WARNING_LEVEL)
     n = evaluator.n
     for k, name in enumerate(evaluator.coordinates):
         if state[n + k] != 0 and np.any(Dq[:, k] != 0):

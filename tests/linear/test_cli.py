@@ -72,12 +72,14 @@ def test_torque_pendulum_equilibrium_where_the_torque_balances(capsys, tmp_path)
 
 
 BAD_INPUT = [
-    (["modes", "cartesian_pendulum.lag", "--at", "x=0.5", "--at", "y=0"], "--at: the state is not on constraint 'rod'"),
+    (["modes", "cartesian_pendulum.lag", "--at", "x=0.5", "--at", "y=0"],
+     "--at: the state is not on constraint 'rod'"),
     (["linearize", "cart_pole_lqr.lag", "--input", "Fx", "-o", "lin.json"], "--input: input 'Fx' is not a parameter"),
     (["linearize", "cart_pole_lqr.lag", "--input", "u", "--output", "tipx", "-o", "lin.json"],
      "--output: no output 'tipx'"),
     (["linearize", "cart_pole_lqr.lag", "-o", "lin.txt"], "-o: cannot tell the format"),
-    (["modes", "cart_pole.lag", "--at", "thetta=0"], "--at: 'thetta' names no coordinate of model CartPole; did you mean 'theta'?"),
+    (["modes", "cart_pole.lag", "--at", "thetta=0"],
+     "--at: 'thetta' names no coordinate of model CartPole; did you mean 'theta'?"),
     (["modes", "cart_pole.lag", "--at", "theta"], "--at takes NAME=VALUE"),
     (["modes", "cartesian_pendulum.lag", "--at", "x=0", "--at", "y=-1", "--at", "x.velocity=1"],
      "--at: a model with constraints is linearized about a state at rest only"),
