@@ -66,14 +66,16 @@ def linearize(model, evaluator: Evaluator, inputs=(), outputs=None) -> LinearMod
     n = evaluator.n
     Dq, Dv, Dz = evaluator.residual_jacobian(state, acc, lam)
     mass, damping, stiffness = (-block[:n, :n] for block in (Dz, Dv, Dq))
+    io = input_output(model, evaluator.plan, indices, outputs, state, acc, lam)
     if basis is None:
         _warn_if_moving(evaluator, state, acc, Dq)
-        basis = np.eye(n)
-    io = input_output(model, evaluator.plan, indices, outputs, state, acc, lam)
-    reduced = [basis.T @ matrix @ basis for matrix in (mass, damping, stiffness)]
+        basis, reduced, Bq, C = np.eye(n), (mass, damping, stiffness), io.Bq, np.hstack([io.Cq, io.Cv])
+    else:
+        reduced = [basis.T @ matrix @ basis for matrix in (mass, damping, stiffness)]
+        Bq, C = basis.T @ io.Bq, np.hstack([io.Cq @ basis, io.Cv @ basis])
     kept = tuple(name for name in evaluator.coordinates if name not in eliminated)
     return LinearModel.from_second_order(
-        *reduced, basis.T @ io.Bq, np.hstack([io.Cq @ basis, io.Cv @ basis]), io.D,
+        *reduced, Bq, C, io.D,
         coordinates=kept, eliminated=eliminated, basis=basis, inputs=io.inputs, outputs=io.outputs,
         output_values=io.values, point=evaluator.named(state), parameters=_parameters(model, evaluator),
         time=evaluator.time, structure=_structure(evaluator) if not eliminated else Structure())

@@ -126,3 +126,17 @@ def test_second_order_split():
     n = len(linear.M)
     assert np.allclose(linear.M @ linear.A[n:, :n], -(linear.K + linear.N), rtol=1e-14, atol=1e-14)
     assert np.allclose(linear.M @ linear.A[n:, n:], -(linear.D + linear.G), rtol=1e-14, atol=1e-14)
+
+
+def test_conical_pendulum_is_a_relative_equilibrium():
+    """The spherical pendulum with the azimuth turning at phi' = w (a cyclic coordinate at a given
+    rate): the cone at cos theta* = g/(l w^2), and the small nutation about it at
+    Omega^2 = (g/l)(1 + 3 cos^2 theta*)/cos theta* (Coriolis terms: the gyroscopic G)."""
+    pendulum, w = model("spherical_pendulum"), 5.0
+    found = pendulum.equilibrium(guess={"theta": 0.9, "phi.velocity": w})
+    theta = math.acos(9.81 / w ** 2)
+    assert abs(found.at["theta"] - theta) < 1e-12 and found.at["phi.velocity"] == w
+    modes = analyse(pendulum.linearize(at=found.at))
+    assert modes.verdict == "marginally stable"
+    nutation = math.sqrt(9.81 * (1 + 3 * math.cos(theta) ** 2) / math.cos(theta))
+    assert abs(modes.modes[-1].omega / nutation - 1) < 1e-12
