@@ -33,7 +33,8 @@ def write_linear(path: str, linear: LinearModel, model_name: str, scene: str) ->
              "states": list(linear.states), "inputs": list(linear.inputs), "outputs": list(linear.outputs)}
     numbers = {"point": linear.point, "parameters": linear.parameters, "time": linear.time,
                "output_values": linear.output_values.tolist()}
-    matrices = {name: np.asarray(getattr(linear, name), dtype=float) for name in MATRICES}
+    matrices = {name: np.asarray(getattr(linear, name), dtype=float) for name in MATRICES
+                if getattr(linear, name) is not None}        # first-order only: no M, D, G, K, N, Bq
     suffix = check_format(path)
     if suffix == ".json":
         document = {**names, **numbers, "matrices": {k: v.tolist() for k, v in matrices.items()}}
@@ -65,6 +66,7 @@ def modes_text(modes: Modes, linear: LinearModel, title: str) -> str:
     lines = [f"modes of {title} about {_point_text(linear.point)}",
              f"coordinates: {_names_text(linear.coordinates)}"
              + (f" ({_names_text(linear.eliminated)} eliminated by the constraints)" if linear.eliminated else ""),
+             *_velocities_line(linear),
              f"{'mode':>5} {'omega [rad/s]':>16} {'frequency [Hz]':>16} {'damping ratio':>14} "
              f"{'real s [1/s]':>14} {'imag s [rad/s]':>15}  verdict"]
     for index, mode in enumerate(modes.modes, 1):
@@ -88,3 +90,10 @@ def _point_text(point: dict[str, float], shown: int = 8) -> str:
 
 def _names_text(names, shown: int = 12) -> str:
     return ", ".join(names) if len(names) <= shown else f"{names[0]}, {names[1]}, ..., {names[-1]} ({len(names)})"
+
+
+def _velocities_line(linear: LinearModel) -> list[str]:
+    """For a first-order model on the constraints' tangent space: the velocities it eliminated."""
+    velocities = [f"{q}.velocity" for q in linear.all_coordinates]
+    gone = [v for v in velocities if v not in linear.states]
+    return [f"velocities eliminated by the constraints: {_names_text(gone)}"] if linear.M is None and gone else []

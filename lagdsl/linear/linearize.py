@@ -19,8 +19,11 @@ P = [I; -A_d⁻¹ A_i] (rows in the model's order). Premultiplying by Pᵀ remov
 
     (PᵀMP) δq_i'' + (PᵀCP) δq_i' + (PᵀSP) δq_i = PᵀB_q δu.
 
-This holds at an equilibrium at rest (q'* = 0, q''* = 0), the only kind of point a constrained
-model is linearized about. The first-order form, x = (δq_i, δq_i'), is
+This holds at an equilibrium at rest (q'* = 0, q''* = 0). Elsewhere, and for nonholonomic
+constraints (which restrict the velocities but not the positions), the first-order form is taken
+on the tangent space of the constraint manifold (linear/constraints.py): x holds the independent
+entries of the state y = (q, q') and x' = (J T x) at them, J the exact Jacobian of the index-1
+equations and T the tangent space's basis. The first-order form, x = (δq_i, δq_i'), is
 
     x' = [[0, I], [-M⁻¹(K + N), -M⁻¹(D + G)]] x + [[0], [M⁻¹ B_q]] u,   y = C x + D_m u,
 
@@ -33,18 +36,15 @@ import warnings
 import numpy as np
 import scipy.linalg
 
-from ..errors import LagError, LagWarning, Setting
-from .model import LinearModel, Structure
+from ..errors import LagWarning
+from .constraints import constraint_rows, null_basis, tangent_basis
 from .equilibrium import Equilibrium, find_equilibrium
+from .model import LinearModel, Structure
 from .point import Evaluator, check_inputs, evaluator
-from .symbolic import input_output
+from .symbolic import input_output, rate_jacobian
 
-# The point counts as an equilibrium when no acceleration exceeds this (coordinate units / s²),
-# and as on the constraints when each |g_i| / |∇g_i| (a distance, coordinate units) is below
-# ON_CONSTRAINT (1 + |q|).
+# The point counts as an equilibrium when no acceleration exceeds this (coordinate units / s²).
 EQUILIBRIUM_TOLERANCE = 1e-8
-ON_CONSTRAINT = 1e-9
-RANK_TOLERANCE = 1e-12  # a constraint row within this (relative) of the others' span is redundant
 WARNING_LEVEL = 5       # a warning names the caller of Model.linearize
 
 
@@ -58,63 +58,50 @@ def linearize_model(model, scene: str | None = None, at: dict | None = None, set
 
 
 def linearize(model, evaluator: Evaluator, inputs=(), outputs=None) -> LinearModel:
-    """The linear model of `model` (an api.Model) at the evaluator's start state."""
+    """The linear model of `model` (an api.Model) at the evaluator's state."""
     indices = check_inputs(model.ir, inputs)
     state = evaluator.state
     acc, lam = evaluator.accelerations(state)
-    basis, eliminated = _constraint_basis(model, evaluator, state, acc)
+    g, _, A = constraint_rows(evaluator, state)
     n = evaluator.n
     Dq, Dv, Dz = evaluator.residual_jacobian(state, acc, lam)
-    mass, damping, stiffness = (-block[:n, :n] for block in (Dz, Dv, Dq))
     io = input_output(model, evaluator.plan, indices, outputs, state, acc, lam)
-    if basis is None:
+    names = dict(inputs=io.inputs, outputs=io.outputs, output_values=io.values, point=evaluator.named(state),
+                 parameters=_parameters(model, evaluator), time=evaluator.time)
+    second_order = [-block[:n, :n] for block in (Dz, Dv, Dq)]          # M, C, S
+    if len(A) and (len(g) < len(A) or np.any(state[n:] != 0) or np.max(np.abs(acc)) > EQUILIBRIUM_TOLERANCE):
         _warn_if_moving(evaluator, state, acc, Dq)
-        basis, reduced, Bq, C = np.eye(n), (mass, damping, stiffness), io.Bq, np.hstack([io.Cq, io.Cv])
-    else:
-        reduced = [basis.T @ matrix @ basis for matrix in (mass, damping, stiffness)]
-        Bq, C = basis.T @ io.Bq, np.hstack([io.Cq @ basis, io.Cv @ basis])
-    kept = tuple(name for name in evaluator.coordinates if name not in eliminated)
-    return LinearModel.from_second_order(
-        *reduced, Bq, C, io.D,
-        coordinates=kept, eliminated=eliminated, basis=basis, inputs=io.inputs, outputs=io.outputs,
-        output_values=io.values, point=evaluator.named(state), parameters=_parameters(model, evaluator),
-        time=evaluator.time, structure=_structure(evaluator) if not eliminated else Structure())
-
-
-def _constraint_basis(model, evaluator: Evaluator, state, acc):
-    """(P, eliminated coordinate names) of the module docstring, or (None, ()) without constraints."""
-    g, c, A = evaluator.constraint_rows(state)
+        return _on_tangent_space(model, evaluator, io, A[:len(g)], A, Dq, Dv, Dz, names)
     if not len(A):
-        return None, ()
-    names = evaluator.coordinates
-    active = {e.name: e for e in model.equations.constraints}
-    for name in evaluator.kernel.constraints[len(g):]:
-        raise LagError(f"constraint '{name}' is nonholonomic: linearizing a model with nonholonomic constraints is "
-                       "not supported (they restrict the velocities but not the positions, and the linear state "
-                       "would have fewer velocities than coordinates)", active[name].span)
+        _warn_if_moving(evaluator, state, acc, Dq)
+        return LinearModel.from_second_order(*second_order, io.Bq, np.hstack([io.Cq, io.Cv]), io.D,
+                                             coordinates=evaluator.coordinates, eliminated=(), basis=None,
+                                             structure=_structure(evaluator), **names)
+    P, dependent = null_basis(A)
+    reduced = [P.T @ matrix @ P for matrix in second_order]
+    eliminated = tuple(evaluator.coordinates[k] for k in dependent)
+    return LinearModel.from_second_order(
+        *reduced, P.T @ io.Bq, np.hstack([io.Cq @ P, io.Cv @ P]), io.D,
+        coordinates=tuple(q for q in evaluator.coordinates if q not in eliminated), eliminated=eliminated,
+        basis=scipy.linalg.block_diag(P, P), **names)
+
+
+def _on_tangent_space(model, evaluator: Evaluator, io, holonomic_rows, rows, Dq, Dv, Dz, names) -> LinearModel:
+    """The first-order form on the tangent space of the constraint manifold (module docstring):
+    J = [[0, I], [dq''/dq, dq''/dq']] and B = [0; dq''/du] from the KKT system, dz = -Dz⁻¹ dR."""
     n = evaluator.n
-    scale = 1 + np.max(np.abs(state[:n]))
-    for name, residual, row, rate in zip(evaluator.kernel.constraints, g, A, c):
-        size = max(np.linalg.norm(row), np.finfo(float).tiny)
-        if abs(residual) / size > ON_CONSTRAINT * scale or abs(rate) / size > ON_CONSTRAINT * scale:
-            raise LagError(f"the state is not on constraint '{name}' (residual {residual:.3g}, velocity residual "
-                           f"{rate:.3g}); give a point that satisfies it, or find one with --find", Setting("--at"))
-    if np.any(state[n:] != 0):
-        raise LagError("a model with constraints is linearized about a state at rest only: give every velocity "
-                       "as 0", Setting("--at"))
-    if np.max(np.abs(acc), initial=0.0) > EQUILIBRIUM_TOLERANCE:
-        raise LagError(f"the state is not an equilibrium (largest |q''| = {np.max(np.abs(acc)):.3g}): a model "
-                       "with constraints is linearized about an equilibrium only; find one with --find",
-                       Setting("--at"))
-    _, triangle, pivots = scipy.linalg.qr(A, pivoting=True, mode="economic")
-    diagonal = np.abs(np.diag(triangle))
-    rank = int(np.sum(diagonal > RANK_TOLERANCE * diagonal[0]))        # redundant constraints drop out
-    dependent = sorted(pivots[:rank])
-    independent = [k for k in range(n) if k not in dependent]
-    basis = np.zeros((n, len(independent)))
-    basis[independent, range(len(independent))] = 1.0
-    basis[dependent] = -np.linalg.lstsq(A[:, dependent], A[:, independent], rcond=None)[0]
-    return basis, tuple(names[k] for k in dependent)
+    factor = scipy.linalg.lu_factor(Dz)
+    rates = -scipy.linalg.lu_solve(factor, np.hstack([Dq[:, :n], Dv[:, :n]]))[:n]
+    forced = -scipy.linalg.lu_solve(factor, np.vstack([io.Bq, np.zeros((len(Dz) - n, len(io.inputs)))]))[:n]
+    J = np.block([[np.zeros((n, n)), np.eye(n)], [rates]])
+    T, dependent = tangent_basis(holonomic_rows, rate_jacobian(model, evaluator.plan, evaluator.state), rows)
+    kept = [k for k in range(2 * n) if k not in dependent]
+    entries = (*evaluator.coordinates, *(f"{q}.velocity" for q in evaluator.coordinates))
+    return LinearModel((J @ T)[kept] + 0.0, np.vstack([np.zeros((n, len(io.inputs))), forced])[kept],
+                       np.hstack([io.Cq, io.Cv]) @ T, io.D,
+                       coordinates=tuple(entries[k] for k in kept if k < n),
+                       states=tuple(entries[k] for k in kept),
+                       eliminated=tuple(entries[k] for k in dependent if k < n), basis=T, **names)
 
 
 def _warn_if_moving(evaluator: Evaluator, state, acc, Dq) -> None:

@@ -17,27 +17,27 @@ class Structure:
 
 @dataclass(frozen=True)
 class LinearModel:
-    """M δq'' + (D + G) δq' + (K + N) δq = Bq δu, and x' = A x + B u, y = C x + Dm u with
-    x = (δq, δq') in the independent `coordinates` (linear/linearize.py has the formulas).
+    """M δq'' + (D + G) δq' + (K + N) δq = Bq δu, and x' = A x + B u, y = C x + Dm u
+    (linear/linearize.py has the formulas), in SI units.
 
-    `basis` P maps them back to every coordinate of the model (δq_all = P δq); `eliminated` are
-    the coordinates the constraints expressed through the others. `point` is the state the model
-    is about ({"q": value, "q.velocity": value}), `output_values` the outputs there. SI units.
+    Without constraints, or with holonomic ones about an equilibrium at rest, x = (δq, δq') in the
+    independent `coordinates`, and both forms are given. Otherwise (nonholonomic constraints, a
+    constrained model moving) x holds the independent entries of the state, named in `states`
+    (`q` or `q.velocity`), and only the first-order form is: M, D, G, K, N and Bq are None.
+    `basis` maps x to the whole state (q, q') of the model (None without constraints: x is the
+    state); `eliminated` are the coordinates the constraints expressed through the others.
+    `point` is the state the model is about ({"q": value, "q.velocity": value}), `output_values`
+    the outputs there.
     """
 
-    M: np.ndarray
-    D: np.ndarray
-    G: np.ndarray
-    K: np.ndarray
-    N: np.ndarray
-    Bq: np.ndarray
     A: np.ndarray
     B: np.ndarray
     C: np.ndarray
     Dm: np.ndarray
     coordinates: tuple[str, ...]
+    states: tuple[str, ...]
     eliminated: tuple[str, ...]
-    basis: np.ndarray
+    basis: np.ndarray | None
     inputs: tuple[str, ...]
     outputs: tuple[str, ...]
     output_values: np.ndarray
@@ -45,6 +45,12 @@ class LinearModel:
     parameters: dict[str, float]
     time: float
     structure: Structure = field(default_factory=Structure)
+    M: np.ndarray | None = None
+    D: np.ndarray | None = None
+    G: np.ndarray | None = None
+    K: np.ndarray | None = None
+    N: np.ndarray | None = None
+    Bq: np.ndarray | None = None
 
     @classmethod
     def from_second_order(cls, mass, damping, stiffness, Bq, C, Dm, **names) -> "LinearModel":
@@ -57,18 +63,15 @@ class LinearModel:
         A[n:, :n] = -solve(stiffness) + 0.0        # + 0.0: no -0 in the files written
         A[n:, n:] = -solve(damping) + 0.0
         B = np.vstack([np.zeros_like(Bq), solve(Bq)])
-        return cls((mass + mass.T) / 2, (damping + damping.T) / 2, (damping - damping.T) / 2,
-                   (stiffness + stiffness.T) / 2, (stiffness - stiffness.T) / 2, Bq, A, B, C, Dm, **names)
-
-    @property
-    def states(self) -> tuple[str, ...]:
-        """Names of the entries of x: the coordinates, then their velocities."""
-        return (*self.coordinates, *(f"{q}.velocity" for q in self.coordinates))
+        states = (*names["coordinates"], *(f"{q}.velocity" for q in names["coordinates"]))
+        return cls(A, B, C, Dm, states=states, **names, M=(mass + mass.T) / 2, D=(damping + damping.T) / 2,
+                   G=(damping - damping.T) / 2, K=(stiffness + stiffness.T) / 2, N=(stiffness - stiffness.T) / 2,
+                   Bq=Bq)
 
     @property
     def all_coordinates(self) -> tuple[str, ...]:
-        """Every coordinate of the model, in its order (the rows of `basis`)."""
-        return tuple(self.point)[:len(self.basis)]
+        """Every coordinate of the model, in its order."""
+        return tuple(self.point)[:len(self.point) // 2]
 
     def modes(self, tolerance: float | None = None):
         """The modes (linear/modes.py): a pandas DataFrame when pandas is installed, else a

@@ -9,6 +9,8 @@ ratio ζ = -Re(s)/|s| and the growth rate Re(s). Which eigenproblem:
   it is the banded symmetric M^-1/2 K M^-1/2, by scipy.linalg.eig_banded, O(n b) storage.
 - otherwise the first-order pencil [[0, I], [-(K + N), -(D + G)]] - s [[I, 0], [0, M]], by
   scipy.linalg.eig; one mode per complex-conjugate pair (the one with Im s > 0), one per real s.
+- a model given in first-order form only (nonholonomic constraints, a constrained model moving):
+  the eigenvalues of A, by scipy.linalg.eig, likewise.
 
 The verdict of a mode, with ρ the largest |s| of the model and τ the tolerance:
 unstable if Re s > τ max(ρ, 1/s), stable (asymptotically) if Re s < -τ max(ρ, 1/s), marginally
@@ -59,17 +61,33 @@ class Modes:
 
 def analyse(linear, tolerance: float = DEFAULT_TOLERANCE) -> Modes:
     """The modes of `linear` (a LinearModel), ordered by frequency."""
-    if _is_symmetric(linear):
+    if linear.M is None:
+        s, vectors = scipy.linalg.eig(linear.A)
+        keep = s.imag >= 0
+        s, vectors, method = s[keep], vectors[:, keep], "eig (the first-order A on the constraints' tangent space)"
+    elif _is_symmetric(linear):
         values, vectors, method = _symmetric(linear)
         s = np.where(values >= 0, 1j * np.sqrt(np.abs(values)), np.sqrt(np.abs(values)) + 0j)
     else:
         s, vectors, method = _general(linear)
+    shapes = _coordinate_shapes(linear, vectors)
     scale = tolerance * max(np.max(np.abs(s), initial=0.0), 1.0)
-    modes = [Mode(complex(value), _normalised(linear.basis @ vector), _verdict(value.real, scale))
-             for value, vector in zip(s, vectors.T)]
+    modes = [Mode(complex(value), _normalised(shape), _verdict(value.real, scale))
+             for value, shape in zip(s, shapes.T)]
     modes.sort(key=lambda m: (m.omega, -m.s.real))
     worst = max((VERDICTS.index(m.verdict) for m in modes), default=0)
     return Modes(tuple(modes), linear.all_coordinates, VERDICTS[worst], tolerance, method)
+
+
+def _coordinate_shapes(linear, vectors: np.ndarray) -> np.ndarray:
+    """Eigenvectors (columns: the independent coordinates, or the linear state) as displacements
+    of every coordinate of the model (the state basis, then its coordinate rows)."""
+    n = len(linear.all_coordinates)
+    if linear.basis is None:
+        return vectors[:n]
+    if len(vectors) < linear.basis.shape[1]:        # coordinates only: the symmetric problem
+        vectors = np.vstack([vectors, np.zeros_like(vectors)])
+    return (linear.basis @ vectors)[:n]
 
 
 def _verdict(real: float, scale: float) -> str:
@@ -103,7 +121,7 @@ def _general(linear) -> tuple[np.ndarray, np.ndarray, str]:
     right = np.block([[identity, np.zeros((n, n))], [np.zeros((n, n)), linear.M]])
     values, vectors = scipy.linalg.eig(left, right)
     keep = values.imag >= 0
-    return values[keep], vectors[:n, keep], "eig (first-order pencil: damping, gyroscopic or circulatory terms)"
+    return values[keep], vectors[:, keep], "eig (first-order pencil: damping, gyroscopic or circulatory terms)"
 
 
 def _normalised(shape: np.ndarray) -> np.ndarray:

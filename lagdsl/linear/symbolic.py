@@ -8,6 +8,9 @@ with u among the independent symbols), and evaluated at the point in 50-digit ar
 
     B_q = ∂R/∂u = ∂f/∂u - (∂M/∂u) q''* + (∂A/∂u)ᵀ λ*      (R = f - M q'' + Aᵀλ at the point)
     C_q = ∂h/∂q,  C_v = ∂h/∂q',  D = ∂h/∂u.
+
+So are the derivatives ∂c/∂q of the constraints' velocity residuals c = A q' + b, which the
+tangent space of a moving or nonholonomic constraint needs (linear/constraints.py).
 """
 from __future__ import annotations
 
@@ -62,6 +65,15 @@ def input_output(model, plan, input_indices, output_names, state, acc, lam) -> I
     rows = values[n * p:n * p + r * (2 * n + p)].reshape(r, 2 * n + p)
     return InputOutput(tuple(p.name for p in parameters), tuple(name for name, _ in outputs), Bq,
                        rows[:, :n], rows[:, n:2 * n], rows[:, 2 * n:], values[n * p + r * (2 * n + p):])
+
+
+def rate_jacobian(model, plan, state) -> np.ndarray:
+    """∂c/∂q of the active constraints (holonomic rows first, as the kernel orders them) at `state`."""
+    equations = expanded(model.equations)
+    calculus = equations.calculus()
+    active = sorted(equations.active_constraints, key=lambda c: c.kind != "holonomic")
+    exprs = [_partial(calculus, c.velocity_residual, q) for c in active for q in equations.coordinates]
+    return _evaluate(calculus, exprs, model.ir, equations, plan, state).reshape(len(active), equations.size)
 
 
 def outputs_given(names) -> int | None:

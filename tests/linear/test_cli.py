@@ -81,10 +81,10 @@ BAD_INPUT = [
     (["modes", "cart_pole.lag", "--at", "thetta=0"],
      "--at: 'thetta' names no coordinate of model CartPole; did you mean 'theta'?"),
     (["modes", "cart_pole.lag", "--at", "theta"], "--at takes NAME=VALUE"),
-    (["modes", "cartesian_pendulum.lag", "--at", "x=0", "--at", "y=-1", "--at", "x.velocity=1"],
-     "--at: a model with constraints is linearized about a state at rest only"),
-    (["modes", "cartesian_pendulum.lag", "--at", "x=0.6", "--at", "y=-0.8"], "--at: the state is not an equilibrium"),
-    (["modes", "rolling_penny.lag"], "is nonholonomic"),
+    (["modes", "cartesian_pendulum.lag", "--at", "x=0", "--at", "y=-1", "--at", "y.velocity=1"],
+     "--at: the state is not on constraint 'rod' (residual 0, velocity residual -2)"),
+    (["linearize", "cartesian_pendulum.lag", "--input", "l", "-o", "lin.json"],
+     "cartesian_pendulum.lag:15:3: error: input 'l' appears in constraint 'rod'"),
 ]
 
 

@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from lagdsl.errors import LagWarning
 from lagdsl.linear import analyse
 from tests.conftest import MODELS
 from tests.linear.support import lagc, model
@@ -140,3 +141,52 @@ def test_conical_pendulum_is_a_relative_equilibrium():
     assert modes.verdict == "marginally stable"
     nutation = math.sqrt(9.81 * (1 + 3 * math.cos(theta) ** 2) / math.cos(theta))
     assert abs(modes.modes[-1].omega / nutation - 1) < 1e-12
+
+
+@pytest.mark.parametrize("spin", [4.0, 8.0, 30.0, 60.0])
+def test_rolling_disk_upright_on_both_sides_of_the_threshold(spin):
+    """Nonholonomic, about a steady motion: rolling upright at psi' = W, x' = a W. Stable for
+    W^2 > g/(3a), the tilt then wobbling at sqrt(4 (3 a W^2 - g)/(5 a)); below, it falls at
+    sqrt(4 (g - 3 a W^2)/(5 a)). The first-order model on the tangent space: five positions,
+    three velocities."""
+    a, g = 0.05, 9.81
+    linear = model("rolling_disk").linearize(at={"theta": 0, "x.velocity": a * spin, "psi.velocity": spin})
+    assert linear.M is None and len(linear.states) == 8 and linear.coordinates == ("x", "y", "phi", "theta", "psi")
+    modes = analyse(linear)
+    rate = 4 * (3 * a * spin ** 2 - g) / (5 * a)
+    if rate > 0:
+        assert modes.verdict == "marginally stable"
+        assert abs(modes.modes[-1].omega / math.sqrt(rate) - 1) < 1e-12
+    else:
+        assert modes.verdict == "unstable"
+        assert abs(max(m.s.real for m in modes.modes) / math.sqrt(-rate) - 1) < 1e-12
+
+
+def test_tangent_space_agrees_with_the_null_space_of_the_rod():
+    """The pendulum with a rod, passing the bottom at a small speed: the first-order form on the
+    tangent space (a moving constrained state) tends to the second-order one at rest, sqrt(g/l)."""
+    with pytest.warns(LagWarning, match="x moves at the point"):
+        moving = model("cartesian_pendulum").linearize(at={"x": 0, "y": -1, "x.velocity": 1e-7})
+    assert moving.M is None and moving.states == ("x", "x.velocity")
+    at_rest = model("cartesian_pendulum").linearize(at={"x": 0, "y": -1})
+    assert np.max(np.abs(moving.A - at_rest.A)) < 1e-12
+
+
+def test_nonholonomic_at_rest():
+    """The Chaplygin sledge at rest, no forces: every state nearby is at rest too (all modes
+    zero); the blade takes one velocity, never a position."""
+    linear = model("chaplygin_sledge").linearize(at={"x.velocity": 0, "phi.velocity": 0})
+    assert linear.coordinates == ("x", "y", "phi") and len(linear.states) == 5
+    modes = analyse(linear)
+    assert modes.verdict == "marginally stable" and all(m.omega == 0 for m in modes.modes)
+
+
+@pytest.mark.parametrize("speed", [-0.5, 0.5, 2.0])
+def test_chaplygin_sledge_turns_round_when_pushed_backwards(speed):
+    """Sliding straight at V along the blade: the turning rate grows (V < 0) or decays (V > 0) at
+    m b |V| / (I + m b^2), the rate of its closed form V tanh(m b V (t - t0)/(I + m b^2))."""
+    modes = analyse(model("chaplygin_sledge").linearize(at={"x.velocity": speed, "phi.velocity": 0}))
+    rate = 1.0 * 0.5 * speed / (0.1 + 1.0 * 0.5 ** 2)
+    turning = max(modes.modes, key=lambda m: abs(m.s))
+    assert abs(turning.s.real / -rate - 1) < 1e-12 and turning.s.imag == 0
+    assert modes.verdict == ("unstable" if speed < 0 else "marginally stable")
