@@ -190,3 +190,12 @@ def test_chaplygin_sledge_turns_round_when_pushed_backwards(speed):
     turning = max(modes.modes, key=lambda m: abs(m.s))
     assert abs(turning.s.real / -rate - 1) < 1e-12 and turning.s.imag == 0
     assert modes.verdict == ("unstable" if speed < 0 else "marginally stable")
+
+
+def test_modes_table_from_python():
+    """LinearModel.modes(): the table of `lagc modes -o`, a DataFrame with pandas installed."""
+    table = model("double_pendulum").linearize(at={"theta1": 0, "theta2": 0}).modes()
+    rows = table.to_dict("records") if hasattr(table, "to_dict") else table
+    assert [r["mode"] for r in rows] == [1, 2]
+    assert list(rows[0])[:7] == ["mode", "real", "imag", "omega", "frequency_hz", "damping_ratio", "verdict"]
+    assert rows[1]["theta1"] < 0 < rows[1]["theta2"] and rows[0]["frequency_hz"] == rows[0]["omega"] / (2 * math.pi)
