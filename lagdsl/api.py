@@ -9,7 +9,8 @@ from pathlib import Path
 from . import ir, reference
 from .codegen import GeneratedSource
 from .codegen.kernel import Kernel
-from .errors import LagError
+from .animation import DEFAULT_FPS, Animation, check_playback, drawing_of
+from .errors import LagError, SimulationError
 from .mechanics import Equations
 from .pipeline import compile_model, execute, generate, plan
 from .progress import bar as progress_bar
@@ -36,7 +37,7 @@ class Model:
         self.ir: ir.Model
         self.equations: Equations
         self.ir, self.equations = compile_model(source)
-        self._programs: dict[tuple[str, str, str], Program] = {}
+        self._programs: dict[tuple[str, str, str, bool], Program] = {}   # scene, integrator, backend, drawn
         self._quick_plans: dict[str | None, plans.StoredPlan] = {}     # by the scene asked for
 
     @property
@@ -47,8 +48,8 @@ class Model:
     def scenes(self) -> tuple[str, ...]:
         return tuple(s.name for s in self.ir.scenes)
 
-    def plan(self, scene: str | None = None, overrides: Overrides = Overrides()) -> ScenePlan:
-        return plan(self.ir, self.equations, scene, overrides)
+    def plan(self, scene: str | None = None, overrides: Overrides = Overrides(), draw: bool = False) -> ScenePlan:
+        return plan(self.ir, self.equations, scene, overrides, draw)
 
     def column_units(self, scene: str | None = None) -> tuple[str, ...]:
         """The unit of each column of a scene ("?" where the model does not say)."""
@@ -66,7 +67,8 @@ class Model:
                  start: float | None = None, stop: float | None = None, interval: float | None = None,
                  integrator: str | None = None, rtol: float | None = None, atol: float | None = None,
                  step: float | None = None, stages: int | None = None, max_step: float | None = None,
-                 max_steps: int | None = None, estimate_error: bool = False, **parameters: float) -> Result:
+                 max_steps: int | None = None, estimate_error: bool = False, draw: bool = False,
+                 **parameters: float) -> Result:
         """Run a scene and return its outputs.
 
         `set` maps parameter names, "q.start" and "q.velocity" to values; parameters may also be
@@ -76,6 +78,7 @@ class Model:
         largest absolute error over rows and columns, against a 100x tighter rerun or the
         extended-precision reference; `float(...)` gives the value). Raises SimulationError (with `.partial`, the rows computed so far) when the
         integration fails, SimulationInterrupted (a SimulationError) when Ctrl-C stops it.
+        `draw` also computes what the draw statements show (`result.drawing`, `result.animate()`).
         """
         _check_backend(backend)
         values = dict(set or {})
@@ -84,21 +87,22 @@ class Model:
                                      max_steps=max_steps))
         overrides = Overrides(tuple((k, float(v)) for k, v in values.items()), start, stop, interval,
                               integrator, options)
-        return self.simulate_plan(scene, backend, overrides, estimate_error=estimate_error)
+        return self.simulate_plan(scene, backend, overrides, estimate_error=estimate_error, draw=draw)
 
     def simulate_plan(self, scene: str | None, backend: str, overrides: Overrides,
                       progress: Callable[[float, float, float], None] | None = None,
-                      estimate_error: bool = False) -> Result:
+                      estimate_error: bool = False, draw: bool = False) -> Result:
         """`simulate` with the overrides already gathered (what `lagc run` calls); `progress` is
         called as progress(t reached, start, stop) every so often."""
         _check_backend(backend)
-        quick = None if estimate_error else self._quick_run(scene, backend, overrides)
+        quick = None if estimate_error or draw else self._quick_run(scene, backend, overrides)
         if quick is not None:
             return run(quick[0], backend, quick[1].loaded, progress)
-        scene_plan = self.plan(scene, overrides)
+        scene_plan = self.plan(scene, overrides, draw)
         program = self._program(scene, scene_plan, backend, overrides)
-        result = execute(program.kernel, program.source, scene_plan, progress, program.loaded)
-        self._keep_quick_plan(scene, scene_plan)
+        result = self._execute(program, scene_plan, progress)
+        if not draw:        # a quick plan computes the scene's columns alone
+            self._keep_quick_plan(scene, scene_plan)
         if not estimate_error:
             return result
 
@@ -106,8 +110,36 @@ class Model:
             tighter = replace(overrides, integrator=scene_plan.integrator.name, options=options)
             return self.simulate_plan(scene, backend, tighter)
 
-        error = reference.estimate_error(result, self.equations, scene_plan, self.source.name, rerun)
+        plain = self.plan(scene, overrides) if draw else scene_plan     # the reference computes the columns alone
+        error = reference.estimate_error(result, self.equations, plain, self.source.name, rerun)
         return replace(result, summary=replace(result.summary, error=error))
+
+    def animate(self, scene: str | None = None, backend: str = "c", *, fps: int = DEFAULT_FPS, speed: float = 1.0,
+                **options) -> Animation:
+        """Run a scene with its draw statements and return its animation (an animation.Animation:
+        shown in Jupyter, `.save("run.html")`, ".gif" or ".mp4"). The output grid is one row per
+        frame at `fps` frames per second of playback, `speed` model seconds per second, unless
+        `interval` is given; `options` are simulate's."""
+        check_playback(fps, speed)
+        options.setdefault("interval", speed / fps)
+        return self.simulate(scene, backend, draw=True, **options).animate(speed)
+
+    def _execute(self, program: Program, scene_plan: ScenePlan, progress) -> Result:
+        """The run of `scene_plan`, the draw statements' columns taken out of the result (and out
+        of the rows a failed run kept) into its `drawing`."""
+        try:
+            result = execute(program.kernel, program.source, scene_plan, progress, program.loaded)
+        except SimulationError as error:
+            if scene_plan.draws and error.partial is not None:
+                error.partial = self._split_drawing(error.partial, scene_plan)
+            raise
+        return self._split_drawing(result, scene_plan) if scene_plan.draws else result
+
+    def _split_drawing(self, result: Result, scene_plan: ScenePlan) -> Result:
+        shown = scene_plan.shown_columns
+        title = f"{self.name}, scene {scene_plan.scene_name}"
+        return replace(result, columns=result.columns[:shown], values=result.values[:, :shown],
+                       drawing=drawing_of(title, scene_plan.draws, result.values[:, shown:]))
 
     def bench(self, scene: str | None = None, *, integrators: tuple[str, ...] | None = None, backend: str = "c",
               peers: bool = False, repeat: int = 3, set: dict | None = None, start: float | None = None,
@@ -189,7 +221,7 @@ class Model:
         first run of a scene, a value computed from the overrides, code not yet generated."""
         quick = self._quick_plans.get(scene)
         run_plan = quick.resolve(overrides) if quick is not None else None
-        program = run_plan and self._programs.get((run_plan.scene_name, run_plan.integrator.name, backend))
+        program = run_plan and self._programs.get((run_plan.scene_name, run_plan.integrator.name, backend, False))
         return None if program is None else (run_plan, program)
 
     def _keep_quick_plan(self, scene: str | None, scene_plan: ScenePlan) -> None:
@@ -210,12 +242,15 @@ class Model:
         inputs of the generated code; only the scene and the integrator change the code. So a
         repeated simulate() with other inputs only fills the input arrays and calls the code.
         """
-        key = (scene_plan.scene_name, scene_plan.integrator.name, backend)
+        drawn = bool(scene_plan.draws)
+        key = (scene_plan.scene_name, scene_plan.integrator.name, backend, drawn)
         if key not in self._programs:
-            code_plan = self.plan(scene, Overrides(integrator=scene_plan.integrator.name, options=overrides.options))
+            code_plan = self.plan(scene, Overrides(integrator=scene_plan.integrator.name, options=overrides.options),
+                                  drawn)
             kernel, source = generate(self.equations, code_plan, backend, self.source.name)
             self._programs[key] = Program(kernel, source, load_program(source))
-            self._store_plan(scene, backend, overrides.integrator, code_plan, source)
+            if not drawn:       # a warm `lagc run` computes the scene's columns alone
+                self._store_plan(scene, backend, overrides.integrator, code_plan, source)
         return self._programs[key]
 
     def _store_plan(self, scene: str | None, backend: str, integrator: str | None, code_plan: ScenePlan,

@@ -120,6 +120,29 @@ class Output:
 
 
 @dataclass(frozen=True)
+class Draw:
+    """A `draw` statement: a picture element of the animation (draws.KINDS says what each kind
+    takes). Every entry is an expression of (q, q', t) and the parameters, in SI units.
+
+    `points` are the kind's point arguments in order (a line's vertices), each a tuple of 2 or
+    3 lengths; `rotation` is R's nine entries row by row (frame, box); `edges` the box's edge
+    lengths; `values` the named scalars: a circle's radius, a point's radius, the mark's angle,
+    a frame's size.
+    """
+
+    kind: str
+    points: tuple[tuple[sympy.Expr, ...], ...]
+    span: Span | None
+    rotation: tuple[sympy.Expr, ...] | None = None
+    edges: tuple[sympy.Expr, sympy.Expr, sympy.Expr] | None = None
+    values: tuple[tuple[str, sympy.Expr], ...] = ()
+
+    @property
+    def dimension(self) -> int:
+        return len(self.points[0])
+
+
+@dataclass(frozen=True)
 class ParameterOverride:
     name: str
     value: float
@@ -173,6 +196,7 @@ class Scene:
     outputs: tuple[OutputRequest, ...]
     span: Span | None
     stop: StopCondition | None = None
+    draws: tuple[Draw, ...] = ()        # drawn in this scene, after the model's own
 
 
 @dataclass(frozen=True)
@@ -214,3 +238,4 @@ class Model:
     span: Span
     source_name: str = field(default="")
     units: UnitReport | None = None     # None: the model has no units, nothing was checked
+    draws: tuple[Draw, ...] = ()        # drawn in every scene

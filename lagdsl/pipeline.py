@@ -54,8 +54,9 @@ def compile_model(source: SourceFile) -> tuple[ir.Model, Equations | LocalEquati
     return model, derive_local_equations(model) or derive_equations(model)   # Model -> Equations
 
 
-def plan(model: ir.Model, equations: Equations, scene: str | None, overrides: Overrides) -> ScenePlan:
-    return plan_scene(model, equations, scene, overrides)          # + scene, overrides -> ScenePlan
+def plan(model: ir.Model, equations: Equations, scene: str | None, overrides: Overrides,
+         draw: bool = False) -> ScenePlan:
+    return plan_scene(model, equations, scene, overrides, draw)    # + scene, overrides -> ScenePlan
 
 
 def generate(equations: Equations, scene_plan: ScenePlan, backend: str, source_name: str) -> tuple[Kernel, GeneratedSource]:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import sympy
 
-from . import ir
+from . import draws as drawing, ir
 from .errors import LagError, suggest
 from .integrators import registry
 from .mechanics import Equations
@@ -39,10 +39,16 @@ class ScenePlan(IntegratorTraits):
     constraints: tuple[str, ...]                    # active constraints (projected, monitored)
     initial_state: tuple[float, ...]                # y0 = (q(0), q'(0)) with every override applied
     stop: ir.StopCondition | None = None            # the scene's `stop when ...`
+    draws: tuple[ir.Draw, ...] = ()                 # computed as the last columns (see drawn_outputs)
 
     @property
     def columns(self) -> tuple[str, ...]:
         return tuple(o.column for o in self.outputs)
+
+    @property
+    def shown_columns(self) -> int:
+        """How many of the columns are the scene's outputs; the draw statements' channels follow."""
+        return len(self.outputs) - sum(len(drawing.channels(d)) for d in self.draws)
 
     @property
     def coordinates(self) -> tuple[str, ...]:
@@ -56,13 +62,18 @@ class ScenePlan(IntegratorTraits):
 
 
 def plan_scene(model: ir.Model, equations: Equations, scene_name: str | None = None,
-               overrides: Overrides = Overrides()) -> ScenePlan:
+               overrides: Overrides = Overrides(), draw: bool = False) -> ScenePlan:
+    """The plan of a scene with the overrides applied; with `draw`, the channels of its draw
+    statements (the model's, then the scene's) follow its outputs as further columns, computed by
+    the same generated code (for the animation)."""
     scene = _find_scene(model, scene_name)
     settings = _settings(model, equations, scene)
     time, integrator, set_values, initial = settings.resolve(overrides)
     parameters = _parameter_values(model, set_values)
     outputs = scene.outputs if scene and scene.outputs else tuple(
         ir.OutputRequest(c.name, "expression", c.symbol, None, None) for c in model.coordinates)
+    draws = scene_draws(model, scene, settings.scene_name) if draw else ()
+    outputs += drawn_outputs(draws)
     _check_outputs(outputs, equations)
     settings.check_integrator(integrator)
     if registry.get(integrator.name).second_order:
@@ -71,7 +82,22 @@ def plan_scene(model: ir.Model, equations: Equations, scene_name: str | None = N
                      time, integrator, parameters, frozenset(set_values),
                      tuple((name, start, velocity) for name, (start, velocity) in initial.items()),
                      outputs, tuple(q.name for q in equations.conserved), settings.constraints,
-                     _initial_state(model, parameters, initial), scene.stop if scene else None)
+                     _initial_state(model, parameters, initial), scene.stop if scene else None, draws)
+
+
+def scene_draws(model: ir.Model, scene: ir.Scene | None, scene_name: str) -> tuple[ir.Draw, ...]:
+    """What a scene draws: the model's draw statements, then the scene's own; at least one."""
+    draws = model.draws + (scene.draws if scene else ())
+    if not draws:
+        raise LagError(f"model {model.name} draws nothing in the scene {scene_name}: an animation needs draw "
+                       "statements, such as `draw line({0, 0}, {x, y});` (docs/language.md, 'Drawing')", model.span)
+    return draws
+
+
+def drawn_outputs(draws: tuple[ir.Draw, ...]) -> tuple[ir.OutputRequest, ...]:
+    """One output column per channel of each draw statement (draws.channels), in order."""
+    return tuple(ir.OutputRequest(drawing.column_name(number, label), "expression", expression, None, draw.span)
+                 for number, draw in enumerate(draws, 1) for label, expression in drawing.channels(draw))
 
 
 def _check_velocity_free(equations: Equations, integrator: ir.IntegratorChoice) -> None:

@@ -129,12 +129,25 @@ class RunSummary:
 
 @dataclass(frozen=True)
 class Result:
-    """Output times `t`, the named columns, and the summary. `result["theta1"]` is a column."""
+    """Output times `t`, the named columns, and the summary. `result["theta1"]` is a column.
+    `drawing` (an animation.Drawing) holds what the draw statements show at the times `t`, in a
+    run asked to draw (`simulate(..., draw=True)`)."""
 
     t: np.ndarray
     columns: tuple[str, ...]
     values: np.ndarray            # shape (len(t), len(columns))
     summary: RunSummary
+    drawing: object | None = None
+
+    def animate(self, speed: float = 1.0):
+        """The animation of the run (an animation.Animation: shown in Jupyter, `.save(path)`),
+        played at `speed` model seconds per second."""
+        from ..animation import Animation
+        from ..errors import LagError
+        if self.drawing is None:
+            raise LagError("this result was run without its draw statements: run simulate(..., draw=True), "
+                           "or call model.animate()")
+        return Animation(self.drawing, self.t, speed)
 
     def __getitem__(self, column: str) -> np.ndarray:
         if column == "t":
