@@ -91,7 +91,7 @@ class _Channels:
             return Shape("circle", np.stack([centre, mark], axis=1))
         if self.kind == "box":
             signs = np.array(list(itertools.product((-0.5, 0.5), repeat=3)))     # (8, 3), corner 4i + 2j + k
-            offsets = np.einsum("fij,cj->fci", self.rotation, signs[None] * self.edges[:, None, :])
+            offsets = np.einsum("fij,fcj->fci", self.rotation, signs[None] * self.edges[:, None, :])
             return Shape("box", self.points[:, :1] + offsets)
         return Shape(self.kind, self.points, self.values.get("radius"))
 

@@ -8,7 +8,8 @@
 
    For tests and tools, window.lagdslPlayer offers setFrame(k), play(), pause(), setSpeed(x),
    setCamera(azimuth, elevation) in degrees, pixelOf(point) (canvas pixels), frame and drawnFrame;
-   every drawing ends with the event "lagdsl:frame" on document, its detail {frame}. */
+   every drawing ends with the event "lagdsl:frame" on document, its detail {frame}, and playback
+   stops (at the end, or by pause()) with "lagdsl:pause". */
 (function () {
   "use strict";
 
@@ -275,11 +276,12 @@
   function pause() {
     state.playing = false;
     playButton.textContent = "Play";
+    document.dispatchEvent(new CustomEvent("lagdsl:pause", {detail: {frame: state.frame}}));
   }
 
   function tick(now) {
     if (!state.playing) { return; }
-    var t = state.anchorTime + state.speed * (now - state.anchorWall) / 1000;
+    var t = state.anchorTime + state.speed * Math.max(0, now - state.anchorWall) / 1000;   // a frame may start before play()
     var k = frameAt(t);
     if (k !== state.drawnFrame) {
       state.frame = k;
@@ -334,7 +336,7 @@
   playButton.addEventListener("click", function () { if (state.playing) { pause(); } else { play(); } });
   speedChoice.addEventListener("change", function () { setSpeed(Number(speedChoice.value)); });
   document.addEventListener("keydown", function (event) {
-    if (event.target === speedChoice) { return; }
+    if (event.target.closest(".controls")) { return; }     // the controls handle their own keys
     if (event.key === " ") { event.preventDefault(); playButton.click(); }
     if (event.key === "ArrowRight") { setFrame(state.frame + 1); }
     if (event.key === "ArrowLeft") { setFrame(state.frame - 1); }

@@ -15,7 +15,7 @@ from dataclasses import asdict, dataclass
 class Style:
     background: str = "#ffffff"
     colors: tuple[tuple[str, str], ...] = (
-        ("line", "#1f3b73"), ("point", "#d62728"), ("trail", "#8a8a8a"), ("circle", "#1f3b73"),
+        ("line", "#1f3b73"), ("point", "#ee7700"), ("trail", "#8a8a8a"), ("circle", "#1f3b73"),
         ("spring", "#5a5a5a"), ("box", "#1f3b73"))
     axis_colors: tuple[str, str, str] = ("#d62728", "#2ca02c", "#1f77b4")     # a frame's x, y, z
     circle_fill_alpha: float = 0.12     # a circle's disc: its colour, this opaque

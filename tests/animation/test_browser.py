@@ -1,0 +1,121 @@
+"""The player in a real browser (headless Chromium): it loads without a console error, draws,
+plays, follows the slider, and shows the mechanism where its data says."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from lagdsl.animation.style import STYLE
+
+from .browser import Player, centroid, coloured, start_chromium
+from .support import double_pendulum, heavy_top, page_data
+
+
+@pytest.fixture(scope="module")
+def session(tmp_path_factory):
+    browser = start_chromium(tmp_path_factory.mktemp("chromium-profile"))
+    yield browser
+    browser.quit()
+
+
+@pytest.fixture(scope="module")
+def pendulum_page(tmp_path_factory):
+    """Four seconds of the double pendulum at 30 frames per second."""
+    path = tmp_path_factory.mktemp("pages") / "pendulum.html"
+    double_pendulum().animate("chaos", stop=4).save(path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def top_page(tmp_path_factory):
+    path = tmp_path_factory.mktemp("pages") / "top.html"
+    heavy_top().animate("nutation", stop=2).save(path)
+    return path
+
+
+def frame_at(data: dict, t: float) -> int:
+    return int(np.argmin(np.abs(np.array(data["times"]) - t)))
+
+
+def test_the_page_loads_without_console_errors_and_draws(session, pendulum_page):
+    player = Player(session, pendulum_page)
+    assert player.errors() == []
+    assert session.execute_script("return window.lagdslPlayer.drawnFrame;") >= 0
+    assert coloured(player.picture(), STYLE.color("point")).any()
+    assert session.find_element("id", "lagdsl-time").text.startswith("t = ")
+
+
+def test_the_canvas_differs_between_t_0_and_t_1(session, pendulum_page):
+    player = Player(session, pendulum_page)
+    data = page_data(pendulum_page.read_text())
+    player.show(frame_at(data, 0.0))
+    start = player.picture()
+    player.show(frame_at(data, 1.0))
+    assert np.count_nonzero(np.any(player.picture() != start, axis=2)) > 100
+    assert session.find_element("id", "lagdsl-time").text == "t = 1 s"
+
+
+def test_the_slider_moves_the_picture(session, pendulum_page):
+    from selenium.webdriver.common.keys import Keys
+    player = Player(session, pendulum_page)
+    player.show(0)
+    before = player.picture()
+    slider = player.element("lagdsl-slider")
+    frame = player.after(lambda: slider.send_keys(Keys.END))        # the slider's last position
+    assert frame == len(page_data(pendulum_page.read_text())["times"]) - 1
+    assert np.any(player.picture() != before)
+    assert player.after(lambda: slider.send_keys(Keys.ARROW_LEFT)) == frame - 1
+
+
+def test_play_advances_in_real_time_until_the_end(session, pendulum_page):
+    player = Player(session, pendulum_page)
+    player.show(110)                    # t = 3.667 of 4
+    stopped = session.execute_async_script("""
+        const done = arguments[arguments.length - 1];
+        document.addEventListener("lagdsl:pause", event => done(event.detail.frame), {once: true});
+        window.lagdslPlayer.play();""")
+    assert stopped == 120
+    assert session.execute_script("return window.lagdslPlayer.drawnFrame;") == 120
+    assert player.element("lagdsl-play").text == "Play"
+
+
+def test_the_picture_shows_the_bob_where_the_data_says(session, pendulum_page):
+    """The centre of the bob's pixels at three times: where the page maps the data's point, and
+    an image of the data by one scale, y up (so the picture is the motion, not only a mapping)."""
+    player = Player(session, pendulum_page)
+    data = page_data(pendulum_page.read_text())
+    bob = data["draws"][2]
+    assert bob["kind"] == "point"
+    frames = [frame_at(data, t) for t in (0.5, 1.5, 3.0)]
+    seen, expected = [], []
+    for frame in frames:
+        player.show(frame)
+        seen.append(centroid(coloured(player.picture(), STYLE.color("point"))))
+        expected.append(np.array(bob["points"][frame][0]))
+        assert np.allclose(seen[-1], player.pixel_of(bob["points"][frame][0]), atol=1.0)
+    moved = np.array([seen[1] - seen[0], seen[2] - seen[0]])
+    shifted = np.array([expected[1] - expected[0], expected[2] - expected[0]]) * [1, -1]     # y up
+    scale = moved[0] @ shifted[0] / (shifted[0] @ shifted[0])
+    assert scale > 0
+    np.testing.assert_allclose(moved, scale * shifted, atol=1.5)
+
+
+def test_a_3d_model_draws_turns_with_the_camera_and_shows_its_frame(session, top_page):
+    from selenium.webdriver.common.action_chains import ActionChains
+    player = Player(session, top_page)
+    assert player.errors() == []
+    data = page_data(top_page.read_text())
+    assert data["dimension"] == 3 and [d["kind"] for d in data["draws"]] == ["frame", "line", "point"]
+    player.show(frame_at(data, 1.0))
+    centre = data["draws"][2]["points"][frame_at(data, 1.0)][0]
+    picture = player.picture()
+    assert np.allclose(centroid(coloured(picture, STYLE.color("point"))), player.pixel_of(centre), atol=1.0)
+    tip = data["draws"][0]["points"][frame_at(data, 1.0)][3]      # the body's z axis, blue
+    middle = (player.pixel_of(centre) + player.pixel_of(tip)) / 2
+    assert coloured(picture, STYLE.axis_colors[2])[int(middle[1]), int(middle[0])]
+    canvas = player.element("lagdsl-canvas")
+    player.after(lambda: ActionChains(session).drag_and_drop_by_offset(canvas, 120, 40).perform())
+    assert np.any(player.picture() != picture)
+    assert not np.allclose(player.pixel_of(centre), centroid(coloured(picture, STYLE.color("point"))), atol=2)
+    player.show(0)
+    assert np.any(player.picture() != picture)
