@@ -30,6 +30,7 @@ from fractions import Fraction
 import lark
 
 from . import ir
+from .draws import KINDS
 from .errors import Diagnostic, LagError
 from .expressions import _factors, _signed_terms, number_value
 from .semantics import expressions_of, subtree, tokens
@@ -40,6 +41,10 @@ ONE = Dimension()
 TIME = Dimension.of(time=1)
 ENERGY = Dimension.of(mass=1, length=2, time=-2)
 POWER = ENERGY / TIME
+LENGTH = Dimension.of(length=1)
+# what a draw statement's argument must be, by its role (draws.py): a dimension and its words
+DRAWN = {"point": (LENGTH, "a length"), "points": (LENGTH, "a length"), "length": (LENGTH, "a length"),
+         "edges": (LENGTH, "a length"), "angle": (ONE, "dimensionless"), "rotation": (ONE, "dimensionless")}
 TRANSCENDENTAL = ("sin", "cos", "tan", "asin", "acos", "atan", "sinh", "cosh", "tanh", "exp", "log")
 
 
@@ -173,7 +178,7 @@ class _Checker:
         declarations = [c for c in node.children if isinstance(c, lark.Tree) and c.data != "description"]
         # In the order the model is built: declarations, then what uses them, outputs, scenes.
         for kinds in (("parameter", "coordinate", "let"), ("force", "dissipation", "constraint"),
-                      ("energy",), ("output",), ("scene",)):
+                      ("energy",), ("output",), ("draw",), ("scene",)):
             if kinds == ("energy",):
                 self.energies([d for d in declarations if d.data == "energy"])
                 continue
@@ -342,6 +347,44 @@ class _Checker:
                 for item in statement.children:
                     if isinstance(item, lark.Tree):
                         self.column(scene, item)
+            elif statement.data == "draw":
+                self.draw(statement)
+
+    def draw(self, node) -> None:
+        """A picture element: each argument and option of the dimension its role has (DRAWN)."""
+        kind = KINDS.get(str(node.children[1]))
+        if kind is None:
+            return
+        items, previous = [], None
+        for argument in (c for c in node.children if isinstance(c, lark.Tree) and c.data != "draw_option"):
+            if argument.data == "iteration" and previous is not None:
+                items[-1] = (previous, argument)
+            else:
+                items.append((argument, None))
+            previous = argument if argument.data != "iteration" else None
+        arguments = kind.arguments * len(items) if kind.arguments[0][1] == "points" else kind.arguments
+        for (name, role), (argument, iteration) in zip(arguments, items):
+            value = self.within_range(iteration.children[0], iteration.children[2], argument) if iteration \
+                else self.value(argument)
+            self.drawn(value, argument, role, "a point's coordinate" if "point" in role else f"the {name}")
+        options = dict(kind.options)
+        for option in (c for c in node.children if isinstance(c, lark.Tree) and c.data == "draw_option"):
+            name = str(option.children[0])
+            if name in options:
+                self.drawn(self.value(option.children[2]), option.children[2], options[name], f"the {name}")
+
+    def drawn(self, value, node, role: str, what: str) -> None:
+        """Every component of `value` of the role's dimension, blamed on its own braces entry; a
+        plain number is taken in SI units (as a scene's time(stop = 20) is in seconds)."""
+        expected, words = DRAWN[role]
+        components = _components(value)
+        children = [c for c in node.children if isinstance(c, lark.Tree)] if node.data == "braces" else []
+        places = children if len(children) == len(components) else [node] * len(components)
+        for component, place in zip(components, places):
+            if self.names_in(place) and not self.require(
+                    component, Form(expected), place,
+                    lambda c=component, p=place: f"{what} must be {words}, but {self.has(self.quoted(p, 'this'), c)}"):
+                return
 
     def is_time(self, node, what: str) -> None:
         value = self.scalar(node)

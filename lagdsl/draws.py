@@ -25,31 +25,26 @@ class DrawKind:
     options: tuple[tuple[str, str], ...]        # `name = value` after them: (name, role)
     dimensions: tuple[int, ...]                 # 2-D, 3-D or both
     meaning: str
-
-    @property
-    def least_points(self) -> int:
-        """A polyline needs two points; every other kind takes exactly its point arguments."""
-        return sum(2 if role == "points" else role == "point" for _, role in self.arguments)
+    least_points: int = 1                       # a kind whose argument is `points`: at least this many
 
 
 KINDS = {kind.name: kind for kind in (
     DrawKind("line", (("vertices", "points"),), (), (2, 3),
-             "a polyline through the points (links, rods)"),
-    DrawKind("point", (("position", "point"),), (("radius", "length"),), (2, 3),
-             "a bob or a particle; its radius as given, else a fixed size on the screen"),
-    DrawKind("trail", (("position", "point"),), (), (2, 3),
-             "the path the point has left up to the time shown"),
+             "a polyline through the points (links, rods)", least_points=2),
+    DrawKind("point", (("positions", "points"),), (("radius", "length"),), (2, 3),
+             "a bob or a particle at each point; its radius as given, else a fixed size on the screen"),
+    DrawKind("trail", (("positions", "points"),), (), (2, 3),
+             "the path each point has left up to the time shown"),
     DrawKind("circle", (("centre", "point"), ("radius", "length")), (("angle", "angle"),), (2,),
              "a disc, wheel or hoop, with a mark on the rim at the angle (default 0), which turns with it"),
-    DrawKind("spring", (("first", "point"), ("second", "point")), (), (2, 3),
-             "a zigzag between two points"),
+    DrawKind("spring", (("ends", "points"),), (), (2, 3),
+             "a zigzag from each point to the next", least_points=2),
     DrawKind("frame", (("origin", "point"), ("rotation", "rotation")), (("size", "length"),), (3,),
              "the axes of R (its columns) drawn from the origin, of length size (default: a fifth of "
              "the picture's extent)"),
     DrawKind("box", (("centre", "point"), ("rotation", "rotation"), ("edges", "edges")), (), (3,),
              "a rigid block centred at the point, its edges along R's columns"),
 )}
-
 
 def channels(draw) -> tuple[tuple[str, object], ...]:
     """The scalar expressions a drawn element needs at every frame, labelled, in the order

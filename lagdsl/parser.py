@@ -14,7 +14,7 @@ from .source import SourceFile, Span
 KEYWORDS = {
     "MODEL": "model", "END": "end", "PARAMETER": "parameter", "COORDINATE": "coordinate",
     "LET": "let", "DISSIPATION": "dissipation", "FORCE": "force", "CONSTRAINT": "constraint",
-    "OUTPUT": "output", "SCENE": "scene", "TIME": "time", "INTEGRATOR": "integrator",
+    "OUTPUT": "output", "DRAW": "draw", "SCENE": "scene", "TIME": "time", "INTEGRATOR": "integrator",
     "SET": "set", "IN": "in", "STOP": "stop", "WHEN": "when",
 }
 TOKEN_WORDS = {
@@ -27,7 +27,7 @@ TOKEN_WORDS = {
     "RSQB": "']'", "LBRACE": "'{'", "RBRACE": "'}'", "$END": "the end of the file",
 }
 DECLARATION_STARTS = {"PARAMETER", "COORDINATE", "LET", "ENERGY", "DISSIPATION", "FORCE",
-                      "CONSTRAINT", "OUTPUT", "SCENE"}
+                      "CONSTRAINT", "OUTPUT", "DRAW", "SCENE"}
 EXPRESSION_STARTS = {"NAME", "NUMBER", "LPAR", "LBRACE", "MINUS", "PLUS"}
 OPERATORS = {"PLUS", "MINUS", "STAR", "SLASH", "POW"}
 CLOSING = {"LPAR": "RPAR", "LSQB": "RSQB", "LBRACE": "RBRACE"}     # opening bracket -> closing

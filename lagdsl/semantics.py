@@ -13,6 +13,7 @@ import sympy
 
 from . import ir
 from .calculus import TIME_DIRECTION, Differentiator
+from .draw_builder import build_draw
 from .errors import ErrorCollector, InternalError, LagError
 from .expressions import KIND_WORDS, MAX_MEMBERS, Binding, ExpressionBuilder, Matrix, Scope, Vector, suggest
 from .integrators import registry
@@ -21,7 +22,7 @@ from .source import SourceFile, Span
 from .units import in_si, parse_unit
 
 RESERVED = {"model", "end", "parameter", "coordinate", "let", "constraint", "force", "dissipation",
-            "output", "scene", "time", "integrator", "set", "t", "T", "U", "L", "der", "pi", "sum", "in"}
+            "output", "draw", "scene", "time", "integrator", "set", "t", "T", "U", "L", "der", "pi", "sum", "in"}
 
 
 class PoisonedName(LagError):
@@ -81,6 +82,7 @@ class _ModelBuilder:
         self.constraints: list[ir.Constraint] = []
         self.outputs: list[ir.Output] = []
         self.scenes: list[ir.Scene] = []
+        self.draws: list[ir.Draw] = []
         self.scene_spans: dict[str, Span] = {}
         self.constraint_statements = 0
 
@@ -110,6 +112,9 @@ class _ModelBuilder:
         lagrangian = self.errors.attempt(self.lagrangian, node, name)
         self.resolve_structural()
         for declaration in declarations:
+            if declaration.data == "draw":      # after the outputs, which a draw may use
+                self.errors.attempt(lambda node: self.draws.append(self.draw(node)), declaration)
+        for declaration in declarations:
             if declaration.data == "scene":
                 self.errors.attempt(self.scene, declaration)
         if self.errors.errors:
@@ -124,7 +129,8 @@ class _ModelBuilder:
             lets=self.lets(),
             lagrangian=lagrangian, dissipation=self.dissipation, forces=tuple(self.forces),
             constraints=tuple(self.constraints), outputs=tuple(self.outputs),
-            scenes=tuple(self.scenes), span=self.span(name), source_name=self.source.name)
+            scenes=tuple(self.scenes), span=self.span(name), source_name=self.source.name,
+            draws=tuple(self.draws))
 
     def lets(self) -> tuple[ir.Let, ...]:
         """User lets and the der(x) intermediates the chain rule named for them."""
@@ -478,7 +484,7 @@ class _ModelBuilder:
             self.scene_spans[str(name)] = self.span(name)
         statements = [c for c in node.children if isinstance(c, lark.Tree) and c.data != "description"]
         time, integrator, stop = DEFAULT_TIME, None, None
-        parameter_overrides, initial_overrides, outputs = [], [], []
+        parameter_overrides, initial_overrides, outputs, draws = [], [], [], []
         given: dict[str, Span] = {}
         for statement in statements:
             if statement.data in ("scene_time", "scene_integrator", "scene_stop"):
@@ -501,6 +507,9 @@ class _ModelBuilder:
                     parameter_overrides.append(override)
                 elif override is not None:
                     initial_overrides.append(override)
+            elif statement.data == "draw":
+                drawn = errors.attempt(self.draw, statement)
+                draws.extend([drawn] if drawn is not None else [])
             elif statement.data == "scene_output":
                 for item in statement.children:
                     if isinstance(item, lark.Tree):
@@ -516,7 +525,7 @@ class _ModelBuilder:
             integrator = DEFAULT_INTEGRATOR
         self.scenes.append(ir.Scene(str(name), self.description(node), time, integrator,
                                     tuple(parameter_overrides), tuple(initial_overrides),
-                                    tuple(outputs), self.span(name), stop))
+                                    tuple(outputs), self.span(name), stop, tuple(draws)))
 
     def scene_time(self, node) -> ir.TimeGrid:
         options = self.modifiers(node, ("start", "stop", "interval"), "time(...)")
@@ -598,6 +607,10 @@ class _ModelBuilder:
             return ir.OutputRequest(column, kind, None, self.target_name(kind, items[0]), span)
         value = self.expr.scalar(node, self.output_scope(), "a scalar output")
         return ir.OutputRequest(column, "expression", value, None, span)
+
+    def draw(self, node) -> ir.Draw:
+        """A picture element of the animation (draw_builder.py), in the outputs' scope."""
+        return build_draw(node, self.expr, self.output_scope())
 
     def output_scope(self) -> Scope:
         """The model's names, and multiplier(c) of its constraints: λ, solved for with q''."""

@@ -178,12 +178,14 @@
     line: function (draw, k) { polyline(draw.points[k].map(pixelOf), style.colors.line, style.line_width); },
     point: function (draw, k) {
       var radius = draw.radius ? draw.radius[k] * view.scale : style.point_radius * view.pixel;
-      disc(pixelOf(draw.points[k][0]), radius, style.colors.point, null);
+      draw.points[k].forEach(function (point) { disc(pixelOf(point), radius, style.colors.point, null); });
     },
     trail: function (draw, k) {
-      var pixels = [];
-      for (var j = 0; j <= k; j++) { pixels.push(pixelOf(draw.points[j][0])); }
-      polyline(pixels, style.colors.trail, style.trail_width);
+      draw.points[k].forEach(function (_, j) {
+        var pixels = [];
+        for (var f = 0; f <= k; f++) { pixels.push(pixelOf(draw.points[f][j])); }
+        polyline(pixels, style.colors.trail, style.trail_width);
+      });
     },
     circle: function (draw, k) {
       var centre = pixelOf(draw.points[k][0]), mark = pixelOf(draw.points[k][1]);
@@ -192,8 +194,10 @@
       polyline([centre, mark], style.colors.circle, style.line_width);
     },
     spring: function (draw, k) {
-      polyline(zigzag(pixelOf(draw.points[k][0]), pixelOf(draw.points[k][1])), style.colors.spring,
-               style.line_width * 0.6);
+      var ends = draw.points[k].map(pixelOf);
+      for (var j = 1; j < ends.length; j++) {
+        polyline(zigzag(ends[j - 1], ends[j]), style.colors.spring, style.line_width * 0.6);
+      }
     },
     frame: function (draw, k) {
       var origin = pixelOf(draw.points[k][0]);

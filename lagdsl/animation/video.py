@@ -135,12 +135,13 @@ class _Picture:
         if shape.kind == "line":
             return [(points, STYLE.color("line"), STYLE.line_width)]
         if shape.kind == "trail":
-            return [(self.project(shape.points[:row + 1, 0]), STYLE.color("trail"), STYLE.trail_width)]
+            return [(self.project(shape.points[:row + 1, j]), STYLE.color("trail"), STYLE.trail_width)
+                    for j in range(shape.points.shape[1])]
         if shape.kind == "circle":
             return [(points, STYLE.color("circle"), STYLE.line_width)]
         if shape.kind == "spring":
-            return [(zigzag(points[0], points[1], STYLE.spring_width * self.extent), STYLE.color("spring"),
-                     STYLE.line_width * 0.6)]
+            return [(zigzag(a, b, STYLE.spring_width * self.extent), STYLE.color("spring"), STYLE.line_width * 0.6)
+                    for a, b in zip(points[:-1], points[1:])]
         if shape.kind == "frame":
             return [(points[[0, axis]], color, STYLE.line_width) for axis, color in
                     zip((1, 2, 3), STYLE.axis_colors)]
@@ -155,7 +156,7 @@ class _Picture:
         if shape.kind == "point":
             radius = shape.radius[row] if shape.radius is not None else \
                 STYLE.point_radius * (self.limits[0][1] - self.limits[0][0]) / STYLE.reference_width
-            return [(self.project(shape.points[row, 0]), radius, STYLE.color("point"), None)]
+            return [(centre, radius, STYLE.color("point"), None) for centre in self.project(shape.points[row])]
         if shape.kind == "circle":
             centre, mark = shape.points[row]
             fill = (*to_rgb(STYLE.color("circle")), STYLE.circle_fill_alpha)
