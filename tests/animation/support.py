@@ -1,22 +1,17 @@
-"""Models with draw statements, and reading a page's data back.
-
-The draw statements are added to the IR of library models here, until the front end reads them
-from .lag text."""
+"""Models with draw statements, and reading a page's data back."""
 from __future__ import annotations
 
 import json
 import re
-from dataclasses import replace
-
-import sympy
 
 import lagdsl
-from lagdsl import ir
+from lagdsl.api import Model
+from lagdsl.source import SourceFile
 
 from ..conftest import MODELS
 
-ZERO = sympy.S.Zero
 DATA = re.compile(r'<script type="application/json" id="lagdsl-data">(.*?)</script>', re.S)
+DRAWS = re.compile(r"\n  draw [^\n]*")
 
 
 def page_data(page: str) -> dict:
@@ -26,44 +21,22 @@ def page_data(page: str) -> dict:
     return json.loads(found[0])
 
 
-def with_draws(model, *draws: ir.Draw):
-    model.ir = replace(model.ir, draws=draws)
-    return model
+def redrawn(name: str, draws: str) -> Model:
+    """A library model with its draw statements replaced by `draws` (before its first scene)."""
+    text = DRAWS.sub("", (MODELS / f"{name}.lag").read_text())
+    at = text.index("\n  scene ")
+    return Model(SourceFile(f"{name}.lag", text[:at] + "\n" + draws + text[at:]))
 
 
-def lets(model) -> dict[str, sympy.Symbol]:
-    return {let.name: let.symbol for let in model.ir.lets if let.span is not None}
+def double_pendulum(bob_radius: float | None = None) -> Model:
+    """The double pendulum drawn as in the issue, x and y as the model has them (y down): the
+    path of the lower bob, the rods, the lower bob."""
+    radius = f", radius = {bob_radius}" if bob_radius else ""
+    return redrawn("double_pendulum", "  draw trail({x2, y2});\n  draw line({0, 0}, {x1, y1}, {x2, y2});\n"
+                                      f"  draw point({{x2, y2}}{radius});")
 
 
-def double_pendulum(bob_radius: float | None = None):
-    """The library's double pendulum, drawn: the path of the lower bob, the rods, the lower bob
-    (y of the model points down; the drawing is the model's x and y as they are)."""
-    model = lagdsl.load(MODELS / "double_pendulum.lag")
-    x = lets(model)
-    lower = (x["x2"], x["y2"])
-    values = (("radius", sympy.Float(bob_radius)),) if bob_radius else ()
-    return with_draws(model, ir.Draw("trail", (lower,), None),
-                      ir.Draw("line", ((ZERO, ZERO), (x["x1"], x["y1"]), lower), None),
-                      ir.Draw("point", (lower,), None, values=values))
-
-
-def heavy_top():
-    """The heavy top: its body axes (R = Rz(phi) Rx(theta) Rz(psi), 3-1-3), the line from the
-    fixed point to the centre of mass l R e3, and the centre of mass."""
-    model = lagdsl.load(MODELS / "heavy_top.lag")
-    symbols = {c.name: c.symbol for c in model.ir.coordinates}
-    length = next(p.symbol for p in model.ir.parameters if p.name == "l")
-    r = _about_z(symbols["phi"]) * _about_x(symbols["theta"]) * _about_z(symbols["psi"])
-    centre = tuple(length * r[i, 2] for i in range(3))
-    origin = (ZERO, ZERO, ZERO)
-    return with_draws(model, ir.Draw("frame", (centre,), None, rotation=tuple(r), values=(("size", length / 2),)),
-                      ir.Draw("line", (origin, centre), None),
-                      ir.Draw("point", (centre,), None))
-
-
-def _about_z(angle) -> sympy.Matrix:
-    return sympy.Matrix([[sympy.cos(angle), -sympy.sin(angle), 0], [sympy.sin(angle), sympy.cos(angle), 0], [0, 0, 1]])
-
-
-def _about_x(angle) -> sympy.Matrix:
-    return sympy.Matrix([[1, 0, 0], [0, sympy.cos(angle), -sympy.sin(angle)], [0, sympy.sin(angle), sympy.cos(angle)]])
+def heavy_top() -> Model:
+    """The library's heavy top: the path of the centre of mass, the symmetry axis, the body's
+    axes at the centre of mass, the centre of mass."""
+    return lagdsl.load(MODELS / "heavy_top.lag")

@@ -105,12 +105,12 @@ def test_a_3d_model_draws_turns_with_the_camera_and_shows_its_frame(session, top
     player = Player(session, top_page)
     assert player.errors() == []
     data = page_data(top_page.read_text())
-    assert data["dimension"] == 3 and [d["kind"] for d in data["draws"]] == ["frame", "line", "point"]
+    assert data["dimension"] == 3 and [d["kind"] for d in data["draws"]] == ["trail", "line", "frame", "point"]
     player.show(frame_at(data, 1.0))
-    centre = data["draws"][2]["points"][frame_at(data, 1.0)][0]
+    centre = data["draws"][3]["points"][frame_at(data, 1.0)][0]
     picture = player.picture()
     assert np.allclose(centroid(coloured(picture, STYLE.color("point"))), player.pixel_of(centre), atol=1.0)
-    tip = data["draws"][0]["points"][frame_at(data, 1.0)][3]      # the body's z axis, blue
+    tip = data["draws"][2]["points"][frame_at(data, 1.0)][3]      # the body's z axis, blue
     middle = (player.pixel_of(centre) + player.pixel_of(tip)) / 2
     assert coloured(picture, STYLE.axis_colors[2])[int(middle[1]), int(middle[0])]
     canvas = player.element("lagdsl-canvas")
