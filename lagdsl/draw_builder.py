@@ -138,3 +138,12 @@ class _Statement:
             shown = " or ".join(f"{d}-D" for d in self.kind.dimensions)
             raise LagError(f"draw {self.kind.name}() is drawn in {shown}, and its point has {first} coordinates",
                            self.expressions.span(items[0][0]))
+
+
+def check_one_picture(draws: list[ir.Draw]) -> None:
+    """The draw statements of a scene (the model's, then its own) make one picture: all 2-D or all 3-D."""
+    for draw in draws[1:]:
+        if draw.dimension != draws[0].dimension:
+            raise LagError(f"this draw statement is {draw.dimension}-D, but the picture it belongs to is "
+                           f"{draws[0].dimension}-D (line {draws[0].span.line}): a scene draws in 2-D or in 3-D",
+                           draw.span)

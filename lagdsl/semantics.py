@@ -13,7 +13,7 @@ import sympy
 
 from . import ir
 from .calculus import TIME_DIRECTION, Differentiator
-from .draw_builder import build_draw
+from .draw_builder import build_draw, check_one_picture
 from .errors import ErrorCollector, InternalError, LagError
 from .expressions import KIND_WORDS, MAX_MEMBERS, Binding, ExpressionBuilder, Matrix, Scope, Vector, suggest
 from .integrators import registry
@@ -114,6 +114,7 @@ class _ModelBuilder:
         for declaration in declarations:
             if declaration.data == "draw":      # after the outputs, which a draw may use
                 self.errors.attempt(lambda node: self.draws.append(self.draw(node)), declaration)
+        self.errors.attempt(check_one_picture, self.draws)
         for declaration in declarations:
             if declaration.data == "scene":
                 self.errors.attempt(self.scene, declaration)
@@ -510,6 +511,7 @@ class _ModelBuilder:
             elif statement.data == "draw":
                 drawn = errors.attempt(self.draw, statement)
                 draws.extend([drawn] if drawn is not None else [])
+                errors.attempt(check_one_picture, self.draws + draws)
             elif statement.data == "scene_output":
                 for item in statement.children:
                     if isinstance(item, lark.Tree):
