@@ -16,6 +16,8 @@ render           Kernel -> source text                 codegen/c.py, codegen/num
 run              source -> trajectories                run/
 linearize        Kernel's Jacobians at a state ->      linear/ (equilibria, M D G K N, A B C D, modes)
                  LinearModel, Modes
+animate          Result with its drawing (the draw      animation/ (the page, GIF, MP4)
+                 statements' columns) -> page, video
 """
 from __future__ import annotations
 
