@@ -14,7 +14,7 @@ evaluated twice. Here the columns become points, by geometry alone:
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -47,11 +47,6 @@ class Drawing:
     @property
     def dimension(self) -> int:
         return self.shapes[0].dimension
-
-    def until(self, frames: int) -> "Drawing":
-        """The first `frames` frames (the rows a failed run kept)."""
-        return replace(self, shapes=tuple(replace(s, points=s.points[:frames], radius=None if s.radius is None
-                                                  else s.radius[:frames]) for s in self.shapes))
 
 
 def drawing_of(title: str, statements: tuple[ir.Draw, ...], columns: np.ndarray) -> Drawing:
