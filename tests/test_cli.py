@@ -261,3 +261,19 @@ def test_sigterm_stops_lagc_run_as_ctrl_c_does_keeping_the_rows(oscillator, tmp_
     rows = _assert_valid_partial_csv(out.read_text(), "t,x,energy")
     assert rows[-1][0] >= 1000 and len(rows) > 100
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL      # lagc's handler is gone after it
+
+
+def test_a_slow_stage_says_what_it_is_doing(monkeypatch):
+    """A stage without a progress bar (deriving, compiling) says what it does once it has taken
+    NOTICE seconds; the event here is the note itself, with NOTICE set to nothing."""
+    import io
+    import threading
+
+    from lagdsl import progress
+    monkeypatch.setattr(progress, "NOTICE", 0.0)
+    stream, said = io.StringIO(), threading.Event()
+    original = stream.write
+    monkeypatch.setattr(stream, "write", lambda text: (original(text), said.set())[0])
+    with progress.slow_stage("deriving the equations of motion", stream):
+        assert said.wait(30)
+    assert stream.getvalue() == "lagc: still deriving the equations of motion after 0 s\n"

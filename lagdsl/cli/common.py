@@ -9,6 +9,7 @@ from ..errors import LagError, Setting
 from ..integrators import registry
 from ..integrators.registry import OPTION_ORDER, OPTIONS
 from ..run.files import write_output, write_stdout
+from ..progress import slow_stage
 from ..run.interrupt import terminated
 from ..settings import Overrides, check_integrator_name, given_options
 from ..source import SourceFile
@@ -23,7 +24,8 @@ def interrupted_exit() -> int:
 def load_model(source: SourceFile):
     """The model parsed and derived: the pipeline (sympy, lark) is imported only here."""
     from ..api import Model
-    return Model(source)
+    with slow_stage(f"parsing {source.name} and deriving its equations of motion"):
+        return Model(source)
 
 
 def run_options(parser: argparse.ArgumentParser) -> None:
