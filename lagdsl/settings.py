@@ -20,10 +20,24 @@ from .source import Span
 # Integrator settings that can be given outside the model file (`lagc run --rtol`, `simulate(rtol=)`).
 RUN_OPTIONS = OPTION_ORDER
 
+# Numbers the generated C shares (codegen/c_abi.py emits them as LAG_MAX_ROWS, ...). Those
+# counted in units of the rounding unit eps are eps of the working precision in C.
 MAX_ROWS = 10**7              # the largest output grid
-DEFAULT_MAX_STEPS = 100000    # the step limit unless the grid asks for more (step_limit)
+DEFAULT_MAX_STEPS = 100000    # the step limit unless the grid asks for more (step_limit) ...
+STEPS_PER_ROW = 100           # ... at this many steps per output row
 GRID_SLACK = 1e-9             # a grid time within this many intervals of stop is stop
-RTOL_FLOOR = 10 * sys.float_info.epsilon   # no error control is finer than the rounding of y
+RTOL_FLOOR_EPS = 10           # no error control is finer than the rounding of y: rtol >= 10 eps
+RTOL_FLOOR = RTOL_FLOOR_EPS * sys.float_info.epsilon
+# The smallest step an adaptive method may take from t on a run of length `span` is
+# 10 eps max(|t|, span): below 10 eps |t|, t + h == t (HNW I, II.4), and the span makes the test
+# fire near t = 0 too, where eps |t| is no bound at all (10^14 such steps would not cross the run).
+MIN_STEP_EPS = 10
+# K (M, or the saddle-point matrix of a constrained system) counts as singular below this
+# reciprocal condition estimate: q'' would keep fewer than about 3 correct digits (relative error
+# ~ eps / rcond). It is taken after equilibration, so it measures how nearly dependent the
+# coordinates (and constraints) are, not their units.
+RCOND_MIN_EPS = 1000
+RCOND_MIN = RCOND_MIN_EPS * sys.float_info.epsilon
 
 
 @dataclass(frozen=True)
@@ -78,7 +92,8 @@ def step_limit(integrator: IntegratorChoice, time: TimeGrid) -> int:
     """The most steps (accepted + rejected) a run may take: the integrator's max_steps, or by
     default 100000 (as in Hairer's codes) or 100 per output row, whichever is larger."""
     given = dict(integrator.options).get("max_steps")
-    return int(given) if given else max(DEFAULT_MAX_STEPS, 100 * grid_rows(time.start, time.stop, time.interval))
+    return int(given) if given else max(DEFAULT_MAX_STEPS, STEPS_PER_ROW * grid_rows(time.start, time.stop,
+                                                                                    time.interval))
 
 
 class IntegratorTraits:

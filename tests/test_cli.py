@@ -200,7 +200,7 @@ def test_the_standalone_program_checks_its_arguments(oscillator, tmp_path):
     warned = subprocess.run([program, "rtol=1e-300"], capture_output=True, text=True, timeout=30)
     assert warned.returncode == 0 and "warning: rtol = 1e-300 is below 10 eps" in warned.stderr
     limited = subprocess.run([program, "t.stop=100", "max_steps=10"], capture_output=True, text=True, timeout=30)
-    assert limited.returncode == 1 and "the step limit (max_steps) was reached" in limited.stderr
+    assert limited.returncode == 1 and "the step limit of 10 steps was reached" in limited.stderr
     grid = subprocess.run([program, "t.interval=0.3"], capture_output=True, text=True, timeout=30)
     times = [row[0] for row in _assert_valid_partial_csv(grid.stdout, "t,x,energy")]
     assert times == pytest.approx([0.0, 0.3, 0.6, 0.9, 1.0], abs=1e-15) and times[-1] == 1.0

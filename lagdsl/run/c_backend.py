@@ -1,7 +1,7 @@
 """The C backend: the generated library called through ctypes, its run summary read back.
 
-lag_run takes the parameters, the initial state and the settings as arrays of doubles and fills
-the output rows and the run summary (driver.c.j2 documents both layouts).
+lag_run takes the parameters, the initial state and the settings (abi.SETTINGS) as arrays of
+doubles and fills the output rows and the run summary, whose fields abi.SummaryLayout lays out.
 """
 from __future__ import annotations
 
@@ -10,8 +10,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..integrators import SWITCH_TIMES, registry, summary_extras
-from ..integrators.registry import OPTION_ORDER
+from ..abi import plan_summary, settings_vector
 from ..settings import RunPlan
 from .interrupt import interruptible
 from .loading import load
@@ -24,14 +23,6 @@ if TYPE_CHECKING:
     from ..codegen.kernel import Kernel
 
 
-def settings_array(plan: RunPlan) -> tuple[float, ...]:
-    """lag_run's settings: t0, t1, dt, then the options in lag_options order (0: not given), the
-    step limit last."""
-    options = dict(plan.integrator.options)
-    return (plan.time.start, plan.time.stop, plan.time.interval,
-            *(float(options.get(k, 0.0)) for k in OPTION_ORDER if k != "max_steps"), float(plan.max_steps))
-
-
 def run_c(kernel: Kernel, source: GeneratedSource, plan: RunPlan, progress: Progress | None = None,
           loaded: ctypes.CDLL | None = None) -> Result:
     library = loaded if loaded is not None else load(source)
@@ -40,52 +31,54 @@ def run_c(kernel: Kernel, source: GeneratedSource, plan: RunPlan, progress: Prog
     entry.argtypes = [double_p, double_p, double_p, double_p, ctypes.c_long, double_p]
     entry.restype = ctypes.c_int
     times = output_times(plan)
-    settings = np.array(settings_array(plan))
+    settings = settings_vector(plan)
     parameters = np.array(plan.parameters or (0.0,), dtype=float)
     initial = np.array(plan.initial_state, dtype=float)
-    ncols = len(plan.columns)
-    rows = np.zeros((len(times), ncols + 1))
-    counters = registry.get(plan.integrator.name).counters
-    head = 6 + len(counters)        # status, rows, t_fail, rcond_fail, residual, projection, counters
-    extras = head + summary_extras(plan.integrator.name)     # the stiffness verdict, the switches
-    failure_state = extras + 2 * len(plan.invariants)
-    summary = np.zeros(failure_state + len(initial) + (2 if plan.stop else 0))
+    rows = np.zeros((len(times), len(plan.columns) + 1))
+    layout = plan_summary(plan)
+    summary = layout.empty(1)
     pointer = lambda a: a.ctypes.data_as(double_p)   # noqa: E731
     reached = ctypes.c_double.in_dll(library, "lag_progress_t")
     poll = None if progress is None else lambda: progress(reached.value, plan.time.start, plan.time.stop)
     status, elapsed = interruptible(
         library, lambda: entry(pointer(parameters), pointer(initial), pointer(settings), pointer(rows),
                                len(times), pointer(summary)), poll)
-    used = int(summary[1])
-    invariants = tuple((name, float(summary[extras + 2 * i]), float(summary[extras + 1 + 2 * i]))
-                       for i, name in enumerate(plan.invariants))
-    name = plan.integrator.name
-    report = RunSummary("c", name, tuple(zip(counters, map(int, summary[6:head]))), elapsed,
-                        invariants, plan.constraints, float(summary[4]) if plan.constraints else None,
-                        float(summary[5]) if plan.constraints else None,
-                        plan.integrator.options,
-                        stiffness=_c_stiffness(summary[head:], dict(zip(counters, summary[6:head])))
-                        if registry.get(name).stiffness_test else None,
-                        switches=_c_switches(summary[head:]) if name == "auto" else None,
-                        stopped=Stop(plan.stop, float(summary[-1])) if plan.stop and summary[-2] else None)
-    result = Result(rows[:used, 0].copy(), plan.columns, rows[:used, 1:].copy(), report)
+    record = summary[0]
+    used = int(record["rows"])
+    result = Result(rows[:used, 0].copy(), plan.columns, rows[:used, 1:].copy(),
+                    _run_summary(plan, layout.counters, record, elapsed))
     if status != 0:
-        raise simulation_error(plan, status, float(summary[2]), summary[failure_state:failure_state + len(initial)], result,
-                       float(summary[3]))
+        raise simulation_error(plan, status, float(record["t_fail"]), record["y_fail"], result,
+                               float(record["rcond_fail"]))
     return result
 
 
-def _c_stiffness(extras: np.ndarray, counts: dict) -> Stiffness | None:
-    """The summary's entries after the counters: stiff, its time, and accepted, rejected, rhs_evals then."""
-    if not extras[0]:
+def _run_summary(plan: RunPlan, counters: tuple[str, ...], record: np.void, elapsed: float) -> RunSummary:
+    """The RunSummary of a summary record (of the layout abi.plan_summary(plan))."""
+    names = record.dtype.names
+    counts = {name: int(record[name]) for name in counters}
+    invariants = tuple((name, float(record["invariant_start"][i]), float(record["invariant_drift"][i]))
+                       for i, name in enumerate(plan.invariants))
+    return RunSummary("c", plan.integrator.name, tuple(counts.items()), elapsed, invariants, plan.constraints,
+                      float(record["residual"]) if plan.constraints else None,
+                      float(record["projection"]) if plan.constraints else None,
+                      plan.integrator.options,
+                      stiffness=_stiffness(record, counts) if "stiff" in names else None,
+                      switches=_switches(record) if "switches" in names else None,
+                      stopped=Stop(plan.stop, float(record["t_stop"])) if plan.stop and record["stopped"] else None)
+
+
+def _stiffness(record: np.void, counts: dict) -> Stiffness | None:
+    """The stiffness test's verdict: when it fired, and the work done since."""
+    if not record["stiff"]:
         return None
-    return Stiffness(float(extras[1]), int(counts["accepted"] - extras[2]), int(counts["rejected"] - extras[3]),
-                     int(counts["rhs_evals"] - extras[4]), int(counts["rhs_evals"]))
+    return Stiffness(float(record["stiff_time"]), int(counts["accepted"] - record["stiff_accepted"]),
+                     int(counts["rejected"] - record["stiff_rejected"]),
+                     int(counts["rhs_evals"] - record["stiff_rhs_evals"]), int(counts["rhs_evals"]))
 
 
-def _c_switches(extras: np.ndarray) -> Switches:
-    """The summary's entries after the counters: the number of switches, the spans of t of dop853
-    and radau5, then the times of the first SWITCH_TIMES switches."""
-    count = int(extras[0])
-    times = tuple(float(t) for t in extras[3:3 + min(count, SWITCH_TIMES)])
-    return Switches(("dop853", "radau5"), count, times, (float(extras[1]), float(extras[2])))
+def _switches(record: np.void) -> Switches:
+    """auto's switches: how many, the times of the first ones logged, the span of t of each method."""
+    count = int(record["switches"])
+    times = tuple(float(t) for t in record["switch_times"][:count])
+    return Switches(("dop853", "radau5"), count, times, (float(record["explicit_span"]), float(record["implicit_span"])))

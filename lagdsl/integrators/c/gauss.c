@@ -266,7 +266,7 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
     s->h = s->step = opt->step;
     s->stages = opt->stages;
     memcpy(s->y, y0, sizeof s->y);
-    if (!(opt->step >= 10 * REAL_EPSILON * r_fmax(r_fabs(t0), r_fabs(t_end))) || !(opt->step > 0))
+    if (!(opt->step >= LAG_MIN_STEP_EPS * REAL_EPSILON * r_fmax(r_fabs(t0), r_fabs(t_end))) || !(opt->step > 0))
         return LAG_ERR_STEP_TOO_SMALL;     /* below the resolution of t, steps would not advance it */
     if (s->stages < 1 || s->stages > LAG_GAUSS_MAX_STAGES)
         return LAG_ERR_NO_CONVERGENCE;   /* no status fits better; the front end checks 1..6 */

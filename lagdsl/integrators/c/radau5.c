@@ -685,7 +685,7 @@ static void radau_accept(lag_stepper *s, real err, real quot)
 static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, const real *y0,
                             real t_end, const lag_options *opt)
 {
-    real rtol = r_fmax(opt->rtol, 10 * REAL_EPSILON);
+    real rtol = r_fmax(opt->rtol, LAG_RTOL_FLOOR);
     int i, status;
     memset(&s->stats, 0, sizeof s->stats);
     s->sys = sys;

@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ...abi import INTERRUPTED, NO_CONVERGENCE, NONFINITE, PROJECTION_FAILED, SINGULAR, STEP_TOO_SMALL
 from .gauss_coefficients import gauss_legendre_tableau, integrated_basis, symplectic_mu
 
 if TYPE_CHECKING:
@@ -40,8 +41,6 @@ MAX_ITERATIONS = 100
 # A sweep that no longer decreases the increment, below this many ulp, has reached round-off
 # (as in gauss.c); above it a stagnating iteration keeps iterating.
 NOISE = 65536
-# The C status codes (runtime.h) a failure corresponds to.
-SINGULAR, NONFINITE, STEP_TOO_SMALL, NO_CONVERGENCE, PROJECTION_FAILED, INTERRUPTED = 1, 2, 3, 5, 6, 7
 
 # What a step of the Python integrators may raise that ends the run (_Output.failure_of).
 STEP_ERRORS = (np.linalg.LinAlgError, ArithmeticError, KeyboardInterrupt)

@@ -53,8 +53,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .fixed_step import (NONFINITE, SINGULAR, STATS_KEYS, STEP_ERRORS, STEP_TOO_SMALL, IntegrationFailure,
-                         _Output)
+from ...abi import MAX_STEPS, NONFINITE, OK, SINGULAR, STEP_TOO_SMALL
+from ...settings import MIN_STEP_EPS
+from .fixed_step import STATS_KEYS, STEP_ERRORS, IntegrationFailure, _Output
 
 if TYPE_CHECKING:
     from . import PythonRun
@@ -62,8 +63,6 @@ if TYPE_CHECKING:
 __all__ = ["MAX_STEPS", "RKN8", "IntegrationFailure", "integrate_rkn8"]
 
 EPSILON = np.finfo(float).eps
-# lag_status of runtime.h (the others are imported from fixed_step.py).
-OK, MAX_STEPS = 0, 4
 # explicit_control.c: safety factor, largest decrease and increase of h.
 SAFETY, FACMIN, FACMAX = 0.9, 0.2, 10.0
 
@@ -220,7 +219,7 @@ class _Control:
         hh = _fmin(h_proposed, self.hmax)
         if self.max_steps > 0 and self.stats["accepted"] + self.stats["rejected"] >= self.max_steps:
             return MAX_STEPS, None, None
-        if not hh >= 10 * EPSILON * _fmax(abs(t), self.span):
+        if not hh >= MIN_STEP_EPS * EPSILON * _fmax(abs(t), self.span):
             return STEP_TOO_SMALL, None, None
         if t + 1.01 * hh >= self.t_end:
             return OK, self.t_end - t, self.t_end

@@ -1,0 +1,103 @@
+"""The C side of lagdsl/abi.py and of the constants in settings.py, generated from them.
+
+`runtime_contract()` follows runtime.h in every C file (the integrators' tests paste it too): the
+status codes, the shared constants and the indices of the settings vector. `status_printer()`
+and `summary_packer(layout)` go between the driver and the programs that use them.
+"""
+from __future__ import annotations
+
+from ..abi import SETTINGS, STATUSES, UNKNOWN_STATUS, Status, SummaryLayout, format_fields
+from ..escape import c_comment, c_string
+from ..integrators import COUNTER_LABELS
+from ..settings import (DEFAULT_MAX_STEPS, GRID_SLACK, MAX_ROWS, MIN_STEP_EPS, RCOND_MIN_EPS, RTOL_FLOOR_EPS,
+                        STEPS_PER_ROW)
+
+# (name, value, what it is): settings.py's numbers as the C driver and integrators read them.
+SHARED_CONSTANTS = (
+    ("LAG_MAX_ROWS", f"{MAX_ROWS}L", "the largest output grid (rows)"),
+    ("LAG_DEFAULT_MAX_STEPS", f"{DEFAULT_MAX_STEPS}L", "the step limit unless the grid asks for more:"),
+    ("LAG_STEPS_PER_ROW", f"{STEPS_PER_ROW}L", "steps allowed per output row"),
+    ("LAG_GRID_SLACK", f"LAG_LIT({GRID_SLACK!r})", "a grid time within this many intervals of t1 is t1"),
+    ("LAG_RTOL_FLOOR_EPS", f"{RTOL_FLOOR_EPS}", "no error control is finer than the rounding:"),
+    ("LAG_RTOL_FLOOR", "(LAG_RTOL_FLOOR_EPS * REAL_EPSILON)", "the smallest rtol"),
+    ("LAG_MIN_STEP_EPS", f"{MIN_STEP_EPS}", "the smallest step is this many eps of max(|t|, span)"),
+    ("LAG_RCOND_MIN", f"({RCOND_MIN_EPS} * REAL_EPSILON)",
+     "below this reciprocal condition estimate, K counts as singular"),
+)
+# The printf conversion and argument of each field a status message may name.
+MESSAGE_ARGUMENTS = {"max_steps": ("%ld", "max_steps"), "rcond": ("%.3g", "rcond"),
+                     "rcond_min": ("%.3g", "(double)LAG_RCOND_MIN")}
+
+
+def runtime_contract() -> str:
+    """enum lag_status, the constants shared with Python, and the settings vector's indices."""
+    width = max(len(status.c_name) for status in STATUSES.values()) + len(" = 0,")
+    enumerators = [f"{status.c_name} = {code}{',' if code != max(STATUSES) else ''}".ljust(width)
+                   + f" /* {c_comment(status.message.format(max_steps='max_steps'))} */"
+                   for code, status in STATUSES.items()]
+    constants = [f"#define {name} {value}".ljust(48) + f" /* {c_comment(what)} */" for name, value, what in SHARED_CONSTANTS]
+    settings = ", ".join(f"LAG_SET_{name.upper()}" for name in SETTINGS)
+    return "\n".join([
+        "/* ---- the contract with lagdsl's Python side: lagdsl/abi.py and lagdsl/settings.py ---- */",
+        "/* How a run ends: the status codes of the model functions, the integrators and the driver. */",
+        "enum lag_status {", *(f"    {line}" for line in enumerators), "};", "",
+        *constants, "",
+        "/* The positions in the settings vector of lag_run and lag_run_batch (lagdsl.abi.SETTINGS). */",
+        f"enum lag_setting {{ {settings}, LAG_SETTINGS }};", ""])
+
+
+def status_printer() -> str:
+    """lag_print_status: a status's message as SimulationError words it, with its detail."""
+    cases = []
+    for status in [*STATUSES.values(), UNKNOWN_STATUS]:
+        label = f"case {status.c_name}:" if status.c_name else "default:"
+        cases += [f"    {label}", f"        {_printf(status)}", "        break;"]
+    return "\n".join([
+        "/* How a run with `status` failed, in the words of lagdsl.abi.STATUSES: the step limit was",
+        " * max_steps, the reciprocal condition estimate at the failure rcond. */",
+        "static void lag_print_status(FILE *file, int status, long max_steps, double rcond)",
+        "{",
+        "    switch (status) {",
+        *cases,
+        "    }",
+        "}", ""])
+
+
+def _printf(status: Status) -> str:
+    text, arguments = "", []
+    for literal, name, spec in format_fields(status.message + status.detail):
+        text += literal.replace("%", "%%")
+        if name is not None:
+            conversion, argument = MESSAGE_ARGUMENTS[name]
+            text += conversion
+            arguments.append(argument)
+    return f"fprintf(file, {', '.join([c_string(text), *arguments])});"
+
+
+def summary_packer(layout: SummaryLayout) -> str:
+    """lag_pack_summary: the lag_report of a run as the doubles of `layout`; the offsets and the
+    counters' labels the standalone program reads back."""
+    lines, offset = [], 0
+    for field in layout.fields:
+        if field.array:
+            lines += [f"    for (i = 0; i < {field.size}; ++i)",
+                      f"        summary[{offset} + i] = (double)report->{field.source}[i];"]
+        else:
+            lines.append(f"    summary[{offset}] = (double)report->{field.source};")
+        offset += field.size
+    offsets = [f"#define LAG_SUMMARY_{name.upper()} {layout.offset(name)}"
+               for name in ("status", "rows", "t_fail", "rcond_fail")]
+    return "\n".join([
+        "/* The run summary as lagdsl.abi.SummaryLayout lays it out for this scene: doubles, field by field. */",
+        f"#define LAG_SUMMARY_SIZE {layout.size}",
+        *offsets,
+        f"#define LAG_SUMMARY_COUNTERS {layout.offset(layout.counters[0])}     /* the work counters, as labelled here: */",
+        f"#define LAG_NCOUNTERS {len(layout.counters)}",
+        "static const char *const lag_counter_labels[LAG_NCOUNTERS] = { "
+        + ", ".join(c_string(COUNTER_LABELS[counter]) for counter in layout.counters) + " };",
+        "",
+        "static void lag_pack_summary(const lag_report *report, double *summary)",
+        "{",
+        "    int i;",
+        *lines,
+        "}", ""])
