@@ -1349,57 +1349,61 @@ typedef struct lag_report {
 typedef int (*lag_sink)(void *context, real t, const real *out);
 #if LAG_HAS_CONSTRAINTS
 
+/* The least-norm correction of z (LAG_NQ entries) by the first `rows` rows of A (row-major, LAG_NQ
+ * columns) and residuals r: z <- z - A^T (A A^T)^-1 r. *step is the largest |change|; fails
+ * (LAG_ERR_PROJECTION) where A A^T is singular. */
+static int lag_correct(int rows, const real *A, const real *r, real *z, real *step)
+{
+    real G[LAG_NC * LAG_NC], x[LAG_NC];
+    int pivots[LAG_NC], i, k;
+    lag_gram(rows, A, r, G, x);
+    if (lag_lu_factor(rows, G, pivots) != 0)
+        return LAG_ERR_PROJECTION;
+    lag_lu_solve(rows, G, pivots, x);
+    *step = 0;
+    for (k = 0; k < LAG_NQ; ++k) {
+        real change = 0;
+        for (i = 0; i < rows; ++i)
+            change += A[i * LAG_NQ + k] * x[i];
+        z[k] -= change;
+        *step = r_fmax(*step, r_fabs(change));
+    }
+    return LAG_OK;
+}
+
 /* Project y onto the constraint manifold: positions by Gauss-Newton on g(q, t) = 0
  * (q <- q - A_h^T (A_h A_h^T)^-1 g), then velocities onto A q' + b = 0
  * (q' <- q' - A^T (A A^T)^-1 c). Hairer, Lubich, Wanner, GNI, IV.4. Returns the size of the move. */
 static int lag_project(const lag_system *sys, real t, real *y, real *moved)
 {
-    real c[LAG_NC], A[LAG_NC * LAG_NQ], G[LAG_NC * LAG_NC], x[LAG_NC];
-    int pivots[LAG_NC];
-    int i, k, iteration;
+    real c[LAG_NC], A[LAG_NC * LAG_NQ], step;
+    int status;
 #ifdef LAG_NH
     real g[LAG_NH];
+    int k, iteration;
 #else
     real *g = NULL;
 #endif
     *moved = 0;
 #ifdef LAG_NH
     for (iteration = 0;; ++iteration) {
-        real step = 0, size = 0;
+        real size = 0;
         lag_constraint_rows(sys->par, t, y, g, c, A);
-        lag_gram(LAG_NH, A, g, G, x);
-        if (lag_lu_factor(LAG_NH, G, pivots) != 0)
-            return LAG_ERR_PROJECTION;
-        lag_lu_solve(LAG_NH, G, pivots, x);
-        for (k = 0; k < LAG_NQ; ++k) {
-            real dq = 0;
-            for (i = 0; i < LAG_NH; ++i)
-                dq += A[i * LAG_NQ + k] * x[i];
-            y[k] -= dq;
-            step = r_fmax(step, r_fabs(dq));
+        if ((status = lag_correct(LAG_NH, A, g, y, &step)) != LAG_OK)
+            return status;
+        for (k = 0; k < LAG_NQ; ++k)
             size = r_fmax(size, r_fabs(y[k]));
-        }
         *moved = r_fmax(*moved, step);
         if (step <= 4 * REAL_EPSILON * (1 + size))
             break;
         if (iteration == 10)
             return LAG_ERR_PROJECTION;
     }
-#else
-    (void)iteration;
 #endif
     lag_constraint_rows(sys->par, t, y, g, c, A);
-    lag_gram(LAG_NC, A, c, G, x);
-    if (lag_lu_factor(LAG_NC, G, pivots) != 0)
-        return LAG_ERR_PROJECTION;
-    lag_lu_solve(LAG_NC, G, pivots, x);
-    for (k = 0; k < LAG_NQ; ++k) {
-        real dv = 0;
-        for (i = 0; i < LAG_NC; ++i)
-            dv += A[i * LAG_NQ + k] * x[i];
-        y[LAG_NQ + k] -= dv;
-        *moved = r_fmax(*moved, r_fabs(dv));
-    }
+    if ((status = lag_correct(LAG_NC, A, c, y + LAG_NQ, &step)) != LAG_OK)
+        return status;
+    *moved = r_fmax(*moved, step);
     return LAG_OK;
 }
 
@@ -2325,9 +2329,9 @@ static int lag_parse_arguments(int argc, char **argv, lag_member *given, real *g
     return lag_check_grid(argv[0], grid[0], grid[1], grid[2]) && lag_check_tolerances(argv[0], options);
 }
 
-/* The run summary on standard error: the integrator and its work, what the scene watches, and
- * how the run failed. Returns the exit status: 0, 1 after a failure, 130 when interrupted. */
-static int lag_print_summary(const lag_report *report, const lag_options *options, long max_steps, double seconds)
+/* The integrator's work, and what the scene watches: the stiffness test, the switches, the stop
+ * condition, the invariants and the constraints. */
+static void lag_print_work(const lag_report *report, const lag_options *options, double seconds)
 {
     double summary[LAG_SUMMARY_SIZE];
     long counts[LAG_NCOUNTERS];
@@ -2373,6 +2377,14 @@ static int lag_print_summary(const lag_report *report, const lag_options *option
         fprintf(stderr, ", %s", lag_constraint_names[i]);
     fprintf(stderr, "): %.3g\n", (double)report->residual_max);
 #endif
+}
+
+/* The run summary on standard error: the work (lag_print_work) and how the run failed. Returns
+ * the exit status: 0, 1 after a failure, 130 when interrupted. */
+static int lag_print_summary(const lag_report *report, const lag_options *options, long max_steps, double seconds)
+{
+    int i;
+    lag_print_work(report, options, seconds);
     if (report->status == LAG_ERR_INTERRUPTED) {
         fprintf(stderr, "interrupted at t = %.17g after %ld rows\n", (double)report->t_fail, report->rows);
         return 130;    /* 128 + SIGINT, as a shell reports a run stopped by Ctrl-C */

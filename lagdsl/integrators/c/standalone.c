@@ -400,9 +400,9 @@ static int lag_parse_arguments(int argc, char **argv, lag_member *given, real *g
     return lag_check_grid(argv[0], grid[0], grid[1], grid[2]) && lag_check_tolerances(argv[0], options);
 }
 
-/* The run summary on standard error: the integrator and its work, what the scene watches, and
- * how the run failed. Returns the exit status: 0, 1 after a failure, 130 when interrupted. */
-static int lag_print_summary(const lag_report *report, const lag_options *options, long max_steps, double seconds)
+/* The integrator's work, and what the scene watches: the stiffness test, the switches, the stop
+ * condition, the invariants and the constraints. */
+static void lag_print_work(const lag_report *report, const lag_options *options, double seconds)
 {
     double summary[LAG_SUMMARY_SIZE];
     long counts[LAG_NCOUNTERS];
@@ -448,6 +448,14 @@ static int lag_print_summary(const lag_report *report, const lag_options *option
         fprintf(stderr, ", %s", lag_constraint_names[i]);
     fprintf(stderr, "): %.3g\n", (double)report->residual_max);
 #endif
+}
+
+/* The run summary on standard error: the work (lag_print_work) and how the run failed. Returns
+ * the exit status: 0, 1 after a failure, 130 when interrupted. */
+static int lag_print_summary(const lag_report *report, const lag_options *options, long max_steps, double seconds)
+{
+    int i;
+    lag_print_work(report, options, seconds);
     if (report->status == LAG_ERR_INTERRUPTED) {
         fprintf(stderr, "interrupted at t = %.17g after %ld rows\n", (double)report->t_fail, report->rows);
         return 130;    /* 128 + SIGINT, as a shell reports a run stopped by Ctrl-C */
