@@ -342,8 +342,7 @@ def integrate_rkn8(accelerations, rhs, t_grid, y0, rtol, atol, max_step=0, max_s
             output.deliver(t, y, lambda s, t_old=t_old, y_old=y_old, g_old=g_old, t_now=t, y_now=y:
                            stepper.dense(s, t_old, y_old, g_old, t_now, y_now))
     except _StageFailure as failure:
-        what = "the mass matrix is singular" if failure.status == SINGULAR else "the state became infinite or NaN"
-        raise output.failure(f"rkn8: {what} at t = {t}", t, y, failure.status) from None
+        raise output.failure("rkn8", t, y, failure.status) from None
     except STEP_ERRORS as error:
         raise output.failure_of(error, "rkn8", t, y) from None
     return output.Y[:output.completed], stats
@@ -367,12 +366,8 @@ def _accepted_step(control, stepper, output, t, y, h, max_steps):
     """lag_stepper_step: trials from (t, y) until one is accepted; (t_new, y_new, the next step)."""
     while True:
         status, h_trial, t_new = control.trial(t, h)
-        if status == MAX_STEPS:
-            raise output.failure(f"rkn8: the step limit of {max_steps} steps was reached at t = {t}",
-                                 t, y, MAX_STEPS)
-        if status == STEP_TOO_SMALL:
-            raise output.failure(f"rkn8: the step size collapsed below the resolution of t at t = {t}",
-                                 t, y, STEP_TOO_SMALL)
+        if status in (MAX_STEPS, STEP_TOO_SMALL):
+            raise output.failure("rkn8", t, y, status, max_steps=max_steps)
         err, y_new = 0.0, None
         try:
             y_new, err = stepper.trial(control, t, y, h_trial, t_new)
