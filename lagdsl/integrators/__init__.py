@@ -17,7 +17,7 @@ def integrator_files(name: str) -> tuple[str, ...]:
     """The C files that make up integrator `name`, in the order they are pasted."""
     record = registry.get(name)
     parts = [file for part in record.parts for file in integrator_files(part)]
-    return tuple(dict.fromkeys([*parts, *record.c_fragments, record.c_file]))
+    return tuple(dict.fromkeys([*parts, *record.c_fragments, record.c_file, *record.c_protocol]))
 
 
 def integrator_source(name: str) -> str:

@@ -47,11 +47,7 @@ typedef struct lag_stats {
 } lag_stats;
 
 typedef struct lag_stepper {
-    real t;            /* time reached by the last accepted step */
-    real t_old;        /* start of the last accepted step */
-    real y[LAG_NY];    /* state at t, (q, q') */
-    real h;            /* length of the next step */
-    lag_stats stats;
+    LAG_STEPPER_PUBLIC(lag_stats)  /* t, t_old, y, h and stats, which the driver reads (runtime.h) */
     const lag_system *sys;
     int stages;
     real c[LAG_GAUSS_MAX_STAGES], b[LAG_GAUSS_MAX_STAGES];

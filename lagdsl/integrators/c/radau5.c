@@ -95,12 +95,7 @@ typedef struct lag_stats {
 } lag_stats;
 
 typedef struct lag_stepper {
-    /* public, read by the driver */
-    real t;
-    real t_old;
-    real y[LAG_NY];
-    real h;
-    lag_stats stats;
+    LAG_STEPPER_PUBLIC(lag_stats)  /* t, t_old, y, h and stats, which the driver reads (runtime.h) */
     /* the problem */
     const lag_system *sys;
     real t_end, span, h_max, rtol, atol, fnewt;

@@ -74,6 +74,17 @@ typedef struct lag_options {
                         * the driver always sets a limit */
 } lag_options;
 
+/* The members every integrator's lag_stepper begins with, which the driver reads (README.md): the
+ * time reached by the last accepted step, the start of that step (the dense output is valid on
+ * [t_old, t]), the state at t in (q, q') form, the step size proposed for the next step, and the
+ * integrator's work counters (its own `stats_type`, lag_stats). */
+#define LAG_STEPPER_PUBLIC(stats_type) \
+    real t;                 \
+    real t_old;             \
+    real y[LAG_NY];         \
+    real h;                 \
+    stats_type stats;
+
 /* Reading and writing numbers in the working precision (the CSV and the command line). */
 #if defined(LAG_FLOAT128)
 #define r_strtod(text, end) strtoflt128((text), (end))
