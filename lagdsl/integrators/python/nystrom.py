@@ -31,7 +31,7 @@ rounded once from its exact quotient), so that the NumPy and C backends agree to
 - the first step: HNW I, II.4 ("Starting Step Size") on f = rhs(t, y) = (v, a), one extra
   evaluation (lag_control_first_step);
 - the trials: at most max_step, stretched by up to 1% to land on t_end; a step below
-  10 eps max(|t|, t_end - t0) fails with STEP_TOO_SMALL, and accepted + rejected >= max_steps > 0
+  MIN_STEP_EPS eps max(|t|, t_end - t0) fails with STEP_TOO_SMALL, and accepted + rejected >= max_steps > 0
   with MAX_STEPS (lag_control_trial);
 - the step size: h err^(-1/7) with safety 0.9, the factor within [0.2, 10], no growth right
   after a rejection, h/10 after a trial whose accelerations failed (singular, non-finite) or
