@@ -12,21 +12,22 @@ from ..integrators import COUNTER_LABELS
 from ..settings import (DEFAULT_MAX_STEPS, GRID_SLACK, MAX_ROWS, MIN_STEP_EPS, RCOND_MIN_EPS, RTOL_FLOOR_EPS,
                         STEPS_PER_ROW)
 
-# (name, value, what it is): settings.py's numbers as the C driver and integrators read them.
+# (name, value, what it is): settings.py's numbers as the C driver and integrators read them
+# (those counted in eps: of the working precision).
 SHARED_CONSTANTS = (
-    ("LAG_MAX_ROWS", f"{MAX_ROWS}L", "the largest output grid (rows)"),
-    ("LAG_DEFAULT_MAX_STEPS", f"{DEFAULT_MAX_STEPS}L", "the step limit unless the grid asks for more:"),
-    ("LAG_STEPS_PER_ROW", f"{STEPS_PER_ROW}L", "steps allowed per output row"),
+    ("LAG_MAX_ROWS", f"{MAX_ROWS}L", "the largest output grid, in rows"),
+    ("LAG_DEFAULT_MAX_STEPS", f"{DEFAULT_MAX_STEPS}L", "the default step limit, or ..."),
+    ("LAG_STEPS_PER_ROW", f"{STEPS_PER_ROW}L", "... this many steps per output row"),
     ("LAG_GRID_SLACK", f"LAG_LIT({GRID_SLACK!r})", "a grid time within this many intervals of t1 is t1"),
-    ("LAG_RTOL_FLOOR_EPS", f"{RTOL_FLOOR_EPS}", "no error control is finer than the rounding:"),
-    ("LAG_RTOL_FLOOR", "(LAG_RTOL_FLOOR_EPS * REAL_EPSILON)", "the smallest rtol"),
-    ("LAG_MIN_STEP_EPS", f"{MIN_STEP_EPS}", "the smallest step is this many eps of max(|t|, span)"),
-    ("LAG_RCOND_MIN", f"({RCOND_MIN_EPS} * REAL_EPSILON)",
-     "below this reciprocal condition estimate, K counts as singular"),
+    ("LAG_RTOL_FLOOR_EPS", f"{RTOL_FLOOR_EPS}", "the smallest rtol, in eps ..."),
+    ("LAG_RTOL_FLOOR", "(LAG_RTOL_FLOOR_EPS * REAL_EPSILON)", "... and as a number"),
+    ("LAG_MIN_STEP_EPS", f"{MIN_STEP_EPS}", "the smallest step, in eps of max(|t|, span)"),
+    ("LAG_RCOND_MIN", f"({RCOND_MIN_EPS} * REAL_EPSILON)", "below this reciprocal condition, K is singular"),
 )
-# The printf conversion and argument of each field a status message may name.
-MESSAGE_ARGUMENTS = {"max_steps": ("%ld", "max_steps"), "rcond": ("%.3g", "rcond"),
-                     "rcond_min": ("%.3g", "(double)LAG_RCOND_MIN")}
+# The C argument of each value a status message may name, and its printf conversion where the
+# message gives no format of its own ({rcond:.3g} is printed with %.3g).
+MESSAGE_ARGUMENTS = {"max_steps": ("max_steps", "%ld"), "rcond": ("rcond", "%g"),
+                     "rcond_min": ("(double)LAG_RCOND_MIN", "%g")}
 
 
 def runtime_contract() -> str:
@@ -35,7 +36,8 @@ def runtime_contract() -> str:
     enumerators = [f"{status.c_name} = {code}{',' if code != max(STATUSES) else ''}".ljust(width)
                    + f" /* {c_comment(status.message.format(max_steps='max_steps'))} */"
                    for code, status in STATUSES.items()]
-    constants = [f"#define {name} {value}".ljust(48) + f" /* {c_comment(what)} */" for name, value, what in SHARED_CONSTANTS]
+    constants = [f"#define {name} {value}".ljust(48) + f" /* {c_comment(what)} */"
+                 for name, value, what in SHARED_CONSTANTS]
     settings = ", ".join(f"LAG_SET_{name.upper()}" for name in SETTINGS)
     return "\n".join([
         "/* ---- the contract with lagdsl's Python side: lagdsl/abi.py and lagdsl/settings.py ---- */",
@@ -64,12 +66,13 @@ def status_printer() -> str:
 
 
 def _printf(status: Status) -> str:
+    """The fprintf of the status's message and detail: Python's format fields as printf's."""
     text, arguments = "", []
     for literal, name, spec in format_fields(status.message + status.detail):
         text += literal.replace("%", "%%")
         if name is not None:
-            conversion, argument = MESSAGE_ARGUMENTS[name]
-            text += conversion
+            argument, conversion = MESSAGE_ARGUMENTS[name]
+            text += f"%{spec}" if spec else conversion
             arguments.append(argument)
     return f"fprintf(file, {', '.join([c_string(text), *arguments])});"
 
@@ -91,7 +94,7 @@ def summary_packer(layout: SummaryLayout) -> str:
         "/* The run summary as lagdsl.abi.SummaryLayout lays it out for this scene: doubles, field by field. */",
         f"#define LAG_SUMMARY_SIZE {layout.size}",
         *offsets,
-        f"#define LAG_SUMMARY_COUNTERS {layout.offset(layout.counters[0])}     /* the work counters, as labelled here: */",
+        f"#define LAG_SUMMARY_COUNTERS {layout.offset(layout.counters[0])}     /* the work counters, labelled: */",
         f"#define LAG_NCOUNTERS {len(layout.counters)}",
         "static const char *const lag_counter_labels[LAG_NCOUNTERS] = { "
         + ", ".join(c_string(COUNTER_LABELS[counter]) for counter in layout.counters) + " };",

@@ -81,4 +81,5 @@ def _switches(record: np.void) -> Switches:
     """auto's switches: how many, the times of the first ones logged, the span of t of each method."""
     count = int(record["switches"])
     times = tuple(float(t) for t in record["switch_times"][:count])
-    return Switches(("dop853", "radau5"), count, times, (float(record["explicit_span"]), float(record["implicit_span"])))
+    spans = (float(record["explicit_span"]), float(record["implicit_span"]))
+    return Switches(("dop853", "radau5"), count, times, spans)

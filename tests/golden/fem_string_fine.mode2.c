@@ -157,14 +157,14 @@ enum lag_status {
     LAG_ERR_HOPELESS = 8        /* at its pace so far, the run would need more steps than the step limit of max_steps allows */
 };
 
-#define LAG_MAX_ROWS 10000000L                   /* the largest output grid (rows) */
-#define LAG_DEFAULT_MAX_STEPS 100000L            /* the step limit unless the grid asks for more: */
-#define LAG_STEPS_PER_ROW 100L                   /* steps allowed per output row */
+#define LAG_MAX_ROWS 10000000L                   /* the largest output grid, in rows */
+#define LAG_DEFAULT_MAX_STEPS 100000L            /* the default step limit, or ... */
+#define LAG_STEPS_PER_ROW 100L                   /* ... this many steps per output row */
 #define LAG_GRID_SLACK LAG_LIT(1e-09)            /* a grid time within this many intervals of t1 is t1 */
-#define LAG_RTOL_FLOOR_EPS 10                    /* no error control is finer than the rounding: */
-#define LAG_RTOL_FLOOR (LAG_RTOL_FLOOR_EPS * REAL_EPSILON) /* the smallest rtol */
-#define LAG_MIN_STEP_EPS 10                      /* the smallest step is this many eps of max(|t|, span) */
-#define LAG_RCOND_MIN (1000 * REAL_EPSILON)      /* below this reciprocal condition estimate, K counts as singular */
+#define LAG_RTOL_FLOOR_EPS 10                    /* the smallest rtol, in eps ... */
+#define LAG_RTOL_FLOOR (LAG_RTOL_FLOOR_EPS * REAL_EPSILON) /* ... and as a number */
+#define LAG_MIN_STEP_EPS 10                      /* the smallest step, in eps of max(|t|, span) */
+#define LAG_RCOND_MIN (1000 * REAL_EPSILON)      /* below this reciprocal condition, K is singular */
 
 /* The positions in the settings vector of lag_run and lag_run_batch (lagdsl.abi.SETTINGS). */
 enum lag_setting { LAG_SET_T_START, LAG_SET_T_STOP, LAG_SET_T_INTERVAL, LAG_SET_RTOL, LAG_SET_ATOL, LAG_SET_STEP, LAG_SET_MAX_STEP, LAG_SET_STAGES, LAG_SET_MAX_STEPS, LAG_SETTINGS };
@@ -1584,7 +1584,7 @@ static int lag_integrate(lag_system *sys, const real *y0, real t0, real t1, real
 #define LAG_SUMMARY_ROWS 1
 #define LAG_SUMMARY_T_FAIL 2
 #define LAG_SUMMARY_RCOND_FAIL 3
-#define LAG_SUMMARY_COUNTERS 4     /* the work counters, as labelled here: */
+#define LAG_SUMMARY_COUNTERS 4     /* the work counters, labelled: */
 #define LAG_NCOUNTERS 3
 static const char *const lag_counter_labels[LAG_NCOUNTERS] = { "steps accepted", "rejected", "right-hand sides" };
 
