@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import string
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import numpy as np
 
@@ -123,14 +123,15 @@ class SummaryLayout:
         return sum(field.size for field in self.fields)
 
     def offset(self, name: str) -> int:
-        offset = 0
-        for field in self.fields:
-            if field.name == name:
-                return offset
-            offset += field.size
-        raise KeyError(name)
+        return self.offsets[name]
 
-    @property
+    @cached_property
+    def offsets(self) -> dict[str, int]:
+        """Where each field begins, in doubles from the start of the summary."""
+        starts = np.cumsum([0, *(field.size for field in self.fields)])
+        return {field.name: int(start) for field, start in zip(self.fields, starts)}
+
+    @cached_property
     def dtype(self) -> np.dtype:
         """A record of doubles, one field a SummaryField."""
         return np.dtype([(field.name, np.float64, (field.size,)) if field.array else (field.name, np.float64)
