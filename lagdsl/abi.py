@@ -10,11 +10,16 @@
   time), with their offsets. The C packing `lag_pack_summary` is generated from it, and Python
   reads a summary as a NumPy record of the layout's `dtype`, field by field.
 
+- `NUMBER`: the values a setting takes on either command line (`lagc run --set`, the standalone
+  program's NAME=VALUE): a decimal number with an optional sign, fraction and exponent, or inf,
+  infinity, nan in any case. C's `lag_is_number` checks the same grammar.
+
 The constants C shares with Python (the row limit, the step limit, the rtol floor ...) are
 those of `settings.py`, emitted into C by `codegen/c_abi.py`.
 """
 from __future__ import annotations
 
+import re
 import string
 from dataclasses import dataclass
 from functools import cached_property, lru_cache
@@ -24,6 +29,15 @@ import numpy as np
 from .integrators import SWITCH_TIMES, registry
 from .integrators.registry import OPTION_ORDER
 from .settings import RCOND_MIN, RunPlan
+
+
+NUMBER = re.compile(r"[+-]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|inf|infinity|nan)", re.IGNORECASE)
+
+
+def parse_number(text: str) -> float | None:
+    """`text` as a number of the `NUMBER` grammar, or None (no hexadecimal, underscores or spaces,
+    which Python's float() would take and C's strtod partly)."""
+    return float(text) if NUMBER.fullmatch(text) else None
 
 
 @dataclass(frozen=True)

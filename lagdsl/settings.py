@@ -218,7 +218,7 @@ def _integrator(choice: IntegratorChoice, overrides: Overrides) -> IntegratorCho
     values = {k: v for k, v in choice.options if k in allowed}
     origins: dict[str, Setting] = {}
     for key, value in overrides.options:
-        origins[key] = Setting("--" + key.replace("_", "-"))
+        origins[key] = Setting("--" + OPTIONS[key].flag)
         if key not in allowed:
             raise LagError(f"{name} has no option '{key}' (options: {', '.join(allowed)})", origins[key])
         values[key] = value

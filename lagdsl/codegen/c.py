@@ -38,7 +38,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
         "version": __version__, "source_name": source_name, "scene": kernel.scene_name,
         "stem": stem(kernel), "model": kernel.model_name, "integrator": kernel.integrator.name,
         "parameter_list": ", ".join(name for name, _ in kernel.parameters) or "none",
-        "option_list": ", ".join(k for k in OPTION_ORDER if k in method.options),
+        "option_list": ", ".join(OPTIONS[k].flag for k in OPTION_ORDER if k in method.options),
         "runtime": c_file("runtime.h"), "linalg": _linear_algebra(kernel),
         "n": kernel.n, "size": kernel.size, "parameters": kernel.parameters,
         "columns": kernel.columns, "constraints": kernel.constraints, "holonomic": kernel.holonomic,
@@ -130,8 +130,9 @@ def stem(kernel: Kernel) -> str:
 def _option_fields(allowed: tuple[str, ...]) -> list[dict[str, str]]:
     """The options the standalone program accepts (each sets the lag_options field of its name),
     with their checks."""
-    return [{"key": key, "field": key, "check": OPTIONS[key].c_accepts, "requirement": OPTIONS[key].requirement,
-             "cast": OPTIONS[key].c_cast} for key in OPTION_ORDER if key in allowed]
+    return [{"key": key, "flag": OPTIONS[key].flag, "field": key, "check": OPTIONS[key].c_accepts,
+             "requirement": OPTIONS[key].requirement, "cast": OPTIONS[key].c_cast}
+            for key in OPTION_ORDER if key in allowed]
 
 
 def _options_initializer(options: dict[str, float]) -> str:

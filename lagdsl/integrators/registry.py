@@ -24,6 +24,11 @@ class Option:
     c_accepts: str                      # the same check in C, on a double `value`
     c_cast: str = ""                    # how the standalone program stores it: "", "(int)", "(long)"
 
+    @property
+    def flag(self) -> str:
+        """Its name on a command line, lagc's or the standalone program's: --max-step."""
+        return self.name.replace("_", "-")
+
 
 OPTIONS: dict[str, Option] = {option.name: option for option in (
     Option("rtol", "relative tolerance (adaptive integrators)", "a finite number >= 0",

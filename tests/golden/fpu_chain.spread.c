@@ -4,10 +4,11 @@
  *     lagc models/fpu_chain.lag --emit c --scene spread
  *
  * Build:  cc -std=c99 -O2 -o FpuChain_spread FpuChain_spread.c -lm
- * Run:    ./FpuChain_spread [NAME=VALUE ...] > FpuChain_spread.csv
+ * Run:    ./FpuChain_spread [NAME=VALUE ...] [--OPTION=VALUE ...] > FpuChain_spread.csv
  *   NAME is a parameter (m, omega, mu, kappa, a, v),
  *   COORDINATE.start or COORDINATE.velocity (initial values),
- *   t.start, t.stop, t.interval (the output grid), or rtol, atol, max_step, max_steps (dop853).
+ *   or t.start, t.stop, t.interval (the output grid); OPTION is rtol, atol, max-step, max-steps (dop853).
+ *   VALUE is a decimal number (or inf, nan). ./FpuChain_spread --help lists them all.
  *   The CSV goes to standard output, the run summary to standard error.
  * Batch:  ./FpuChain_spread --batch [NAME=VALUE ...] < members.txt > FpuChain_spread.csv
  *   One member a line of standard input: parameters, .start and .velocity as NAME=VALUE, on top of
@@ -18,6 +19,7 @@
 #if defined(__unix__) || defined(__APPLE__)
 #define _POSIX_C_SOURCE 200809L     /* sigaction, for a clean Ctrl-C (lag_catch_interrupt) */
 #endif
+#include <ctype.h>
 #include <math.h>
 #include <float.h>
 #include <signal.h>
@@ -196,6 +198,10 @@ typedef struct lag_system {
 
 static const char *const lag_parameter_names[] = { "m", "omega", "mu", "kappa", "a", "v" };
 static const char *const lag_coordinate_names[] = { "q[1]", "q[2]", "q[3]", "q[4]", "q[5]", "q[6]", "q[7]", "q[8]", "q[9]", "q[10]", "q[11]", "q[12]", "q[13]", "q[14]", "q[15]", "q[16]", "q[17]", "q[18]", "q[19]", "q[20]", "q[21]", "q[22]", "q[23]", "q[24]", "q[25]", "q[26]", "q[27]", "q[28]", "q[29]", "q[30]", "q[31]", "q[32]", "q[33]", "q[34]", "q[35]", "q[36]", "q[37]", "q[38]", "q[39]", "q[40]", "q[41]", "q[42]", "q[43]", "q[44]", "q[45]", "q[46]", "q[47]", "q[48]", "q[49]", "q[50]", "q[51]", "q[52]", "q[53]", "q[54]", "q[55]", "q[56]", "q[57]", "q[58]", "q[59]", "q[60]", "q[61]", "q[62]", "q[63]", "q[64]", "q[65]", "q[66]", "q[67]", "q[68]", "q[69]", "q[70]", "q[71]", "q[72]", "q[73]", "q[74]", "q[75]", "q[76]", "q[77]", "q[78]", "q[79]", "q[80]", "q[81]", "q[82]", "q[83]", "q[84]", "q[85]", "q[86]", "q[87]", "q[88]", "q[89]", "q[90]", "q[91]", "q[92]", "q[93]", "q[94]", "q[95]", "q[96]", "q[97]", "q[98]", "q[99]", "q[100]", "q[101]", "q[102]", "q[103]", "q[104]", "q[105]", "q[106]", "q[107]", "q[108]", "q[109]", "q[110]", "q[111]", "q[112]", "q[113]", "q[114]", "q[115]", "q[116]", "q[117]", "q[118]", "q[119]", "q[120]", "q[121]", "q[122]", "q[123]", "q[124]", "q[125]", "q[126]", "q[127]", "q[128]", "q[129]", "q[130]", "q[131]", "q[132]", "q[133]", "q[134]", "q[135]", "q[136]", "q[137]", "q[138]", "q[139]", "q[140]", "q[141]", "q[142]", "q[143]", "q[144]", "q[145]", "q[146]", "q[147]", "q[148]", "q[149]", "q[150]", "q[151]", "q[152]", "q[153]", "q[154]", "q[155]", "q[156]", "q[157]", "q[158]", "q[159]", "q[160]", "q[161]", "q[162]", "q[163]", "q[164]", "q[165]", "q[166]", "q[167]", "q[168]", "q[169]", "q[170]", "q[171]", "q[172]", "q[173]", "q[174]", "q[175]", "q[176]", "q[177]", "q[178]", "q[179]", "q[180]", "q[181]", "q[182]", "q[183]", "q[184]", "q[185]", "q[186]", "q[187]", "q[188]", "q[189]", "q[190]", "q[191]", "q[192]", "q[193]", "q[194]", "q[195]", "q[196]", "q[197]", "q[198]", "q[199]", "q[200]" };
+#define LAG_MODEL_NAME "FpuChain"
+#define LAG_SCENE_NAME "spread"
+#define LAG_NOPTIONS 4
+static const char *const lag_option_names[] = { "rtol", "atol", "max-step", "max-steps" };
 static const char *const lag_column_names[] = { "q[1]", "q[2]", "q[3]", "I1", "energy" };     /* CSV header fields */
 static const char *const lag_invariant_names[] = { "energy" };
 
@@ -1691,7 +1697,7 @@ static int lag_option_setting(const char *program, const char *text, const char 
 {
     if (strncmp(text, "rtol=", 5) == 0) {
         if (!(r_isfinite(value) && value >= 0)) {
-            fprintf(stderr, "%s: rtol must be a finite number >= 0, got '%s'\n", program, equals + 1);
+            fprintf(stderr, "%s: --rtol must be a finite number >= 0, got '%s'\n", program, equals + 1);
             return -1;
         }
         options->rtol = value;
@@ -1699,23 +1705,23 @@ static int lag_option_setting(const char *program, const char *text, const char 
     }
     if (strncmp(text, "atol=", 5) == 0) {
         if (!(r_isfinite(value) && value >= 0)) {
-            fprintf(stderr, "%s: atol must be a finite number >= 0, got '%s'\n", program, equals + 1);
+            fprintf(stderr, "%s: --atol must be a finite number >= 0, got '%s'\n", program, equals + 1);
             return -1;
         }
         options->atol = value;
         return 1;
     }
-    if (strncmp(text, "max_step=", 9) == 0) {
+    if (strncmp(text, "max-step=", 9) == 0) {
         if (!(r_isfinite(value) && value > 0)) {
-            fprintf(stderr, "%s: max_step must be a finite number > 0, got '%s'\n", program, equals + 1);
+            fprintf(stderr, "%s: --max-step must be a finite number > 0, got '%s'\n", program, equals + 1);
             return -1;
         }
         options->max_step = value;
         return 1;
     }
-    if (strncmp(text, "max_steps=", 10) == 0) {
+    if (strncmp(text, "max-steps=", 10) == 0) {
         if (!(value >= 1 && value <= LAG_LIT(1e15) && value == r_floor(value))) {
-            fprintf(stderr, "%s: max_steps must be a whole number from 1 to 1e15, got '%s'\n", program, equals + 1);
+            fprintf(stderr, "%s: --max-steps must be a whole number from 1 to 1e15, got '%s'\n", program, equals + 1);
             return -1;
         }
         options->max_steps = (long)value;
@@ -1782,6 +1788,8 @@ static void lag_print_status(FILE *file, int status, long max_steps, double rcon
  * LAG_HAS_STOP), lag_counter_labels and lag_print_status (lagdsl/abi.py).
  */
 
+#define LAG_LINE_MAX 4096                /* the longest line of batch input (and argument), with its newline */
+
 static int lag_print_row(void *context, real t, const real *out)
 {
     int i;
@@ -1822,9 +1830,44 @@ static int lag_index_of(const char *const *names, int count, const char *name, s
     return -1;
 }
 
+/* `text` is `word`, in any case. */
+static int lag_same_word(const char *text, const char *word)
+{
+    for (; *word != '\0'; ++text, ++word)
+        if (tolower((unsigned char)*text) != *word)
+            return 0;
+    return *text == '\0';
+}
+
+/* A value as `lagc run --set` takes it (abi.NUMBER): a decimal number with an optional sign,
+ * fraction and exponent, or inf, infinity or nan in any case; strtod alone would also take
+ * hexadecimal (0x10) and stop at a NUL byte. */
+static int lag_is_number(const char *text)
+{
+    const char *c = text + (*text == '+' || *text == '-');
+    int digits = 0;
+    if (lag_same_word(c, "inf") || lag_same_word(c, "infinity") || lag_same_word(c, "nan"))
+        return 1;
+    for (; isdigit((unsigned char)*c); ++c)
+        digits = 1;
+    if (*c == '.')
+        for (++c; isdigit((unsigned char)*c); ++c)
+            digits = 1;
+    if (digits && (*c == 'e' || *c == 'E')) {
+        c += 1 + (c[1] == '+' || c[1] == '-');
+        if (!isdigit((unsigned char)*c))
+            return 0;
+        while (isdigit((unsigned char)*c))
+            ++c;
+    }
+    return digits && *c == '\0';
+}
+
 static int lag_parse_value(const char *text, real *value)
 {
     char *end;
+    if (!lag_is_number(text))
+        return 0;
     *value = r_strtod(text, &end);
     return end != text && *end == '\0';
 }
@@ -1970,7 +2013,6 @@ static int lag_member_state(const char *prefix, lag_member *member, real *y0)
 }
 
 /* ---- batch mode: one member a line of standard input ---- */
-#define LAG_LINE_MAX 4096                /* the longest line of batch input, with its newline */
 #define LAG_BATCH_VALUES (1L << 22)      /* the doubles of output held at once: members run in chunks */
 
 /* The members read so far: their parameters and initial states, as lag_run_batch takes them. */
@@ -1998,20 +2040,43 @@ static int lag_members_add(lag_members *members, const real *par, const real *y0
     return 1;
 }
 
+/* One line of `stream` into `line`, without its newline: 1, or 0 at the end of the input, -1
+ * when it is longer than LAG_LINE_MAX - 1 characters, -2 when it holds a NUL byte (which would
+ * end it early for every string function: the rest of the line unseen). */
+static int lag_read_line(FILE *stream, char *line)
+{
+    size_t length = 0;
+    int c, nul = 0;
+    while ((c = getc(stream)) != EOF && c != '\n') {
+        nul = nul || c == '\0';
+        if (length < LAG_LINE_MAX - 1)
+            line[length] = (char)c;
+        length += 1;
+    }
+    if (c == EOF && length == 0)
+        return 0;
+    line[length < LAG_LINE_MAX - 1 ? length : LAG_LINE_MAX - 1] = '\0';
+    return length > LAG_LINE_MAX - 1 ? -1 : nul ? -2 : 1;
+}
+
 /* Read the members from standard input, one a line of NAME=VALUE settings (parameters,
  * q.start, q.velocity) on top of the command line's (`common`); blank lines and lines that
  * begin with '#' hold no member. Returns 0 after saying what is wrong, as "line N: ...". */
 static int lag_read_members(const char *program, const lag_member *common, lag_members *members)
 {
-    char line[LAG_LINE_MAX + 2], prefix[300];
+    char line[LAG_LINE_MAX], prefix[300];
     long number = 0;
-    while (fgets(line, sizeof line, stdin) != NULL) {
+    int read;
+    while ((read = lag_read_line(stdin, line)) != 0) {
         lag_member member = *common;
         real y0[LAG_NY];
         char *word;
         snprintf(prefix, sizeof prefix, "%.256s: line %ld", program, ++number);
-        if (strlen(line) > LAG_LINE_MAX) {    /* its end, beyond the buffer, would read as another line */
-            fprintf(stderr, "%s: longer than %d characters\n", prefix, LAG_LINE_MAX - 1);
+        if (read < 0) {
+            if (read == -1)
+                fprintf(stderr, "%s: longer than %d characters\n", prefix, LAG_LINE_MAX - 1);
+            else
+                fprintf(stderr, "%s: holds a NUL byte\n", prefix);
             return 0;
         }
         word = strtok(line, " \t\r\n");
@@ -2142,6 +2207,52 @@ static int lag_batch_main(const char *program, const lag_member *given, real t0,
     return status;
 }
 
+/* OPTION=VALUE with the option's name as its flag (max_step -> max-step); 0 if too long. */
+static int lag_option_text(const char *text, char *option)
+{
+    size_t i, length = strlen(text);
+    int in_name = 1;
+    if (length >= LAG_LINE_MAX)
+        return 0;
+    for (i = 0; i <= length; ++i) {
+        in_name = in_name && text[i] != '=';
+        option[i] = in_name && text[i] == '_' ? '-' : text[i];
+    }
+    return 1;
+}
+
+/* What NAME=VALUE is not: an option written without its dashes says how to give it (a
+ * parameter of the same name would have taken the setting: the options have a syntax of their own). */
+static void lag_unknown_setting(const char *program, const char *text, const char *equals)
+{
+    int length = (int)(equals - text);
+    char option[LAG_LINE_MAX];
+    if (lag_option_text(text, option) && lag_index_of(lag_option_names, LAG_NOPTIONS, option, (size_t)length) >= 0)
+        fprintf(stderr, "%s: '%.*s' is an option of the integrator: write --%s\n", program, length, text, option);
+    else
+        fprintf(stderr, "%s: unknown setting '%.*s' (run %s --help)\n", program, length, text, program);
+}
+
+/* --help: what the program takes. */
+static void lag_print_help(const char *program)
+{
+    int i;
+    printf("usage: %s [--batch] [NAME=VALUE ...] [--OPTION=VALUE ...] > out.csv\n"
+           "Simulates %s (%s); the CSV goes to standard output, the run summary to standard error.\n"
+           "NAME is a parameter:", program, LAG_MODEL_NAME, LAG_SCENE_NAME);
+    for (i = 0; i < LAG_NP; ++i)
+        printf(" %s", lag_parameter_names[i]);
+    printf("\n  or COORDINATE.start, COORDINATE.velocity (initial values), COORDINATE one of:");
+    for (i = 0; i < LAG_NQ; ++i)
+        printf(" %s", lag_coordinate_names[i]);
+    printf("\n  or t.start, t.stop, t.interval (the output grid).\nOPTION is an option of %s:", LAG_INTEGRATOR_NAME);
+    for (i = 0; i < LAG_NOPTIONS; ++i)
+        printf(" --%s", lag_option_names[i]);
+    printf("\nVALUE is a decimal number (1e-12, -0.5; inf, nan).\n"
+           "--batch reads one member a line of standard input: NAME=VALUE settings of parameters and initial\n"
+           "values, on top of the command line's; the CSV's first column is the member's number.\n");
+}
+
 /* The command line: parameters, initial values, the grid and the options, onto the scene's.
  * Returns 0 after saying what is wrong. */
 static int lag_parse_arguments(int argc, char **argv, lag_member *given, real *grid, lag_options *options,
@@ -2155,6 +2266,25 @@ static int lag_parse_arguments(int argc, char **argv, lag_member *given, real *g
             *batch = 1;
             continue;
         }
+        if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
+            lag_print_help(argv[0]);
+            exit(0);
+        }
+        if (strncmp(argv[i], "--", 2) == 0) {         /* an option: --rtol=1e-12, --max-step=0.1 */
+            char option[LAG_LINE_MAX];
+            if (!lag_option_text(argv[i] + 2, option)) {
+                fprintf(stderr, "%s: an argument longer than %d characters\n", argv[0], LAG_LINE_MAX - 1);
+                return 0;
+            }
+            if ((equals = lag_split_setting(argv[0], option, &value)) == NULL)
+                return 0;
+            if ((known = lag_option_setting(argv[0], option, equals, value, options)) == 0)
+                fprintf(stderr, "%s: unknown option '--%.*s' (run %s --help)\n", argv[0], (int)(equals - option),
+                        option, argv[0]);
+            if (known <= 0)
+                return 0;
+            continue;
+        }
         if ((equals = lag_split_setting(argv[0], argv[i], &value)) == NULL)
             return 0;
         if (lag_member_setting(argv[i], equals, value, given))
@@ -2165,9 +2295,8 @@ static int lag_parse_arguments(int argc, char **argv, lag_member *given, real *g
             grid[1] = value;
         } else if (strncmp(argv[i], "t.interval=", 11) == 0) {
             grid[2] = value;
-        } else if ((known = lag_option_setting(argv[0], argv[i], equals, value, options)) <= 0) {
-            if (known == 0)
-                fprintf(stderr, "%s: unknown setting '%.*s'\n", argv[0], (int)(equals - argv[i]), argv[i]);
+        } else {
+            lag_unknown_setting(argv[0], argv[i], equals);
             return 0;
         }
     }

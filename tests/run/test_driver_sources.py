@@ -19,6 +19,7 @@ from lagdsl.integrators import c_file
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 
 HEADERS = """#define _POSIX_C_SOURCE 200809L
+#include <ctype.h>
 #include <math.h>
 #include <float.h>
 #include <signal.h>
@@ -35,6 +36,10 @@ MODEL = """
 typedef struct lag_system { real par[1]; } lag_system;
 static const char *const lag_parameter_names[] = { "k" };
 static const char *const lag_coordinate_names[] = { "q1", "q2" };
+#define LAG_MODEL_NAME "Stub"
+#define LAG_SCENE_NAME "stub"
+#define LAG_NOPTIONS 1
+static const char *const lag_option_names[] = { "max-steps" };
 static const char *const lag_column_names[] = { "q1" };
 static void lag_system_prepare(lag_system *sys) { (void)sys; }
 static void lag_default_parameters(real *par) { par[0] = 1; }
@@ -178,7 +183,7 @@ static int lag_option_setting(const char *program, const char *text, const char 
 {
     (void)program;
     (void)equals;
-    if (strncmp(text, "max_steps=", 10) == 0) {
+    if (strncmp(text, "max-steps=", 10) == 0) {
         options->max_steps = (long)value;
         return 1;
     }
@@ -251,9 +256,9 @@ def test_the_stub_program_runs_and_reports_as_the_python_side_words_it(tmp_path)
 
 def test_a_failure_is_worded_as_the_status_table_says(tmp_path):
     executable = build(tmp_path, "limited", COMBINATIONS["nothing"])
-    done = subprocess.run([executable, "max_steps=5"], capture_output=True, text=True)
+    done = subprocess.run([executable, "--max-steps=5"], capture_output=True, text=True)
     assert done.returncode == 1
     expected = STATUSES[MAX_STEPS].describe(max_steps=5)
     assert f"simulation failed at t = 0.0050000000000000001: {expected}\n" in done.stderr
-    batch = subprocess.run([executable, "--batch", "max_steps=5"], input="k=1\n", capture_output=True, text=True)
+    batch = subprocess.run([executable, "--batch", "--max-steps=5"], input="k=1\n", capture_output=True, text=True)
     assert f"member 0: simulation failed at t = 0.0050000000000000001 after 1 rows: {expected}\n" in batch.stderr
