@@ -73,9 +73,9 @@ class Model:
 
         `set` maps parameter names, "q.start" and "q.velocity" to values; parameters may also be
         given as keyword arguments (`simulate(m2=3)`). The other arguments override the scene's
-        time grid and integrator; `max_steps` bounds the steps (default: 100000, or 100 per
-        output row). `estimate_error` fills `result.summary.error` (an ErrorEstimate: `.value`, the
-        largest absolute error over rows and columns, against a 100x tighter rerun or the
+        time grid and integrator; `max_steps` bounds the steps (default: settings.step_limit,
+        DEFAULT_MAX_STEPS or STEPS_PER_ROW per output row). `estimate_error` fills
+        `result.summary.error` (an ErrorEstimate: `.value`, the largest absolute error over rows and columns, against a 100x tighter rerun or the
         extended-precision reference; `float(...)` gives the value). Raises SimulationError (with `.partial`, the rows computed so far) when the
         integration fails, SimulationInterrupted (a SimulationError) when Ctrl-C stops it.
         `draw` also computes what the draw statements show (`result.drawing`, `result.animate()`).

@@ -96,7 +96,7 @@ class ErrorCollector:
 
 class SimulationError(Exception):
     """The integration failed; `partial` holds what was computed before the failure, `status`
-    the run's status code (run/status.py), 0 where no run ended with one."""
+    the run's status code (abi.STATUSES), 0 where no run ended with one."""
 
     def __init__(self, message: str, time: float, state: dict[str, float], remedy: str,
                  partial: Any = None, status: int = 0):

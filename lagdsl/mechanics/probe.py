@@ -35,8 +35,37 @@ def _dirac_delta(x, order=0):
     return mpmath.inf if x == 0 else mpmath.mpf(0)
 
 
-# Derivatives of abs, sign, min and max bring in Heaviside and DiracDelta, which mpmath lacks.
-MPMATH_EXTRAS = {"Heaviside": _heaviside, "DiracDelta": _dirac_delta}
+# Beyond this magnitude 50 digits no longer resolve the phase of sin, cos or tan, and mpmath's
+# argument reduction would compute pi to as many bits as the argument's exponent (1e30 bits for
+# sin(exp(exp(exp(x + 2))))): such a value is unknown (NaN), never a reason to hang.
+PHASE_LIMIT = mpmath.mpf(10) ** 30
+# exp overflows a double beyond this: the generated code gets inf there, and so does the probe
+# (a tower of exponentials would otherwise grow numbers of astronomical exponent).
+EXP_LIMIT = mpmath.mpf("709.782712893384")
+
+
+def _periodic(function):
+    def bounded(x):
+        return mpmath.nan if abs(x) > PHASE_LIMIT else function(x)
+    return bounded
+
+
+def _exponential(function, sign=1):
+    def bounded(x):
+        if mpmath.re(x) > EXP_LIMIT:
+            return mpmath.inf
+        if mpmath.re(x) < -EXP_LIMIT:
+            return sign * mpmath.inf if function is not mpmath.exp else mpmath.mpf(0)
+        return function(x)
+    return bounded
+
+
+# Derivatives of abs, sign, min and max bring in Heaviside and DiracDelta, which mpmath lacks;
+# the functions whose cost grows with their argument's magnitude are bounded as above.
+MPMATH_EXTRAS = {"Heaviside": _heaviside, "DiracDelta": _dirac_delta,
+                 **{name: _periodic(getattr(mpmath, name)) for name in ("sin", "cos", "tan", "sec", "csc", "cot")},
+                 "exp": _exponential(mpmath.exp), "cosh": _exponential(mpmath.cosh),
+                 "sinh": _exponential(mpmath.sinh, sign=-1)}
 
 
 class Probe:

@@ -3,7 +3,7 @@ Python methods (numpy_backend.py).
 
 Both deliver the same `Result`: rows at the output grid t0, t0 + dt, ... < t1 and t1 itself
 (`settings.grid_rows`), the scene's columns, and a `RunSummary`. A numerical failure raises
-SimulationError naming the time, the state and a remedy (status.py), with the rows computed so
+SimulationError naming the time, the state and a remedy (abi.py, status.py), with the rows computed so
 far in `error.partial`. Every run is bounded by the plan's step limit, and Ctrl-C stops it
 between two steps with SimulationInterrupted, which keeps the rows computed so far as well
 (interrupt.py). `progress`, if given, is called as progress(t reached, start, stop) every

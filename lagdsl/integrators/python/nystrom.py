@@ -31,7 +31,7 @@ rounded once from its exact quotient), so that the NumPy and C backends agree to
 - the first step: HNW I, II.4 ("Starting Step Size") on f = rhs(t, y) = (v, a), one extra
   evaluation (lag_control_first_step);
 - the trials: at most max_step, stretched by up to 1% to land on t_end; a step below
-  10 eps max(|t|, t_end - t0) fails with STEP_TOO_SMALL, and accepted + rejected >= max_steps > 0
+  MIN_STEP_EPS eps max(|t|, t_end - t0) fails with STEP_TOO_SMALL, and accepted + rejected >= max_steps > 0
   with MAX_STEPS (lag_control_trial);
 - the step size: h err^(-1/7) with safety 0.9, the factor within [0.2, 10], no growth right
   after a rejection, h/10 after a trial whose accelerations failed (singular, non-finite) or
@@ -53,8 +53,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .fixed_step import (NONFINITE, SINGULAR, STATS_KEYS, STEP_ERRORS, STEP_TOO_SMALL, IntegrationFailure,
-                         _Output)
+from ...abi import MAX_STEPS, NONFINITE, OK, SINGULAR, STEP_TOO_SMALL
+from ...settings import MIN_STEP_EPS
+from .fixed_step import STATS_KEYS, STEP_ERRORS, IntegrationFailure, _Output
 
 if TYPE_CHECKING:
     from . import PythonRun
@@ -62,8 +63,6 @@ if TYPE_CHECKING:
 __all__ = ["MAX_STEPS", "RKN8", "IntegrationFailure", "integrate_rkn8"]
 
 EPSILON = np.finfo(float).eps
-# lag_status of runtime.h (the others are imported from fixed_step.py).
-OK, MAX_STEPS = 0, 4
 # explicit_control.c: safety factor, largest decrease and increase of h.
 SAFETY, FACMIN, FACMAX = 0.9, 0.2, 10.0
 
@@ -220,7 +219,7 @@ class _Control:
         hh = _fmin(h_proposed, self.hmax)
         if self.max_steps > 0 and self.stats["accepted"] + self.stats["rejected"] >= self.max_steps:
             return MAX_STEPS, None, None
-        if not hh >= 10 * EPSILON * _fmax(abs(t), self.span):
+        if not hh >= MIN_STEP_EPS * EPSILON * _fmax(abs(t), self.span):
             return STEP_TOO_SMALL, None, None
         if t + 1.01 * hh >= self.t_end:
             return OK, self.t_end - t, self.t_end
@@ -343,8 +342,7 @@ def integrate_rkn8(accelerations, rhs, t_grid, y0, rtol, atol, max_step=0, max_s
             output.deliver(t, y, lambda s, t_old=t_old, y_old=y_old, g_old=g_old, t_now=t, y_now=y:
                            stepper.dense(s, t_old, y_old, g_old, t_now, y_now))
     except _StageFailure as failure:
-        what = "the mass matrix is singular" if failure.status == SINGULAR else "the state became infinite or NaN"
-        raise output.failure(f"rkn8: {what} at t = {t}", t, y, failure.status) from None
+        raise output.failure("rkn8", t, y, failure.status) from None
     except STEP_ERRORS as error:
         raise output.failure_of(error, "rkn8", t, y) from None
     return output.Y[:output.completed], stats
@@ -368,12 +366,8 @@ def _accepted_step(control, stepper, output, t, y, h, max_steps):
     """lag_stepper_step: trials from (t, y) until one is accepted; (t_new, y_new, the next step)."""
     while True:
         status, h_trial, t_new = control.trial(t, h)
-        if status == MAX_STEPS:
-            raise output.failure(f"rkn8: the step limit of {max_steps} steps was reached at t = {t}",
-                                 t, y, MAX_STEPS)
-        if status == STEP_TOO_SMALL:
-            raise output.failure(f"rkn8: the step size collapsed below the resolution of t at t = {t}",
-                                 t, y, STEP_TOO_SMALL)
+        if status in (MAX_STEPS, STEP_TOO_SMALL):
+            raise output.failure("rkn8", t, y, status, max_steps=max_steps)
         err, y_new = 0.0, None
         try:
             y_new, err = stepper.trial(control, t, y, h_trial, t_new)
