@@ -30,7 +30,7 @@ from fractions import Fraction
 import lark
 
 from . import ir
-from .draws import KINDS
+from .draw_dimensions import DRAWN, drawn_arguments
 from .errors import Diagnostic, LagError
 from .expressions import _factors, _signed_terms, number_value
 from .semantics import expressions_of, subtree, tokens
@@ -41,10 +41,6 @@ ONE = Dimension()
 TIME = Dimension.of(time=1)
 ENERGY = Dimension.of(mass=1, length=2, time=-2)
 POWER = ENERGY / TIME
-LENGTH = Dimension.of(length=1)
-# what a draw statement's argument must be, by its role (draws.py): a dimension and its words
-DRAWN = {"point": (LENGTH, "a length"), "points": (LENGTH, "a length"), "length": (LENGTH, "a length"),
-         "edges": (LENGTH, "a length"), "angle": (ONE, "dimensionless"), "rotation": (ONE, "dimensionless")}
 TRANSCENDENTAL = ("sin", "cos", "tan", "asin", "acos", "atan", "sinh", "cosh", "tanh", "exp", "log")
 
 
@@ -351,27 +347,11 @@ class _Checker:
                 self.draw(statement)
 
     def draw(self, node) -> None:
-        """A picture element: each argument and option of the dimension its role has (DRAWN)."""
-        kind = KINDS.get(str(node.children[1]))
-        if kind is None:
-            return
-        items, previous = [], None
-        for argument in (c for c in node.children if isinstance(c, lark.Tree) and c.data != "draw_option"):
-            if argument.data == "iteration" and previous is not None:
-                items[-1] = (previous, argument)
-            else:
-                items.append((argument, None))
-            previous = argument if argument.data != "iteration" else None
-        arguments = kind.arguments * len(items) if kind.arguments[0][1] == "points" else kind.arguments
-        for (name, role), (argument, iteration) in zip(arguments, items):
+        """A picture element: each argument and option of the dimension its role has."""
+        for role, what, argument, iteration in drawn_arguments(node):
             value = self.within_range(iteration.children[0], iteration.children[2], argument) if iteration \
                 else self.value(argument)
-            self.drawn(value, argument, role, "a point's coordinate" if "point" in role else f"the {name}")
-        options = dict(kind.options)
-        for option in (c for c in node.children if isinstance(c, lark.Tree) and c.data == "draw_option"):
-            name = str(option.children[0])
-            if name in options:
-                self.drawn(self.value(option.children[2]), option.children[2], options[name], f"the {name}")
+            self.drawn(value, argument, role, what)
 
     def drawn(self, value, node, role: str, what: str) -> None:
         """Every component of `value` of the role's dimension, blamed on its own braces entry; a

@@ -19,11 +19,8 @@ from . import common
 
 
 def add(commands) -> None:
-    parser = commands.add_parser("animate", help="run a scene and write its animation: an HTML player, a GIF or "
-                                                 "an MP4 (from the model's draw statements)")
-    parser.add_argument("model")
-    common.scene_options(parser)
-    common.run_options(parser)
+    parser = common.run_command(commands, "animate", "run a scene and write its animation: an HTML player, a GIF "
+                                                     "or an MP4 (from the model's draw statements)")
     parser.add_argument("-o", "--output", required=True, metavar="FILE.html|FILE.gif|FILE.mp4",
                         help="where to write: " + "; ".join(f"{ending}: {meaning}" for ending, meaning in
                                                             FORMATS.items()))

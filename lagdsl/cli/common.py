@@ -29,8 +29,19 @@ def load_model(source: SourceFile):
         return Model(source)
 
 
+def run_command(commands, name: str, help: str) -> argparse.ArgumentParser:
+    """The parser of a command that runs a scene of a model (run, sweep, animate): the model, the
+    scene and the run's options."""
+    parser = commands.add_parser(name, help=help)
+    parser.add_argument("model")
+    scene_options(parser)
+    run_options(parser)
+    return parser
+
+
 def run_options(parser: argparse.ArgumentParser) -> None:
-    """What `lagc run` and `lagc sweep` take: the backend, the inputs and the integrator's options."""
+    """What `lagc run`, `lagc sweep` and `lagc animate` take: the backend, the inputs and the
+    integrator's options."""
     parser.add_argument("--backend", choices=("c", "numpy"), default="c", help="generated code to run (default: c)")
     input_options(parser)
     methods = "; ".join(f"{record.name}: {record.description}" for record in map(registry.get, registry.names()))

@@ -13,10 +13,7 @@ from . import common
 
 
 def add(commands) -> None:
-    run_parser = commands.add_parser("run", help="simulate a scene; CSV on stdout (or -o), run summary on stderr")
-    run_parser.add_argument("model")
-    common.scene_options(run_parser)
-    common.run_options(run_parser)
+    run_parser = common.run_command(commands, "run", "simulate a scene; CSV on stdout (or -o), run summary on stderr")
     run_parser.add_argument("--units", action="store_true", help="name each column's unit in the CSV header: 'x [m]'")
     run_parser.add_argument("-o", "--output", help="write the CSV here instead of standard output")
     run_parser.add_argument("--no-cache", action="store_true",

@@ -22,11 +22,8 @@ RUN_KEYWORDS = ("start", "stop", "interval", "integrator", *RUN_OPTIONS)     # m
 
 
 def add(commands) -> None:
-    sweep_parser = commands.add_parser("sweep", help="simulate many members (a grid or a random sample of inputs); "
-                                "one tidy table to -o")
-    sweep_parser.add_argument("model")
-    common.scene_options(sweep_parser)
-    common.run_options(sweep_parser)
+    sweep_parser = common.run_command(commands, "sweep", "simulate many members (a grid or a random sample of "
+                                                         "inputs); one tidy table to -o")
     sweep_parser.add_argument("--vary", action="append", default=[], metavar="NAME=START:STOP:COUNT",
                        help="COUNT values from START to STOP; several --vary make the grid of all combinations")
     sweep_parser.add_argument("--random", action="append", default=[], metavar="NAME=LOW:HIGH",

@@ -8,7 +8,7 @@ import pytest
 from lagdsl.animation.style import STYLE
 
 from .browser import Player, centroid, coloured, start_chromium
-from .support import double_pendulum, heavy_top, page_data
+from .support import double_pendulum, every_kind, heavy_top, page_data
 
 
 @pytest.fixture(scope="module")
@@ -119,3 +119,55 @@ def test_a_3d_model_draws_turns_with_the_camera_and_shows_its_frame(session, top
     assert not np.allclose(player.pixel_of(centre), centroid(coloured(picture, STYLE.color("point"))), atol=2)
     player.show(0)
     assert np.any(player.picture() != picture)
+
+
+def near(picture: np.ndarray, pixel, color: str, tolerance: int = 40) -> bool:
+    """Whether a pixel within 2 of `pixel` has the colour (lines are anti-aliased)."""
+    x, y = (int(round(v)) for v in pixel)
+    return bool(coloured(picture[y - 2:y + 3, x - 2:x + 3], color, tolerance).any())
+
+
+def pale(color: str) -> str:
+    """A circle's disc: its colour at STYLE.circle_fill_alpha over the white background."""
+    alpha = STYLE.circle_fill_alpha
+    return "#" + "".join(f"{round(alpha * int(color[i:i + 2], 16) + (1 - alpha) * 255):02x}" for i in (1, 3, 5))
+
+
+def test_every_2d_kind_is_painted_where_its_points_are(session, tmp_path):
+    """The circle's mark turns from (1, 0) to (0, 1); where it was, the disc's pale fill remains."""
+    path = tmp_path / "kinds2.html"
+    every_kind(2).save(path)
+    player = Player(session, path)
+    assert player.errors() == []
+    shown = {}
+    for k in (0, 1):
+        player.show(k)
+        shown[k] = player.picture()
+    assert near(shown[0], player.pixel_of([-1.5, 1.5]), STYLE.color("line"))
+    assert near(shown[0], player.pixel_of([-1, 2]), STYLE.color("point"))
+    assert near(shown[1], player.pixel_of([-2, 1.25]), STYLE.color("trail"))
+    assert near(shown[0], player.pixel_of([2.05, 0]), STYLE.color("spring"))
+    assert near(shown[0], player.pixel_of([0.5, 0]), STYLE.color("circle"))
+    assert near(shown[1], player.pixel_of([0, 0.5]), STYLE.color("circle"))
+    assert not near(shown[1], player.pixel_of([0.5, 0]), STYLE.color("circle"))
+    assert near(shown[1], player.pixel_of([0.5, 0]), pale(STYLE.color("circle")), tolerance=3)
+
+
+def test_every_3d_kind_is_painted_where_its_points_are(session, tmp_path):
+    """The frame's axes in their colours and the cube's edges, turned in the second frame."""
+    path = tmp_path / "kinds3.html"
+    animation = every_kind(3)
+    animation.save(path)
+    player = Player(session, path)
+    assert player.errors() == []
+    frame, box = animation.drawing.shapes[4:]
+    for k in (0, 1):
+        player.show(k)
+        picture = player.picture()
+        assert near(picture, player.pixel_of([2.05, 0, 0]), STYLE.color("spring"))
+        for axis in range(3):
+            middle = (frame.points[k][0] + frame.points[k][axis + 1]) / 2
+            assert near(picture, player.pixel_of(middle.tolist()), STYLE.axis_colors[axis])
+        for corner, other in ((0, 1), (0, 4), (3, 7), (6, 7)):
+            middle = (box.points[k][corner] + box.points[k][other]) / 2
+            assert near(picture, player.pixel_of(middle.tolist()), STYLE.color("box"))

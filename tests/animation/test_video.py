@@ -9,7 +9,7 @@ import pytest
 from lagdsl import LagError
 from lagdsl.animation.video import HEIGHT, WIDTH, frame_rows
 
-from .support import double_pendulum, heavy_top
+from .support import double_pendulum, every_kind, heavy_top
 
 
 def test_frame_k_shows_the_last_row_at_or_before_t0_plus_k_speed_over_fps():
@@ -39,6 +39,18 @@ def test_a_3d_model_writes_a_gif(tmp_path):
     heavy_top().animate("nutation", fps=5, stop=1).save(path, fps=5)
     with Image.open(path) as gif:
         assert gif.n_frames == 6
+
+
+@pytest.mark.parametrize("dimension", [2, 3])
+def test_every_kind_is_painted_in_a_gif(tmp_path, dimension):
+    from PIL import Image
+    path = tmp_path / "kinds.gif"
+    every_kind(dimension).save(path, fps=1)
+    with Image.open(path) as gif:
+        first = np.asarray(gif.convert("RGB"))
+        gif.seek(1)
+        second = np.asarray(gif.convert("RGB"))
+    assert np.count_nonzero(np.any(first != 255, axis=2)) > 1000 and np.any(first != second)
 
 
 @pytest.mark.skipif(shutil.which("ffmpeg") is None, reason="ffmpeg is not on the PATH")
