@@ -17,7 +17,7 @@ import pytest
 import lagdsl
 from lagdsl.errors import LagError
 from lagdsl.scene import Overrides
-from tests.conftest import MODELS
+from tests.conftest import library_model
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 
 STIFF_SPRING = Path(__file__).parent / "models" / "stiff_spring.lag"
@@ -31,7 +31,7 @@ def spring():
 
 @pytest.fixture(scope="module")
 def pendulum():
-    return lagdsl.load(MODELS / "double_pendulum.lag")
+    return library_model("double_pendulum")
 
 
 def slow_mode(t: np.ndarray) -> np.ndarray:
@@ -124,7 +124,7 @@ def test_numpy_auto_is_lsoda_and_reports_its_switch(spring):
 
 
 def test_auto_handles_constraints_in_c_and_is_refused_by_numpy():
-    model = lagdsl.load(MODELS / "cartesian_pendulum.lag")
+    model = library_model("cartesian_pendulum")
     auto = model.simulate(integrator="auto", stop=1, rtol=1e-10, atol=1e-12)
     dop853 = model.simulate(integrator="dop853", stop=1, rtol=1e-10, atol=1e-12)
     assert auto.summary.switches.count == 0 and np.max(np.abs(auto.values - dop853.values)) < 1e-12

@@ -7,12 +7,11 @@ import ctypes
 import numpy as np
 import pytest
 
-import lagdsl
 from lagdsl.errors import LagError
 from lagdsl.run import sweep as batch
 from lagdsl.run.runner import load_library
 from lagdsl.run.toolchain import shared_library
-from tests.conftest import MODELS
+from tests.conftest import MODELS, library_model
 from tests.run.test_failures import SINGULAR_LATER, load
 
 DERIVED = """model Spring
@@ -33,7 +32,7 @@ end Spring;
 
 @pytest.fixture(scope="module")
 def pendulum():
-    return lagdsl.load(MODELS / "double_pendulum.lag")
+    return library_model("double_pendulum")
 
 
 def starts(count, seed=3):

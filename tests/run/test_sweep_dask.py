@@ -8,10 +8,9 @@ import signal
 import numpy as np
 import pytest
 
-import lagdsl
 from lagdsl.run import sweep as batch
 from lagdsl.scene import Overrides
-from tests.conftest import MODELS
+from tests.conftest import library_model
 
 distributed = pytest.importorskip("dask.distributed")
 
@@ -24,7 +23,7 @@ def client():
 
 
 def test_a_sweep_on_dask_equals_the_local_one_even_when_a_worker_dies(client):
-    model = lagdsl.load(MODELS / "double_pendulum.lag")
+    model = library_model("double_pendulum")
     count = 160
     rng = np.random.default_rng(11)
     values = {"theta1.start": rng.uniform(-3, 3, count), "theta2.start": rng.uniform(-3, 3, count)}
