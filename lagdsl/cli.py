@@ -210,9 +210,7 @@ def _simulate(arguments) -> int:
     stored = None if arguments.units or arguments.error else plans.find(source, arguments.scene, arguments.backend,
                                                                         arguments.integrator)
     model = None if stored else _model(source)      # the model's errors first, as always
-    for path in (arguments.output, arguments.plot):
-        if path:
-            check_writable(path)      # refuse before the run, not after it
+    _check_destinations(arguments.output, arguments.plot)
     overrides = _overrides(arguments)
     progress = ProgressLine(sys.stderr)
     units = model.column_units(arguments.scene) if arguments.units else None
@@ -344,9 +342,7 @@ def _bench(arguments) -> int:
         _refuse("--backend", f"expected c, numpy or both, got '{arguments.backend}'")
     repeat = _positive_integer("--repeat", arguments.repeat)
     integrators = _integrator_list(arguments.integrators)
-    for path in (arguments.output, arguments.plot):
-        if path:
-            check_writable(path)
+    _check_destinations(arguments.output, arguments.plot)
     model = _model(SourceFile.read(arguments.model))
     overrides = Overrides(_set_values(arguments.set), arguments.start, arguments.stop, arguments.interval)
     progress = bench.progress_bar()
@@ -361,6 +357,16 @@ def _bench(arguments) -> int:
     if arguments.plot:
         write_output(arguments.plot, plots.work_precision_png(report))
     return 0
+
+
+def _check_destinations(output: str | None, plot: str | None) -> None:
+    """Refuse before the run, not after it: a path that cannot be written, a plot without matplotlib."""
+    from . import plots
+    for path in (output, plot):
+        if path:
+            check_writable(path)
+    if plot:
+        plots.require_matplotlib()
 
 
 def _refuse(option: str, message: str):

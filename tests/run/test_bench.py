@@ -3,6 +3,7 @@ checked against the closed-form solution of the Kepler problem at whole periods.
 from __future__ import annotations
 
 import math
+import sys
 
 import numpy as np
 import pytest
@@ -121,9 +122,21 @@ def test_simulate_estimates_its_global_error(kepler):
 
 
 def test_run_error_and_plot(kepler, tmp_path, capsys):
+    pytest.importorskip("matplotlib")
     picture = tmp_path / "outputs.png"
     assert main(["run", str(kepler), "--error", "--rtol", "1e-14", "--plot", str(picture), "-o",
                  str(tmp_path / "out.csv")]) == 0
     assert "against the __float128 reference" in capsys.readouterr().err or \
         toolchain.extended_precision(toolchain.find_compiler()) != "float128"
     assert picture.read_bytes().startswith(b"\x89PNG")
+
+
+@pytest.mark.parametrize("command", ["run", "bench"])
+def test_a_plot_without_matplotlib_is_refused_before_the_work_naming_the_extra(kepler, tmp_path, capsys, monkeypatch,
+                                                                                command):
+    monkeypatch.setitem(sys.modules, "matplotlib", None)      # `import matplotlib` fails as when it is not installed
+    picture, table = tmp_path / "figure.png", tmp_path / "table.csv"
+    assert main([command, str(kepler), "--plot", str(picture), "-o", str(table)]) == 1
+    assert capsys.readouterr().err.startswith("lagc: error: --plot: drawing a plot needs matplotlib, which is not "
+                                              "installed: pip install 'lagdsl[plots]'")
+    assert not picture.exists() and not table.exists()
