@@ -361,11 +361,11 @@ def _bench(arguments) -> int:
 
 def _check_destinations(output: str | None, plot: str | None) -> None:
     """Refuse before the run, not after it: a path that cannot be written, a plot without matplotlib."""
-    from . import plots
     for path in (output, plot):
         if path:
             check_writable(path)
     if plot:
+        from . import plots     # it imports sympy, which a warm `lagc run` does without
         plots.require_matplotlib()
 
 
