@@ -33,6 +33,7 @@ def test_check_reports_the_double_pendulum():
     assert "chaos" in done.stdout
 
 
+@pytest.mark.slow
 def test_check_says_where_the_nystrom_integrator_applies():
     """rkn8 needs q'' = a(t, q): the Pleiades (Cartesian bodies) qualify, the double pendulum
     (M depends on the angles, so f holds the velocities squared) does not."""
@@ -41,6 +42,7 @@ def test_check_says_where_the_nystrom_integrator_applies():
     assert "accelerations:" not in lagc("check", MODELS / "double_pendulum.lag").stdout
 
 
+@pytest.mark.slow
 def test_eom_prints_text_and_latex():
     text = lagc("eom", MODELS / "double_pendulum.lag")
     assert text.returncode == 0
@@ -60,6 +62,7 @@ def test_run_writes_csv_with_the_exact_header(tmp_path):
     assert "steps accepted" in done.stderr and "largest constraint residual" in done.stderr
 
 
+@pytest.mark.slow
 def test_run_overrides(tmp_path):
     done = lagc("run", MODELS / "wedge.lag", "--set", "m=2", "--set", "s.velocity=1", "--stop", "0.1")
     assert done.returncode == 0, done.stderr
@@ -93,7 +96,7 @@ def test_numerical_failure_names_time_state_and_remedy_and_keeps_the_rows(tmp_pa
         "the run is incomplete: it stopped at t = 0.5" in done.stderr
 
 
-@pytest.mark.parametrize("language", ["c", "numpy"])
+@pytest.mark.parametrize("language", ["c", pytest.param("numpy", marks=pytest.mark.slow)])
 def test_emit_writes_source(tmp_path, language):
     out = tmp_path / ("model.c" if language == "c" else "model.py")
     done = lagc(MODELS / "kepler.lag", "--emit", language, "-o", out)

@@ -172,6 +172,7 @@ def test_a_diagonal_mass_matrix_that_is_not_positive_is_singular(tmp_path):
             lagdsl.load(model).simulate(backend=backend, m=-1.0)
 
 
+@pytest.mark.slow
 def test_the_newton_matrices_of_radau5_are_banded_for_a_chain_and_dense_otherwise():
     """E(g) = [g Dz + Dv + Dq/g | Dz_λ] has the pattern of M and of the forces' reach (radau5.c)."""
     assert jacobian_layout(200, False, {(1, 0), (0, 1)}) == JacobianLayout("banded", 200, 1, 1)

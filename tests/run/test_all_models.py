@@ -9,7 +9,7 @@ up as disagreement, not only as a crash.
 
 Cost: each (model, integrator) is lowered once and rendered for both backends when its first
 test runs, and the build cache shares its C library with every later test of the session. Most
-cases are marked slow (`pytest --slow`); the default run keeps the cases of DEFAULT_CASES.
+cases are marked slow (`pytest --slow`); the default run keeps DEFAULT_CASES and GAUSS_DEFAULT.
 Nothing is loaded or derived at collection: whether rkn8 applies (accelerations free of the
 velocities) is known only after the derivation, so a case that it refuses checks the refusal.
 """
@@ -94,16 +94,14 @@ def integrators(model: str) -> tuple[str, ...]:
     return tuple(name for name in chosen if not refuses(name, model))
 
 
-# The default run (the rest is marked slow): every integrator on an unconstrained dense model,
-# the constrained ones (holonomic with projection: cartesian_pendulum; nonholonomic: rolling_penny;
-# rheonomic: car_axis) with an explicit, the implicit and the fixed-step integrators, the Nystrom
-# pair on a model it takes, and the loops of the local form.
-DEFAULT_CASES = {*(("double_pendulum", name) for name in ir.INTEGRATORS),
-                 ("wedge", "rkn8"), ("cartesian_pendulum", "rk4"), ("cartesian_pendulum", "radau5"),
-                 ("rolling_penny", "dopri5"), ("rolling_penny", "auto"), ("car_axis", "radau5"),
-                 ("fpu_chain", "dopri5")}
+# The default run (the rest is marked slow): every integrator on the double pendulum (rkn8 checks
+# its refusal), rkn8 on a model it takes, a constrained model with projection.
+DEFAULT_CASES = {*(("double_pendulum", name) for name in ir.INTEGRATORS), ("wedge", "rkn8"),
+                 ("rolling_penny", "dopri5")}
 CASES = [pytest.param(model, integrator, marks=() if (model, integrator) in DEFAULT_CASES else pytest.mark.slow)
          for model in MODEL_NAMES for integrator in integrators(model)]
+# The gauss rule on the default run: the models it refuses (cheap: refused at planning) and two it takes.
+GAUSS_DEFAULT = {*REFUSES_GAUSS, "double_pendulum", "kepler"}
 
 
 def span(model: str) -> float:
@@ -158,7 +156,8 @@ def test_model_runs_and_agrees_with_dop853(model, integrator, backend):
     assert deviation[worst] < AGREEMENT, f"{result.columns[worst]} deviates by {deviation[worst]:.2g}"
 
 
-@pytest.mark.parametrize("model", MODEL_NAMES)
+@pytest.mark.parametrize("model", [pytest.param(model, marks=() if model in GAUSS_DEFAULT else pytest.mark.slow)
+                                   for model in MODEL_NAMES])
 def test_gauss_is_refused_exactly_where_the_rule_says(model):
     overrides = Overrides(integrator="gauss", options=options("gauss", model))
     if model in REFUSES_GAUSS:

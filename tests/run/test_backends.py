@@ -13,6 +13,11 @@ import pytest
 from tests.conftest import library_model, library_scenes
 
 SCENES = [(model, scene or "default") for model, scene in library_scenes()]
+# The default run: one scene per integrator (dop853, dopri5, rk4, gauss, radau5, rkn8), one with a
+# nonholonomic constraint and its projection; the other scenes are slow.
+DEFAULT_SCENES = {("double_pendulum", "chaos"), ("damped_driven_pendulum", "driven"), ("wedge", "slide"),
+                  ("kepler", "symplectic"), ("charged_particle", "helix"), ("pleiades", "nystrom"),
+                  ("rolling_penny", "roll")}
 
 
 def run(model, scene, backend):
@@ -23,7 +28,9 @@ def run(model, scene, backend):
     return m.simulate(None if scene == "default" else scene, backend, stop=stop, **tight)
 
 
-@pytest.mark.parametrize("model, scene", SCENES, ids=[f"{m}.{s}" for m, s in SCENES])
+@pytest.mark.parametrize("model, scene", [
+    pytest.param(model, scene, id=f"{model}.{scene}", marks=() if (model, scene) in DEFAULT_SCENES else pytest.mark.slow)
+    for model, scene in SCENES])
 def test_c_and_numpy_agree(model, scene):
     c, py = run(model, scene, "c"), run(model, scene, "numpy")
     assert c.columns == py.columns

@@ -70,6 +70,7 @@ def test_the_reference_is_cached_and_not_rebuilt(kepler, monkeypatch):
     assert np.max(np.abs(first.values - exact)) < 1e-12
 
 
+@pytest.mark.slow
 def test_each_reported_error_is_within_2x_of_the_true_error(kepler):
     """The true error of each setting, rerun as `lagc run` would, against the closed form."""
     model = lagdsl.load(kepler)
@@ -89,6 +90,7 @@ def test_each_reported_error_is_within_2x_of_the_true_error(kepler):
     assert checked >= 12
 
 
+@pytest.mark.slow
 def test_csv_has_exactly_the_documented_header(kepler, tmp_path, capsys):
     table = tmp_path / "table.csv"
     assert main(["bench", str(kepler), "--integrators", "gauss", "--repeat", "1", "-o", str(table)]) == 0

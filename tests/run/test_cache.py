@@ -108,6 +108,7 @@ def lagc_run(model, cache_dir):
     return done.stdout
 
 
+@pytest.mark.slow
 def test_damaged_or_foreign_libraries_are_rebuilt_and_run_correctly(cache_dir, tmp_path):
     model, other = tmp_path / "oscillator.lag", tmp_path / "anharmonic.lag"
     model.write_text(OSCILLATOR)
@@ -122,6 +123,7 @@ def test_damaged_or_foreign_libraries_are_rebuilt_and_run_correctly(cache_dir, t
     assert lagc_run(model, cache_dir) == expected
 
 
+@pytest.mark.slow
 def test_two_processes_building_the_same_model_both_succeed(cache_dir, tmp_path):
     model = tmp_path / "oscillator.lag"
     model.write_text(OSCILLATOR)

@@ -80,7 +80,8 @@ def test_singular_mass_matrix_later_keeps_the_rows_before(tmp_path, backend, int
 
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])
-@pytest.mark.parametrize("integrator", ["dop853", "radau5", "rk4"])
+@pytest.mark.parametrize("integrator", ["dop853", pytest.param("radau5", marks=pytest.mark.slow),
+                                        pytest.param("rk4", marks=pytest.mark.slow)])
 def test_blow_up(tmp_path, backend, integrator):
     settings = {"integrator": integrator, **({"step": 0.001} if integrator == "rk4" else {})}
     error = failure(load(tmp_path, BLOW_UP), backend, **settings)

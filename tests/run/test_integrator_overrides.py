@@ -57,7 +57,7 @@ end Bad;
     assert (diagnostic.span.line, diagnostic.span.column) == (5, 43)
 
 
-@pytest.mark.parametrize("backend", ["c", "numpy"])
+@pytest.mark.parametrize("backend", ["c", pytest.param("numpy", marks=pytest.mark.slow)])
 def test_the_summary_shows_the_settings_used(tmp_path, backend):
     done = lagc("run", MODELS / "cartesian_pendulum.lag", "--backend", backend, "--integrator", "radau5",
                 "--stop", "0.1", "-o", tmp_path / "out.csv")

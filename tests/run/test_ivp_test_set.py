@@ -9,6 +9,8 @@ from scipy.integrate import solve_ivp
 
 from tests.conftest import library_model
 
+pytestmark = pytest.mark.slow      # long reference runs; the default run has closed forms of each kind
+
 # The test set's reference solutions (computed there with PSIDE / RADAU at tolerance 1e-14)
 ANDREWS_AT_0_03 = {
     "beta": 15.81077119629904, "theta": -15.75637105984298, "gamma": 0.04082224013073101,

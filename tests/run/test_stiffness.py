@@ -45,7 +45,7 @@ def position_error(result) -> float:
     return float(np.max(np.abs(result.values[:, :2] - slow_mode(result.t))))
 
 
-@pytest.mark.parametrize("integrator", ["dopri5", "dop853"])
+@pytest.mark.parametrize("integrator", [pytest.param("dopri5", marks=pytest.mark.slow), "dop853"])
 def test_explicit_pairs_report_stiffness_once_with_the_remedy(spring, integrator):
     result = spring.simulate(integrator=integrator, stop=2)
     stiffness = result.summary.stiffness
@@ -64,7 +64,7 @@ def test_numpy_backend_detects_stiffness_too(spring):
     assert result.summary.render().count("stiffness detected") == 1
 
 
-@pytest.mark.parametrize("backend, stop", [("c", None), ("numpy", 3.0)])
+@pytest.mark.parametrize("backend, stop", [("c", None), pytest.param("numpy", 3.0, marks=pytest.mark.slow)])
 def test_the_chaotic_double_pendulum_is_not_stiff(pendulum, backend, stop):
     for integrator in ("dopri5", "dop853"):
         summary = pendulum.simulate(backend=backend, integrator=integrator, stop=stop).summary
@@ -107,6 +107,7 @@ def test_auto_returns_to_dop853_when_the_stiffness_fades(spring):
     assert np.max(np.abs(auto.values[:, :2] - dop853.values[:, :2])) < 1e-6
 
 
+@pytest.mark.slow
 def test_auto_stays_with_dop853_on_the_double_pendulum(pendulum):
     auto = pendulum.simulate(integrator="auto", stop=5, rtol=1e-10, atol=1e-12)
     dop853 = pendulum.simulate(integrator="dop853", stop=5, rtol=1e-10, atol=1e-12)
@@ -132,6 +133,7 @@ def test_auto_handles_constraints_in_c_and_is_refused_by_numpy():
         model.simulate(backend="numpy", integrator="auto", stop=1)
 
 
+@pytest.mark.slow
 def test_the_auto_program_compiles_strictly(spring, tmp_path):
     cc = find_cc()
     if cc is None:

@@ -22,6 +22,7 @@ def client():
         yield client
 
 
+@pytest.mark.slow
 def test_a_sweep_on_dask_equals_the_local_one_even_when_a_worker_dies(client):
     model = library_model("double_pendulum")
     count = 160
