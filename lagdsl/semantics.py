@@ -15,7 +15,8 @@ from . import ir
 from .calculus import TIME_DIRECTION, Differentiator
 from .errors import ErrorCollector, InternalError, LagError
 from .expressions import KIND_WORDS, MAX_MEMBERS, Binding, ExpressionBuilder, Matrix, Scope, Vector, suggest
-from .settings import DEFAULT_INTEGRATOR, DEFAULT_TIME, INTEGRATOR_OPTIONS, validate_integrator
+from .integrators import registry
+from .settings import DEFAULT_INTEGRATOR, DEFAULT_TIME, check_integrator_name, validate_integrator
 from .source import SourceFile, Span
 from .units import in_si, parse_unit
 
@@ -545,10 +546,8 @@ class _ModelBuilder:
     def scene_integrator(self, node) -> ir.IntegratorChoice:
         token = tokens(node, "NAME")[0]
         name = str(token)
-        if name not in INTEGRATOR_OPTIONS:
-            raise LagError(f"unknown integrator '{name}'{suggest(name, INTEGRATOR_OPTIONS)} "
-                           f"(available: {', '.join(ir.INTEGRATORS)})", self.span(token))
-        options = self.modifiers(node, INTEGRATOR_OPTIONS[name], f"integrator {name}")
+        check_integrator_name(name, self.span(token))
+        options = self.modifiers(node, registry.get(name).options, f"integrator {name}")
         values = {k: self.parameter_value(v, k) for k, v in options.items()}
         return validate_integrator(name, values, self.span(node), {k: self.span(v) for k, v in options.items()})
 

@@ -22,9 +22,9 @@ import numpy as np
 import pytest
 
 import lagdsl
-from lagdsl import ir
 from lagdsl.codegen import GeneratedSource
 from lagdsl.codegen.kernel import Kernel
+from lagdsl.integrators import registry
 from lagdsl.pipeline import execute, generate
 from lagdsl.run.output import Result
 from lagdsl.scene import Overrides
@@ -88,7 +88,7 @@ def integrators(model: str) -> tuple[str, ...]:
     if model in LOOPED_ONLY:
         return LOOPED_ONLY[model]
     if model in FULL_MATRIX:
-        chosen = ir.INTEGRATORS
+        chosen = registry.names()
     else:
         chosen = ("dop853", "radau5", IN_TURN[SAMPLED.index(model) % len(IN_TURN)])
     return tuple(name for name in chosen if not refuses(name, model))
@@ -96,7 +96,7 @@ def integrators(model: str) -> tuple[str, ...]:
 
 # The default run (the rest is marked slow): every integrator on the double pendulum (rkn8 checks
 # its refusal), rkn8 on a model it takes, a constrained model with projection.
-DEFAULT_CASES = {*(("double_pendulum", name) for name in ir.INTEGRATORS), ("wedge", "rkn8"),
+DEFAULT_CASES = {*(("double_pendulum", name) for name in registry.names()), ("wedge", "rkn8"),
                  ("rolling_penny", "dopri5")}
 CASES = [pytest.param(model, integrator, marks=() if (model, integrator) in DEFAULT_CASES else pytest.mark.slow)
          for model in MODEL_NAMES for integrator in integrators(model)]

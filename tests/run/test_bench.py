@@ -133,12 +133,12 @@ def test_run_error_and_plot(kepler, tmp_path, capsys):
     assert picture.read_bytes().startswith(b"\x89PNG")
 
 
-@pytest.mark.parametrize("command", ["run", "bench"])
+@pytest.mark.parametrize("command, status", [("run", 1), ("bench", 1), ("modes", 2)])     # modes: 2 for bad input
 def test_a_plot_without_matplotlib_is_refused_before_the_work_naming_the_extra(kepler, tmp_path, capsys, monkeypatch,
-                                                                                command):
+                                                                                command, status):
     monkeypatch.setitem(sys.modules, "matplotlib", None)      # `import matplotlib` fails as when it is not installed
     picture, table = tmp_path / "figure.png", tmp_path / "table.csv"
-    assert main([command, str(kepler), "--plot", str(picture), "-o", str(table)]) == 1
+    assert main([command, str(kepler), "--plot", str(picture), "-o", str(table)]) == status
     assert capsys.readouterr().err.startswith("lagc: error: --plot: drawing a plot needs matplotlib, which is not "
                                               "installed: pip install 'lagdsl[plots]'")
     assert not picture.exists() and not table.exists()
