@@ -8,7 +8,6 @@ from __future__ import annotations
 import _thread
 import math
 import sys
-import time
 import warnings
 
 import numpy as np
@@ -181,13 +180,13 @@ def test_the_default_step_limit_bounds_every_run(oscillator):
 @pytest.mark.filterwarnings("ignore::RuntimeWarning")      # scipy's first-step estimate overflows
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_a_step_size_collapse_at_t0_fails_at_once(oscillator, backend):
-    """k = 1e300: the period is 6e-150, so the step collapses at t = 0, where 10 eps |t| is 0."""
-    started = time.monotonic()
+    """k = 1e300: the period is 6e-150, so the step collapses at t = 0, where 10 eps |t| is 0.
+    At once: before any step is accepted (the run used to creep on with steps of 1e-150 for hours)."""
     with pytest.raises(SimulationError) as error:
         oscillator.simulate(backend=backend, k=1e300)
     assert "step size collapsed" in error.value.message
     assert error.value.time < 1e-13
-    assert time.monotonic() - started < 60     # not a bound on speed: the run used to go on for hours
+    assert error.value.partial.summary.count("accepted") == 0
 
 
 def test_a_numpy_run_that_cannot_finish_within_the_limit_stops_early(oscillator):
@@ -238,20 +237,19 @@ PRESS_AT = 20.0
 def test_ctrl_c_stops_a_run_and_keeps_its_rows(oscillator, backend):
     """Ctrl-C (KeyboardInterrupt in the main thread) in the integration itself: the first progress
     report past PRESS_AT presses it."""
-    interrupted_at = []
+    pressed = []
 
     def progress(t, start, stop):
-        if t >= PRESS_AT and not interrupted_at:
-            interrupted_at.append(time.monotonic())
+        if t >= PRESS_AT and not pressed:
+            pressed.append(t)
             _thread.interrupt_main()
 
     # about 10 s of C: far longer than the rows before Ctrl-C, however fast the code gets
     long_run = Overrides(stop=1e7, interval=10.0, options=(("rtol", 1e-13), ("max_steps", 1e12)))
     with pytest.raises(SimulationInterrupted) as stopped:
         oscillator.simulate_plan(None, backend, long_run, progress)
-    waited = time.monotonic() - interrupted_at[0]
     partial = stopped.value.partial
-    assert waited < 10, waited                                # within a fraction of a second, unloaded
+    assert pressed[0] <= stopped.value.time < pressed[0] + 1e5     # soon after the press: within 1% of the run
     assert 1 < len(partial.t) < 1000001 and partial.t[-1] <= stopped.value.time
     assert np.all(np.diff(partial.t) == 10.0)
     assert np.allclose(partial["x"], np.cos(partial.t), atol=1e-6)
