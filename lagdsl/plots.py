@@ -7,7 +7,19 @@ import math
 
 import numpy as np
 
+from .errors import LagError, Setting
 from .integrators import registry
+
+EXTRA = "plots"         # the optional dependencies in pyproject.toml that bring matplotlib
+
+
+def require_matplotlib() -> None:
+    """matplotlib is optional: `--plot` without it is refused before any work, naming the extra."""
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        raise LagError(f"drawing a plot needs matplotlib, which is not installed: pip install 'lagdsl[{EXTRA}]'",
+                       Setting("--plot")) from None
 
 
 def _pyplot():

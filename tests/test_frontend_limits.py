@@ -152,6 +152,7 @@ end LongSums;
 """
 
 
+@pytest.mark.slow
 def test_330_term_sums_run_on_both_backends(tmp_path):
     path = tmp_path / "long.lag"
     path.write_text(long_sums_model(), encoding="utf-8")

@@ -180,6 +180,7 @@ def test_every_library_model_carries_units_and_passes_the_check():
         assert "?" not in {unit for _, unit, _ in model.units.quantities}, path.name
 
 
+@pytest.mark.slow
 def test_run_units_names_the_units_in_the_csv_header(tmp_path):
     path = tmp_path / "pendulum.lag"
     path.write_text(PENDULUM_PREFIXED)

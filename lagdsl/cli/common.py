@@ -9,7 +9,7 @@ from ..abi import parse_number
 from ..errors import LagError, Setting
 from ..integrators import registry
 from ..integrators.registry import OPTION_ORDER, OPTIONS
-from ..run.files import write_output, write_stdout
+from ..run.files import check_writable, write_output, write_stdout
 from ..progress import slow_stage
 from ..run.interrupt import terminated
 from ..settings import Overrides, check_integrator_name, given_options
@@ -20,6 +20,16 @@ def interrupted_exit() -> int:
     """The exit status after an interrupt, as shells report a death by the signal: 128 + SIGINT
     (Ctrl-C) or 128 + SIGTERM (`kill`)."""
     return 128 + (signal.SIGTERM if terminated() else signal.SIGINT)
+
+
+def check_destinations(model: str, output: str | None, plot: str | None) -> None:
+    """Refuse before the work, not after it: a path that cannot be written, a plot without matplotlib."""
+    for path in (output, plot):
+        if path:
+            check_writable(path, model)
+    if plot:
+        from .. import plots     # numpy and matplotlib: only a --plot needs them
+        plots.require_matplotlib()
 
 
 def load_model(source: SourceFile):

@@ -232,7 +232,14 @@ def build(tmp_path, name: str, combination: tuple) -> str:
     return str(executable)
 
 
-@pytest.mark.parametrize("combination", COMBINATIONS.values(), ids=COMBINATIONS)
+# The default run compiles the driver with no guard and with every guard (either way of
+# switching integrators); each guard alone is slow.
+DEFAULT_COMBINATIONS = {"nothing", "everything", "everything with switches"}
+
+
+@pytest.mark.parametrize("combination", [
+    pytest.param(value, id=name, marks=() if name in DEFAULT_COMBINATIONS else pytest.mark.slow)
+    for name, value in COMBINATIONS.items()])
 def test_the_driver_compiles_alone_with_each_guard_a_scene_can_set(tmp_path, combination):
     build(tmp_path, "driver", combination)
 
