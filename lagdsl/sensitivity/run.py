@@ -1,0 +1,228 @@
+"""Forward sensitivities: the state and its derivatives S = ∂y/∂θ integrated as one system.
+
+A direction θ is a parameter p, or a start value ("q.start", "q.velocity"). With y = (q, q')
+and S = (Sq, Sv) one 2n-column per direction, the augmented system is
+
+    q' = v,  K q'' = b;        Sq' = Sv,  K Sq'' = Dq Sq + Dv Sv + Dp J_θ
+
+(sensitivity/lowering.py), K and b the generated `assemble`, the solve the generated
+`solve_columns` with K's own factorization: M is never inverted, symbolically or numerically.
+J_θ = ∂par/∂θ carries a direction into the parameter vector: 1 at the parameter itself, and
+∂e_d/∂θ along the chain for a parameter d defined by an expression e_d of earlier ones (unless
+set explicitly). Start values: S(0) = ∂y0/∂par J_θ for a parameter (the start written in terms
+of it), the unit vector for "q.start" and "q.velocity", zero rows for starts set explicitly.
+
+An output column h(t, y, par) has ∂h/∂θ = Cy S + Cp J_θ on the output grid.
+
+The system is integrated by the scipy solver that stands for the scene's integrator on the
+NumPy backend (registry.Integrator.scipy). With `error_control` (the default, CVODES's "full
+error control") S enters the step-size control with the state's tolerances; without it S
+gets an infinite atol, so steps are chosen for the state alone.
+"""
+from __future__ import annotations
+
+import time as clock
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.integrate
+import sympy
+
+from ..errors import LagError, Setting, SimulationError, suggest
+from ..integrators import registry
+from ..run.output import Result, RunSummary, output_times
+
+START, VELOCITY = ".start", ".velocity"
+
+
+@dataclass(frozen=True)
+class SensitivityResult(Result):
+    """A Result with `derivatives` (rows, columns, directions): ∂column/∂direction on the grid."""
+
+    directions: tuple[str, ...] = ()
+    derivatives: np.ndarray | None = None
+
+    def sensitivity(self, column: str, direction: str) -> np.ndarray:
+        """∂column(t)/∂direction on the output grid (a column of the scene, a parameter or "q.start")."""
+        if column not in self.columns:
+            raise KeyError(f"no column '{column}' (columns: {', '.join(self.columns)})")
+        if direction not in self.directions:
+            raise KeyError(f"no sensitivity by '{direction}' (computed: {', '.join(self.directions)})")
+        return self.derivatives[:, self.columns.index(column), self.directions.index(direction)]
+
+
+@dataclass(frozen=True)
+class Directions:
+    """The directions of a run: each a parameter index, or a state index (start values)."""
+
+    names: tuple[str, ...]
+    parameters: tuple[int | None, ...]      # parameter index, or None for a start value
+    states: tuple[int | None, ...]          # index into y for a start value, or None
+
+
+def directions(model, names) -> Directions:
+    """Resolve names (parameters, "q.start", "q.velocity") against `model` (an ir.Model)."""
+    parameters = [p.name for p in model.parameters]
+    coordinates = [c.name for c in model.coordinates]
+    n = len(coordinates)
+    by_parameter, by_state = [], []
+    if not names:
+        raise LagError("sensitivities: name at least one parameter or start value", Setting("--sensitivity"))
+    for name in names:
+        stem, suffix = name.rsplit(".", 1) if "." in name else (name, "")
+        if name in parameters:
+            if model.parameters[parameters.index(name)].structural:
+                raise LagError(f"sensitivities: '{name}' is a count (it sizes an indexed family), not a value "
+                               "that can vary", Setting("--sensitivity"))
+            by_parameter.append(parameters.index(name))
+            by_state.append(None)
+        elif stem in coordinates and "." + suffix in (START, VELOCITY):
+            by_parameter.append(None)
+            by_state.append(coordinates.index(stem) + (n if "." + suffix == VELOCITY else 0))
+        else:
+            known = [*parameters, *(c + START for c in coordinates), *(c + VELOCITY for c in coordinates)]
+            raise LagError(f"sensitivities: '{name}' is neither a parameter nor a start value of model "
+                           f"{model.name}{suggest(name, known)} (a parameter, q.start or q.velocity)",
+                           Setting("--sensitivity"))
+    if len(set(names)) < len(names):
+        raise LagError("sensitivities: a direction is named twice", Setting("--sensitivity"))
+    return Directions(tuple(names), tuple(by_parameter), tuple(by_state))
+
+
+def parameter_directions(model, plan, chosen: Directions, values: np.ndarray) -> np.ndarray:
+    """J_θ = ∂par/∂θ (parameters x directions) at the derived parameter values (module docstring)."""
+    symbols = [p.symbol for p in model.parameters]
+    at = {s: sympy.Float(float(v)) for s, v in zip(symbols, values)}
+    J = np.zeros((len(symbols), len(chosen.names)))
+    for j, index in enumerate(chosen.parameters):
+        if index is not None:
+            J[index, j] = 1.0
+    for d, p in enumerate(model.parameters):
+        if not p.expression.free_symbols or p.name in plan.fixed_parameters or d in chosen.parameters:
+            continue
+        for k, s in enumerate(symbols):
+            if s in p.expression.free_symbols:
+                J[d] += float(sympy.diff(p.expression, s).xreplace(at)) * J[k]
+    return J
+
+
+def initial_directions(module, plan, chosen: Directions, par: np.ndarray, J: np.ndarray) -> np.ndarray:
+    """S(0), shape (2n, directions) (module docstring)."""
+    n = len(plan.coordinates)
+    S0 = module.initial_sensitivity(par) @ J
+    for name, start, velocity in plan.initial:
+        k = plan.coordinates.index(name)
+        if start is not None:
+            S0[k] = 0.0
+        if velocity is not None:
+            S0[n + k] = 0.0
+    for j, index in enumerate(chosen.states):
+        if index is not None:
+            S0[index, j] = 1.0
+    return S0
+
+
+@dataclass(frozen=True)
+class Program:
+    """The generated NumPy functions of a scene with the sensitivity blocks (lowering.py)."""
+
+    kernel: object
+    module: object
+
+
+def build(model, scene: str | None) -> Program:
+    """Generate and load the functions of `scene` of `model` (an api.Model)."""
+    from ..codegen.numpy import render_numpy
+    from ..run.loading import load as load_program
+    from ..settings import Overrides
+    from .lowering import lower_for_sensitivities
+    code_plan = model.plan(scene, Overrides(integrator=JACOBIAN_INTEGRATOR))
+    kernel = lower_for_sensitivities(model.equations, code_plan)
+    return Program(kernel, load_program(render_numpy(kernel, model.source.name)))
+
+
+# The integrator whose kernel carries Dq, Dv, Dz (linear/point.py builds its evaluator the same way).
+JACOBIAN_INTEGRATOR = "radau5"
+
+
+def solver_of(plan) -> tuple[str, float, float]:
+    """The scipy solver standing for the plan's integrator, and its rtol and atol."""
+    record = registry.get(plan.integrator.name)
+    if record.scipy is None or record.fixed_step:
+        raise LagError(f"sensitivities need an adaptive integrator with error control on the NumPy backend "
+                       f"(dopri5, dop853, radau5 or auto), not {plan.integrator.name}",
+                       plan.integrator.span or Setting("--integrator"))
+    options = {**dict(record.defaults), **dict(plan.integrator.options)}
+    return record.scipy, float(options["rtol"]), float(options["atol"])
+
+
+def integrate(program: Program, plan, chosen: Directions, times: np.ndarray | None = None,
+              error_control: bool = True) -> SensitivityResult:
+    """Run `plan` (a scene.ScenePlan) with the sensitivities by `chosen` on `times` (default: the
+    scene's output grid, which starts at the scene's start time)."""
+    if plan.stop is not None:
+        raise LagError("sensitivities: the scene ends on a condition (`stop when`), whose time would move with "
+                       "the parameters; run a scene with a fixed stop time", Setting("--scene"))
+    module, n, m = program.module, len(plan.coordinates), len(chosen.names)
+    given = np.array(plan.parameters, dtype=float)
+    par = module.derive_parameters(given, tuple(i for i, p in enumerate(plan.model.parameters)
+                                                if p.name in plan.fixed_parameters))
+    J = parameter_directions(plan.model, plan, chosen, par)
+    times = output_times(plan.run_plan()) if times is None else np.asarray(times, dtype=float)
+    method, rtol, atol = solver_of(plan)
+    y0 = np.concatenate([np.array(plan.initial_state, dtype=float),
+                         initial_directions(module, plan, chosen, par, J).ravel()])
+    tolerance = np.full(y0.size, atol)
+    if not error_control:
+        tolerance[2 * n:] = np.inf
+
+    def rhs(t, Y):
+        y, S = Y[:2 * n], Y[2 * n:].reshape(2 * n, m)
+        K, b = module.assemble(par, t, y)
+        x = module.solve(K, b)
+        acc, lam = x[:n], x[n:]
+        Dq, Dv, _ = module.residual_jacobian(par, t, y, acc, lam)
+        forcing = Dq[:, :n] @ S[:n] + Dv[:, :n] @ S[n:] + module.parameter_jacobian(par, t, y, acc, lam) @ J
+        return np.concatenate([y[n:], acc, S[n:].ravel(), module.solve_columns(K, forcing)[:n].ravel()])
+
+    started = clock.perf_counter()
+    solution = _solve(rhs, plan, method, times, y0, rtol, tolerance)
+    return _result(program, plan, chosen, par, J, solution, clock.perf_counter() - started, (rtol, atol))
+
+
+def _solve(rhs, plan, method, times, y0, rtol, atol):
+    """solve_ivp from the scene's start over `times`; SimulationError naming the time and state."""
+    start = float(plan.time.start)
+    try:
+        solution = scipy.integrate.solve_ivp(rhs, (start, float(times[-1])), y0, method=method, t_eval=times,
+                                             rtol=rtol, atol=atol)
+    except np.linalg.LinAlgError:
+        solution = None
+    if solution is None or solution.status != 0:
+        reached = float(solution.t[-1]) if solution is not None and solution.t.size else start
+        state = solution.y[:, -1] if solution is not None and solution.t.size else y0
+        n = len(plan.coordinates)
+        named = {**{q: float(state[k]) for k, q in enumerate(plan.coordinates)},
+                 **{q + VELOCITY: float(state[n + k]) for k, q in enumerate(plan.coordinates)}}
+        why = solution.message if solution is not None else "the mass matrix is singular"
+        raise SimulationError(f"the sensitivities' integration failed ({why})", reached, named,
+                              "check the parameter values; lower rtol, or choose radau5 for a stiff model")
+    return solution
+
+
+def _result(program, plan, chosen, par, J, solution, seconds, tolerances) -> SensitivityResult:
+    """The output columns and their derivatives Cy S + Cp J on the grid, with the run summary."""
+    module, n, m = program.module, len(plan.coordinates), len(chosen.names)
+    states = solution.y[:2 * n]
+    out, inv = module.observables(solution.t, states, par)
+    derivatives = np.empty((solution.t.size, len(plan.columns), m))
+    for row, t in enumerate(solution.t):
+        Cy, Cp = module.output_jacobian(par, t, states[:, row])
+        derivatives[row] = Cy @ solution.y[2 * n:, row].reshape(2 * n, m) + Cp @ J
+    drifts = tuple((name, float(inv[i, 0]), float(np.max(np.abs(inv[i] - inv[i, 0]))))
+                   for i, name in enumerate(plan.invariants))
+    summary = RunSummary("numpy", plan.integrator.name,
+                         (("rhs_evals", int(solution.nfev)),), seconds, drifts, (), None, None,
+                         (("rtol", tolerances[0]), ("atol", tolerances[1])))
+    return SensitivityResult(solution.t, plan.columns, np.asarray(out, dtype=float).T, summary,
+                             chosen.names, derivatives)
