@@ -29,14 +29,15 @@ from .data import read_data
 @dataclass(frozen=True)
 class Fit:
     """The fitted values and their standard errors (by name), the correlation matrix (in the
-    order of `names`), the residuals (a table: t, then model - data per column), the final
-    cost ½ Σ r², and `nfev`, the number of model runs."""
+    order of `names`), the residuals (a table: t, then model - data per column), the fitted
+    model on the same rows (`fitted`), the final cost ½ Σ r², and `nfev`, the number of model runs."""
 
     names: tuple[str, ...]
     values: dict[str, float]
     stderr: dict[str, float]
     correlation: np.ndarray
     residuals: dict[str, np.ndarray]
+    fitted: dict[str, np.ndarray]
     cost: float
     nfev: int
     success: bool
@@ -149,6 +150,7 @@ def _result(names, solution, runs: _Runs, target, times, columns) -> Fit:
         correlation = covariance / np.outer(stderr, stderr)
     values, _ = runs.at(solution.x)
     table = {"t": times, **{c: values[:, k] - target[:, k] for k, c in enumerate(columns)}}
+    fitted = {"t": times, **{c: values[:, k] for k, c in enumerate(columns)}}
     return Fit(names, {n: float(v) for n, v in zip(names, solution.x)},
-               {n: float(s) for n, s in zip(names, stderr)}, correlation, table, float(solution.cost),
+               {n: float(s) for n, s in zip(names, stderr)}, correlation, table, fitted, float(solution.cost),
                runs.count, bool(solution.success), str(solution.message))
