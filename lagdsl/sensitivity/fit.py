@@ -24,6 +24,7 @@ import scipy.optimize
 from ..errors import LagError, Setting
 from ..settings import Overrides
 from .data import read_data
+from .run import directions
 
 
 @dataclass(frozen=True)
@@ -60,9 +61,7 @@ def fit(model, data, params: dict, outputs=None, sigma=None, scene: str | None =
     api.Model) so that its `outputs` (default: the data's columns) match `data` (see data.py);
     `set` holds other parameters fixed, `bounds` maps a name to (low, high), `sigma` is one
     number or {column: number} (default 1)."""
-    names = tuple(params)
-    if not names:
-        raise LagError("fit: name at least one parameter to fit", Setting("--fit"))
+    names = directions(model.ir, tuple(params), "--fit").names
     plan = model.plan(scene, Overrides(tuple((k, float(v)) for k, v in (set or {}).items())))
     measured = read_data(data, plan.columns, model.name)
     columns = _chosen_columns(measured.columns, outputs)

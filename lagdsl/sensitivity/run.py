@@ -60,20 +60,21 @@ class Directions:
     states: tuple[int | None, ...]          # index into y for a start value, or None
 
 
-def directions(model, names) -> Directions:
-    """Resolve names (parameters, "q.start", "q.velocity") against `model` (an ir.Model)."""
+def directions(model, names, option: str = "--sensitivity") -> Directions:
+    """Resolve names (parameters, "q.start", "q.velocity") against `model` (an ir.Model);
+    `option` is where the names came from, for the messages."""
     parameters = [p.name for p in model.parameters]
     coordinates = [c.name for c in model.coordinates]
     n = len(coordinates)
     by_parameter, by_state = [], []
     if not names:
-        raise LagError("sensitivities: name at least one parameter or start value", Setting("--sensitivity"))
+        raise LagError("name at least one parameter or start value", Setting(option))
     for name in names:
         stem, suffix = name.rsplit(".", 1) if "." in name else (name, "")
         if name in parameters:
             if model.parameters[parameters.index(name)].structural:
-                raise LagError(f"sensitivities: '{name}' is a count (it sizes an indexed family), not a value "
-                               "that can vary", Setting("--sensitivity"))
+                raise LagError(f"'{name}' is a count (it sizes an indexed family), not a value "
+                               "that can vary", Setting(option))
             by_parameter.append(parameters.index(name))
             by_state.append(None)
         elif stem in coordinates and "." + suffix in (START, VELOCITY):
@@ -81,11 +82,11 @@ def directions(model, names) -> Directions:
             by_state.append(coordinates.index(stem) + (n if "." + suffix == VELOCITY else 0))
         else:
             known = [*parameters, *(c + START for c in coordinates), *(c + VELOCITY for c in coordinates)]
-            raise LagError(f"sensitivities: '{name}' is neither a parameter nor a start value of model "
+            raise LagError(f"'{name}' is neither a parameter nor a start value of model "
                            f"{model.name}{suggest(name, known)} (a parameter, q.start or q.velocity)",
-                           Setting("--sensitivity"))
+                           Setting(option))
     if len(set(names)) < len(names):
-        raise LagError("sensitivities: a direction is named twice", Setting("--sensitivity"))
+        raise LagError("a parameter or start value is named twice", Setting(option))
     return Directions(tuple(names), tuple(by_parameter), tuple(by_state))
 
 
