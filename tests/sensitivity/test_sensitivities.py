@@ -96,3 +96,14 @@ def test_bad_directions_are_refused_with_a_message(oscillator, names, options, m
 def test_a_constrained_model_is_refused():
     with pytest.raises(LagError, match="has constraints"):
         model("cartesian_pendulum").simulate(backend="numpy", sensitivities=["g"])
+
+
+def test_a_parameter_defined_by_another_follows_it(oscillator):
+    # k = 2 h defined from h: d x/d h = 2 d x/d k; with k set, h no longer moves anything.
+    derived = Model(SourceFile("derived.lag", OSCILLATOR.replace("parameter k = 3.0 [N/m];",
+                                                               "parameter h = 1.5 [N/m];\n  parameter k = 2*h [N/m];")))
+    by_h = derived.simulate(backend="numpy", sensitivities=["h"]).sensitivity("x", "h")
+    by_k = oscillator.simulate(backend="numpy", sensitivities=["k"]).sensitivity("x", "k")
+    np.testing.assert_allclose(by_h, 2 * by_k, atol=1e-11)
+    held = derived.simulate(backend="numpy", sensitivities=["h"], k=3.0).sensitivity("x", "h")
+    np.testing.assert_array_equal(held, 0.0)
