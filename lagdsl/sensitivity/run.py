@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.integrate
+import scipy.linalg
 import sympy
 
 from ..errors import LagError, Setting, SimulationError, suggest
@@ -186,17 +187,23 @@ def integrate(program: Program, plan, chosen: Directions, times: np.ndarray | No
         forcing = Dq[:, :n] @ S[:n] + Dv[:, :n] @ S[n:] + module.parameter_jacobian(par, t, y, acc, lam) @ J
         return np.concatenate([y[n:], acc, S[n:].ravel(), module.solve_columns(K, forcing)[:n].ravel()])
 
+    def newton_matrix(t, Y):
+        """The implicit methods' iteration matrix: ∂f/∂y on each of the 1 + m diagonal blocks (the
+        coupling ∂(S')/∂y below them is left out, as CVODES's staggered corrector does)."""
+        return scipy.linalg.block_diag(*[module.jacobian(t, Y[:2 * n], par)] * (1 + m))
+
     started = clock.perf_counter()
-    solution = _solve(rhs, plan, method, times, y0, rtol, tolerance)
+    jacobian = newton_matrix if registry.get(plan.integrator.name).implicit else None
+    solution = _solve(rhs, jacobian, plan, method, times, y0, rtol, tolerance)
     return _result(program, plan, chosen, par, J, solution, clock.perf_counter() - started, (rtol, atol))
 
 
-def _solve(rhs, plan, method, times, y0, rtol, atol):
+def _solve(rhs, jacobian, plan, method, times, y0, rtol, atol):
     """solve_ivp from the scene's start over `times`; SimulationError naming the time and state."""
     start = float(plan.time.start)
     try:
         solution = scipy.integrate.solve_ivp(rhs, (start, float(times[-1])), y0, method=method, t_eval=times,
-                                             rtol=rtol, atol=atol)
+                                             rtol=rtol, atol=atol, **({"jac": jacobian} if jacobian else {}))
     except np.linalg.LinAlgError:
         solution = None
     if solution is None or solution.status != 0:

@@ -107,3 +107,13 @@ def test_a_parameter_defined_by_another_follows_it(oscillator):
     np.testing.assert_allclose(by_h, 2 * by_k, atol=1e-11)
     held = derived.simulate(backend="numpy", sensitivities=["h"], k=3.0).sensitivity("x", "h")
     np.testing.assert_array_equal(held, 0.0)
+
+
+@pytest.mark.parametrize("integrator", ["dopri5", "radau5", "auto"])
+def test_every_adaptive_integrator_gives_the_same_sensitivities(integrator):
+    subject, names = model("damped_driven_pendulum"), ["b", "theta.start"]
+    reference = subject.simulate(backend="numpy", stop=3, sensitivities=names, rtol=1e-12, atol=1e-14)
+    run = subject.simulate(backend="numpy", stop=3, sensitivities=names, integrator=integrator, rtol=1e-9,
+                           atol=1e-11)
+    for name in names:
+        np.testing.assert_allclose(run.sensitivity("theta", name), reference.sensitivity("theta", name), atol=1e-6)
