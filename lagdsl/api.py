@@ -80,7 +80,7 @@ class Model:
 
         `sensitivities` names parameters and start values ("q.start", "q.velocity"): the run then
         integrates the variational equations with the state (sensitivity/run.py; backend
-        "numpy", an adaptive integrator, no constraints) and returns a SensitivityResult, whose
+        "numpy", an adaptive integrator) and returns a SensitivityResult, whose
         `.sensitivity("x", "k")` is ∂x(t)/∂k on the grid; `sensitivity_error_control` says whether
         they enter the step-size control (default: they do).
         """

@@ -25,7 +25,7 @@ FUNCTION_PARAMETERS = {
     "outputs": ("par", "t", "y", "out", "inv"),
     "stop": ("par", "t", "y", "ev"),
     "parameter_jacobian": ("par", "t", "y", "acc", "lam", "Dp"),
-    "output_jacobian": ("par", "t", "y", "Cy", "Cp"),
+    "output_jacobian": ("par", "t", "y", "lam", "Cy", "Cl", "Cp"),
     "initial_sensitivity": ("par", "S0"),
 }
 

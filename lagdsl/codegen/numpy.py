@@ -36,7 +36,7 @@ def render_numpy(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSou
 
 
 # Matrices that the generated functions create as zeros: their zero entries need no statement.
-ZEROED = ("K", "M", "Dq", "Dv", "Dz", "Dp", "Cy", "Cp", "S0")
+ZEROED = ("K", "M", "Dq", "Dv", "Dz", "Dp", "Cy", "Cl", "Cp", "S0")
 
 
 def _print_block(block: Block, layout: str, printer: PythonPrinter, coordinates: int) -> dict:

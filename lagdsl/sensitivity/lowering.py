@@ -12,7 +12,7 @@ equations and by the same chain rule through their intermediates (calculus.Diffe
 with the parameters among the independent symbols, as linear/symbolic.py takes B_q = ∂R/∂u):
 
     Dp = ∂R/∂p                      the variational equations' forcing
-    Cy = ∂h/∂y,  Cp = ∂h/∂p         the output columns' derivatives: ∂h/∂p total = Cy S + Cp
+    Cy = ∂h/∂y, Cl = ∂h/∂λ, Cp = ∂h/∂p   the output columns' derivatives (variational.py)
     S0 = ∂y0/∂p                     start values written in terms of the parameters
 
 for every parameter of the model (a few numbers per entry: which parameters a run follows is
@@ -22,10 +22,11 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import sympy
+
 from .. import ir
 from ..calculus import Differentiator
 from ..codegen.kernel import Kernel, _Lowering
-from ..errors import LagError
 from ..mechanics import Equations
 from ..mechanics.families import expanded
 from ..scene import ScenePlan
@@ -56,10 +57,14 @@ class SensitivityLowering(_Lowering):
         return self.block(self.parameter_stores("Dp", range(len(residuals)), residuals))
 
     def output_jacobian(self):
+        """Cy = ∂h/∂y, Cl = ∂h/∂λ (the multipliers appear in outputs as themselves, never in an
+        intermediate) and Cp = ∂h/∂p of the scene's columns."""
         outputs = [value for _, _, value in self.output_stores()[:len(self.plan.outputs)]]
         state = (*self.eq.coordinates, *self.eq.velocities)
         stores = [("Cy", (c, k), self.calculus.partial(h, x)) for c, h in enumerate(outputs)
                   for k, x in enumerate(state) if x in self.calculus.dependencies(h)]
+        stores += [("Cl", (c, i), sympy.diff(h, lam)) for c, h in enumerate(outputs)
+                   for i, lam in enumerate(self.multipliers) if lam in h.free_symbols]
         rows = range(len(outputs))
         return self.block([s for s in stores if s[2] != 0] + self.parameter_stores("Cp", rows, outputs))
 
@@ -70,14 +75,5 @@ class SensitivityLowering(_Lowering):
 
 
 def lower_for_sensitivities(equations: Equations, plan: ScenePlan) -> Kernel:
-    """The kernel of `plan` (an implicit integrator's, so with Dq, Dv, Dz) with Dp, Cy, Cp and S0.
-
-    Refused: constraints (the projection onto them is not differentiated, and a start value
-    moved alone would leave them)."""
-    full = expanded(equations)
-    active = [c.name for c in full.constraints if not c.dropped]
-    if active:
-        raise LagError(f"sensitivities: model {full.model.name} has constraints ({', '.join(active)}); the "
-                       "projection onto them is not differentiated, so their sensitivities are not computed "
-                       "(write the model in independent coordinates)")
-    return SensitivityLowering(full, plan).kernel()
+    """The kernel of `plan` (an implicit integrator's, so with Dq, Dv, Dz) with Dp, Cy, Cl, Cp, S0."""
+    return SensitivityLowering(expanded(equations), plan).kernel()

@@ -26,12 +26,12 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.integrate
-import scipy.linalg
 import sympy
 
 from ..errors import LagError, Setting, SimulationError, suggest
 from ..integrators import registry
 from ..run.output import Result, RunSummary, output_times
+from .variational import VariationalSystem, onto_constraints
 
 START, VELOCITY = ".start", ".velocity"
 
@@ -130,6 +130,7 @@ class Program:
 
     kernel: object
     module: object
+    model: object                       # the api.Model: the constraints' derivatives at the start
 
 
 def build(model, scene: str | None) -> Program:
@@ -140,7 +141,7 @@ def build(model, scene: str | None) -> Program:
     from .lowering import lower_for_sensitivities
     code_plan = model.plan(scene, Overrides(integrator=JACOBIAN_INTEGRATOR))
     kernel = lower_for_sensitivities(model.equations, code_plan)
-    return Program(kernel, load_program(render_numpy(kernel, model.source.name)))
+    return Program(kernel, load_program(render_numpy(kernel, model.source.name)), model)
 
 
 # The integrator whose kernel carries Dq, Dv, Dz (linear/point.py builds its evaluator the same way).
@@ -172,30 +173,19 @@ def integrate(program: Program, plan, chosen: Directions, times: np.ndarray | No
     J = parameter_directions(plan.model, plan, chosen, par)
     times = output_times(plan.run_plan()) if times is None else np.asarray(times, dtype=float)
     method, rtol, atol = solver_of(plan)
-    y0 = np.concatenate([np.array(plan.initial_state, dtype=float),
-                         initial_directions(module, plan, chosen, par, J).ravel()])
+    state = np.array(plan.initial_state, dtype=float)
+    S0 = initial_directions(module, plan, chosen, par, J)
+    if program.kernel.constraints:
+        S0 = onto_constraints(program.model, plan, module, par, state, S0, J)
+    y0 = np.concatenate([state, S0.ravel()])
     tolerance = np.full(y0.size, atol)
     if not error_control:
         tolerance[2 * n:] = np.inf
-
-    def rhs(t, Y):
-        y, S = Y[:2 * n], Y[2 * n:].reshape(2 * n, m)
-        K, b = module.assemble(par, t, y)
-        x = module.solve(K, b)
-        acc, lam = x[:n], x[n:]
-        Dq, Dv, _ = module.residual_jacobian(par, t, y, acc, lam)
-        forcing = Dq[:, :n] @ S[:n] + Dv[:, :n] @ S[n:] + module.parameter_jacobian(par, t, y, acc, lam) @ J
-        return np.concatenate([y[n:], acc, S[n:].ravel(), module.solve_columns(K, forcing)[:n].ravel()])
-
-    def newton_matrix(t, Y):
-        """The implicit methods' iteration matrix: ∂f/∂y on each of the 1 + m diagonal blocks (the
-        coupling ∂(S')/∂y below them is left out, as CVODES's staggered corrector does)."""
-        return scipy.linalg.block_diag(*[module.jacobian(t, Y[:2 * n], par)] * (1 + m))
-
+    system = VariationalSystem(module, par, J, n)
     started = clock.perf_counter()
-    jacobian = newton_matrix if registry.get(plan.integrator.name).implicit else None
-    solution = _solve(rhs, jacobian, plan, method, times, y0, rtol, tolerance)
-    return _result(program, plan, chosen, par, J, solution, clock.perf_counter() - started, (rtol, atol))
+    jacobian = system.newton_matrix if registry.get(plan.integrator.name).implicit else None
+    solution = _solve(system.rhs, jacobian, plan, method, times, y0, rtol, tolerance)
+    return _result(program, plan, chosen, system, solution, clock.perf_counter() - started, (rtol, atol))
 
 
 def _solve(rhs, jacobian, plan, method, times, y0, rtol, atol):
@@ -218,19 +208,21 @@ def _solve(rhs, jacobian, plan, method, times, y0, rtol, atol):
     return solution
 
 
-def _result(program, plan, chosen, par, J, solution, seconds, tolerances) -> SensitivityResult:
-    """The output columns and their derivatives Cy S + Cp J on the grid, with the run summary."""
-    module, n, m = program.module, len(plan.coordinates), len(chosen.names)
-    states = solution.y[:2 * n]
-    out, inv = module.observables(solution.t, states, par)
-    derivatives = np.empty((solution.t.size, len(plan.columns), m))
-    for row, t in enumerate(solution.t):
-        Cy, Cp = module.output_jacobian(par, t, states[:, row])
-        derivatives[row] = Cy @ solution.y[2 * n:, row].reshape(2 * n, m) + Cp @ J
+def _result(program, plan, chosen, system, solution, seconds, tolerances) -> SensitivityResult:
+    """The output columns and their derivatives on the grid, with the run summary."""
+    module, n = program.module, len(plan.coordinates)
+    out, inv = module.observables(solution.t, solution.y[:2 * n], system.par)
+    constrained = bool(program.kernel.constraints)
+    derivatives = np.array([system.output_derivatives(t, solution.y[:, row], constrained)
+                            for row, t in enumerate(solution.t)])
     drifts = tuple((name, float(inv[i, 0]), float(np.max(np.abs(inv[i] - inv[i, 0]))))
                    for i, name in enumerate(plan.invariants))
-    summary = RunSummary("numpy", plan.integrator.name,
-                         (("rhs_evals", int(solution.nfev)),), seconds, drifts, (), None, None,
+    residual = None
+    if constrained:         # not projected: the index-1 equations keep to the constraints up to their error
+        g, c, _ = module.constraint_rows(system.par, solution.t, solution.y[:2 * n])
+        residual = float(max(np.max(np.abs(g), initial=0.0), np.max(np.abs(c), initial=0.0)))
+    summary = RunSummary("numpy", plan.integrator.name, (("rhs_evals", int(solution.nfev)),), seconds, drifts,
+                         program.kernel.constraints, residual, None,
                          (("rtol", tolerances[0]), ("atol", tolerances[1])))
     return SensitivityResult(solution.t, plan.columns, np.asarray(out, dtype=float).T, summary,
                              chosen.names, derivatives)
