@@ -134,13 +134,17 @@ class Model:
         return replace(result, summary=replace(result.summary, error=error))
 
     def fit(self, data, params: dict, *, outputs=None, sigma=None, scene: str | None = None,
-            bounds: dict | None = None, set: dict | None = None):
+            bounds: dict | None = None, set: dict | None = None, integrator: str | None = None, **options):
         """Fit `params` ({name: start value}) to `data` (a CSV path or a DataFrame with a `t` column
         and columns named as the scene's outputs) by least squares, the sensitivities as the
         Jacobian; returns a sensitivity.fit.Fit (.values, .stderr, .correlation, .residuals, .cost,
-        .nfev). See sensitivity/fit.py for the statistics."""
+        .nfev). `integrator` and `options` (rtol, atol, max_step, ...) override the scene's. See
+        sensitivity/fit.py for the statistics."""
         from .sensitivity.fit import fit
-        return fit(self, data, params, outputs, sigma, scene, bounds, set)
+        unknown = [name for name in options if name not in RUN_OPTIONS]
+        if unknown:
+            raise LagError(f"fit: unknown option '{unknown[0]}' (options: {', '.join(RUN_OPTIONS)})")
+        return fit(self, data, params, outputs, sigma, scene, bounds, set, integrator, options)
 
     def bench(self, scene: str | None = None, *, integrators: tuple[str, ...] | None = None, backend: str = "c",
               peers: bool = False, repeat: int = 3, set: dict | None = None, start: float | None = None,

@@ -6,6 +6,7 @@ import sys
 from ..errors import LagError, Setting
 from ..run.files import check_writable, write_output
 from ..abi import parse_number
+from ..settings import given_options
 from ..source import SourceFile
 from . import common
 
@@ -15,6 +16,7 @@ def add(commands) -> None:
     parser.add_argument("model")
     parser.add_argument("data", help="CSV: a header t,<outputs> (units as `t [s]` allowed), one row per time")
     common.scene_options(parser)
+    common.integrator_options(parser)
     parser.add_argument("--fit", action="append", default=[], metavar="NAME=START", dest="fitted",
                         help="a parameter (or q.start, q.velocity) to fit, and its start value; repeatable")
     parser.add_argument("--bound", action="append", default=[], metavar="NAME=LOW:HIGH",
@@ -40,7 +42,8 @@ def run(arguments) -> int:
         raise LagError("name the parameters to fit: --fit NAME=START (repeatable)", Setting("--fit"))
     result = model.fit(arguments.data, fitted, outputs=arguments.outputs, sigma=arguments.sigma,
                        scene=arguments.scene, bounds=_bounds(arguments.bound),
-                       set=dict(common.set_values(arguments.set)))
+                       set=dict(common.set_values(arguments.set)), integrator=arguments.integrator,
+                       options=dict(given_options(vars(arguments))))
     print(result.render())
     if arguments.file is not None:
         write_output(arguments.file, result.to_json())

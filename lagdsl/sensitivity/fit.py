@@ -16,13 +16,13 @@ gives sound standard errors: stderr_j = √cov_jj, correlation_jk = cov_jk / (st
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.optimize
 
 from ..errors import LagError, Setting
-from ..settings import Overrides
+from ..settings import Overrides, given_options
 from .data import read_data
 from .run import directions
 
@@ -56,13 +56,17 @@ class Fit:
 
 
 def fit(model, data, params: dict, outputs=None, sigma=None, scene: str | None = None,
-        bounds: dict | None = None, set: dict | None = None) -> Fit:
+        bounds: dict | None = None, set: dict | None = None, integrator: str | None = None,
+        options: dict | None = None) -> Fit:
     """Fit `params` ({name: start value}: parameters or "q.start", "q.velocity") of `model` (an
     api.Model) so that its `outputs` (default: the data's columns) match `data` (see data.py);
     `set` holds other parameters fixed, `bounds` maps a name to (low, high), `sigma` is one
-    number or {column: number} (default 1)."""
+    number or {column: number} (default 1); `integrator` and `options` (rtol, atol, ...)
+    override the scene's."""
     names = directions(model.ir, tuple(params), "--fit").names
-    plan = model.plan(scene, Overrides(tuple((k, float(v)) for k, v in (set or {}).items())))
+    base = Overrides(tuple((k, float(v)) for k, v in (set or {}).items()), integrator=integrator,
+                     options=given_options(options or {}))
+    plan = model.plan(scene, base)
     measured = read_data(data, plan.columns, model.name)
     columns = _chosen_columns(measured.columns, outputs)
     times, rows = np.unique(measured.t, return_inverse=True)
@@ -72,7 +76,7 @@ def fit(model, data, params: dict, outputs=None, sigma=None, scene: str | None =
     picked = [measured.columns.index(c) for c in columns]
     scale = _sigma(sigma, columns)
     target = measured.values[:, picked]
-    runs = _Runs(model, scene, names, set or {}, times, rows, [plan.columns.index(c) for c in columns])
+    runs = _Runs(model, scene, names, base, times, rows, [plan.columns.index(c) for c in columns])
 
     def residuals(x):
         values, _ = runs.at(x)
@@ -92,15 +96,16 @@ def fit(model, data, params: dict, outputs=None, sigma=None, scene: str | None =
 class _Runs:
     """One model run per parameter vector, kept for the residuals and the Jacobian at it."""
 
-    def __init__(self, model, scene, names, fixed, times, rows, columns):
-        self.model, self.scene, self.names, self.fixed = model, scene, names, fixed
+    def __init__(self, model, scene, names, base: Overrides, times, rows, columns):
+        self.model, self.scene, self.names, self.base = model, scene, names, base
         self.times, self.rows, self.columns = times, rows, columns
         self.count, self.last = 0, None
 
     def at(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if self.last is None or not np.array_equal(self.last[0], x):
-            values = {**self.fixed, **dict(zip(self.names, x))}
-            overrides = Overrides(tuple((k, float(v)) for k, v in values.items()), stop=float(self.times[-1]))
+            values = {**dict(self.base.values), **dict(zip(self.names, x))}
+            overrides = replace(self.base, values=tuple((k, float(v)) for k, v in values.items()),
+                                stop=float(self.times[-1]))
             result = self.model.sensitivities(self.scene, "numpy", overrides, self.names, self.times)
             self.count += 1
             self.last = (np.array(x), result.values[self.rows][:, self.columns],

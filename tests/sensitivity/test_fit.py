@@ -75,3 +75,51 @@ def test_bad_fits_in_the_api_say_why(params, data, message):
     with pytest.raises(LagError) as raised:
         model("damped_driven_pendulum").fit(data, params)
     assert message in raised.value.render()
+
+
+def double_pendulum_data(seed: int, stop: float = 3.0):
+    """The chaos scene's angles at m2 = l2 = 1 with Gaussian noise of 1% of the swing's amplitude."""
+    run = model("double_pendulum").simulate("chaos", backend="numpy", stop=stop, interval=0.05, rtol=1e-9,
+                                            atol=1e-11)
+    sigma = 0.01 * np.max(np.abs(run["theta2"]))
+    rng = np.random.default_rng(seed)
+    return {"t": run.t, **{c: run[c] + sigma * rng.standard_normal(len(run.t)) for c in ("theta1", "theta2")}}, sigma
+
+
+def fit_double_pendulum(seed: int):
+    data, sigma = double_pendulum_data(seed)
+    return model("double_pendulum").fit(data, {"m2": 0.8, "l2": 1.2}, scene="chaos", sigma=sigma, rtol=1e-9,
+                                        atol=1e-11)
+
+
+def test_the_double_pendulum_fit_recovers_m2_and_l2():
+    fit = fit_double_pendulum(11)
+    for name in ("m2", "l2"):
+        assert abs(fit.values[name] - 1.0) < 3 * fit.stderr[name], name
+
+
+@pytest.mark.slow
+def test_the_standard_errors_match_the_spread_over_noise_draws():
+    fits = [fit_double_pendulum(seed) for seed in range(50)]
+    for name in ("m2", "l2"):
+        spread = np.std([f.values[name] for f in fits], ddof=1)
+        stderr = np.mean([f.stderr[name] for f in fits])
+        assert abs(stderr / spread - 1) < 0.3, (name, stderr, spread)
+
+
+@pytest.mark.slow
+def test_the_fit_takes_fewer_runs_than_with_finite_difference_jacobians():
+    import scipy.optimize
+    data, sigma = double_pendulum_data(5)
+    subject, runs = model("double_pendulum"), []
+
+    def residuals(x):
+        runs.append(x)
+        run = subject.simulate("chaos", backend="numpy", stop=3.0, interval=0.05, rtol=1e-9, atol=1e-11, m2=x[0],
+                               l2=x[1])
+        return np.concatenate([(run[c] - data[c]) / sigma for c in ("theta1", "theta2")])
+
+    differenced = scipy.optimize.least_squares(residuals, [0.8, 1.2], x_scale="jac")
+    fit = fit_double_pendulum(5)
+    np.testing.assert_allclose([fit.values["m2"], fit.values["l2"]], differenced.x, rtol=1e-5)
+    assert fit.nfev < len(runs)
