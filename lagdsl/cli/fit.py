@@ -43,7 +43,7 @@ def run(arguments) -> int:
     result = model.fit(arguments.data, fitted, outputs=arguments.outputs, sigma=arguments.sigma,
                        scene=arguments.scene, bounds=_bounds(arguments.bound),
                        set=dict(common.set_values(arguments.set)), integrator=arguments.integrator,
-                       options=dict(given_options(vars(arguments))))
+                       **dict(given_options(vars(arguments))))
     print(result.render())
     if arguments.file is not None:
         write_output(arguments.file, result.to_json())

@@ -123,3 +123,24 @@ def test_the_fit_takes_fewer_runs_than_with_finite_difference_jacobians():
     fit = fit_double_pendulum(5)
     np.testing.assert_allclose([fit.values["m2"], fit.values["l2"]], differenced.x, rtol=1e-5)
     assert fit.nfev < len(runs)
+
+
+def test_bounds_a_data_frame_and_the_integrators_options(swing):
+    pandas = pytest.importorskip("pandas")
+    t, theta, _ = swing
+    frame = pandas.DataFrame({"theta": theta, "t": t})
+    fit = model("damped_driven_pendulum").fit(frame, {"l": 1.0, "b": 0.5}, sigma=NOISE, bounds={"b": (0.0, 0.25)},
+                                              integrator="dop853", rtol=1e-8)
+    assert fit.values["b"] <= 0.25
+    assert abs(fit.values["b"] - 0.25) < 1e-6         # the unconstrained minimum, 0.3, is outside
+
+
+def test_lagc_fit_refuses_a_bad_bound_and_an_unfitted_one(swing, capsys):
+    _, _, path = swing
+    source = model("damped_driven_pendulum").source.name
+    status, _, err = lagc(capsys, "fit", source, path, "--fit", "l=1", "--bound", "l=2")
+    assert status == 1 and "--bound takes NAME=LOW:HIGH" in err
+    status, _, err = lagc(capsys, "fit", source, path, "--fit", "l=1", "--bound", "b=0:1")
+    assert status == 1 and "bounds given for 'b', which is not fitted" in err
+    status, _, err = lagc(capsys, "fit", source, path)
+    assert status == 1 and "--fit NAME=START" in err
