@@ -38,6 +38,7 @@ class Model:
         self.ir, self.equations = compile_model(source)
         self._programs: dict[tuple[str, str, str], Program] = {}
         self._quick_plans: dict[str | None, plans.StoredPlan] = {}     # by the scene asked for
+        self._sensitivity_programs: dict[str, object] = {}             # sensitivity.run.Program by scene
 
     @property
     def name(self) -> str:
@@ -105,10 +106,10 @@ class Model:
                            Setting("--backend"))
         scene_plan = self.plan(scene, overrides)
         chosen = sensitivity.directions(self.ir, list(names))
-        key = (scene_plan.scene_name, "sensitivities", backend)
-        if key not in self._programs:
-            self._programs[key] = sensitivity.build(self, scene)
-        return sensitivity.integrate(self._programs[key], scene_plan, chosen, times, error_control)
+        if scene_plan.scene_name not in self._sensitivity_programs:
+            self._sensitivity_programs[scene_plan.scene_name] = sensitivity.build(self, scene)
+        return sensitivity.integrate(self._sensitivity_programs[scene_plan.scene_name], scene_plan, chosen, times,
+                                     error_control)
 
     def simulate_plan(self, scene: str | None, backend: str, overrides: Overrides,
                       progress: Callable[[float, float, float], None] | None = None,

@@ -124,7 +124,15 @@ def _chosen_columns(measured: tuple[str, ...], outputs) -> tuple[str, ...]:
 
 
 def _sigma(sigma, columns) -> np.ndarray:
-    values = [sigma.get(c, 1.0) for c in columns] if isinstance(sigma, dict) else [1.0 if sigma is None else sigma] * len(columns)
+    """One standard deviation per fitted column: `sigma` a number, {column: number} or None (1)."""
+    if isinstance(sigma, dict):
+        unknown = [c for c in sigma if c not in columns]
+        if unknown:
+            raise LagError(f"sigma given for '{unknown[0]}', which is not fitted (fitted: {', '.join(columns)})",
+                           Setting("--sigma"))
+        values = [sigma.get(c, 1.0) for c in columns]
+    else:
+        values = [1.0 if sigma is None else sigma] * len(columns)
     scale = np.array(values, dtype=float)
     if not np.all(np.isfinite(scale) & (scale > 0)):
         raise LagError("sigma must be positive and finite", Setting("--sigma"))

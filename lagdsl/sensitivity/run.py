@@ -166,10 +166,8 @@ def integrate(program: Program, plan, chosen: Directions, times: np.ndarray | No
     if plan.stop is not None:
         raise LagError("sensitivities: the scene ends on a condition (`stop when`), whose time would move with "
                        "the parameters; run a scene with a fixed stop time", Setting("--scene"))
-    module, n, m = program.module, len(plan.coordinates), len(chosen.names)
-    given = np.array(plan.parameters, dtype=float)
-    par = module.derive_parameters(given, tuple(i for i, p in enumerate(plan.model.parameters)
-                                                if p.name in plan.fixed_parameters))
+    module, n = program.module, len(plan.coordinates)
+    par = np.array(plan.parameters, dtype=float)        # the plan computed the derived ones
     J = parameter_directions(plan.model, plan, chosen, par)
     times = output_times(plan.run_plan()) if times is None else np.asarray(times, dtype=float)
     method, rtol, atol = solver_of(plan)
