@@ -21,7 +21,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.optimize
 
-from ..errors import LagError, Setting
+from ..errors import LagError, Setting, SimulationError
 from ..settings import Overrides, given_options
 from .data import read_data
 from .run import directions
@@ -106,7 +106,12 @@ class _Runs:
             values = {**dict(self.base.values), **dict(zip(self.names, x))}
             overrides = replace(self.base, values=tuple((k, float(v)) for k, v in values.items()),
                                 stop=float(self.times[-1]))
-            result = self.model.sensitivities(self.scene, "numpy", overrides, self.names, self.times)
+            try:
+                result = self.model.sensitivities(self.scene, "numpy", overrides, self.names, self.times)
+            except SimulationError as error:
+                trial = ", ".join(f"{name} = {value:.10g}" for name, value in zip(self.names, x))
+                raise SimulationError(f"{error.message}, in the fit's run at {trial}", error.time, error.state,
+                                      f"{error.remedy}; or keep the values in range (bounds, --bound)") from None
             self.count += 1
             self.last = (np.array(x), result.values[self.rows][:, self.columns],
                          result.derivatives[self.rows][:, self.columns])

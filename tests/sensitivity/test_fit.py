@@ -144,3 +144,11 @@ def test_lagc_fit_refuses_a_bad_bound_and_an_unfitted_one(swing, capsys):
     assert status == 1 and "bounds given for 'b', which is not fitted" in err
     status, _, err = lagc(capsys, "fit", source, path)
     assert status == 1 and "--fit NAME=START" in err
+
+
+def test_a_run_that_fails_during_the_fit_names_the_values_tried():
+    from lagdsl.errors import SimulationError
+    with pytest.raises(SimulationError) as raised:
+        model("damped_driven_pendulum").fit({"t": [0.0, 1.0], "theta": [0.2, 0.1]}, {"m": 0.0})
+    assert "in the fit's run at m = 0" in raised.value.render()
+    assert "bounds" in raised.value.render()
