@@ -51,9 +51,9 @@ def test_a_start_written_in_a_parameter_moves_with_it_unless_set(oscillator):
     np.testing.assert_array_equal(fixed.sensitivity("x", "A"), 0.0)
 
 
-def central_difference(subject, scene, name, column, base, stop, h=1e-4):
+def central_difference(subject, scene, name, column, base, stop, h=1e-4, backend="numpy"):
     """(f(θ + h) - f(θ - h)) / 2h of a column, θ a parameter or start value at `base`."""
-    runs = [subject.simulate(scene, backend="numpy", set={name: base + s * h}, stop=stop, rtol=1e-13,
+    runs = [subject.simulate(scene, backend=backend, set={name: base + s * h}, stop=stop, rtol=1e-13,
                              atol=1e-15)[column] for s in (1, -1)]
     return (runs[0] - runs[1]) / (2 * h)
 
@@ -71,6 +71,14 @@ def test_sensitivities_agree_with_central_differences(library, scene, column, na
         expected = central_difference(subject, scene, name, column, base, stop)
         computed = run.sensitivity(column, name)
         assert np.max(np.abs(computed - expected)) <= 1e-6 * max(1.0, np.max(np.abs(expected))), name
+
+
+def test_the_sensitivities_agree_with_differences_of_the_c_backend():
+    subject, names = model("double_pendulum"), {"l2": 1.0, "theta2.start": 2.0}
+    run = subject.simulate(backend="numpy", sensitivities=list(names), stop=2.0, rtol=1e-12, atol=1e-14)
+    for name, base in names.items():
+        expected = central_difference(subject, None, name, "theta1", base, 2.0, backend="c")
+        assert np.max(np.abs(run.sensitivity("theta1", name) - expected)) <= 1e-6 * np.max(np.abs(expected)), name
 
 
 def test_the_sensitivities_hold_without_their_error_control(oscillator):
