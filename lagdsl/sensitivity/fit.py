@@ -50,7 +50,13 @@ class Fit:
                            "success": self.success, "message": self.message}, indent=2, allow_nan=True) + "\n"
 
     def render(self) -> str:
+        """The values ± their standard errors, the correlations (with two or more), the cost."""
         lines = [f"{name} = {self.values[name]:.10g} ± {self.stderr[name]:.3g}" for name in self.names]
+        if len(self.names) > 1:
+            width = max(len(name) for name in self.names)
+            lines.append("correlation:")
+            lines += [f"  {name:>{width}} " + " ".join(f"{value:7.3f}" for value in row)
+                      for name, row in zip(self.names, self.correlation)]
         lines.append(f"cost {self.cost:.6g} after {self.nfev} model runs: {self.message}")
         return "\n".join(lines)
 
