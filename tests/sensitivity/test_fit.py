@@ -152,3 +152,15 @@ def test_a_run_that_fails_during_the_fit_names_the_values_tried():
         model("damped_driven_pendulum").fit({"t": [0.0, 1.0], "theta": [0.2, 0.1]}, {"m": 0.0})
     assert "in the fit's run at m = 0" in raised.value.render()
     assert "bounds" in raised.value.render()
+
+
+def test_the_documented_example_recovers_its_swing(capsys):
+    from tests.conftest import MODELS
+    swing = MODELS.parent / "docs" / "examples" / "swing.csv"
+    status, out, err = lagc(capsys, "fit", MODELS / "damped_driven_pendulum.lag", swing, "--fit", "l=1", "--fit",
+                            "b=0.5", "--sigma", NOISE)
+    assert status == 0, err
+    assert out.startswith("l = 1.299168")        # as docs/language.md shows it
+    fit = model("damped_driven_pendulum").fit(swing, {"l": 1.0, "b": 0.5}, sigma=NOISE)
+    for name, value in TRUE.items():
+        assert abs(fit.values[name] - value) < 3 * fit.stderr[name], name
