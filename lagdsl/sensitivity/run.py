@@ -148,15 +148,14 @@ def build(model, scene: str | None) -> Program:
 JACOBIAN_INTEGRATOR = "radau5"
 
 
-def solver_of(plan) -> tuple[str, float, float]:
-    """The scipy solver standing for the plan's integrator, and its rtol and atol."""
+def solver_of(plan) -> tuple[str, dict[str, float]]:
+    """The scipy solver standing for the plan's integrator, and its options (rtol, atol, ...)."""
     record = registry.get(plan.integrator.name)
     if record.scipy is None or record.fixed_step:
         raise LagError(f"sensitivities need an adaptive integrator with error control on the NumPy backend "
                        f"(dopri5, dop853, radau5 or auto), not {plan.integrator.name}",
                        plan.integrator.span or Setting("--integrator"))
-    options = {**dict(record.defaults), **dict(plan.integrator.options)}
-    return record.scipy, float(options["rtol"]), float(options["atol"])
+    return record.scipy, {**dict(record.defaults), **dict(plan.integrator.options)}
 
 
 def integrate(program: Program, plan, chosen: Directions, times: np.ndarray | None = None,
@@ -170,7 +169,8 @@ def integrate(program: Program, plan, chosen: Directions, times: np.ndarray | No
     par = np.array(plan.parameters, dtype=float)        # the plan computed the derived ones
     J = parameter_directions(plan.model, plan, chosen, par)
     times = output_times(plan.run_plan()) if times is None else np.asarray(times, dtype=float)
-    method, rtol, atol = solver_of(plan)
+    method, options = solver_of(plan)
+    rtol, atol = float(options["rtol"]), float(options["atol"])
     state = np.array(plan.initial_state, dtype=float)
     S0 = initial_directions(module, plan, chosen, par, J)
     if program.kernel.constraints:
@@ -182,28 +182,29 @@ def integrate(program: Program, plan, chosen: Directions, times: np.ndarray | No
     system = VariationalSystem(module, par, J, n)
     started = clock.perf_counter()
     jacobian = system.newton_matrix if registry.get(plan.integrator.name).implicit else None
-    solution = _solve(system.rhs, jacobian, plan, method, times, y0, rtol, tolerance)
+    settings = dict(method=method, rtol=rtol, atol=tolerance, max_step=options.get("max_step", np.inf),
+                    **({"jac": jacobian} if jacobian else {}))
+    solution = _solve(system, plan, times, y0, settings)
     return _result(program, plan, chosen, system, solution, clock.perf_counter() - started, (rtol, atol))
 
 
-def _solve(rhs, jacobian, plan, method, times, y0, rtol, atol):
-    """solve_ivp from the scene's start over `times`; SimulationError naming the time and state."""
+def _solve(system: VariationalSystem, plan, times, y0, settings: dict):
+    """solve_ivp from the scene's start over `times`; SimulationError naming the time and state
+    where it failed (the last the right-hand side was evaluated at)."""
     start = float(plan.time.start)
     try:
-        solution = scipy.integrate.solve_ivp(rhs, (start, float(times[-1])), y0, method=method, t_eval=times,
-                                             rtol=rtol, atol=atol, **({"jac": jacobian} if jacobian else {}))
+        solution = scipy.integrate.solve_ivp(system.rhs, (start, float(times[-1])), y0, t_eval=times, **settings)
+        if solution.status == 0:
+            return solution
+        why = solution.message
     except np.linalg.LinAlgError:
-        solution = None
-    if solution is None or solution.status != 0:
-        reached = float(solution.t[-1]) if solution is not None and solution.t.size else start
-        state = solution.y[:, -1] if solution is not None and solution.t.size else y0
-        n = len(plan.coordinates)
-        named = {**{q: float(state[k]) for k, q in enumerate(plan.coordinates)},
-                 **{q + VELOCITY: float(state[n + k]) for k, q in enumerate(plan.coordinates)}}
-        why = solution.message if solution is not None else "the mass matrix is singular"
-        raise SimulationError(f"the sensitivities' integration failed ({why})", reached, named,
-                              "check the parameter values; lower rtol, or choose radau5 for a stiff model")
-    return solution
+        why = "the mass matrix (with the constraints' rows) is singular"
+    reached, Y = system.last if system.last is not None else (start, y0)
+    n = len(plan.coordinates)
+    named = {**{q: float(Y[k]) for k, q in enumerate(plan.coordinates)},
+             **{q + VELOCITY: float(Y[n + k]) for k, q in enumerate(plan.coordinates)}}
+    raise SimulationError(f"the sensitivities' integration failed ({why})", float(reached), named,
+                          "check the parameter values; lower rtol, or choose radau5 for a stiff model")
 
 
 def _result(program, plan, chosen, system, solution, seconds, tolerances) -> SensitivityResult:
