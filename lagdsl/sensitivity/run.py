@@ -185,7 +185,7 @@ def integrate(program: Program, plan, chosen: Directions, times: np.ndarray | No
     settings = dict(method=method, rtol=rtol, atol=tolerance, max_step=options.get("max_step", np.inf),
                     **({"jac": jacobian} if jacobian else {}))
     solution = _solve(system, plan, times, y0, settings)
-    return _result(program, plan, chosen, system, solution, clock.perf_counter() - started, (rtol, atol))
+    return _result(program, plan, chosen, system, solution, clock.perf_counter() - started, options)
 
 
 def _solve(system: VariationalSystem, plan, times, y0, settings: dict):
@@ -207,7 +207,7 @@ def _solve(system: VariationalSystem, plan, times, y0, settings: dict):
                           "check the parameter values; lower rtol, or choose radau5 for a stiff model")
 
 
-def _result(program, plan, chosen, system, solution, seconds, tolerances) -> SensitivityResult:
+def _result(program, plan, chosen, system, solution, seconds, options: dict) -> SensitivityResult:
     """The output columns and their derivatives on the grid, with the run summary."""
     module, n = program.module, len(plan.coordinates)
     out, inv = module.observables(solution.t, solution.y[:2 * n], system.par)
@@ -222,6 +222,6 @@ def _result(program, plan, chosen, system, solution, seconds, tolerances) -> Sen
         residual = float(max(np.max(np.abs(g), initial=0.0), np.max(np.abs(c), initial=0.0)))
     summary = RunSummary("numpy", plan.integrator.name, (("rhs_evals", int(solution.nfev)),), seconds, drifts,
                          program.kernel.constraints, residual, None,
-                         (("rtol", tolerances[0]), ("atol", tolerances[1])))
+                         tuple((name, float(value)) for name, value in options.items()))
     return SensitivityResult(solution.t, plan.columns, np.asarray(out, dtype=float).T, summary,
                              chosen.names, derivatives)
