@@ -65,6 +65,29 @@ def test_singular_mass_matrix_at_the_start(tmp_path, backend):
     assert list(error.partial.t) == [0] and list(error.partial.values[0]) == [0, 0]
 
 
+NEGATIVE_MASS = """model Spring
+  parameter m = 1 [kg];  parameter k = 4 [N/m];
+  coordinate x(start = 1) [m];
+  T = m/2*der(x)^2;
+  U = k/2*x^2;
+end Spring;
+"""
+
+
+def test_a_negative_mass_is_refused_at_check_and_named(tmp_path):
+    path = tmp_path / "spring.lag"
+    path.write_text(NEGATIVE_MASS.replace("m = 1 [kg]", "m = -1 [kg]"), encoding="utf-8")
+    done = lagc("check", path)
+    assert done.returncode == 1 and ":2:13: error: the mass matrix is not positive definite: with m = -1" in done.stderr
+
+
+@pytest.mark.parametrize("backend", ["c", "numpy"])
+def test_a_negative_mass_set_for_a_run_names_the_sign_in_the_remedy(tmp_path, backend):
+    error = failure(load(tmp_path, NEGATIVE_MASS), backend, set={"m": -1.0}, stop=1.0)
+    assert error.message.startswith("the mass matrix is singular at this state") and error.time == 0
+    assert "a negative value does the same (the kinetic energy must be positive" in error.remedy
+
+
 @pytest.mark.parametrize("backend", ["c", "numpy"])
 @pytest.mark.parametrize("integrator", ["rk4", "gauss"])
 def test_singular_mass_matrix_later_keeps_the_rows_before(tmp_path, backend, integrator):
