@@ -43,6 +43,11 @@ def run_options(parser: argparse.ArgumentParser) -> None:
     """What `lagc run` and `lagc sweep` take: the backend, the inputs and the integrator's options."""
     parser.add_argument("--backend", choices=("c", "numpy"), default="c", help="generated code to run (default: c)")
     input_options(parser)
+    integrator_options(parser)
+
+
+def integrator_options(parser: argparse.ArgumentParser) -> None:
+    """--integrator and its options (--rtol, --atol, ...)."""
     methods = "; ".join(f"{record.name}: {record.description}" for record in map(registry.get, registry.names()))
     parser.add_argument("--integrator", metavar="NAME", help=f"the integration method ({methods})")
     for name in OPTION_ORDER:

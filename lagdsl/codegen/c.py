@@ -24,6 +24,9 @@ FUNCTION_PARAMETERS = {
     "constraint_rows": ("par", "t", "y", "g", "c", "A"),
     "outputs": ("par", "t", "y", "out", "inv"),
     "stop": ("par", "t", "y", "ev"),
+    "parameter_jacobian": ("par", "t", "y", "acc", "lam", "Dp"),
+    "output_jacobian": ("par", "t", "y", "lam", "Cy", "Cl", "Cp"),
+    "initial_sensitivity": ("par", "S0"),
 }
 
 
