@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from .. import __version__
 from ..escape import c_comment, csv_field
+from ..functions import LIBM_TABLE_MARKER, libm_table
 from ..integrators import (COMPOSITES, COUNTER_LABELS, COUNTERS, STIFFNESS_TESTED, c_file, integrator_source,
                            summary_extras)
 from ..settings import INTEGRATOR_OPTIONS
@@ -51,7 +52,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
         "stem": stem(kernel), "model": kernel.model_name, "integrator": kernel.integrator.name,
         "parameter_list": ", ".join(name for name, _ in kernel.parameters) or "none",
         "option_list": ", ".join(k for k in OPTION_FIELDS if k in _allowed_options(kernel)),
-        "runtime": c_file("runtime.h"), "linalg": _linear_algebra(kernel),
+        "runtime": runtime_header(), "linalg": _linear_algebra(kernel),
         "n": kernel.n, "size": kernel.size, "parameters": kernel.parameters,
         "columns": kernel.columns, "constraints": kernel.constraints, "holonomic": kernel.holonomic,
         "invariants": bool(kernel.invariant_names), "invariant_names": kernel.invariant_names,
@@ -85,6 +86,11 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
     context["driver"] = template_environment().get_template("c/driver.c.j2").render(context)
     text = template_environment().get_template("c/model.c.j2").render(context)
     return GeneratedSource("c", text, stem(kernel))
+
+
+def runtime_header() -> str:
+    """runtime.h with its libm table, generated from the built-in functions (functions.py)."""
+    return c_file("runtime.h").replace(LIBM_TABLE_MARKER, libm_table())
 
 
 def signature(kernel: Kernel, name: str) -> tuple[str, ...]:
