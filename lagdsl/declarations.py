@@ -13,7 +13,7 @@ import sympy
 
 from . import ir
 from .errors import LagError
-from .tree import expressions_of, subtree, tokens
+from .tree import expressions_of, subtree
 from .units import in_si
 from .values import Binding, Matrix, Vector
 
@@ -21,13 +21,10 @@ from .values import Binding, Matrix, Vector
 class Declarations:
     """Parameters, coordinates and lets: a part of semantics._ModelBuilder, whose state it reads
     and extends (scope, expr, numbers, dims, calculus, parameters, coordinates, let_spans) and
-    whose helpers it calls (declare, guarded, modifiers, unit, description, span)."""
+    whose helpers it calls (declare, require_new_name, modifiers, unit, description, span). Each
+    declaration is given its node and its name's token; the builder poisons the name if it fails."""
 
-    def parameter(self, node):
-        token = tokens(node, "NAME")[0]
-        self.guarded(token, lambda: self._parameter(node, token))
-
-    def _parameter(self, node, token):
+    def parameter(self, node, token):
         value_node = expressions_of(node)[0]
         dimension = subtree(node, "dimension")
         if dimension is None:
@@ -60,11 +57,7 @@ class Declarations:
                                             self.description(node), self.span(token)))
         return symbol
 
-    def coordinate(self, node):
-        token = tokens(node, "NAME")[0]
-        self.guarded(token, lambda: self._coordinate(node, token))
-
-    def _coordinate(self, node, token):
+    def coordinate(self, node, token):
         name = str(token)
         dimension = subtree(node, "dimension")
         modifiers = self.modifiers(node, ("start", "velocity"), f"coordinate '{name}'")
@@ -115,18 +108,14 @@ class Declarations:
         self.numbers.number(node, "an initial value", scope)
         return value
 
-    def let(self, node):
-        token = tokens(node, "NAME")[0]
-        self.guarded(token, lambda: self._let(node, token))
-
-    def _let(self, node, token):
+    def let(self, node, token):
         name = str(token)
         index, family_range = subtree(node, "let_index"), subtree(node, "let_range")
         body = expressions_of(node)[0]
         if index is None and family_range is None:
             value = self.expr.build(body, self.scope)
             self.declare(token, Binding("let", self.span(token), self.intermediate(name, value, token),
-                                        dimension=self.dims.let(body)))
+                                        dimension=self.dims.of(body)))
             return
         if index is None or family_range is None:
             raise LagError(f"an indexed let is written 'let {name}[i] = ..., i in 1:n;'", self.span(token))

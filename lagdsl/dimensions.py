@@ -33,7 +33,7 @@ from fractions import Fraction
 import sympy
 
 from .errors import LagError
-from .source import SourceFile, Span
+from .source import SourceFile
 from .tree import excerpt, is_numeral, span_of
 from .units import Dimension
 
@@ -108,10 +108,10 @@ class Solver:
 @dataclass(frozen=True)
 class Requirement:
     """Pairs of dimensions that must be equal, taken in order: the first pair that is not is
-    reported at `span` with message(a, b), and the rest are not looked at."""
+    reported at `node` with message(a, b), and the rest are not looked at."""
 
     pairs: tuple[tuple[Form, Form], ...]
-    span: Span
+    node: object
     message: Callable[[Form, Form], str]
 
 
@@ -174,8 +174,7 @@ class DimensionCheck:
     # -- recording equations -------------------------------------------------------------------
     def require_each(self, pairs, node, message: Callable[[Form, Form], str], group: str | None = None) -> None:
         """Each pair equal, else an error at `node` with message(a, b) of the first pair that is not."""
-        span = node if isinstance(node, Span) else span_of(node, self.source)
-        requirement = Requirement(tuple(pairs), span, message)
+        requirement = Requirement(tuple(pairs), node, message)
         self.requirements[group or self.group].append(requirement)
         if self.recording is not None:
             self.recording.append(requirement)
@@ -322,7 +321,7 @@ class DimensionCheck:
                     continue
                 for a, b in requirement.pairs:
                     if not self.solver.equate(a, b):
-                        errors.append(LagError(requirement.message(a, b), requirement.span))
+                        errors.append(LagError(requirement.message(a, b), span_of(requirement.node, self.source)))
                         break
         return errors
 

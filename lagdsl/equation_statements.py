@@ -104,9 +104,10 @@ class EquationStatements:
         token = tokens(node, "NAME")[0]
         body = expressions_of(node)[0]
         value = self.guarded(token, lambda: self.expr.scalar(body, self.output_scope(), "a scalar output"))
+        # Bound before its unit is read: a mistake in the unit is reported once, not at each use.
+        self.scope.bindings[str(token)] = Binding("output", self.span(token), value, dimension=self.dims.of(body))
         unit = self.unit(node)
-        form = self.dims.output(token, unit, body)
-        self.scope.bindings[str(token)] = Binding("output", self.span(token), value, dimension=form)
+        self.dims.output(token, unit, body)
         self.outputs.append(ir.Output(str(token), value, unit, self.description(node), self.span(token)))
 
     def output_scope(self) -> Scope:

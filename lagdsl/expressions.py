@@ -1,13 +1,14 @@
 """The expression language: parse-tree nodes -> sympy, node by node (never from text).
 
 Values are scalars (sympy expressions), 3-vectors and 3x3 matrices (values.py). Names resolve
-through a `Scope`; indexed families (`theta[i]`) and `sum(expr, i in a:b)` are unrolled here,
-with index bounds evaluated to integers at compile time (compile_time.py). Calls are calls.py's. Each node is
-also given its dimension on the same walk: once its value is built, its rule in dimensions.py
-combines the dimensions of its parts.
+through a `Scope`; indexed families (`theta[i]`) and `sum(expr, i in a:b)` are unrolled, with
+indices and range bounds evaluated to integers at compile time (compile_time.py); calls are
+calls.py's. Each node is also given its dimension on the same walk: once its value is built,
+its rule in dimensions.py combines the dimensions of its parts.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from fractions import Fraction
 
 import lark
@@ -29,11 +30,12 @@ MAX_NUMBER_LENGTH = 100     # characters of a number literal (a double keeps 17 
 MAX_NESTING = 100           # nested calls, powers, products in sums...: see ExpressionBuilder.build
 
 
-def number_value(text: str, span: Span) -> sympy.Rational:
-    """A decimal literal, exactly: 9.81 is 981/100, so no precision is lost before code."""
+def number_value(text: str, where: Callable[[], Span]) -> sympy.Rational:
+    """A decimal literal, exactly: 9.81 is 981/100, so no precision is lost before code.
+    `where()` is its span, found only for a message."""
     if len(text) > MAX_NUMBER_LENGTH:
         raise LagError(f"a number of {len(text)} characters; at most {MAX_NUMBER_LENGTH} are read "
-                       "(double precision keeps 17 significant digits)", span)
+                       "(double precision keeps 17 significant digits)", where())
     mantissa, _, exponent = text.lower().partition("e")
     whole, _, fraction = mantissa.partition(".")
     if exponent and not (whole + fraction).strip("0"):
@@ -43,12 +45,12 @@ def number_value(text: str, span: Span) -> sympy.Rational:
         magnitude = int(exponent) + (len(whole.lstrip("0")) - 1 if whole.strip("0")
                                      else -(len(fraction) - len(fraction.lstrip("0"))) - 1)
         if magnitude > 308:
-            raise LagError(f"the number {text} is not finite in double precision", span)
+            raise LagError(f"the number {text} is not finite in double precision", where())
         if magnitude < -330:
-            raise LagError(f"the number {text} is smaller than the smallest double (about 5e-324)", span)
+            raise LagError(f"the number {text} is smaller than the smallest double (about 5e-324)", where())
     value = sympy.Rational(Fraction(text))
     if abs(value) > MAX_DOUBLE:
-        raise LagError(f"the number {text} is not finite in double precision", span)
+        raise LagError(f"the number {text} is not finite in double precision", where())
     return value
 
 
@@ -61,7 +63,7 @@ class ExpressionBuilder:
         self.dims = dimensions
         self.calls = Calls(self, differentiator, velocities)
         self.numbers = CompileTime(self)
-        self.depth = 0                                                # of the build below
+        self.depth = 0                  # of the build below
 
     def span(self, node) -> Span:
         return span_of(node, self.source)
@@ -101,7 +103,7 @@ class ExpressionBuilder:
         return value
 
     def _number(self, node, scope):
-        value = number_value(str(node.children[0]), self.span(node))
+        value = number_value(str(node.children[0]), lambda: self.span(node))
         self.dims.number(node, value)
         return value
 

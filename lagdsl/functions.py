@@ -141,17 +141,30 @@ def _residual(check, call, arguments) -> Form:
     return check.constraint_dimension(arguments[0])[0]
 
 
-# -- values ------------------------------------------------------------------------------------
-def _cross(a: Vector, b: Vector) -> Vector:
+# -- values: the arguments' values (then their time derivatives) -> the value ----------------
+def _dot_product(a: Vector, b: Vector) -> sympy.Expr:
+    return sum(x * y for x, y in zip(a.components, b.components))
+
+
+def _cross_product(a: Vector, b: Vector) -> Vector:
     a, b = a.components, b.components
     return Vector((a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]))
 
 
-def _body_velocity(matrix: Matrix, rate: Matrix) -> Vector:
-    """The angular velocity in the body frame of the rotation R (body to space): the axial vector
-    of the skew matrix R^T R'."""
-    skew = [[dot(matrix.column(i), rate.column(j)) for j in range(3)] for i in range(3)]
-    return Vector((skew[2][1], skew[0][2], skew[1][0]))
+def _norm_of(a: Vector) -> sympy.Expr:
+    return sympy.sqrt(sum(c**2 for c in a.components))
+
+
+def _diagonal_matrix(*entries) -> Matrix:
+    return Matrix(tuple(tuple(entries[i] if i == j else sympy.S.Zero for j in range(3)) for i in range(3)))
+
+
+def _transpose_of(a: Matrix) -> Matrix:
+    return Matrix(tuple(a.column(j) for j in range(3)))
+
+
+def _rotation_about(axis: str) -> Callable:
+    return lambda angle: rotation(axis, angle)
 
 
 def _euler(axes: str) -> Callable:
@@ -160,6 +173,18 @@ def _euler(axes: str) -> Callable:
         first, second, third = (rotation(axis, angle) for axis, angle in zip(axes, angles))
         return matrix_product(matrix_product(first, second), third)
     return matrix
+
+
+def _euler_rates(convention: str) -> Callable:
+    """The angular velocity in body axes from three Euler angles and their rates."""
+    return lambda *angles_and_rates: body_rates(convention, angles_and_rates[:3], angles_and_rates[3:])
+
+
+def _velocity_in_body(matrix: Matrix, rate: Matrix) -> Vector:
+    """The angular velocity in the body frame of the rotation R (body to space): the axial vector
+    of the skew matrix R^T R'."""
+    skew = [[dot(matrix.column(i), rate.column(j)) for j in range(3)] for i in range(3)]
+    return Vector((skew[2][1], skew[0][2], skew[1][0]))
 
 
 def _scalar(name: str, arity: int, value, dimension, c: str | None, numpy: str) -> Builtin:
@@ -193,25 +218,19 @@ TABLE = (
     LibmFunction("floor"),
     _scalar("sign", 1, sympy.sign, _plain, None, "numpy.sign"),     # C: ((x > 0) - (x < 0)), printers.py
     # vectors, matrices, rotations and rigid bodies (docs/language.md, "Rigid bodies")
-    Builtin("dot", 2, "function", _vector_function, "3-vectors", lambda a, b: sum(x * y for x, y in zip(
-        a.components, b.components))),
-    Builtin("cross", 2, "function", _vector_function, "3-vectors", _cross),
-    Builtin("norm", 1, "function", _vector_function, "3-vectors",
-            lambda a: sympy.sqrt(sum(c**2 for c in a.components))),
-    Builtin("rotx", 1, "function", _rotation, value=lambda angle: rotation("x", angle)),
-    Builtin("roty", 1, "function", _rotation, value=lambda angle: rotation("y", angle)),
-    Builtin("rotz", 1, "function", _rotation, value=lambda angle: rotation("z", angle)),
-    Builtin("diag", 3, "function", _diagonal, value=lambda *d: Matrix(tuple(
-        tuple(d[i] if i == j else sympy.S.Zero for j in range(3)) for i in range(3)))),
-    Builtin("transpose", 1, "function", _transposed, "a 3x3 matrix",
-            lambda a: Matrix(tuple(a.column(j) for j in range(3)))),
+    Builtin("dot", 2, "function", _vector_function, "3-vectors", _dot_product),
+    Builtin("cross", 2, "function", _vector_function, "3-vectors", _cross_product),
+    Builtin("norm", 1, "function", _vector_function, "3-vectors", _norm_of),
+    Builtin("rotx", 1, "function", _rotation, value=_rotation_about("x")),
+    Builtin("roty", 1, "function", _rotation, value=_rotation_about("y")),
+    Builtin("rotz", 1, "function", _rotation, value=_rotation_about("z")),
+    Builtin("diag", 3, "function", _diagonal, value=_diagonal_matrix),
+    Builtin("transpose", 1, "function", _transposed, "a 3x3 matrix", _transpose_of),
     Builtin("euler_zxz", 3, "function", _rotation, value=_euler("zxz")),
     Builtin("euler_zyx", 3, "function", _rotation, value=_euler("zyx")),
-    Builtin("omega_body", 1, "function", _body_angular_velocity, "a 3x3 matrix", _body_velocity, rates=True),
-    Builtin("omega_zxz", 3, "function", _angular_velocity, rates=True,
-            value=lambda *angles: body_rates("zxz", angles[:3], angles[3:])),
-    Builtin("omega_zyx", 3, "function", _angular_velocity, rates=True,
-            value=lambda *angles: body_rates("zyx", angles[:3], angles[3:])),
+    Builtin("omega_body", 1, "function", _body_angular_velocity, "a 3x3 matrix", _velocity_in_body, rates=True),
+    Builtin("omega_zxz", 3, "function", _angular_velocity, value=_euler_rates("zxz"), rates=True),
+    Builtin("omega_zyx", 3, "function", _angular_velocity, value=_euler_rates("zyx"), rates=True),
     # the total time derivative and sums (docs/language.md, "Expressions")
     Builtin("der", 1, "special", _rate),
     Builtin("sum", 2, "special", _summed),

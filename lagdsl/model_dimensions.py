@@ -111,8 +111,9 @@ class ModelDimensions:
         so it is an unknown that the body must equal."""
         return Form.unknown(f"{name}[i]")
 
-    def let(self, body) -> object:
-        return self.check.form(body)
+    def of(self, expression) -> object:
+        """The dimension of a built expression (the value of a let, an output)."""
+        return self.check.form(expression)
 
     def family_body(self, name: str, body) -> object:
         value = self.check.form(body)
@@ -157,12 +158,11 @@ class ModelDimensions:
                           f"the sides of constraint {name} differ: ")
         self.check.constraints[name] = (right if left.wild else left, holonomic)
 
-    def output(self, token, unit: ir.Unit | None, body) -> Form:
-        value = self.check.scalar(body)
+    def output(self, token, unit: ir.Unit | None, body) -> None:
+        """An output declared with a unit has the unit's dimension."""
         if unit is not None:
             self.units[str(token)] = unit
-            self._unit_check(value, unit, body, f"the output {token}")
-        return value
+            self._unit_check(self.check.scalar(body), unit, body, f"the output {token}")
 
     # -- scenes --------------------------------------------------------------------------------
     def scene_time(self, node) -> None:

@@ -94,7 +94,8 @@ class _ModelBuilder(Declarations, EquationStatements, SceneStatements):
         for declaration in declarations:
             if declaration.data in first_pass:
                 self.dims.start(declaration.data)
-                self.errors.attempt(first_pass[declaration.data], declaration)
+                token = tokens(declaration, "NAME")[0]
+                self.errors.attempt(self.guarded, token, lambda: first_pass[declaration.data](declaration, token))
             elif declaration.data in later:
                 self.declare_later_name(declaration)
         # Outputs last: they may use multiplier(c) of every constraint, and the equations may
