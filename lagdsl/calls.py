@@ -7,7 +7,6 @@ each term built with i bound to a number.
 """
 from __future__ import annotations
 
-import lark
 import sympy
 
 from .calculus import TIME_DIRECTION, Differentiator
@@ -40,6 +39,7 @@ class Calls:
         self.rates[coordinate] = velocity
 
     def value(self, node, scope):
+        """The value of a call: a function of the table, der(), sum() or an observable."""
         token = node.children[0]
         name = str(token)
         arguments = call_arguments(node)
@@ -48,7 +48,7 @@ class Calls:
         if function is not None and function.kind == "observable":
             return self._observable(function, node, arguments, scope)
         if function is None:
-            self._not_a_function(token, scope)
+            raise self._not_a_function(token, scope)
         if len(arguments) != function.arity:
             plural = "s" if function.arity != 1 else ""
             raise LagError(f"{name}() takes {function.arity} argument{plural}, got {len(arguments)}", span)
@@ -56,7 +56,7 @@ class Calls:
             value = self._sum(arguments, scope, span)
         else:
             for argument in arguments:
-                if isinstance(argument, lark.Tree) and argument.data == "iteration":
+                if argument.data == "iteration":
                     raise LagError("an 'i in a:b' range is only allowed as the second argument of sum()",
                                    self.builder.span(argument))
             value = self.rate(self.builder.build(arguments[0], scope), arguments[0]) if name == "der" else \
@@ -74,15 +74,16 @@ class Calls:
         self.builder.dims.call(node, function, arguments)
         return value
 
-    def _not_a_function(self, token, scope):
+    def _not_a_function(self, token, scope) -> LagError:
+        """What a call of a name that is no built-in function is."""
         name = str(token)
         span = self.builder.span(token)
         if name in scope.bindings:
             binding = scope.lookup(name, span)   # a failed declaration is reported there
-            raise LagError(f"'{name}' is {KIND_WORDS.get(binding.kind, 'a name')}, not a function", span)
+            return LagError(f"'{name}' is {KIND_WORDS.get(binding.kind, 'a name')}, not a function", span)
         if name in ("t", "pi"):
-            raise LagError(f"'{name}' is {'the time' if name == 't' else 'a constant'}, not a function", span)
-        raise LagError(f"unknown function '{name}'{suggest(name, FUNCTION_NAMES)}", span)
+            return LagError(f"'{name}' is {'the time' if name == 't' else 'a constant'}, not a function", span)
+        return LagError(f"unknown function '{name}'{suggest(name, FUNCTION_NAMES)}", span)
 
     def _function(self, function: Builtin, node, arguments, scope):
         """A function of the table: its arguments built and checked, then its value."""
@@ -113,9 +114,8 @@ class Calls:
 
     def _sum(self, arguments, scope, span):
         body, iteration = arguments
-        if not (isinstance(iteration, lark.Tree) and iteration.data == "iteration"):
-            raise LagError("the second argument of sum() is a range: sum(expr, i in 1:n)",
-                           self.builder.span(iteration) if isinstance(iteration, lark.Tree) else span)
+        if iteration.data != "iteration":
+            raise LagError("the second argument of sum() is a range: sum(expr, i in 1:n)", self.builder.span(iteration))
         variable, low, high = self.builder.numbers.iteration(iteration, scope)
         terms = [self.builder.build(body, scope.child(**{variable: index})) for index in range(low, high + 1)]
         return _added(terms, span) if terms else sympy.S.Zero

@@ -230,13 +230,17 @@ class DimensionCheck:
 
     @_first_build
     def component(self, node, vector, index_node, position: int):
-        """r[position] of a vector; with an index that varies (r[i]), any component: they must agree."""
+        """r[position] of a vector; with an index that varies (r[i]), any component: they must agree.
+        (A vector of any dimension, 0, has it in every component.)"""
+        if not isinstance(vector, tuple):
+            return vector
         return vector[position - 1] if is_numeral(index_node) else self.common(vector, node)
 
     @_first_build
     def axis(self, node, target, position: int):
         """v.x, v.y, v.z."""
-        return self.form(target)[position]
+        vector = self.form(target)
+        return vector[position] if isinstance(vector, tuple) else vector
 
     @_first_build
     def braces(self, node, children):

@@ -116,7 +116,8 @@ class ModelDimensions:
         return self.check.form(expression)
 
     def family_body(self, name: str, body) -> object:
-        value = self.check.form(body)
+        """The dimension of an indexed let's members (any, if it has none: its body is not built)."""
+        value = self.check.built_form(body)
         if isinstance(value, Form):
             members = self.family(name)
             self.check.require(value, members, body,

@@ -52,3 +52,9 @@ def test_a_mistake_in_an_output_unit_is_reported_once_not_at_the_uses_of_the_out
     with pytest.raises(LagError) as raised:
         model_from_source(SourceFile("chain.lag", text))
     assert [(d.span.line, d.message.split(" (")[0]) for d in raised.value.diagnostics] == [(9, "unknown unit 'Nn'")]
+
+
+def test_an_indexed_let_over_an_empty_range_has_no_members_and_is_not_checked():
+    lets = "let s[i] = k*x[i] + m, i in 1:0;"
+    model = model_from_source(SourceFile("chain.lag", CHAIN.format(lets=lets, potential="sum(k/2*x[i]^2, i in 1:n)")))
+    assert not any(let.name.startswith("s[") for let in model.lets)
