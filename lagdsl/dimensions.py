@@ -7,7 +7,7 @@ except 0, which has every dimension (`x = 0`, `{x, y, 0}`). What the physics fix
 statement (T is an energy, a force on q an energy divided by q's, ...) is `model_dimensions.py`.
 
 There is one walk of the tree: `ExpressionBuilder` calls the rule of each node (`number`,
-`name`, `sum`, `product`, `power`, `call`, ...) once the node's value is built, and the rule
+`leaf`, `addition`, `product`, `power`, `call`, ...) once the node's value is built, and the rule
 combines the dimensions of its parts. A node built many times (the body of a sum, or of an
 indexed let, once per index) gets its dimension the first time: the members of a family share one.
 A built-in function's rule is in its record (functions.py).
@@ -248,8 +248,9 @@ class DimensionCheck:
         return tuple(self.form(child) for child in children)
 
     @_first_build
-    def sum(self, node, terms):
-        """Every term of the first one's dimension (componentwise for vectors)."""
+    def addition(self, node, terms):
+        """A sum of terms (through +, -, signs, parentheses): every term of the first one's
+        dimension (componentwise for vectors)."""
         values = [(term, self.form(term)) for term in terms]
         first_node, first = next(((n, v) for n, v in values if not _wild(v)), values[0])
         for term, value in values:

@@ -196,7 +196,7 @@ class ExpressionBuilder:
         if len(kinds) > 1:
             words = {"a 3-vector": "a vector", "a 3x3 matrix": "a matrix", "a scalar": "a scalar"}
             raise LagError("cannot add " + " and ".join(words[kind] for kind in sorted(kinds)), self.span(node))
-        self.dims.sum(node, [term for _, term in terms])
+        self.dims.addition(node, [term for _, term in terms])
         first = values[0][1]
         if is_array(first):
             total = [sympy.Add(*(sign * v.components[k] for sign, v in values)) for k in range(len(first.components))]
