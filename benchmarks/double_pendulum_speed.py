@@ -67,7 +67,7 @@ class Problem:
     """The scene's grid, tolerances, parameters and initial state, read from lagdsl's plan."""
 
     def __init__(self, model):
-        from lagdsl.run.runner import output_times
+        from lagdsl.run.output import output_times
         from lagdsl.scene import Overrides
         plan = model.plan(SCENE, Overrides(stop=STOP, interval=INTERVAL))
         options = dict(plan.integrator.options)

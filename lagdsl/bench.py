@@ -12,7 +12,6 @@ and CyRK (when installed) on the NumPy backend's right-hand side.
 from __future__ import annotations
 
 import math
-import sys
 import time as clock
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -21,17 +20,18 @@ import numpy as np
 
 from . import ir
 from .errors import LagError, SimulationError
-from .escape import csv_field
+from .integrators import registry
+from . import progress as progress_module
 from .pipeline import execute, generate
 from .reference import Reference, atol_ratio, reference_solution
-from .run.runner import load as load_program
-from .run.runner import output_times
+from .run.loading import load as load_program
+from .run.output import output_times
+from .run.tables import csv_text
 from .scene import ScenePlan
-from .settings import Overrides
+from .settings import Overrides, check_integrator_name
 
 ADAPTIVE_RTOLS = tuple(10.0 ** -k for k in range(3, 14))
 STEP_FACTORS = tuple(2.0 ** j for j in range(2, -7, -1))     # steps of 4 .. 1/64 output intervals
-FIXED_STEP = ("rk4", "gauss")
 MIN_TIMED = 0.05            # seconds: runs shorter than this are repeated (up to MAX_RUNS) for a stable best time
 MAX_RUNS = 50
 LADDER_TIME_LIMIT = 20.0     # seconds: a setting slower than this ends its ladder (tighter ones are slower still)
@@ -111,7 +111,7 @@ class BenchReport:
 
     def sorted_rows(self) -> list[BenchRow]:
         """By method (lagdsl's integrators first, then the peers), then by time."""
-        return sorted(self.rows, key=lambda r: (r.setting.integrator not in ir.INTEGRATORS, r.setting.integrator,
+        return sorted(self.rows, key=lambda r: (not registry.known(r.setting.integrator), r.setting.integrator,
                                                 r.setting.backend, math.inf if r.seconds is None else r.seconds))
 
     def records(self) -> list[dict]:
@@ -119,10 +119,8 @@ class BenchReport:
         return [row.record() for row in self.sorted_rows() if row.failure is None]
 
     def csv(self) -> str:
-        lines = [",".join(CSV_HEADER)]
-        for record in self.records():
-            lines.append(",".join(_csv_field(record[name]) for name in CSV_HEADER))
-        return "\n".join(lines) + "\n"
+        records = self.records()
+        return csv_text(CSV_HEADER, [[record[name] for record in records] for name in CSV_HEADER])
 
     def render(self) -> str:
         """The table for the terminal: the reference, then one line per setting."""
@@ -147,15 +145,6 @@ def _short(value: float | None) -> str:
     return "" if value is None else f"{value:.3g}"
 
 
-def _csv_field(value) -> str:
-    """Empty where a column does not apply; numbers as Python writes them (they read back exactly)."""
-    if value is None:
-        return ""
-    if isinstance(value, str):
-        return csv_field(value)
-    return str(value) if isinstance(value, int) else repr(float(value))
-
-
 # ---- ladders ---------------------------------------------------------------------------------
 def adaptive_ladder(integrator: str, backend: str, ratio: float) -> list[Setting]:
     """rtol = 1e-3 .. 1e-13, atol = ratio * rtol."""
@@ -171,7 +160,7 @@ def step_ladder(integrator: str, backend: str, plan: ScenePlan) -> list[Setting]
 
 
 def ladder(integrator: str, backend: str, plan: ScenePlan) -> list[Setting]:
-    if integrator in FIXED_STEP:
+    if registry.get(integrator).fixed_step:
         return step_ladder(integrator, backend, plan)
     return adaptive_ladder(integrator, backend, atol_ratio(plan))
 
@@ -184,9 +173,8 @@ def backends(choice: str) -> tuple[str, ...]:
 
 
 def progress_bar():
-    """A tqdm bar on standard error that follows the settings (its total is set by run_bench)."""
-    from tqdm import tqdm
-    return tqdm(total=0, file=sys.stderr, unit="setting", dynamic_ncols=True, disable=None)  # None: not on a pipe
+    """A progress bar that follows the settings (its total is set by run_bench)."""
+    return progress_module.bar(0, "setting")
 
 
 # ---- the bench -------------------------------------------------------------------------------
@@ -240,14 +228,13 @@ def run_bench(model, scene: str | None = None, overrides: Overrides = Overrides(
 def _admitted(model, scene, base: Overrides, interval: float, integrators, backends) -> tuple[list[tuple[str, str]], list[str]]:
     """The (integrator, backend) pairs asked for (default: every integrator) that the scene admits,
     and a note for each it does not (gauss with constraints, auto on NumPy with constraints)."""
-    names = integrators or ir.INTEGRATORS
-    unknown = [name for name in names if name not in ir.INTEGRATORS]
-    if unknown:
-        raise LagError(f"unknown integrator '{unknown[0]}' (available: {', '.join(ir.INTEGRATORS)})")
+    names = integrators or registry.names()
+    for name in names:
+        check_integrator_name(name, None)
     chosen, notes = [], []
     for backend in backends:
         for name in names:
-            step = (("step", interval),) if name in FIXED_STEP else ()
+            step = (("step", interval),) if registry.get(name).fixed_step else ()
             reason = _refusal(model, scene, replace(base, integrator=name, options=step), backend)
             if reason is None:
                 chosen.append((name, backend))
@@ -264,9 +251,7 @@ def _refusal(model, scene, overrides: Overrides, backend: str) -> str | None:
         plan = model.plan(scene, overrides)
     except LagError as error:
         return error.diagnostics[0].message
-    if backend == "numpy" and plan.integrator.name == "auto" and plan.constraints:
-        return "auto on the NumPy backend (scipy's LSODA) does not handle constraints"
-    return None
+    return registry.get(plan.integrator.name).refusal(backend, bool(plan.constraints))
 
 
 def _advance(progress) -> None:

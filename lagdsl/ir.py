@@ -14,7 +14,7 @@ from fractions import Fraction
 
 import sympy
 
-from .settings import IMPLICIT_INTEGRATORS, INTEGRATORS, IntegratorChoice, TimeGrid  # noqa: F401  (part of the IR)
+from .settings import IntegratorChoice, TimeGrid  # noqa: F401  (part of the IR)
 from .source import Span
 
 TIME = sympy.Symbol("t", real=True)

@@ -30,10 +30,12 @@ import numpy as np
 
 from . import ir
 from .errors import LagError, SimulationError
+from .integrators import registry
 from .mechanics import Equations
 from .pipeline import generate
 from .run.cache import cached_entry, find_entry
-from .run.runner import Progress, run_c
+from .run.c_backend import run_c
+from .run.scipy_steps import Progress
 from .run.toolchain import extended_precision, find_compiler, shared_library
 from .run.output import ErrorEstimate, Result
 from .scene import ScenePlan
@@ -80,7 +82,7 @@ class Reference:
 
 def reference_method(plan: ScenePlan) -> str:
     """radau5 for a scene that chose an implicit method (it is stiff), dop853 otherwise."""
-    return "radau5" if plan.integrator.name in ir.IMPLICIT_INTEGRATORS else "dop853"
+    return "radau5" if registry.get(plan.integrator.name).implicit else "dop853"
 
 
 def atol_ratio(plan: ScenePlan) -> float:
@@ -152,7 +154,7 @@ def estimate_error(result: Result, equations: Equations, plan: ScenePlan, source
                    rerun: Callable[[tuple[tuple[str, float], ...]], Result]) -> ErrorEstimate:
     """The global error of `result` (a run of `plan`): its largest absolute difference from a rerun
     with 100x tighter settings (`rerun(options)`), or from the reference when that is cached or the
-    tighter settings are beyond double precision (rtol / 100 below 10 eps) or fail. A rerun costs
+    tighter settings are beyond double precision (rtol / 100 below RTOL_FLOOR) or fail. A rerun costs
     a few times the run (dop853's work grows like tol^(-1/8)); a reference, dozens of times."""
     started = clock.perf_counter()
     tighter = tighter_options(plan)
@@ -172,10 +174,10 @@ def estimate_error(result: Result, equations: Equations, plan: ScenePlan, source
 
 def tighter_options(plan: ScenePlan) -> tuple[tuple[str, float], ...] | None:
     """Settings whose error is about 100x smaller: tolerances / 100, or the step / 100^(1/order)
-    (rk4: order 4, gauss: 2 stages). None when rtol / 100 is below double precision's floor."""
+    (rk4: order 4, gauss: 2 per stage). None when rtol / 100 is below double precision's floor."""
     options = dict(plan.integrator.options)
     if "step" in options:
-        order = 4 if plan.integrator.name == "rk4" else 2 * int(options.get("stages", 2))
+        order = registry.get(plan.integrator.name).order_with(options)
         kept = (("stages", options["stages"]),) if "stages" in options else ()
         return (("step", options["step"] / 100 ** (1 / order)), *kept)
     if options.get("rtol", 0) / 100 < RTOL_FLOOR:

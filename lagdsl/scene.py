@@ -16,6 +16,7 @@ import sympy
 
 from . import ir
 from .errors import LagError, suggest
+from .integrators import registry
 from .mechanics import Equations
 # Re-exported: the run settings were defined here before they moved to settings.py.
 from .settings import (DEFAULT_INTEGRATOR, DEFAULT_MAX_STEPS, DEFAULT_TIME, GRID_SLACK, MAX_ROWS,  # noqa: F401
@@ -64,7 +65,7 @@ def plan_scene(model: ir.Model, equations: Equations, scene_name: str | None = N
         ir.OutputRequest(c.name, "expression", c.symbol, None, None) for c in model.coordinates)
     _check_outputs(outputs, equations)
     settings.check_integrator(integrator)
-    if integrator.name == "rkn8":
+    if registry.get(integrator.name).second_order:
         _check_velocity_free(equations, integrator)
     return ScenePlan(model, settings.scene_name, scene.description if scene else None,
                      time, integrator, parameters, frozenset(set_values),
@@ -74,10 +75,10 @@ def plan_scene(model: ir.Model, equations: Equations, scene_name: str | None = N
 
 
 def _check_velocity_free(equations: Equations, integrator: ir.IntegratorChoice) -> None:
-    """rkn8 integrates q'' = a(t, q): refuse a model whose M or f reads a velocity."""
+    """A Nystrom method integrates q'' = a(t, q): refuse a model whose M or f reads a velocity."""
     velocity = equations.velocity_in_accelerations
     if velocity:
-        raise LagError(f"the Nystrom integrator rkn8 needs accelerations that do not depend on the velocities, "
+        raise LagError(f"{registry.get(integrator.name).title} needs accelerations that do not depend on the velocities, "
                        f"and {velocity} appears in this model's equations of motion (through a mass matrix "
                        "that changes with the coordinates, dissipation, or a velocity-dependent force); "
                        "use dop853", integrator.span)

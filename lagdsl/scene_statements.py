@@ -6,7 +6,8 @@ from __future__ import annotations
 from . import ir
 from .errors import ErrorCollector, LagError, suggest
 from .functions import OBSERVABLES
-from .settings import DEFAULT_INTEGRATOR, DEFAULT_TIME, INTEGRATOR_OPTIONS, validate_integrator
+from .integrators import registry
+from .settings import DEFAULT_INTEGRATOR, DEFAULT_TIME, check_integrator_name, validate_integrator
 from .source import Span
 from .tree import call_arguments, expressions_of, subtree, subtrees, through, tokens, written
 from .values import PoisonedName
@@ -97,10 +98,8 @@ class SceneStatements:
     def scene_integrator(self, node) -> ir.IntegratorChoice:
         token = tokens(node, "NAME")[0]
         name = str(token)
-        if name not in INTEGRATOR_OPTIONS:
-            raise LagError(f"unknown integrator '{name}'{suggest(name, INTEGRATOR_OPTIONS)} "
-                           f"(available: {', '.join(ir.INTEGRATORS)})", self.span(token))
-        options = self.modifiers(node, INTEGRATOR_OPTIONS[name], f"integrator {name}")
+        check_integrator_name(name, self.span(token))
+        options = self.modifiers(node, registry.get(name).options, f"integrator {name}")
         values = {k: self.numbers.number(v, k, self.scope) for k, v in options.items()}
         return validate_integrator(name, values, self.span(node), {k: self.span(v) for k, v in options.items()})
 

@@ -13,24 +13,32 @@ import warnings
 from dataclasses import dataclass, replace
 
 from .errors import LagError, LagWarning, Setting, suggest
+from .integrators import registry
+from .integrators.registry import OPTION_ORDER, OPTIONS
 from .source import Span
 
-INTEGRATORS = ("rk4", "dopri5", "dop853", "rkn8", "radau5", "gauss", "auto")
-IMPLICIT_INTEGRATORS = ("radau5", "auto")      # they need the Jacobian (auto switches to radau5)
-INTEGRATOR_OPTIONS = {
-    "rk4": ("step", "max_steps"), "dopri5": ("rtol", "atol", "max_step", "max_steps"),
-    "dop853": ("rtol", "atol", "max_step", "max_steps"), "rkn8": ("rtol", "atol", "max_step", "max_steps"),
-    "radau5": ("rtol", "atol", "max_step", "max_steps"),
-    "gauss": ("stages", "step", "max_steps"),
-    "auto": ("rtol", "atol", "max_step", "max_steps"),
-}
 # Integrator settings that can be given outside the model file (`lagc run --rtol`, `simulate(rtol=)`).
-RUN_OPTIONS = ("rtol", "atol", "step", "stages", "max_step", "max_steps")
+RUN_OPTIONS = OPTION_ORDER
 
+# Numbers the generated C shares (codegen/c_abi.py emits them as LAG_MAX_ROWS, ...). Those
+# counted in units of the rounding unit eps are eps of the working precision in C.
 MAX_ROWS = 10**7              # the largest output grid
-DEFAULT_MAX_STEPS = 100000    # the step limit unless the grid asks for more (step_limit)
+DEFAULT_MAX_STEPS = 100000    # the step limit unless the grid asks for more (step_limit) ...
+STEPS_PER_ROW = 100           # ... at this many steps per output row
 GRID_SLACK = 1e-9             # a grid time within this many intervals of stop is stop
-RTOL_FLOOR = 10 * sys.float_info.epsilon   # no error control is finer than the rounding of y
+RTOL_FLOOR_EPS = 10           # no error control is finer than the rounding of y: rtol >= this many eps
+RTOL_FLOOR = RTOL_FLOOR_EPS * sys.float_info.epsilon
+# The smallest step an adaptive method may take from t on a run of length `span` is
+# MIN_STEP_EPS eps max(|t|, span): below a few eps |t|, t + h == t (HNW I, II.4), and the span makes
+# the test fire near t = 0 too, where eps |t| is no bound at all (10^14 such steps would not
+# cross the run).
+MIN_STEP_EPS = 10
+# K (M, or the saddle-point matrix of a constrained system) counts as singular below this
+# reciprocal condition estimate: q'' would keep fewer than about 3 correct digits (relative error
+# ~ eps / rcond). It is taken after equilibration, so it measures how nearly dependent the
+# coordinates (and constraints) are, not their units.
+RCOND_MIN_EPS = 1000
+RCOND_MIN = RCOND_MIN_EPS * sys.float_info.epsilon
 
 
 @dataclass(frozen=True)
@@ -83,9 +91,11 @@ def grid_rows(start: float, stop: float, interval: float) -> int:
 
 def step_limit(integrator: IntegratorChoice, time: TimeGrid) -> int:
     """The most steps (accepted + rejected) a run may take: the integrator's max_steps, or by
-    default 100000 (as in Hairer's codes) or 100 per output row, whichever is larger."""
+    default DEFAULT_MAX_STEPS (as in Hairer's codes) or STEPS_PER_ROW per output row, whichever is
+    larger (the C driver's lag_step_limit)."""
     given = dict(integrator.options).get("max_steps")
-    return int(given) if given else max(DEFAULT_MAX_STEPS, 100 * grid_rows(time.start, time.stop, time.interval))
+    return int(given) if given else max(DEFAULT_MAX_STEPS, STEPS_PER_ROW * grid_rows(time.start, time.stop,
+                                                                                    time.interval))
 
 
 class IntegratorTraits:
@@ -100,11 +110,11 @@ class IntegratorTraits:
 
     @property
     def implicit(self) -> bool:
-        return self.integrator.name in IMPLICIT_INTEGRATORS
+        return registry.get(self.integrator.name).implicit
 
     @property
     def canonical(self) -> bool:
-        return self.integrator.name == "gauss"
+        return registry.get(self.integrator.name).canonical
 
 
 @dataclass(frozen=True)
@@ -149,13 +159,10 @@ class SceneSettings:
             self._apply_override(name, value, set_values, initial)
         return time, integrator, set_values, initial
 
-    def check_integrator(self, integrator: IntegratorChoice) -> None:
-        if integrator.name == "gauss" and self.constraints:
-            raise LagError("the symplectic gauss integrator does not handle constraints; use radau5 or dop853",
-                           integrator.span)
-        if integrator.name == "rkn8" and self.constraints:
-            raise LagError("the Nystrom integrator rkn8 does not handle constraints; use dop853 or radau5",
-                           integrator.span)
+    def check_integrator(self, choice: IntegratorChoice) -> None:
+        refusal = registry.get(choice.name).refusal("c", bool(self.constraints))
+        if refusal is not None:
+            raise LagError(refusal, choice.span)
 
     def _apply_override(self, name: str, value: float, set_values: dict, initial: dict) -> None:
         if not math.isfinite(value):
@@ -206,14 +213,12 @@ def _integrator(choice: IntegratorChoice, overrides: Overrides) -> IntegratorCho
     """
     name = overrides.integrator or choice.name
     chosen = Setting(f"--integrator {name}") if overrides.integrator else choice.span
-    if name not in INTEGRATORS:
-        raise LagError(f"unknown integrator '{name}'{suggest(name, INTEGRATORS)} "
-                       f"(available: {', '.join(INTEGRATORS)})", chosen)
-    allowed = INTEGRATOR_OPTIONS[name]
+    check_integrator_name(name, chosen)
+    allowed = registry.get(name).options
     values = {k: v for k, v in choice.options if k in allowed}
     origins: dict[str, Setting] = {}
     for key, value in overrides.options:
-        origins[key] = Setting("--" + key.replace("_", "-"))
+        origins[key] = Setting("--" + OPTIONS[key].flag)
         if key not in allowed:
             raise LagError(f"{name} has no option '{key}' (options: {', '.join(allowed)})", origins[key])
         values[key] = value
@@ -221,65 +226,60 @@ def _integrator(choice: IntegratorChoice, overrides: Overrides) -> IntegratorCho
 
 
 def _raise_rtol_to_floor(choice: IntegratorChoice) -> IntegratorChoice:
-    """rtol below 10 eps asks for more than double precision can deliver: the step size would
+    """rtol below RTOL_FLOOR asks for more than double precision can deliver: the step size would
     collapse or the run crawl. Raise it, as Hairer's codes do, and say so once."""
     options = dict(choice.options)
     if "rtol" not in options or options["rtol"] >= RTOL_FLOOR:
         return choice
-    warnings.warn(f"rtol = {options['rtol']:g} is below 10 eps; raised to {RTOL_FLOOR:.3g}", LagWarning,
+    warnings.warn(f"rtol = {options['rtol']:g} is below {RTOL_FLOOR_EPS} eps; raised to {RTOL_FLOOR:.3g}", LagWarning,
                   stacklevel=2)
     options["rtol"] = RTOL_FLOOR
     return replace(choice, options=tuple(sorted(options.items())))
 
 
+def check_integrator_name(name: str, span: Span | Setting | None) -> None:
+    if not registry.known(name):
+        names = registry.names()
+        raise LagError(f"unknown integrator '{name}'{suggest(name, names)} (available: {', '.join(names)})", span)
+
+
 def validate_integrator(name: str, values: dict[str, float], span: Span | Setting | None,
                         origins: dict[str, Span | Setting] | None = None) -> IntegratorChoice:
-    """Check and complete an integrator's options (defaults: rtol 1e-8, atol 1e-10, 2 stages).
-
-    Every option is a finite number: step and max_step positive, rtol and atol >= 0 and not both
-    0, stages and max_steps whole numbers (max_steps from 1 to 1e15). rtol below 10 eps is
-    raised by the scene plan, not here. `span` is where the integrator was chosen, `origins`
-    where each option's value was given (in the scene, or a command-line option): errors point
-    there."""
+    """Check and complete an integrator's options: each value as its option's record requires,
+    rtol and atol not both 0 (and atol positive for an implicit method), a step for a fixed-step
+    one, the record's defaults for the rest. rtol below RTOL_FLOOR is raised by the scene plan, not
+    here. `span` is where the integrator was chosen, `origins` where each option's value was
+    given (in the scene, or a command-line option): errors point there."""
     origins = origins or {}
+    record = registry.get(name)
     for key, value in values.items():
-        if key in ("rtol", "atol"):
-            if not 0 <= value < math.inf:
-                raise LagError(f"{name}({key} = ...) must be a finite number >= 0", origins.get(key, span))
-        elif not 0 < value < math.inf:
-            raise LagError(f"{name}({key} = ...) must be a positive finite number", origins.get(key, span))
+        if not OPTIONS[key].accepts(value):
+            raise LagError(f"{name}({key} = ...) must be {OPTIONS[key].requirement}", origins.get(key, span))
     if values.get("rtol") == 0 and values.get("atol") == 0:
         raise LagError(f"{name}(rtol = ..., atol = ...) cannot both be 0", origins.get("rtol", span))
-    if name in ("radau5", "auto") and values.get("atol") == 0:
+    if record.implicit and values.get("atol") == 0:
         # Hairer's RADAU5 refuses it too: the Newton iteration weighs each component by
         # atol + rtol |y|, which is 0 for a component at 0 (a body at rest).
         raise LagError(f"{name}(atol = ...) must be positive: the implicit method weighs each "
                        "component by atol + rtol |y|, which is 0 where a component is 0",
                        origins.get("atol", span))
-    if "max_steps" in values and (values["max_steps"] != int(values["max_steps"]) or values["max_steps"] > 1e15):
-        raise LagError(f"{name}(max_steps = ...) must be a whole number from 1 to 1e15", origins.get("max_steps", span))
-    if name in ("rk4", "gauss") and "step" not in values:
+    if record.fixed_step and "step" not in values:
         example = "--step 0.001" if isinstance(span, Setting) else f"{name}(step = 0.001)"
         raise LagError(f"{name} is a fixed-step method and needs a step: {example}", span)
-    if name == "gauss":
-        stages = values.setdefault("stages", 2)
-        if stages != int(stages) or not 1 <= stages <= 6:
-            raise LagError("gauss(stages = s) takes s = 1 to 6", origins.get("stages", span))
-    if name in ("dopri5", "dop853", "rkn8", "radau5", "auto"):
-        values.setdefault("rtol", 1e-8)
-        values.setdefault("atol", 1e-10)
+    for key, default in record.defaults:
+        values.setdefault(key, default)
     return IntegratorChoice(name, tuple(sorted(values.items())), span)
 
 
 def check_step_count(plan: IntegratorTraits) -> None:
     """A fixed-step method knows its number of steps before it runs: refuse a run over the limit
     (the C integrators would stop at once with LAG_ERR_MAX_STEPS)."""
-    integrator, time = plan.integrator, plan.time
-    step = dict(integrator.options).get("step")
-    if integrator.name not in ("rk4", "gauss") or step is None:
+    choice, time = plan.integrator, plan.time
+    step = dict(choice.options).get("step")
+    if not registry.get(choice.name).fixed_step or step is None:
         return
     steps = (time.stop - time.start) / step
     if steps > plan.max_steps:
-        raise LagError(f"{integrator.name} with step {step:g} would take {steps:.3g} steps from {time.start:g} to "
+        raise LagError(f"{choice.name} with step {step:g} would take {steps:.3g} steps from {time.start:g} to "
                        f"{time.stop:g}, more than the step limit of {plan.max_steps}; take a larger step or "
-                       "raise --max-steps", integrator.span)
+                       "raise --max-steps", choice.span)

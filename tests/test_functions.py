@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 import sympy
 
-from lagdsl.codegen.c import runtime_header
+from lagdsl.codegen.c_abi import runtime_header
 from lagdsl.codegen.printers import CPrinter, PythonPrinter
 from lagdsl.errors import LagError
 from lagdsl.functions import BUILTINS, LIBM_TABLE_MARKER, PRINTED, TABLE

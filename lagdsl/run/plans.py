@@ -31,7 +31,7 @@ from .. import __version__
 from ..errors import LagError
 from ..settings import IntegratorChoice, Overrides, RunPlan, SceneSettings, TimeGrid
 from ..source import SourceFile, Span
-from . import runner
+from . import loading, runner
 from .cache import cached_entry, find_entry
 from .output import Result
 from .toolchain import find_compiler, library_entry
@@ -54,15 +54,15 @@ class ProgramEntry:
         if path is None:
             return None
         if self.language == "c":
-            return runner.load_library(path)
-        return runner.import_module(path.read_text(encoding="utf-8"), path, self.key)
+            return loading.load_program_library(path)
+        return loading.import_module(path.read_text(encoding="utf-8"), path, self.key)
 
 
 def program_entry(source) -> ProgramEntry:
-    """The cache entry that runner.load(source) uses for a GeneratedSource."""
+    """The cache entry that loading.load(source) uses for a GeneratedSource."""
     if source.language == "c":
         return ProgramEntry("c", *library_entry(source.text, source.suggested_name, find_compiler()))
-    return ProgramEntry("numpy", *runner.module_entry(source))
+    return ProgramEntry("numpy", *loading.module_entry(source))
 
 
 @dataclass(frozen=True)

@@ -16,9 +16,10 @@ import sympy
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from lagdsl import ir
+from lagdsl.integrators import registry
 from lagdsl.codegen.c import FUNCTION_PARAMETERS, render_c
-from lagdsl.codegen.kernel import Block, Kernel, _Lowering, check_target_names, is_target_name, lower_to_kernel
+from lagdsl.codegen.kernel import Block, Kernel, _Lowering, lower_to_kernel
+from lagdsl.codegen.naming import check_target_names, is_target_name
 from lagdsl.codegen.numpy import render_numpy
 from lagdsl.errors import InternalError, LagError
 from lagdsl.pipeline import compile_model
@@ -38,7 +39,7 @@ NAMES = ["x", "theta", "double", "int", "lambda", "None", "while", "w0", "c0", "
          "restrict", "r"]
 
 
-def kernels(text: str, integrators=ir.INTEGRATORS) -> dict[str, Kernel]:
+def kernels(text: str, integrators=registry.names()) -> dict[str, Kernel]:
     """The model lowered for each integrator it admits (fixed-step ones with a step of 0.01)."""
     model, equations = compile_model(SourceFile("model.lag", text))
     lowered = {}

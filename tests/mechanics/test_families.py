@@ -16,7 +16,7 @@ from lagdsl.codegen.kernel import lower_to_kernel
 from lagdsl.mechanics import derive_equations
 from lagdsl.mechanics.families import LocalEquations, derive_local_equations
 from lagdsl.pipeline import execute, generate, load_model, model_from_source, plan
-from lagdsl.run.runner import load
+from lagdsl.run.loading import load
 from lagdsl.scene import Overrides
 from lagdsl.source import SourceFile
 from tests.conftest import MODELS

@@ -21,9 +21,9 @@ import numpy as np
 import pytest
 
 import lagdsl
-from lagdsl import ir
 from lagdsl.codegen import GeneratedSource
 from lagdsl.codegen.kernel import Kernel
+from lagdsl.integrators import registry
 from lagdsl.pipeline import execute, generate
 from lagdsl.run.output import Result
 from lagdsl.run.toolchain import shared_library
@@ -85,7 +85,7 @@ def integrators(model: str) -> tuple[str, ...]:
     if model in LOOPED_ONLY:
         return LOOPED_ONLY[model]
     if model in FULL_MATRIX:
-        chosen = ir.INTEGRATORS
+        chosen = registry.names()
     else:
         chosen = ("dop853", "radau5", IN_TURN[SAMPLED.index(model) % len(IN_TURN)])
     return tuple(name for name in chosen if not refuses(name, model))

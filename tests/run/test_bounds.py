@@ -114,7 +114,7 @@ def test_non_finite_inputs_are_refused(oscillator, values, words):
     ({"atol": math.nan}, "atol = ...) must be a finite number >= 0"),
     ({"rtol": math.inf}, "rtol = ...) must be a finite number >= 0"),
     ({"rtol": 0.0, "atol": 0.0}, "cannot both be 0"),
-    ({"max_step": -1.0}, "max_step = ...) must be a positive finite number"),
+    ({"max_step": -1.0}, "max_step = ...) must be a finite number > 0"),
     ({"max_steps": 2.5}, "max_steps = ...) must be a whole number"),
 ])
 def test_bad_tolerances_and_limits_are_refused(oscillator, options, words):
@@ -203,7 +203,7 @@ def test_a_numpy_run_that_cannot_finish_within_the_limit_stops_early(oscillator)
 
 
 def test_the_forecast_forgives_a_burst_of_small_steps_and_a_fast_start():
-    from lagdsl.run.runner import _WorkForecast
+    from lagdsl.run.scipy_steps import WorkForecast as _WorkForecast
     perihelion = _WorkForecast(0.0, 100.0, 10**5)       # steady 1e-2 steps, then a burst of 1e-6
     verdicts = [perihelion.hopeless(1e-2, 1e-2 * n, n) for n in range(1, 2001)]
     verdicts += [perihelion.hopeless(1e-6, 20.0 + 1e-6 * n, 2000 + n) for n in range(1, 201)]

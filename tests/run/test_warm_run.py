@@ -14,7 +14,7 @@ import sys
 
 import pytest
 
-from lagdsl import cli
+from lagdsl.cli import common as cli
 from lagdsl.cli import main
 
 SWING = """model Swing "a pendulum"
@@ -73,8 +73,8 @@ def lagc_here(capsys, *arguments) -> tuple[int, str, str]:
 def pipeline_calls(monkeypatch) -> list:
     """The models `lagc` parses and derives in this process (none on a warm run)."""
     calls = []
-    full_pipeline = cli._model
-    monkeypatch.setattr(cli, "_model", lambda source: calls.append(source.name) or full_pipeline(source))
+    full_pipeline = cli.load_model
+    monkeypatch.setattr(cli, "load_model", lambda source: calls.append(source.name) or full_pipeline(source))
     return calls
 
 

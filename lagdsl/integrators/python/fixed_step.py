@@ -26,17 +26,22 @@ Output times between step ends are interpolated; a step ending exactly on one is
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
+from ...abi import INTERRUPTED, NO_CONVERGENCE, NONFINITE, PROJECTION_FAILED, SINGULAR, STEP_TOO_SMALL, status_of
+from ...settings import MIN_STEP_EPS
 from .gauss_coefficients import gauss_legendre_tableau, integrated_basis, symplectic_mu
+
+if TYPE_CHECKING:
+    from . import PythonRun
 
 EPSILON = np.finfo(float).eps
 MAX_ITERATIONS = 100
 # A sweep that no longer decreases the increment, below this many ulp, has reached round-off
 # (as in gauss.c); above it a stagnating iteration keeps iterating.
 NOISE = 65536
-# The C status codes (runtime.h) a failure corresponds to.
-SINGULAR, NONFINITE, STEP_TOO_SMALL, NO_CONVERGENCE, INTERRUPTED = 1, 2, 3, 5, 7
 
 # What a step of the Python integrators may raise that ends the run (_Output.failure_of).
 STEP_ERRORS = (np.linalg.LinAlgError, ArithmeticError, KeyboardInterrupt)
@@ -96,25 +101,27 @@ class _Output:
             self.completed += 1
             self.stopped = True
 
-    def failure(self, message, t, y, status=NONFINITE):
+    def failure(self, method: str, t, y, status: int = NONFINITE, detail: str = "", max_steps: int = 0):
+        """`method` failed with `status` in the step from (t, y): the status table's words, then `detail`."""
+        message = f"{method}: {status_of(status).describe(max_steps)} (in the step from t = {t}){detail}"
         return IntegrationFailure(message, t, y, self.Y[:self.completed].copy(), self.completed, status)
 
     def failure_of(self, error: BaseException, method: str, t, y):
         """The failure of an exception raised in `method`'s step from t (one of STEP_ERRORS):
         a singular mass matrix, an overflow (numpy set to raise), or Ctrl-C."""
         if isinstance(error, np.linalg.LinAlgError):
-            return self.failure(f"{method}: the mass matrix is singular in the step from t = {t}", t, y, SINGULAR)
+            return self.failure(method, t, y, SINGULAR)
         if isinstance(error, KeyboardInterrupt):
-            return self.failure(f"{method}: interrupted", t, y, INTERRUPTED)
-        return self.failure(f"{method}: the state became infinite or NaN in the step from t = {t}", t, y)
+            return self.failure(method, t, y, INTERRUPTED)
+        return self.failure(method, t, y)
 
 
 def _steps(output, step):
     """(last, t_new) of each step to the last output time, the times from t0 rather than by
     accumulation (no drift).  A step below the resolution of t (or not positive) is refused."""
     t0, t_end = output.t_grid[0], output.t_grid[-1]
-    if not (step >= 10 * EPSILON * max(abs(t0), abs(t_end)) and step > 0):
-        raise output.failure(f"the step {step} is below the resolution of t", t0, output.Y[0], STEP_TOO_SMALL)
+    if not (step >= MIN_STEP_EPS * EPSILON * max(abs(t0), abs(t_end)) and step > 0):
+        raise output.failure(f"a step of {step}", t0, output.Y[0], STEP_TOO_SMALL)
     steps = _step_count(t0, t_end, step)
     for n in range(1, steps + 1):
         if output.stopped:
@@ -137,7 +144,7 @@ def integrate_rk4(rhs, t_grid, y0, step, stop=None):
             y_new, f_new = _rk4_step(rhs, t, y, f, t_new)
             stats["rhs_evals"] += 4
             if not (np.all(np.isfinite(y_new)) and np.all(np.isfinite(f_new))):
-                raise output.failure(f"rk4: the state became infinite or NaN in the step from t = {t}", t, y)
+                raise output.failure("rk4", t, y)
             output.deliver(t_new, y_new, lambda s: _hermite(t, y, f, t_new, y_new, f_new, s))
             t, y, f = t_new, y_new, f_new
             stats["accepted"] += 1
@@ -203,10 +210,10 @@ def _gauss_step(method, output, from_canonical, as_given, t, z, error, y, t_new,
     rounding error and y at t_new."""
     status = method.solve_stages(t, z, h)
     if status is not None:
-        raise output.failure(f"gauss: {status} in the step from t = {t}; reduce the step", t, y, NO_CONVERGENCE)
+        raise output.failure("gauss", t, y, NO_CONVERGENCE, f": {status}; reduce the step")
     z_new, error = method.update(z, error)
     if not np.all(np.isfinite(z_new)):
-        raise output.failure(f"gauss: the state became infinite or NaN in the step from t = {t}", t, y)
+        raise output.failure("gauss", t, y)
     y_new = from_canonical(t_new, as_given(z_new))
     output.deliver(t_new, y_new, lambda s: from_canonical(s, as_given(method.dense(z, t, s))))
     return z_new, error, y_new
@@ -301,3 +308,55 @@ class _Gauss:
         for j in range(len(self.b)):
             z += weights[j] * self.dz[j]
         return z
+
+
+def run_rk4(run: PythonRun):
+    """The NumPy backend's rk4 (its record's stepper): (Y, stats), projected after every step
+    where the scene has constraints."""
+    if run.project is not None:
+        return _rk4_projected(run)
+    return integrate_rk4(run.rhs(), run.times, run.y0, run.options["step"], run.stop)
+
+
+def run_gauss(run: PythonRun):
+    """The NumPy backend's gauss (its record's stepper), on Hamilton's equations in (q, p)."""
+    program, par = run.program, run.par
+    return integrate_gauss(run.checked(lambda t, z: program.hamilton_rhs(t, z, par)),
+                           lambda t, y: program.to_canonical(t, y, par),
+                           lambda t, z: program.from_canonical(t, z, par),
+                           run.times, run.y0, run.options["step"], int(run.options["stages"]), run.stop)
+
+
+def _rk4_projected(run: PythonRun):
+    """rk4 step by step, projecting onto the constraints after each step as the C driver does;
+    output rows inside a step come from that step's dense output (and the stop condition's row)."""
+    times, step, stop = run.times, run.options["step"], run.stop
+    rows, stats, k, n, y = [run.y0], {"accepted": 0, "rejected": 0, "rhs_evals": 0}, 1, 0, run.y0
+    try:
+        while k < len(times):
+            start, end = times[0] + n * step, min(times[0] + (n + 1) * step, times[-1])
+            inside = [t for t in times[k:] if t <= end]
+            grid = np.array([start, *inside] + ([] if inside and inside[-1] == end else [end]))
+            try:
+                Y, counts = integrate_rk4(run.rhs(), grid, y, end - start, stop)
+                if stop is not None and stop.time is not None:     # the last row is at the stop time
+                    inside = [*inside[:len(Y) - 2], stop.time]
+                projected = [run.project(t, row) for t, row in zip(inside, Y[1:1 + len(inside)])]
+                y_end = run.project(end, Y[-1])
+            except IntegrationFailure as failure:       # with the rows of this run, not of the one step
+                raise IntegrationFailure(str(failure), failure.t, failure.y, np.array(rows), len(rows),
+                                         failure.status) from None
+            except np.linalg.LinAlgError:
+                raise IntegrationFailure("projection failed", start, y, np.array(rows), len(rows),
+                                         PROJECTION_FAILED) from None
+            rows.extend(projected)
+            for key in stats:
+                stats[key] += counts.get(key, 0)
+            if stop is not None and stop.time is not None:
+                break
+            y = y_end
+            k, n = k + len(inside), n + 1
+    except KeyboardInterrupt:
+        raise IntegrationFailure("rk4: interrupted", times[0] + n * step, y, np.array(rows),
+                                 status=INTERRUPTED) from None
+    return np.array(rows), stats

@@ -1,0 +1,148 @@
+"""Ctrl-C during a run: never lost, and a C run stays interruptible while it holds no GIL.
+
+`interruptible` makes a foreign call in a worker thread, so that the main thread stays free for
+Ctrl-C and progress reports; `CtrlC` installs, during a run, a SIGINT handler that sets the run's
+stop flag before Python gets a chance to drop the KeyboardInterrupt.
+"""
+from __future__ import annotations
+
+import ctypes
+import signal
+import threading
+import time as clock
+from collections.abc import Callable
+
+from ..errors import InternalError
+
+POLL_SECONDS = 0.1      # how often the main thread looks at a C run: Ctrl-C and progress
+
+
+def interruptible(library: ctypes.CDLL, call: Callable[[], int],
+                   poll: Callable[[], None] | None) -> tuple[int, float]:
+    """Make the C call in a worker thread, so that the main thread stays free for Ctrl-C and
+    `poll` (called every POLL_SECONDS: progress reports).
+    Returns its status and its duration, timed in the worker: the main thread notices the end
+    only at its next poll, up to POLL_SECONDS later.
+
+    ctypes releases the GIL during the call, and a blocked foreign call would otherwise hold back
+    KeyboardInterrupt until the whole run is over. Ctrl-C sets the library's lag_interrupt flag,
+    which the driver reads after each step (status LAG_ERR_INTERRUPTED, the rows so far kept);
+    further Ctrl-Cs while it winds down change nothing.
+    """
+    interrupt = ctypes.c_int.in_dll(library, "lag_interrupt")
+    interrupt.value = 0
+    outcome: list[tuple[int, float]] = []
+    done = threading.Event()
+
+    def work() -> None:
+        try:
+            started = clock.perf_counter()
+            status = call()
+            outcome.append((status, clock.perf_counter() - started))
+        finally:
+            done.set()
+
+    threading.Thread(target=work, name="lagdsl-c-run", daemon=True).start()
+    # Waits on the event, not join(timeout): a KeyboardInterrupt inside Thread.join can leave
+    # the thread looking finished while it still runs. The wait ends as soon as the run does, so
+    # a run of milliseconds does not wait out a poll interval. Ctrl-C is caught wherever the
+    # main thread is in the loop, in the wait, the test of the event or the poll: Python raises
+    # KeyboardInterrupt at whichever bytecode it reaches next (and CtrlC has set the flag even
+    # if that bytecode was a finaliser's, which drops the exception).
+    with CtrlC(lambda: setattr(interrupt, "value", 1)):
+        while True:
+            try:
+                while not done.is_set():
+                    done.wait(POLL_SECONDS)
+                    if poll is not None:
+                        poll()
+                break
+            except KeyboardInterrupt:
+                interrupt.value = 1
+    if not outcome:
+        raise InternalError("the C run ended without a status")
+    return outcome[0]
+
+
+def terminate_as_interrupt() -> None:
+    """Make SIGTERM (`kill`, a batch system's time limit) stop a run as Ctrl-C does, keeping the
+    rows computed so far: what `lagc` asks for; a Python program using lagdsl keeps SIGTERM's
+    default, which ends the process."""
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _terminated)
+
+
+def terminated() -> bool:
+    """Whether SIGTERM was received since terminate_as_interrupt()."""
+    return _received_sigterm
+
+
+_received_sigterm = False
+
+
+def _terminated(signal_number, frame) -> None:
+    _terminated_note()
+    signal.default_int_handler(signal_number, frame)
+
+
+def _terminated_note() -> None:
+    global _received_sigterm
+    _received_sigterm = True
+
+
+class CtrlC:
+    """Ctrl-C during a run, never lost.
+
+    Python's SIGINT handler raises KeyboardInterrupt at the next bytecode the main thread runs,
+    and when that bytecode belongs to a finaliser (the __del__ of some object the cyclic
+    collector frees just then) Python prints "Exception ignored" and drops it: the press is lost
+    and the run goes on. Within this context, in the main thread and if SIGINT has Python's
+    default handler, a press first calls `on_press` and sets `pressed`, which the run's loops
+    test between steps (`check`), and then raises as usual. A context within another (a run of
+    a NumPy sweep) leaves the handler to the outer one, which presses for every open context.
+    SIGTERM, where terminate_as_interrupt() made it an interrupt, is handled the same way.
+    """
+
+    _innermost: CtrlC | None = None      # the context of the main thread that is open now
+
+    def __init__(self, on_press: Callable[[], None] = lambda: None):
+        self.pressed = False
+        self._on_press = on_press
+        self._previous: dict[int, Callable] = {}
+        self._outer: CtrlC | None = None
+
+    def __enter__(self) -> CtrlC:
+        if threading.current_thread() is threading.main_thread():
+            self._outer, CtrlC._innermost = CtrlC._innermost, self
+            for number, default in ((signal.SIGINT, signal.default_int_handler), (signal.SIGTERM, _terminated)):
+                if signal.getsignal(number) is default:
+                    self._previous[number] = signal.signal(number, self._handle)
+        return self
+
+    def __exit__(self, *exception) -> None:
+        for number, previous in self._previous.items():
+            signal.signal(number, previous)
+        if CtrlC._innermost is self:
+            CtrlC._innermost = self._outer
+
+    def _handle(self, signal_number, frame) -> None:
+        if signal_number == signal.SIGTERM:
+            _terminated_note()
+        context = CtrlC._innermost
+        while context is not None:
+            context.pressed = True
+            context._on_press()
+            context = context._outer
+        raise KeyboardInterrupt
+
+    def check(self) -> None:
+        """Raise KeyboardInterrupt if Ctrl-C was pressed (its own exception may have been dropped)."""
+        if self.pressed:
+            raise KeyboardInterrupt
+
+    def checked(self, function: Callable) -> Callable:
+        """`function`, checking for Ctrl-C before each call: the right-hand side of a Python loop."""
+        def checked_function(*arguments):
+            self.check()
+            return function(*arguments)
+        return checked_function

@@ -1,0 +1,216 @@
+"""scipy's solvers stepped one step at a time: the NumPy backend's adaptive runs and stacked sweeps.
+
+The loop takes scipy's steps itself rather than calling solve_ivp, so that it can count them
+against the step limit, stop a run whose steps have collapsed (scipy's own floor, 10 ulp of t, is
+no floor at t = 0) or that cannot reach its stop time (`WorkForecast`), check Ctrl-C between
+steps, project onto the constraints after each one, and check a stop condition after each one
+as the C driver does: its row ends the run.
+"""
+from __future__ import annotations
+
+import collections
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..abi import HOPELESS, INTERRUPTED, MAX_STEPS, NONFINITE, SINGULAR, STEP_TOO_SMALL
+from ..integrators.python.stiffness import STABILITY_BOUNDARY, StiffnessTest, SwitchLog
+from ..settings import MIN_STEP_EPS
+from .output import Stiffness, Switches
+from .stop import StopCondition
+
+SCIPY_RTOL_FLOOR = 100 * float(np.finfo(float).eps)    # scipy raises a smaller rtol itself, with a warning
+Progress = Callable[[float, float, float], None]     # (t reached, start, stop)
+Failure = tuple[int, float, np.ndarray]              # (status, last time reached, the state there)
+
+
+@dataclass(frozen=True)
+class ScipyProblem:
+    """y' = fun(t, y) for scipy solver `method`, with what the loop checks after each step."""
+
+    method: str                                         # "DOP853", "RK45", "Radau", "LSODA"
+    fun: Callable[[float, np.ndarray], np.ndarray]
+    jac: Callable[[float, np.ndarray], np.ndarray] | None
+    rtol: float
+    atol: float
+    max_step: float | None
+    max_steps: int
+    project: Callable[[float, np.ndarray], np.ndarray] | None = None   # onto the constraints
+    stop: StopCondition | None = None
+    watch: bool = True                                  # the stiffness test or LSODA's switches
+
+
+def _no_progress(t: float, start: float, stop: float) -> None:
+    pass
+
+
+def integrate_scipy(problem: ScipyProblem, times: np.ndarray, y0: np.ndarray,
+                    progress: Progress = _no_progress) -> tuple[list[np.ndarray], dict, Failure | None]:
+    """(the states at the output times reached, the work counters, the failure or None)."""
+    counts = {"accepted": 0, "rejected": None, "rhs_evals": 0, "jac_evals": 0, "lu_decomps": 0}
+    watch = _StepWatch(problem.method if problem.watch else None, counts)
+    forecast = WorkForecast(times[0], times[-1], problem.max_steps)
+    states, solver = [y0], None
+    try:
+        solver = _start(problem, times[0], y0, times[-1])   # its choice of the first step evaluates the model
+        while len(states) < len(times):
+            failure = _step(problem, solver, times, counts, watch, forecast, progress)
+            if failure is not None:
+                return states, watch.finish(_tally(counts, solver)), failure
+            if _deliver(problem, solver, times, states):
+                break
+            if problem.project is not None and solver.status == "running":
+                solver = _restart_projected(problem, solver, counts, times[-1])
+    except np.linalg.LinAlgError:
+        return _stopped(states, counts, solver, times[0], y0, SINGULAR, watch)
+    except (ValueError, ArithmeticError):
+        # The inputs were checked before the run, so scipy's own finiteness checks (lu_factor of
+        # an iteration matrix with inf or NaN in the Jacobian) fire only on values the model
+        # produced on the way: the same failure as a non-finite state. So does an overflow in
+        # Python float arithmetic (a power of a constant let), which raises where NumPy's gives inf.
+        return _stopped(states, counts, solver, times[0], y0, NONFINITE, watch)
+    except KeyboardInterrupt:
+        return _stopped(states, counts, solver, times[0], y0, INTERRUPTED, watch)
+    return states, watch.finish(_tally(counts, solver)), None
+
+
+def _start(problem: ScipyProblem, t: float, y: np.ndarray, t_end: float, first_step: float | None = None):
+    from scipy import integrate
+    method = getattr(integrate, problem.method)
+    extra = {"jac": problem.jac} if problem.jac is not None else {}
+    if problem.max_step:
+        extra["max_step"] = problem.max_step
+    solver = method(problem.fun, t, y, t_end, rtol=problem.rtol, atol=problem.atol, first_step=first_step, **extra)
+    if not np.isfinite(getattr(solver, "h_abs", 0.0)):
+        # scipy's choice of the first step divides by atol + rtol |y|, which is 0 for a
+        # component at 0 under pure relative error control (atol = 0): h is NaN, and the
+        # step loop, which stops when h falls below a floor, never ends. Hairer's fallback.
+        solver = method(problem.fun, t, y, t_end, rtol=problem.rtol, atol=problem.atol,
+                        first_step=1e-6 * abs(t_end - t), **extra)
+    return solver
+
+
+def _step(problem: ScipyProblem, solver, times, counts: dict, watch: _StepWatch, forecast: WorkForecast,
+          progress: Progress) -> Failure | None:
+    """One step of `solver`; the failure it ran into, or None."""
+    if counts["accepted"] >= problem.max_steps:
+        return MAX_STEPS, solver.t, solver.y
+    t_before, y_before = solver.t, solver.y
+    solver.step()
+    progress(solver.t, times[0], times[-1])
+    collapsed = solver.status == "running" and solver.t - t_before < min_step(solver.t, times[-1] - times[0])
+    if solver.status == "failed" or collapsed:
+        return STEP_TOO_SMALL, t_before, y_before
+    counts["accepted"] += 1
+    watch.record(solver)
+    if forecast.hopeless(solver.t - t_before, solver.t, counts["accepted"]):
+        return HOPELESS, solver.t, solver.y
+    if not np.all(np.isfinite(solver.y)):
+        return NONFINITE, solver.t, solver.y
+    return None
+
+
+def _deliver(problem: ScipyProblem, solver, times: np.ndarray, states: list) -> bool:
+    """Append the states at the output times the step passed, from its dense output (projected
+    onto the constraints), and at the stop condition's time; True if the condition ended the run."""
+    dense = solver.dense_output()
+    stop = problem.stop
+    end = stop.crossed(solver.t_old, solver.t, solver.y, dense) if stop is not None else None
+    while len(states) < len(times) and times[len(states)] <= solver.t and (end is None or times[len(states)] < end):
+        states.append(_state_at(problem, solver, dense, times[len(states)]))
+    if end is not None:
+        states.append(_state_at(problem, solver, dense, end))
+    return end is not None
+
+
+def _state_at(problem: ScipyProblem, solver, dense, t: float) -> np.ndarray:
+    state = solver.y.copy() if t == solver.t else dense(t)
+    return state if problem.project is None else problem.project(t, state)
+
+
+def _restart_projected(problem: ScipyProblem, solver, counts: dict, t_end: float):
+    """A solver restarted from the projected state with the step the last one would take next
+    (h_abs; scipy's solvers keep it there), so that step-size growth is not lost."""
+    projected = problem.project(solver.t, solver.y)
+    _tally(counts, solver)
+    proposed = getattr(solver, "h_abs", solver.step_size)
+    return _start(problem, solver.t, projected, t_end, first_step=min(proposed, t_end - solver.t))
+
+
+class WorkForecast:
+    """Stops a run early that cannot end within its step limit.
+
+    A NumPy step costs about a millisecond, so a run whose steps have shrunk to near the
+    resolution of t (an extreme parameter, a singularity) or that needs more steps than allowed
+    would grind through the whole step limit for minutes. From `JUDGED_AFTER` steps on, the run
+    is hopeless when two forecasts of the steps still needed both exceed the steps still allowed:
+    the average pace since the start, (stop - t) x taken / (t - start), which a passing burst of
+    small steps (a close approach) barely moves, and the largest of the last `WINDOW` steps,
+    (stop - t) / h, which forgives a fast transient at the start. Steps that shrink on towards a
+    singularity end here too, before the step-size floor would. (A C step costs microseconds;
+    there the step limit itself ends such runs within a second.)
+    """
+
+    JUDGED_AFTER, WINDOW = 1000, 100
+
+    def __init__(self, start: float, stop: float, max_steps: int):
+        self.start, self.stop, self.max_steps = start, stop, max_steps
+        self.recent: collections.deque = collections.deque(maxlen=self.WINDOW)
+
+    def hopeless(self, step: float, t: float, taken: int) -> bool:
+        self.recent.append(abs(step))
+        if taken < self.JUDGED_AFTER:
+            return False
+        largest = max(self.recent)
+        left, allowed = abs(self.stop - t), self.max_steps - taken
+        by_average = left * taken > allowed * abs(t - self.start)
+        by_recent = left > allowed * largest
+        return by_average and by_recent
+
+
+class _StepWatch:
+    """What the summary reports beyond the counts: the stiffness test of the explicit pairs
+    (with the counts when it fired) or LSODA's switches. `method` None watches nothing."""
+
+    def __init__(self, method: str | None, counts: dict):
+        self.counts = counts
+        self.stiffness = StiffnessTest(method) if method in STABILITY_BOUNDARY else None
+        self.switches = SwitchLog() if method == "LSODA" else None
+        self.at_detection: tuple[int, int] | None = None
+
+    def record(self, solver) -> None:
+        if self.stiffness is not None and self.stiffness.record(solver):
+            self.at_detection = (self.counts["accepted"], self.counts["rhs_evals"] + solver.nfev)
+        if self.switches is not None:
+            self.switches.record(solver)
+
+    def finish(self, counts: dict) -> dict:
+        if self.at_detection is not None:
+            accepted, rhs_evals = self.at_detection
+            counts["stiffness"] = Stiffness(self.stiffness.time, counts["accepted"] - accepted, None,
+                                            counts["rhs_evals"] - rhs_evals, counts["rhs_evals"])
+        if self.switches is not None:
+            log = self.switches
+            counts["switches"] = Switches(SwitchLog.METHODS, len(log.times), tuple(log.times), tuple(log.spans))
+        return counts
+
+
+def _stopped(states, counts, solver, t0, y0, status, watch) -> tuple[list, dict, Failure]:
+    """The run so far, stopped with `status` after the solver's last step (or at the start)."""
+    if solver is None:
+        return states, watch.finish(counts), (status, t0, y0)
+    return states, watch.finish(_tally(counts, solver)), (status, solver.t, solver.y)
+
+
+def min_step(t: float, span: float) -> float:
+    """The C integrators' LAG_MIN_STEP: MIN_STEP_EPS eps max(|t|, length of the run)."""
+    return MIN_STEP_EPS * np.finfo(float).eps * max(abs(t), span)
+
+
+def _tally(counts: dict, solver) -> dict:
+    counts["rhs_evals"] += solver.nfev
+    counts["jac_evals"] += solver.njev
+    counts["lu_decomps"] += solver.nlu
+    solver.nfev = solver.njev = solver.nlu = 0
+    return counts
