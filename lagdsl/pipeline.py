@@ -6,9 +6,8 @@
          ──build/run──▶ results
 
 stage            input -> output                       module
-parse            SourceFile -> lark.Tree               parser.py (grammar.lark)
-build_model      Tree -> ir.Model (+ UnitReport)       semantics.py, expressions.py, calls.py, functions.py,
-                                                       dimensions.py, model_dimensions.py, units.py
+parse            SourceFile -> lark.Tree               frontend/parser.py (grammar.lark)
+build_model      Tree -> ir.Model (+ UnitReport)       frontend/ (semantics.py and the modules it walks with)
 derive_equations Model -> Equations (M, f, A, ...)     mechanics/ (families.py: the local form)
 plan_scene       Model + scene + overrides -> plan     scene.py
 lower            Equations + plan -> Kernel (CSE)      codegen/kernel.py (loops.py: the local form)
@@ -29,11 +28,11 @@ from .codegen.kernel import Kernel, lower_to_kernel
 from .codegen.numpy import render_numpy
 from .mechanics import Equations, derive_equations
 from .mechanics.families import LocalEquations, derive_local_equations
-from .parser import parse
+from .frontend.parser import parse
 from .run.output import Result
 from .run.runner import run
 from .scene import Overrides, ScenePlan, plan_scene
-from .semantics import build_model
+from .frontend.semantics import build_model
 from .source import SourceFile
 
 

@@ -9,7 +9,7 @@ import sympy
 from lagdsl.codegen.c_abi import runtime_header
 from lagdsl.codegen.printers import CPrinter, PythonPrinter
 from lagdsl.errors import LagError
-from lagdsl.functions import BUILTINS, LIBM_TABLE_MARKER, PRINTED, TABLE
+from lagdsl.frontend.functions import BUILTINS, LIBM_TABLE_MARKER, PRINTED, TABLE
 from lagdsl.pipeline import model_from_source
 from lagdsl.source import SourceFile
 

@@ -1,6 +1,6 @@
 """The C side of lagdsl/abi.py and of the constants in settings.py, generated from them.
 
-`runtime_header()` is runtime.h with its libm table (generated from lagdsl/functions.py);
+`runtime_header()` is runtime.h with its libm table (generated from lagdsl/frontend/functions.py);
 `runtime_contract()` follows it in every C file (the integrators' tests paste it too): the
 status codes, the shared constants and the indices of the settings vector. `status_printer()`
 and `summary_packer(layout)` go between the driver and the programs that use them.
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from ..abi import SETTINGS, STATUSES, UNKNOWN_STATUS, Status, SummaryLayout, format_fields
 from ..escape import c_comment, c_string
-from ..functions import LIBM_TABLE_MARKER, libm_table
+from ..frontend.functions import LIBM_TABLE_MARKER, libm_table
 from ..integrators import COUNTER_LABELS, c_file
 from ..settings import (DEFAULT_MAX_STEPS, GRID_SLACK, MAX_ROWS, MIN_STEP_EPS, RCOND_MIN_EPS, RTOL_FLOOR_EPS,
                         STEPS_PER_ROW)

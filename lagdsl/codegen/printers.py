@@ -12,7 +12,7 @@ from sympy.printing.c import C99CodePrinter
 from sympy.printing.numpy import NumPyPrinter
 from sympy.printing.precedence import PRECEDENCE
 
-from ..functions import PRINTED
+from ..frontend.functions import PRINTED
 PI_DIGITS = "3.14159265358979323846264338327950288"
 E_DIGITS = "2.71828182845904523536028747135266250"
 LARGEST_PLAIN_INTEGER = 2**31 - 1

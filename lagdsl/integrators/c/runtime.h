@@ -35,7 +35,7 @@ typedef double real;
 #endif
 
 /* The libm function table: r_sqrt is sqrt, sqrtl or sqrtq. */
-/* LIBM_TABLE: generated from lagdsl/functions.py, pasted here by codegen/c.py */
+/* LIBM_TABLE: generated from lagdsl/frontend/functions.py, pasted here by codegen/c.py */
 
 static int r_isfinite(real x) { return x - x == x - x; } /* false for inf and nan in every precision */
 

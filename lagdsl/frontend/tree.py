@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import lark
 
-from .source import SourceFile, Span
+from ..source import SourceFile, Span
 
 SHORT_TEXT = 40     # longest expression quoted in a message; a longer one is named in words
 ARITHMETIC = ("number", "neg", "pos", "parenthesized", "add", "sub", "mul", "div", "pow")

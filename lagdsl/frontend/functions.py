@@ -20,7 +20,7 @@ from .dimensions import ENERGY, POWER, TIME, Form, components, is_matrix, map_fo
 from .values import Matrix, Vector, body_rates, dot, matrix_product, rotation
 
 # runtime.h holds this line where the libm table goes (codegen/c.py pastes `libm_table()` there).
-LIBM_TABLE_MARKER = "/* LIBM_TABLE: generated from lagdsl/functions.py, pasted here by codegen/c.py */\n"
+LIBM_TABLE_MARKER = "/* LIBM_TABLE: generated from lagdsl/frontend/functions.py, pasted here by codegen/c.py */\n"
 
 
 @dataclass(frozen=True)

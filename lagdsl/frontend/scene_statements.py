@@ -3,12 +3,12 @@ output list and a stop condition, read with every name of the model in scope.
 """
 from __future__ import annotations
 
-from . import ir
-from .errors import ErrorCollector, LagError, suggest
+from .. import ir
+from ..errors import ErrorCollector, LagError, suggest
 from .functions import OBSERVABLES
-from .integrators import registry
-from .settings import DEFAULT_INTEGRATOR, DEFAULT_TIME, check_integrator_name, validate_integrator
-from .source import Span
+from ..integrators import registry
+from ..settings import DEFAULT_INTEGRATOR, DEFAULT_TIME, check_integrator_name, validate_integrator
+from ..source import Span
 from .tree import call_arguments, expressions_of, subtree, subtrees, through, tokens, written
 from .values import PoisonedName
 

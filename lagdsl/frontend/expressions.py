@@ -14,14 +14,14 @@ from fractions import Fraction
 import lark
 import sympy
 
-from .calculus import Differentiator
+from ..calculus import Differentiator
 from .calls import Calls
 from .compile_time import CompileTime
 from .constants import FOLDING_NODES, MAX_DOUBLE, require_finite, require_power_in_range, require_real_constants
 from .dimensions import TIME, DimensionCheck, Form
-from .errors import LagError, suggest
+from ..errors import LagError, suggest
 from .functions import BUILTINS
-from .source import SourceFile, Span
+from ..source import SourceFile, Span
 from .tree import factors, signed_terms, span_of, through
 from .values import AXES, Matrix, Scope, Vector, is_array, kind_of, map_value, matrix_of, matrix_product
 from .values import body_rates, rotation  # noqa: F401  (re-exported: the rotations as the language defines them)

@@ -32,8 +32,8 @@ from fractions import Fraction
 
 import sympy
 
-from .errors import LagError
-from .source import SourceFile
+from ..errors import LagError
+from ..source import SourceFile
 from .tree import excerpt, is_numeral, span_of
 from .units import Dimension
 

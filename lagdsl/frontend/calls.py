@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import sympy
 
-from .calculus import TIME_DIRECTION, Differentiator
+from ..calculus import TIME_DIRECTION, Differentiator
 from .constants import require_finite
-from .errors import LagError, suggest
+from ..errors import LagError, suggest
 from .functions import BUILTINS, FUNCTION_NAMES, Builtin
 from .tree import call_arguments
 from .values import KIND_WORDS, Matrix, Vector, is_array, kind_of, map_value, matrix_of

@@ -11,8 +11,8 @@ from __future__ import annotations
 import lark
 import sympy
 
-from . import ir
-from .errors import LagError
+from .. import ir
+from ..errors import LagError
 from .tree import expressions_of, subtree
 from .units import in_si
 from .values import Binding, Matrix, Vector

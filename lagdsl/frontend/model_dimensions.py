@@ -16,11 +16,11 @@ import dataclasses
 
 import lark
 
-from . import ir
+from .. import ir
 from .dimensions import ENERGY, POWER, TIME, DimensionCheck, Form, components
-from .errors import Diagnostic, LagError
+from ..errors import Diagnostic, LagError
 from .functions import BUILTINS
-from .source import SourceFile, Span
+from ..source import SourceFile, Span
 from .tree import call_arguments, modifier_items, span_of, subtree, subtrees, uses_names, written
 from .units import dimension, is_angle, si_factor
 

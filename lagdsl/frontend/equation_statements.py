@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import sympy
 
-from . import ir
-from .errors import LagError, suggest
-from .source import Span
+from .. import ir
+from ..errors import LagError, suggest
+from ..source import Span
 from .tree import expressions_of, tokens
 from .values import KIND_WORDS, Binding, PoisonedName, Scope
 

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import sympy
 
-from . import ir
-from .errors import LagError
+from .. import ir
+from ..errors import LagError
 from .tree import subtrees
 from .units import in_si
 from .values import Scope

@@ -11,8 +11,8 @@ from dataclasses import dataclass
 import sympy
 
 from .dimensions import Form
-from .errors import LagError, suggest
-from .source import Span
+from ..errors import LagError, suggest
+from ..source import Span
 
 AXES = ("x", "y", "z")
 # A Binding's kind in words, for messages ("'m' is a parameter, not a function").

@@ -16,22 +16,30 @@ from __future__ import annotations
 import lark
 import sympy
 
-from . import ir
-from .calculus import TIME_DIRECTION, Differentiator
+from .. import ir
+from ..calculus import TIME_DIRECTION, Differentiator
 from .declarations import Declarations
 from .equation_statements import EquationStatements
-from .errors import ErrorCollector, InternalError, LagError, suggest
+from ..errors import ErrorCollector, InternalError, LagError, suggest
 from .expressions import ExpressionBuilder
 from .functions import OBSERVABLES
 from .model_dimensions import ModelDimensions
 from .scene_statements import SceneStatements
-from .source import SourceFile, Span
+from ..source import SourceFile, Span
 from .tree import span_of, subtree, tokens
 from .units import parse_unit
 from .values import KIND_WORDS, Binding, PoisonedName, Scope
 
 RESERVED = {"model", "end", "parameter", "coordinate", "let", "constraint", "force", "dissipation",
             "output", "scene", "time", "integrator", "set", "t", "T", "U", "L", "der", "pi", "sum", "in"}
+
+# The statements of a model, by their rule in grammar.lark, and the method of _ModelBuilder that
+# reads each (a new kind of statement is a rule, a row here and its method). Declarations are
+# read first, in source order; the statements that may use any declared name after them (outputs
+# last); scenes (scene_statements.py, with their own table of parts) at the end.
+DECLARATIONS = {"parameter": "parameter", "coordinate": "coordinate", "let": "let"}
+STATEMENTS = {"energy": "energy_statement", "dissipation": "dissipation_statement", "force": "force",
+              "constraint": "constraint", "output": "output"}
 
 
 def build_model(tree: lark.Tree, source: SourceFile) -> ir.Model:
@@ -88,9 +96,8 @@ class _ModelBuilder(Declarations, EquationStatements, SceneStatements):
             self.errors.errors.append(LagError(f"'end {end_name}' does not match model '{name}'; expected 'end {name};'",
                                                self.span(end_name)))
         declarations = [c for c in node.children if isinstance(c, lark.Tree) and c.data != "description"]
-        first_pass = {"parameter": self.parameter, "coordinate": self.coordinate, "let": self.let}
-        later = {"energy": self.energy_statement, "dissipation": self.dissipation_statement,
-                 "force": self.force, "constraint": self.constraint, "output": self.output}
+        first_pass = {rule: getattr(self, method) for rule, method in DECLARATIONS.items()}
+        later = {rule: getattr(self, method) for rule, method in STATEMENTS.items()}
         for declaration in declarations:
             if declaration.data in first_pass:
                 self.dims.start(declaration.data)

@@ -12,8 +12,8 @@ from collections.abc import Callable
 
 import sympy
 
-from .errors import LagError
-from .source import Span
+from ..errors import LagError
+from ..source import Span
 from .tree import excerpt
 from .values import is_array
 
