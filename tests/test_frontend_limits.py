@@ -13,7 +13,7 @@ import sympy
 
 import lagdsl
 from lagdsl.errors import LagError
-from lagdsl.expressions import MAX_NESTING, MAX_NUMBER_LENGTH
+from lagdsl.frontend.expressions import MAX_NESTING, MAX_NUMBER_LENGTH
 from lagdsl.mechanics import derive_equations
 from lagdsl.pipeline import generate, model_from_source, plan
 from lagdsl.scene import Overrides

@@ -11,9 +11,9 @@ import sympy
 
 import lagdsl
 from lagdsl.errors import LagError
-from lagdsl.expressions import body_rates, rotation
-from lagdsl.parser import parse
-from lagdsl.semantics import build_model
+from lagdsl.frontend.expressions import body_rates, rotation
+from lagdsl.frontend.parser import parse
+from lagdsl.frontend.semantics import build_model
 from lagdsl.source import SourceFile
 from tests.mechanics.eom import equations_from_text, is_zero, residual_rows, symbols_of
 

@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 
 from lagdsl.api import Model
-from lagdsl.dimensions import Form, Solver
+from lagdsl.frontend.dimensions import Form, Solver
 from lagdsl.errors import LagError
 from lagdsl.pipeline import load_model, model_from_source
 from lagdsl.scene import Overrides
 from lagdsl.source import SourceFile, Span
-from lagdsl.units import Dimension, dimension, parse_unit
+from lagdsl.frontend.units import Dimension, dimension, parse_unit
 from tests.conftest import MODELS
 
 

@@ -14,7 +14,7 @@ import subprocess
 import pytest
 
 from lagdsl.abi import MAX_STEPS, STATUSES, summary_layout
-from lagdsl.codegen.c_abi import runtime_contract, status_printer, summary_packer
+from lagdsl.codegen.c_abi import runtime_contract, runtime_header, status_printer, summary_packer
 from lagdsl.integrators import c_file
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 
@@ -215,7 +215,7 @@ def program(constraints, holonomic, invariants, stop, integrator, tolerances) ->
     defines = "".join(f"#define {name} {int(value)}\n" for name, value in flags.items())
     layout = summary_layout(integrator, int(invariants), 4, constraints, stop)
     linear_algebra = c_file("lu.c") if constraints else ""      # the projection's; unused, it is a warning
-    return "\n".join([HEADERS, c_file("runtime.h"), runtime_contract(), linear_algebra, defines,
+    return "\n".join([HEADERS, runtime_header(), runtime_contract(), linear_algebra, defines,
                       MODEL % {"holonomic": "#define LAG_NH 1" if holonomic else ""}, STEPPER, c_file("driver.c"),
                       summary_packer(layout), c_file("library.c"), SCENE, status_printer(), c_file("standalone.c")])
 
