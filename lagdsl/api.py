@@ -10,7 +10,7 @@ from . import ir, reference
 from .codegen import GeneratedSource
 from .codegen.kernel import Kernel
 from .animation import DEFAULT_FPS, Animation, check_playback, drawing_of
-from .errors import LagError, SimulationError
+from .errors import LagError, Setting, SimulationError
 from .mechanics import Equations
 from .pipeline import compile_model, execute, generate, plan
 from .progress import bar as progress_bar
@@ -39,6 +39,7 @@ class Model:
         self.ir, self.equations = compile_model(source)
         self._programs: dict[tuple[str, str, str, bool], Program] = {}   # scene, integrator, backend, drawn
         self._quick_plans: dict[str | None, plans.StoredPlan] = {}     # by the scene asked for
+        self._sensitivity_programs: dict[str, object] = {}             # sensitivity.run.Program by scene
 
     @property
     def name(self) -> str:
@@ -68,7 +69,7 @@ class Model:
                  integrator: str | None = None, rtol: float | None = None, atol: float | None = None,
                  step: float | None = None, stages: int | None = None, max_step: float | None = None,
                  max_steps: int | None = None, estimate_error: bool = False, draw: bool = False,
-                 **parameters: float) -> Result:
+                 sensitivities=None, sensitivity_error_control: bool = True, **parameters: float) -> Result:
         """Run a scene and return its outputs.
 
         `set` maps parameter names, "q.start" and "q.velocity" to values; parameters may also be
@@ -79,6 +80,12 @@ class Model:
         extended-precision reference; `float(...)` gives the value). Raises SimulationError (with `.partial`, the rows computed so far) when the
         integration fails, SimulationInterrupted (a SimulationError) when Ctrl-C stops it.
         `draw` also computes what the draw statements show (`result.drawing`, `result.animate()`).
+
+        `sensitivities` names parameters and start values ("q.start", "q.velocity"): the run then
+        integrates the variational equations with the state (sensitivity/run.py; backend
+        "numpy", an adaptive integrator) and returns a SensitivityResult, whose
+        `.sensitivity("x", "k")` is ∂x(t)/∂k on the grid; `sensitivity_error_control` says whether
+        they enter the step-size control (default: they do).
         """
         _check_backend(backend)
         values = dict(set or {})
@@ -87,7 +94,26 @@ class Model:
                                      max_steps=max_steps))
         overrides = Overrides(tuple((k, float(v)) for k, v in values.items()), start, stop, interval,
                               integrator, options)
+        if sensitivities is not None:
+            if draw:
+                raise LagError("a run with sensitivities is not drawn; run simulate(..., draw=True) without them")
+            return self.sensitivities(scene, backend, overrides, sensitivities, error_control=sensitivity_error_control)
         return self.simulate_plan(scene, backend, overrides, estimate_error=estimate_error, draw=draw)
+
+    def sensitivities(self, scene: str | None, backend: str, overrides: Overrides, names, times=None,
+                      error_control: bool = True):
+        """A run with its sensitivities by `names` (see simulate), on `times` (default: the grid)."""
+        from .sensitivity import run as sensitivity
+        _check_backend(backend)
+        if backend != "numpy":
+            raise LagError("sensitivities are integrated on the NumPy backend only; use backend='numpy'",
+                           Setting("--backend"))
+        scene_plan = self.plan(scene, overrides)
+        chosen = sensitivity.directions(self.ir, list(names))
+        if scene_plan.scene_name not in self._sensitivity_programs:
+            self._sensitivity_programs[scene_plan.scene_name] = sensitivity.build(self, scene)
+        return sensitivity.integrate(self._sensitivity_programs[scene_plan.scene_name], scene_plan, chosen, times,
+                                     error_control)
 
     def simulate_plan(self, scene: str | None, backend: str, overrides: Overrides,
                       progress: Callable[[float, float, float], None] | None = None,
@@ -100,7 +126,7 @@ class Model:
             return run(quick[0], backend, quick[1].loaded, progress)
         scene_plan = self.plan(scene, overrides, draw)
         program = self._program(scene, scene_plan, backend, overrides)
-        result = self._execute(program, scene_plan, progress)
+        result = _execute(program, scene_plan, progress, f"{self.name}, scene {scene_plan.scene_name}")
         if not draw:        # a quick plan computes the scene's columns alone
             self._keep_quick_plan(scene, scene_plan)
         if not estimate_error:
@@ -121,25 +147,20 @@ class Model:
         frame at `fps` frames per second of playback, `speed` model seconds per second, unless
         `interval` is given; `options` are simulate's."""
         check_playback(fps, speed)
-        options.setdefault("interval", speed / fps)
-        return self.simulate(scene, backend, draw=True, **options).animate(speed)
+        return self.simulate(scene, backend, draw=True, **{"interval": speed / fps, **options}).animate(speed)
 
-    def _execute(self, program: Program, scene_plan: ScenePlan, progress) -> Result:
-        """The run of `scene_plan`, the draw statements' columns taken out of the result (and out
-        of the rows a failed run kept) into its `drawing`."""
-        try:
-            result = execute(program.kernel, program.source, scene_plan, progress, program.loaded)
-        except SimulationError as error:
-            if scene_plan.draws and error.partial is not None:
-                error.partial = self._split_drawing(error.partial, scene_plan)
-            raise
-        return self._split_drawing(result, scene_plan) if scene_plan.draws else result
-
-    def _split_drawing(self, result: Result, scene_plan: ScenePlan) -> Result:
-        shown = scene_plan.shown_columns
-        title = f"{self.name}, scene {scene_plan.scene_name}"
-        return replace(result, columns=result.columns[:shown], values=result.values[:, :shown],
-                       drawing=drawing_of(title, scene_plan.draws, result.values[:, shown:]))
+    def fit(self, data, params: dict, *, outputs=None, sigma=None, scene: str | None = None,
+            bounds: dict | None = None, set: dict | None = None, integrator: str | None = None, **options):
+        """Fit `params` ({name: start value}) to `data` (a CSV path or a DataFrame with a `t` column
+        and columns named as the scene's outputs) by least squares, the sensitivities as the
+        Jacobian; returns a sensitivity.fit.Fit (.values, .stderr, .correlation, .residuals, .cost,
+        .nfev). `integrator` and `options` (rtol, atol, max_step, ...) override the scene's. See
+        sensitivity/fit.py for the statistics."""
+        from .sensitivity.fit import fit
+        unknown = [name for name in options if name not in RUN_OPTIONS]
+        if unknown:
+            raise LagError(f"fit: unknown option '{unknown[0]}' (options: {', '.join(RUN_OPTIONS)})")
+        return fit(self, data, params, outputs, sigma, scene, bounds, set, integrator, options)
 
     def bench(self, scene: str | None = None, *, integrators: tuple[str, ...] | None = None, backend: str = "c",
               peers: bool = False, repeat: int = 3, set: dict | None = None, start: float | None = None,
@@ -225,15 +246,9 @@ class Model:
         return None if program is None else (run_plan, program)
 
     def _keep_quick_plan(self, scene: str | None, scene_plan: ScenePlan) -> None:
-        if scene in self._quick_plans:
-            return
-        try:
-            settings, parameters, initial_state = scene_defaults(self.ir, self.equations, scene)
-        except LagError:        # a value computed from the others is not finite unless overridden
-            return
-        self._quick_plans[scene] = plans.StoredPlan(
-            settings, parameters, initial_state, parameters_in_expressions(self.ir), scene_plan.columns,
-            scene_plan.invariants, scene_plan.stop.text if scene_plan.stop else None, None)
+        stored = self._quick_plans.get(scene) or _stored_plan(self, scene, scene_plan, None)
+        if stored is not None:
+            self._quick_plans[scene] = stored
 
     def _program(self, scene: str | None, scene_plan: ScenePlan, backend: str, overrides: Overrides) -> Program:
         """The generated, loaded code for a scene, integrator and backend: built on first use, then kept.
@@ -257,14 +272,9 @@ class Model:
                     source: GeneratedSource) -> None:
         """Keep the scene's plan in the build cache for a warm `lagc run` in another process
         (run/plans.py), under the scene and integrator as asked for."""
-        try:
-            settings, parameters, initial_state = scene_defaults(self.ir, self.equations, scene)
-        except LagError:        # a value computed from the others is not finite unless overridden
-            return
-        stored = plans.StoredPlan(settings, parameters, initial_state, parameters_in_expressions(self.ir),
-                                  code_plan.columns, code_plan.invariants,
-                                  code_plan.stop.text if code_plan.stop else None, plans.program_entry(source))
-        plans.store(self.source, scene, backend, integrator, stored)
+        stored = _stored_plan(self, scene, code_plan, plans.program_entry(source))
+        if stored is not None:
+            plans.store(self.source, scene, backend, integrator, stored)
 
 
 @dataclass(frozen=True)
@@ -278,6 +288,34 @@ class Program:
     def library_bytes(self) -> bytes:
         """The compiled shared library (C), to ship to other processes: a ctypes handle cannot be."""
         return Path(self.loaded._name).read_bytes()
+
+
+def _stored_plan(model: Model, scene: str | None, scene_plan: ScenePlan, entry) -> plans.StoredPlan | None:
+    """What a repeated run of the scene plans from without sympy (run/plans.py), its program at
+    `entry` (None: kept in the Model); None where the scene's values cannot be fixed beforehand."""
+    try:
+        settings, parameters, initial_state = scene_defaults(model.ir, model.equations, scene)
+    except LagError:        # a value computed from the others is not finite unless overridden
+        return None
+    return plans.StoredPlan(settings, parameters, initial_state, parameters_in_expressions(model.ir),
+                            scene_plan.columns, scene_plan.invariants,
+                            scene_plan.stop.text if scene_plan.stop else None, entry)
+
+
+def _execute(program: Program, scene_plan: ScenePlan, progress, title: str) -> Result:
+    """The run of `scene_plan`, the draw statements' columns taken out of the result (and out of
+    the rows a failed run kept) into its `drawing`, titled `title`."""
+    def split(result: Result) -> Result:
+        shown = scene_plan.shown_columns
+        return replace(result, columns=result.columns[:shown], values=result.values[:, :shown],
+                       drawing=drawing_of(title, scene_plan.draws, result.values[:, shown:]))
+    try:
+        result = execute(program.kernel, program.source, scene_plan, progress, program.loaded)
+    except SimulationError as error:
+        if scene_plan.draws and error.partial is not None:
+            error.partial = split(error.partial)
+        raise
+    return split(result) if scene_plan.draws else result
 
 
 def load(path: str | Path) -> Model:

@@ -14,7 +14,8 @@ from dataclasses import dataclass
 
 import sympy
 
-from . import draws as drawing, ir
+from . import ir
+from .frontend import draws as drawing
 from .errors import LagError, suggest
 from .integrators import registry
 from .mechanics import Equations

@@ -15,10 +15,14 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .. import draws, ir
+from ..frontend import draws
+
+if TYPE_CHECKING:           # lagc's commands import this module, and a warm `lagc run` imports no sympy
+    from .. import ir
 
 FRAME_SIZE = 0.2        # a frame's axes without a size: this fraction of the picture's extent
 

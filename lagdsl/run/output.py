@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -137,7 +137,7 @@ class Result:
     columns: tuple[str, ...]
     values: np.ndarray            # shape (len(t), len(columns))
     summary: RunSummary
-    drawing: object | None = None
+    drawing: object | None = field(default=None, kw_only=True)     # keyword-only: subclasses add fields
 
     def animate(self, speed: float = 1.0):
         """The animation of the run (an animation.Animation: shown in Jupyter, `.save(path)`),

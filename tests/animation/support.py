@@ -10,7 +10,7 @@ import numpy as np
 import lagdsl
 from lagdsl.animation import Animation, Drawing, Shape
 from lagdsl.api import Model
-from lagdsl.draws import KINDS
+from lagdsl.frontend.draws import KINDS
 from lagdsl.source import SourceFile
 
 from ..conftest import MODELS

@@ -3,13 +3,11 @@ from __future__ import annotations
 
 import csv
 import io
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
-from ..conftest import MODELS
+from ..conftest import MODELS, lagc_in_process as lagc
 from .support import page_data
 
 PENDULUM = """\
@@ -30,10 +28,6 @@ model DoublePendulum "the issue's double pendulum"
   end chaos;
 end DoublePendulum;
 """
-
-
-def lagc(*arguments):
-    return subprocess.run([sys.executable, "-m", "lagdsl", *map(str, arguments)], capture_output=True, text=True)
 
 
 @pytest.fixture
@@ -60,6 +54,7 @@ def test_the_page_holds_what_lagc_run_computes(pendulum, tmp_path):
         np.testing.assert_allclose(line[row, 2], table[row, 1:], rtol=0, atol=1e-12)
 
 
+@pytest.mark.slow          # ~10 s (matplotlib draws each frame); test_video.py writes GIFs in the default run
 def test_a_gif_at_the_frames_and_speed_given(pendulum, tmp_path):
     from PIL import Image
     gif = tmp_path / "pendulum.gif"

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 import sympy
 
-from lagdsl import draws, ir
+from lagdsl import ir
+from lagdsl.frontend import draws
 from lagdsl.animation import drawing_of
 
 A, B, C, D = sympy.symbols("a b c d")      # stand-ins: drawing_of reads the columns, not the expressions

@@ -1,6 +1,7 @@
 """What each `draw` statement takes: one record per kind of picture element, read by the front
-end (arguments, options, 2-D or 3-D), the dimension check (what each argument is in units) and
-the animation (animation/drawing.py: the points each element shows).
+end (draw_statements.py: arguments, options, 2-D or 3-D; model_dimensions.py: what each argument
+is in units), the scene plan (scene.py: the columns computed) and the animation
+(animation/drawing.py: the points each element shows).
 
 An argument's role says what it is and so what its dimension must be:
 
@@ -10,12 +11,25 @@ An argument's role says what it is and so what its dimension must be:
   angle     a dimensionless scalar (the turning mark's angle, from the x axis, counterclockwise)
   rotation  a 3x3 dimensionless matrix R, body to space: its columns are the body's axes in space
   edges     a 3-vector of lengths, the box's edges along R's columns
+
+A plain number is taken in SI units (as a scene's time(stop = 20) is in seconds).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-ROLES = ("point", "points", "length", "angle", "rotation", "edges")
+
+@dataclass(frozen=True)
+class Role:
+    words: str                  # what an argument of the role is, in messages: "a point"
+    # each of its components is a length to this power: 1 a length, 0 a plain number (an exponent,
+    # not a units.Dimension: the animation reads this module, and a warm run imports no sympy)
+    length_power: int
+
+
+ROLES = {"point": Role("a point", 1), "points": Role("points", 1), "length": Role("a length", 1),
+         "angle": Role("an angle", 0), "rotation": Role("a rotation matrix", 0),
+         "edges": Role("a 3-vector of edge lengths", 1)}
 
 
 @dataclass(frozen=True)
