@@ -18,8 +18,8 @@ import dataclasses
 import lark
 
 from .. import ir
-from .draws import Role
 from .dimensions import ENERGY, POWER, TIME, DimensionCheck, Form, components
+from .draws import Role
 from ..errors import Diagnostic, LagError
 from .functions import BUILTINS
 from ..source import SourceFile, Span

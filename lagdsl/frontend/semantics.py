@@ -2,9 +2,10 @@
 
 Parameters, coordinates and lets are declared in source order, each usable after its
 declaration (declarations.py). The energy (T, U or L), dissipation, forces, constraints,
-outputs and draw statements (draw_statements.py) are read afterwards, with every declared name in
-scope, and scenes last (scene_statements.py). Independent errors are collected and reported together; a declaration
-that failed leaves its name "poisoned", so later uses of it do not produce follow-on errors.
+outputs and draw statements (draw_statements.py) are read afterwards, with every declared name
+in scope, and scenes last (scene_statements.py). Independent errors are collected and reported
+together; a declaration that failed leaves its name "poisoned", so later uses of it do not
+produce follow-on errors.
 
 This is the one walk of the tree: expressions are built by expressions.py, which gives each
 node its dimension as it goes, and each statement adds what the physics fixes about its
