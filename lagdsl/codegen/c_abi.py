@@ -11,6 +11,7 @@ from ..abi import SETTINGS, STATUSES, UNKNOWN_STATUS, Status, SummaryLayout, for
 from ..escape import c_comment, c_string
 from ..frontend.functions import LIBM_TABLE_MARKER, libm_table
 from ..integrators import COUNTER_LABELS, SWITCH_TIMES, c_file
+from ..integrators.registry import MAX_STEPS_CEILING
 from ..settings import (DEFAULT_MAX_STEPS, GRID_SLACK, MAX_ROWS, MIN_STEP_EPS, RCOND_MIN_EPS, RTOL_FLOOR_EPS,
                         STEPS_PER_ROW)
 
@@ -20,6 +21,7 @@ SHARED_CONSTANTS = (
     ("LAG_MAX_ROWS", f"{MAX_ROWS}L", "the largest output grid, in rows"),
     ("LAG_DEFAULT_MAX_STEPS", f"{DEFAULT_MAX_STEPS}L", "the default step limit, or ..."),
     ("LAG_STEPS_PER_ROW", f"{STEPS_PER_ROW}L", "... this many steps per output row"),
+    ("LAG_MAX_STEPS_CEILING", f"{MAX_STEPS_CEILING}L", "the largest step limit, given or implied by a fixed step"),
     ("LAG_GRID_SLACK", f"LAG_LIT({GRID_SLACK!r})", "a grid time within this many intervals of t1 is t1"),
     ("LAG_RTOL_FLOOR_EPS", f"{RTOL_FLOOR_EPS}", "the smallest rtol, in eps ..."),
     ("LAG_RTOL_FLOOR", "(LAG_RTOL_FLOOR_EPS * REAL_EPSILON)", "... and as a number"),

@@ -209,12 +209,19 @@ static long lag_last_row(real t0, real t1, real dt)
     return ratio - last > LAG_GRID_SLACK || last == 0 ? last + 1 : last;
 }
 
-/* The step limit of a run whose final row is `last`: `given`, else LAG_DEFAULT_MAX_STEPS (as in
- * Hairer's codes) or LAG_STEPS_PER_ROW per output row, whichever is larger. */
-static long lag_step_limit(long given, long last)
+/* The step limit of a run from t0 to t1 whose final row is `last`: the options' max_steps if
+ * given; for a fixed step (options->step > 0: rk4, gauss), the steps it implies, the user's own
+ * count (one a step, and one more a row where a step is cut to land on it); else
+ * LAG_DEFAULT_MAX_STEPS (as in Hairer's codes) or LAG_STEPS_PER_ROW per output row, whichever is
+ * larger (settings.step_limit). */
+static long lag_step_limit(const lag_options *options, real t0, real t1, long last)
 {
-    if (given > 0)
-        return given;
+    if (options->max_steps > 0)
+        return options->max_steps;
+    if (options->step > 0) {
+        real implied = r_floor((t1 - t0) / options->step) + 2 + last;
+        return implied < (real)LAG_MAX_STEPS_CEILING ? (long)implied : LAG_MAX_STEPS_CEILING;
+    }
     return last + 1 > LAG_DEFAULT_MAX_STEPS / LAG_STEPS_PER_ROW ? LAG_STEPS_PER_ROW * (last + 1) : LAG_DEFAULT_MAX_STEPS;
 }
 
@@ -334,7 +341,7 @@ static int lag_integrate(lag_system *sys, const real *y0, real t0, real t1, real
     memset(stepper, 0, sizeof *stepper);
     stepper->t = t0;           /* where a failure before the first step (projecting y0) is reported */
     memcpy(stepper->y, y, sizeof stepper->y);
-    limited.max_steps = lag_step_limit(options->max_steps, last);
+    limited.max_steps = lag_step_limit(options, t0, t1, last);
     lag_progress_t = (double)t0;
     status = lag_start(sys, t0, y, &e_old, &last, sink, context, report);
     if (status == LAG_OK)
