@@ -21,7 +21,7 @@ from importlib import resources
 
 from . import __version__
 from .codegen.c import render_c, stem
-from .codegen.fmu import KINDS, fmu_c_part, fmu_plan, fmu_variables
+from .codegen.fmu import KINDS, exported_kinds, fmu_c_part, fmu_plan, fmu_variables
 from .codegen.fmu_xml import build_description, model_description
 from .codegen.kernel import lower_to_kernel
 from .errors import LagError, Setting
@@ -43,11 +43,13 @@ PLATFORMS = {("Linux", "x86_64"): ("linux64", "x86_64-linux", ".so"),
 ZIP_DATE = (1980, 1, 1, 0, 0, 0)
 
 
-def build_fmu(model, scene: str | None = None, version: int = 2, kinds: tuple[str, ...] = KINDS) -> bytes:
+def build_fmu(model, scene: str | None = None, version: int = 2, kinds: tuple[str, ...] | None = None) -> bytes:
     """The FMU of a scene of `model` (an api.Model) for model exchange and/or co-simulation
-    (`kinds`: "me", "cs"), as the bytes of its zip archive."""
+    (`kinds`: "me", "cs"; by default both, codegen.fmu.exported_kinds), as the bytes of its zip archive."""
+    scene_plan = model.plan(scene)
+    kinds = exported_kinds(scene_plan, kinds)
     check_export(version, kinds)
-    plan = fmu_plan(model.plan(scene), kinds)
+    plan = fmu_plan(scene_plan, kinds)
     kernel = lower_to_kernel(model.equations, plan)                      # -> Kernel (+ the FMU's outputs)
     variables = fmu_variables(plan, kinds, version)
     identifier, token = stem(kernel), export_token(model.source.text, plan.scene_name, version, kinds)

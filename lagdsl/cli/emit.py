@@ -21,7 +21,8 @@ def add(commands) -> None:
     parser.add_argument("--fmi", type=int, help="with --emit fmu: the FMI version "
                                                                            "(default: 2, FMI 2.0)")
     parser.add_argument("--kind", choices=tuple(FMU_KINDS),
-                        help="with --emit fmu: co-simulation (cs), model exchange (me) or both (default)")
+                        help="with --emit fmu: co-simulation (cs), model exchange (me) or both (default; cs for a scene "
+                             "integrated in Hamilton's form)")
     parser.set_defaults(handler=emit)
 
 
@@ -32,7 +33,7 @@ def emit(arguments) -> int:
     model = common.load_model(SourceFile.read(arguments.model))
     if arguments.language == "fmu":
         from ..fmu import build_fmu
-        common.deliver(build_fmu(model, arguments.scene, arguments.fmi or 2, FMU_KINDS[arguments.kind or "both"]), arguments.output)
+        common.deliver(build_fmu(model, arguments.scene, arguments.fmi or 2, FMU_KINDS.get(arguments.kind)), arguments.output)
     else:
         common.deliver(model.emit(arguments.language, arguments.scene).text, arguments.output)
     return 0

@@ -16,10 +16,11 @@ from __future__ import annotations
 
 import hashlib
 import re
+import warnings
 from dataclasses import dataclass, replace
 
 from .. import ir
-from ..errors import LagError
+from ..errors import LagError, LagWarning
 from ..escape import c_comment, c_string
 from ..integrators import c_file, registry
 from ..integrators.registry import OPTION_ORDER, OPTIONS
@@ -57,6 +58,19 @@ class FmuVariable:
     derivative_of: str | None = None
     integer: bool = False
     reference: int = 0
+
+
+def exported_kinds(plan: ScenePlan, kinds: tuple[str, ...] | None) -> tuple[str, ...]:
+    """The kinds asked for, or by default both; a scene integrated in Hamilton's form has no q''
+    for model exchange, so by default it is exported for co-simulation only (with a warning)."""
+    if kinds is not None:
+        return kinds
+    if plan.canonical:
+        warnings.warn(f"{registry.get(plan.integrator.name).title} integrates Hamilton's equations: the FMU of scene "
+                      f"{plan.scene_name} is for co-simulation only (model exchange needs q'' from the mass matrix "
+                      "solve)", LagWarning, stacklevel=2)
+        return ("cs",)
+    return KINDS
 
 
 def fmu_plan(plan: ScenePlan, kinds: tuple[str, ...]) -> ScenePlan:

@@ -275,17 +275,6 @@ static int lag_state_at(lag_system *sys, lag_stepper *stepper, real tk, real *y)
     return status;
 }
 
-/* The row at tk, which the stepper has reached (lag_state_at). */
-static int lag_deliver_at(lag_system *sys, lag_stepper *stepper, real tk, lag_sink sink, void *context,
-                          lag_report *report)
-{
-    real y[LAG_NY];
-    int status = lag_state_at(sys, stepper, tk, y);
-    if (status != LAG_OK)
-        return status;
-    return lag_deliver(sys, tk, y, sink, context, report);
-}
-
 /* The first row, at t0 from y0 (projected onto the constraints); the stop condition may hold
  * there already (then *last = 0: no more rows). */
 static int lag_start(lag_system *sys, real t0, real *y, real *e_old, long *last, lag_sink sink, void *context,
@@ -310,6 +299,18 @@ static int lag_start(lag_system *sys, real t0, real *y, real *e_old, long *last,
     (void)last;
 #endif
     return status;
+}
+
+#ifndef LAG_FMU     /* an FMU steps from one communication point to the next (fmu_run.c) */
+/* The row at tk, which the stepper has reached (lag_state_at). */
+static int lag_deliver_at(lag_system *sys, lag_stepper *stepper, real tk, lag_sink sink, void *context,
+                          lag_report *report)
+{
+    real y[LAG_NY];
+    int status = lag_state_at(sys, stepper, tk, y);
+    if (status != LAG_OK)
+        return status;
+    return lag_deliver(sys, tk, y, sink, context, report);
 }
 
 /* The report of a run that ended with `status` where the stepper stands. */
@@ -366,3 +367,4 @@ static int lag_integrate(lag_system *sys, const real *y0, real t0, real t1, real
     free(stepper);
     return status;
 }
+#endif

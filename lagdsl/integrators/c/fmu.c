@@ -8,7 +8,8 @@
  * generator writes for the export:
  *   LAG_FMU_TOKEN                  the GUID (FMI 2) or instantiation token (FMI 3) of this export
  *   LAG_FMU_MODEL_EXCHANGE         1 if exported for model exchange (the model has lag_rhs then)
- *   LAG_FMU_CO_SIMULATION          1 if exported for co-simulation
+ *   LAG_FMU_CO_SIMULATION          1 if exported for co-simulation (its code is always compiled:
+ *                                  the integrator's, which co-simulation needs, is in every FMU)
  *   LAG_FMU_NVARIABLES, LAG_FMU_VARIABLES   the variables, sorted by value reference
  *   LAG_FMU_T_START, LAG_FMU_T_STOP, LAG_FMU_T_INTERVAL, LAG_FMU_OPTIONS   the scene's grid, options
  *   LAG_FMU_CATEGORIES, LAG_FMU_NCATEGORIES, enum lag_fmu_category   the log categories
@@ -73,14 +74,12 @@ struct lag_fmu {
     int crossed;                            /* in event mode: entered from continuous time */
     real dydt[LAG_NY], out[LAG_NOUT];
     lag_options options;
-#if LAG_FMU_CO_SIMULATION
     lag_stepper *stepper;
     lag_report report;                      /* the stop condition's: stopped, t_stop */
     real e_old, t_end;                      /* the stop function at the last step, the stepper's end */
     long step_limit;                        /* the stepper's, for a run to t_end */
     int restart;                            /* the parameters changed since the stepper began */
     int terminated;                         /* the stop condition ended the run at t */
-#endif
 };
 
 static void lag_fmu_vlog(const lag_fmu *fmu, int status, int category, const char *format, va_list arguments)
@@ -235,9 +234,7 @@ static void lag_fmu_defaults(lag_fmu *fmu)
     fmu->options = options;
     fmu->prepared = 0;
     lag_fmu_start_values(fmu);
-#if LAG_FMU_CO_SIMULATION
     fmu->restart = fmu->terminated = 0;
-#endif
     fmu->mode = LAG_FMU_INSTANTIATED;
 }
 
@@ -248,13 +245,9 @@ static lag_fmu *lag_fmu_create(size_t size, const char *name, int kind, int logg
     if (fmu == NULL)
         return NULL;
     fmu->name = malloc(strlen(name) + 1);
-#if LAG_FMU_CO_SIMULATION
     fmu->stepper = kind == LAG_FMU_CS ? malloc(sizeof *fmu->stepper) : NULL;
     if (fmu->name == NULL || (kind == LAG_FMU_CS && fmu->stepper == NULL)) {
         free(fmu->stepper);
-#else
-    if (fmu->name == NULL) {
-#endif
         free(fmu->name);
         free(fmu);
         return NULL;
@@ -268,9 +261,7 @@ static lag_fmu *lag_fmu_create(size_t size, const char *name, int kind, int logg
 
 static void lag_fmu_free(lag_fmu *fmu)
 {
-#if LAG_FMU_CO_SIMULATION
     free(fmu->stepper);
-#endif
     free(fmu->name);
     free(fmu);
 }
@@ -344,9 +335,7 @@ static void lag_fmu_parameters_changed(lag_fmu *fmu)
     if (fmu->mode & (LAG_FMU_INSTANTIATED | LAG_FMU_INITIALIZATION))
         lag_fmu_start_values(fmu);
     fmu->fresh = fmu->prepared = 0;
-#if LAG_FMU_CO_SIMULATION
     fmu->restart = 1;
-#endif
 }
 
 /* A variable that may be set only in the modes `allowed`, set in another: refuse it. */

@@ -12,7 +12,6 @@ static int lag_fmu_enter_initialization(lag_fmu *fmu, const char *function)
     fmu->mode = LAG_FMU_INITIALIZATION;
     return LAG_FMU_OK;
 }
-#if LAG_FMU_CO_SIMULATION
 
 static int lag_fmu_ignore_row(void *context, real t, const real *out)
 {
@@ -112,25 +111,6 @@ static int lag_fmu_terminated(const lag_fmu *fmu)
 {
     return fmu->terminated;
 }
-#else
-
-/* Not exported for co-simulation: no instance is for it, and lag_fmu_allowed refuses the step. */
-static int lag_fmu_do_step(lag_fmu *fmu, const char *function, double t, double h, int *stopped, double *reached)
-{
-    (void)t;
-    (void)h;
-    *stopped = 0;
-    *reached = fmu->t;
-    lag_fmu_allowed(fmu, function, 0, LAG_FMU_CS);
-    return LAG_FMU_ERROR;
-}
-
-static int lag_fmu_terminated(const lag_fmu *fmu)
-{
-    (void)fmu;
-    return 0;
-}
-#endif
 
 /* fmi2ExitInitializationMode, fmi3ExitInitializationMode: the run begins. In model exchange the
  * state is projected onto the constraints and the instance enters event mode; in co-simulation
@@ -142,14 +122,12 @@ static int lag_fmu_exit_initialization(lag_fmu *fmu, const char *function)
         return LAG_FMU_ERROR;
     if ((status = lag_fmu_check_start(fmu)) != LAG_FMU_OK)
         return status;
-#if LAG_FMU_CO_SIMULATION
     if (fmu->kind == LAG_FMU_CS) {
         fmu->t_end = fmu->t_stop;
         if ((status = lag_fmu_begin(fmu)) == LAG_FMU_OK)
             fmu->mode = LAG_FMU_STEP;
         return status;
     }
-#endif
 #if LAG_HAS_CONSTRAINTS
     {
         real moved;

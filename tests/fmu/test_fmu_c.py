@@ -1,0 +1,75 @@
+"""The FMU's C under the strict flags, and every FMI 2.0 function called in and out of order with
+good and bad arguments (fmi2_calls.c) under the address and undefined-behaviour sanitizers."""
+from __future__ import annotations
+
+import io
+import subprocess
+import xml.etree.ElementTree as ET
+import zipfile
+from pathlib import Path
+
+import pytest
+
+from lagdsl.fmu import build_fmu
+from tests.run.c_harness import STRICT_FLAGS, find_cc
+from tests.fmu.fmu_files import load
+
+SANITIZERS = ["-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer", "-g"]
+CALLS = Path(__file__).with_name("fmi2_calls.c")
+
+
+def unpack(fmu: bytes, folder: Path) -> tuple[Path, ET.Element]:
+    """The FMU's files in `folder`: its C source, and its parsed modelDescription.xml."""
+    with zipfile.ZipFile(io.BytesIO(fmu)) as archive:
+        archive.extractall(folder)
+    description = ET.parse(folder / "modelDescription.xml").getroot()
+    identifier = description.find("*[@modelIdentifier]").get("modelIdentifier")
+    return folder / "sources" / f"{identifier}.c", description
+
+
+def reference(description: ET.Element, **attributes: str) -> str:
+    """The value reference of the first variable with these attributes."""
+    for variable in description.iter("ScalarVariable"):
+        if all(variable.get(name) == value for name, value in attributes.items()):
+            return variable.get("valueReference")
+    raise AssertionError(f"no variable with {attributes}")
+
+
+@pytest.fixture
+def cc():
+    compiler = find_cc()
+    if compiler is None:
+        pytest.skip("no C compiler")
+    return compiler
+
+
+@pytest.mark.parametrize("model, scene, kind", [
+    ("double_pendulum", None, ("me", "cs")), ("rolling_penny", None, ("cs",)), ("rolling_penny", None, ("me",)),
+    ("coupled_oscillators", "pluck", ("cs",)), ("bead_on_hoop", None, ("me", "cs")),
+    ("fpu_chain", "implicit", ("me", "cs"))])
+def test_fmu_source_compiles_under_strict_flags(tmp_path, cc, model, scene, kind):
+    source, _ = unpack(build_fmu(load(model), scene, 2, kind), tmp_path)
+    done = subprocess.run([cc, *STRICT_FLAGS, "-fPIC", "-I", str(source.parent), "-c", str(source), "-o",
+                           str(tmp_path / "fmu.o")], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+
+
+@pytest.mark.parametrize("model", ["double_pendulum", "rolling_penny"])
+def test_every_function_in_and_out_of_order_under_sanitizers(tmp_path, cc, model):
+    source, description = unpack(build_fmu(load(model)), tmp_path)
+    program = tmp_path / "calls"
+    built = subprocess.run([cc, *STRICT_FLAGS, *SANITIZERS, "-I", str(source.parent), str(CALLS), str(source),
+                            "-o", str(program), "-lm"], capture_output=True, text=True)
+    if built.returncode != 0 and "sanitize" in built.stderr:
+        pytest.skip(f"the compiler has no sanitizers here: {built.stderr[:200]}")
+    assert built.returncode == 0, built.stderr
+    states = len(description.findall("ModelStructure/Derivatives/Unknown"))
+    references = [reference(description, causality="parameter", variability="tunable"),
+                  reference(description, variability="continuous", initial="exact"),
+                  reference(description, causality="output", initial="calculated"),
+                  reference(description, name="integrator.max_steps"), "4294967295"]
+    ran = subprocess.run([str(program), description.get("guid"), *references, str(states)], capture_output=True,
+                         text=True, timeout=300)
+    assert ran.returncode == 0 and ran.stdout.endswith("ok\n"), ran.stdout[-2000:] + ran.stderr[-3000:]
+    assert "runtime error" not in ran.stderr and "Sanitizer" not in ran.stderr, ran.stderr
+    assert "logStatusError" in ran.stdout        # the refusals went through the logger
