@@ -9,8 +9,8 @@ another scene, another kind or another version of FMI.
 
 The C source is the scene's generated C file (codegen/c.py) with the FMU's part in place of the
 shared library's entry points and the standalone program: the variable table, the log
-categories and the option checks generated here, then integrators/c/fmu.c, fmu_run.c and fmi2.c
-or fmi3.c.
+categories and the option checks generated here, then integrators/c/fmu.c, fmu_values.c,
+fmu_run.c and fmi2.c.
 """
 from __future__ import annotations
 
@@ -219,7 +219,7 @@ def fmu_c_part(kernel, plan: ScenePlan, variables: tuple[FmuVariable, ...], kind
         f"enum lag_fmu_category {{ {categories}, LAG_FMU_NCATEGORIES }};",
         "#define LAG_FMU_CATEGORIES { " + ", ".join(c_string(name) for name, _ in LOG_CATEGORIES) + " }",
         "", _option_refusal(plan), status_formatter(),
-        c_file("fmu.c"), c_file("fmu_run.c"), c_file(f"fmi{version}.c")])
+        *(c_file(name) for name in ("fmu.c", "fmu_values.c", "fmu_run.c", f"fmi{version}.c"))])
 
 
 def _category_constant(name: str) -> str:

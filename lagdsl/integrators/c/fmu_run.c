@@ -1,8 +1,33 @@
 /* An FMU instance's run: initialization, model exchange (the importer integrates dy/dt, the
  * stop condition is its event indicator) and co-simulation (a communication step with the
  * scene's integrator, as lagc run steps: driver.c's loop, its projection and its stop test).
- * Pasted after fmu.c, before fmi2.c or fmi3.c.
+ * Pasted after fmu.c and fmu_values.c, before fmi2.c.
  */
+
+/* The checks of lagc run on what a run begins with: finite parameters and initial values, and
+ * (co-simulation) tolerances that can be met. */
+static int lag_fmu_check_start(lag_fmu *fmu)
+{
+    int i;
+    for (i = 0; i < LAG_NP; ++i)
+        if (!r_isfinite(fmu->sys.par[i]))
+            return lag_fmu_error(fmu, "the parameter %s is %g, not a finite number", lag_parameter_names[i],
+                                 (double)fmu->sys.par[i]);
+    for (i = 0; i < LAG_NY; ++i)
+        if (!r_isfinite(fmu->y[i]))
+            return lag_fmu_error(fmu, "the initial %s of %s is %g, not a finite number", i < LAG_NQ ? "value" : "velocity",
+                                 lag_coordinate_names[i % LAG_NQ], (double)fmu->y[i]);
+#if LAG_HAS_TOLERANCES
+    if (fmu->kind == LAG_FMU_CS && !(fmu->options.rtol > 0 || fmu->options.atol > 0))
+        return lag_fmu_error(fmu, "integrator.rtol and integrator.atol cannot both be 0");
+    if (fmu->kind == LAG_FMU_CS && fmu->options.rtol < LAG_RTOL_FLOOR) {
+        lag_fmu_log(fmu, LAG_FMU_WARNING, LAG_FMU_LOG_WARNING, "integrator.rtol = %g is below %d eps; raised to %g",
+                    (double)fmu->options.rtol, LAG_RTOL_FLOOR_EPS, (double)LAG_RTOL_FLOOR);
+        fmu->options.rtol = LAG_RTOL_FLOOR;
+    }
+#endif
+    return LAG_FMU_OK;
+}
 
 /* fmi2EnterInitializationMode, fmi3EnterInitializationMode. */
 static int lag_fmu_enter_initialization(lag_fmu *fmu, const char *function)
