@@ -28,7 +28,7 @@ from .errors import LagError, Setting
 from .run.cache import cached_entry
 from .run.toolchain import compile_c, find_compiler
 
-FMI_VERSIONS = (2,)
+FMI_VERSIONS = (2, 3)
 # Portable (no -march=native: the FMU travels), exported symbols the FMI functions only, no
 # symbol table (it would name the temporary build directory: the bytes would differ per build).
 FMU_FLAGS = ("-std=c99", "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-s")

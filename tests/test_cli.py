@@ -103,21 +103,28 @@ def test_emit_writes_source(tmp_path, language):
     assert "Kepler" in out.read_text()
 
 
-def test_emit_fmu_writes_an_fmi2_archive(tmp_path):
+def test_emit_fmu_writes_an_fmi_archive(tmp_path):
     out = tmp_path / "Kepler.fmu"
     done = lagc(MODELS / "kepler.lag", "--emit", "fmu", "--kind", "cs", "-o", out)
     assert done.returncode == 0, done.stderr
     with zipfile.ZipFile(out) as archive:
         names = archive.namelist()
         description = archive.read("modelDescription.xml").decode()
-    assert "modelDescription.xml" in names and any(name.startswith("binaries/linux64/") for name in names)
+    assert "modelDescription.xml" in names and any(name.startswith("binaries/") for name in names)
     assert 'fmiVersion="2.0"' in description and "<CoSimulation" in description and "<ModelExchange" not in description
+    done = lagc(MODELS / "kepler.lag", "--emit", "fmu", "--fmi", "3", "--kind", "me", "-o", out)
+    assert done.returncode == 0, done.stderr
+    with zipfile.ZipFile(out) as archive:
+        names = archive.namelist()
+        description = archive.read("modelDescription.xml").decode()
+    assert "sources/buildDescription.xml" in names and any(name.startswith("binaries/") for name in names)
+    assert 'fmiVersion="3.0"' in description and "<ModelExchange" in description and "<CoSimulation" not in description
 
 
 @pytest.mark.parametrize("arguments, message", [
     (("--emit", "fmu"), "error: -o: an FMU is a zip archive"),
     (("--emit", "c", "--kind", "me"), "error: --kind: an option of --emit fmu only"),
-    (("--emit", "fmu", "--fmi", "3", "-o", "x.fmu"), "error: --fmi: FMI version 3: lagc exports 2.0 (--fmi 2)")])
+    (("--emit", "fmu", "--fmi", "4", "-o", "x.fmu"), "error: --fmi: FMI version 4: lagc exports 2.0 and 3.0 (--fmi 2 or 3)")])
 def test_emit_fmu_refuses_what_it_cannot_do(tmp_path, arguments, message):
     done = lagc(MODELS / "kepler.lag", *arguments, cwd=tmp_path)
     assert done.returncode == 1 and message in done.stderr and "Traceback" not in done.stderr

@@ -10,7 +10,7 @@ another scene, another kind or another version of FMI.
 The C source is the scene's generated C file (codegen/c.py) with the FMU's part in place of the
 shared library's entry points and the standalone program: the variable table, the log
 categories and the option checks generated here, then integrators/c/fmu.c, fmu_values.c,
-fmu_run.c and fmi2.c.
+fmu_run.c and the FMI version's entry points (FMI_FILES).
 """
 from __future__ import annotations
 
@@ -37,6 +37,8 @@ LOG_CATEGORIES = (("logEvents", "the stop condition, and the integrator beginnin
                   ("logStatusError", "errors: bad calls, bad values, failed steps (always logged)"))
 # Integrator options whose value 0 means "not given" (lag_options in runtime.h).
 UNSET_OPTIONS = {"max_step": "no limit", "max_steps": "the default limit, as lagc run's"}
+# The entry points of each FMI version (integrators/c), pasted after the instance's files.
+FMI_FILES = {2: ("fmi2.c",), 3: ("fmi3.c", "fmi3_run.c")}
 INT32_MAX = 2**31 - 1                 # FMI 2's Integer, FMI 3's Int32
 
 
@@ -219,7 +221,7 @@ def fmu_c_part(kernel, plan: ScenePlan, variables: tuple[FmuVariable, ...], kind
         f"enum lag_fmu_category {{ {categories}, LAG_FMU_NCATEGORIES }};",
         "#define LAG_FMU_CATEGORIES { " + ", ".join(c_string(name) for name, _ in LOG_CATEGORIES) + " }",
         "", _option_refusal(plan), status_formatter(),
-        *(c_file(name) for name in ("fmu.c", "fmu_values.c", "fmu_run.c", f"fmi{version}.c"))])
+        *(c_file(name) for name in ("fmu.c", "fmu_values.c", "fmu_run.c", *FMI_FILES[version]))])
 
 
 def _category_constant(name: str) -> str:

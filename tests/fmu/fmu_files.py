@@ -14,8 +14,9 @@ def load(name: str):
     return lagdsl.load(MODELS / f"{name}.lag")
 
 
-def fmu_file(folder: Path, name: str, scene: str | None = None, kinds: tuple[str, ...] | None = None) -> Path:
-    """The FMU of a library model's scene, written to `folder` (FMI 2.0)."""
-    path = folder / f"{name}.{scene or 'first'}.{'-'.join(kinds or ('default',))}.fmu"
-    path.write_bytes(build_fmu(load(name), scene, 2, kinds))
+def fmu_file(folder: Path, name: str, scene: str | None = None, kinds: tuple[str, ...] | None = None,
+             version: int = 2) -> Path:
+    """The FMU of a library model's scene, written to `folder`."""
+    path = folder / f"{name}.{scene or 'first'}.{'-'.join(kinds or ('default',))}.fmi{version}.fmu"
+    path.write_bytes(build_fmu(load(name), scene, version, kinds))
     return path

@@ -37,27 +37,32 @@ end Projectile;
 """
 
 
-@pytest.fixture(scope="module")
-def double_pendulum(tmp_path_factory):
-    return str(fmu_file(tmp_path_factory.mktemp("fmu"), "double_pendulum"))
+VERSIONS = pytest.mark.parametrize("version", [2, 3])
 
 
+@pytest.fixture(scope="module", params=[2, 3], ids=["fmi2", "fmi3"])
+def double_pendulum(tmp_path_factory, request):
+    return str(fmu_file(tmp_path_factory.mktemp("fmu"), "double_pendulum", version=request.param))
+
+
+@VERSIONS
 @pytest.mark.parametrize("name, scene", [("double_pendulum", None), ("rolling_penny", None), ("pendulum", "symplectic"),
                                          ("bead_on_hoop", None), ("fpu_chain", "implicit")])
-def test_fmpy_finds_no_problem(tmp_path, name, scene):
+def test_fmpy_finds_no_problem(tmp_path, name, scene, version):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", LagWarning)        # a symplectic scene: co-simulation only
-        assert validate_fmu(str(fmu_file(tmp_path, name, scene))) == []
+        assert validate_fmu(str(fmu_file(tmp_path, name, scene, version=version))) == []
 
 
 @pytest.mark.slow
-def test_fmpy_finds_no_problem_in_any_library_model(tmp_path):
+@VERSIONS
+def test_fmpy_finds_no_problem_in_any_library_model(tmp_path, version):
     problems = {}
     for path in sorted(MODELS.glob("*.lag")):
         for scene in load(path.stem).ir.scenes:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", LagWarning)
-                found = validate_fmu(str(fmu_file(tmp_path, path.stem, scene.name)))
+                found = validate_fmu(str(fmu_file(tmp_path, path.stem, scene.name, version=version)))
             if found:
                 problems[f"{path.stem}.{scene.name}"] = found
     assert problems == {}
@@ -86,25 +91,28 @@ def test_model_exchange_under_cvode_agrees_to_its_tolerance(double_pendulum):
         np.testing.assert_allclose(result[column], run[column], rtol=0, atol=1e-7)
 
 
-def test_rolling_penny_keeps_its_constraints_in_co_simulation(tmp_path):
+@VERSIONS
+def test_rolling_penny_keeps_its_constraints_in_co_simulation(tmp_path, version):
     """The nonholonomic rolling conditions: the FMU projects its rows as `lagc run` does, so the
     residuals stay at the run's level (round-off)."""
     run = load("rolling_penny").simulate()
-    result = fmpy.simulate_fmu(str(fmu_file(tmp_path, "rolling_penny", kinds=("cs",))), output_interval=0.01)
+    result = fmpy.simulate_fmu(str(fmu_file(tmp_path, "rolling_penny", kinds=("cs",), version=version)), output_interval=0.01)
     for constraint in ("roll_x", "roll_y"):
         residual = np.max(np.abs(result[f"residual.{constraint}"]))
         assert residual <= max(np.max(np.abs(run[f"residual({constraint})"])), 1e-15)
         np.testing.assert_allclose(result[f"multiplier.{constraint}"], run[f"multiplier({constraint})"], atol=1e-12)
 
 
-def test_stop_condition_ends_the_co_simulation_where_lagc_run_ends(tmp_path):
+@VERSIONS
+def test_stop_condition_ends_the_co_simulation_where_lagc_run_ends(tmp_path, version):
     path = tmp_path / "projectile.lag"
     path.write_text(PROJECTILE)
     model = lagdsl.load(path)
     run = model.simulate()
     fmu = tmp_path / "projectile.fmu"
-    fmu.write_bytes(build_fmu(model))
-    result = fmpy.simulate_fmu(str(fmu), fmi_type="CoSimulation", output_interval=0.1)
+    fmu.write_bytes(build_fmu(model, version=version))
+    early = {"early_return_allowed": True} if version == 3 else {}     # FMI 3: the step ends at the event
+    result = fmpy.simulate_fmu(str(fmu), fmi_type="CoSimulation", output_interval=0.1, **early)
     assert result["time"][-1] == pytest.approx(run.t[-1], abs=1e-12) and run.t[-1] < 2
     np.testing.assert_allclose(result["y"], run["y"], atol=1e-12)
 
@@ -116,9 +124,10 @@ def test_an_export_is_the_same_bytes_and_keeps_its_value_references(tmp_path):
     def references(fmu: bytes) -> dict[str, str]:
         with zipfile.ZipFile(io.BytesIO(fmu)) as archive:
             root = ET.fromstring(archive.read("modelDescription.xml"))
-        return {v.get("name"): v.get("valueReference") for v in root.iter("ScalarVariable")}
+        return {v.get("name"): v.get("valueReference") for v in root.find("ModelVariables")}
 
-    both, co_simulation = references(build_fmu(model)), references(build_fmu(model, kinds=("cs",)))
-    shared = both.keys() & co_simulation.keys()
-    assert {"m2", "theta1", "der(theta1)", "energy"} <= shared
-    assert all(both[name] == co_simulation[name] for name in shared)
+    both = references(build_fmu(model))
+    for other in (references(build_fmu(model, kinds=("cs",))), references(build_fmu(model, version=3))):
+        shared = both.keys() & other.keys()
+        assert {"m2", "theta1", "der(theta1)", "energy"} <= shared
+        assert all(both[name] == other[name] for name in shared)

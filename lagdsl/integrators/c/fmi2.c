@@ -400,7 +400,7 @@ fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boo
 {
     fmi2Status status = lag_fmi2_status(c, "fmi2GetBooleanStatus", s, fmi2Terminated, value);
     if (status == fmi2OK)
-        *value = lag_fmu_terminated(c) ? fmi2True : fmi2False;
+        *value = ((lag_fmu *)c)->terminated ? fmi2True : fmi2False;    /* the stop condition ended the run */
     return status;
 }
 

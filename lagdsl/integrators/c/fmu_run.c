@@ -131,12 +131,6 @@ static int lag_fmu_do_step(lag_fmu *fmu, const char *function, double t, double 
     return LAG_FMU_OK;
 }
 
-/* Whether the stop condition ended the run (fmi2GetBooleanStatus of fmi2Terminated). */
-static int lag_fmu_terminated(const lag_fmu *fmu)
-{
-    return fmu->terminated;
-}
-
 /* fmi2ExitInitializationMode, fmi3ExitInitializationMode: the run begins. In model exchange the
  * state is projected onto the constraints and the instance enters event mode; in co-simulation
  * the integration begins (lag_fmu_begin) and the instance enters step mode. */
