@@ -9,7 +9,7 @@ from lagdsl.fmu import build_fmu
 from tests.conftest import MODELS
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def load(name: str):
     return lagdsl.load(MODELS / f"{name}.lag")
 

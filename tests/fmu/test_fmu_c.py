@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 
 from lagdsl.fmu import build_fmu
-from tests.run.c_harness import STRICT_FLAGS, find_cc
 from tests.fmu.fmu_files import load
+from tests.run.c_harness import STRICT_FLAGS, find_cc
 
 SANITIZERS = ["-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer", "-g"]
 CALLS = {version: Path(__file__).with_name(f"fmi{version}_calls.c") for version in (2, 3)}
