@@ -103,22 +103,18 @@ def test_emit_writes_source(tmp_path, language):
     assert "Kepler" in out.read_text()
 
 
-def test_emit_fmu_writes_an_fmi_archive(tmp_path):
+@pytest.mark.parametrize("options, version, kind, other, entry", [
+    (("--kind", "cs"), "2.0", "CoSimulation", "ModelExchange", "modelDescription.xml"),
+    (("--fmi", "3", "--kind", "me"), "3.0", "ModelExchange", "CoSimulation", "sources/buildDescription.xml")])
+def test_emit_fmu_writes_an_fmi_archive(tmp_path, options, version, kind, other, entry):
     out = tmp_path / "Kepler.fmu"
-    done = lagc(MODELS / "kepler.lag", "--emit", "fmu", "--kind", "cs", "-o", out)
+    done = lagc(MODELS / "kepler.lag", "--emit", "fmu", *options, "-o", out)
     assert done.returncode == 0, done.stderr
     with zipfile.ZipFile(out) as archive:
         names = archive.namelist()
         description = archive.read("modelDescription.xml").decode()
-    assert "modelDescription.xml" in names and any(name.startswith("binaries/") for name in names)
-    assert 'fmiVersion="2.0"' in description and "<CoSimulation" in description and "<ModelExchange" not in description
-    done = lagc(MODELS / "kepler.lag", "--emit", "fmu", "--fmi", "3", "--kind", "me", "-o", out)
-    assert done.returncode == 0, done.stderr
-    with zipfile.ZipFile(out) as archive:
-        names = archive.namelist()
-        description = archive.read("modelDescription.xml").decode()
-    assert "sources/buildDescription.xml" in names and any(name.startswith("binaries/") for name in names)
-    assert 'fmiVersion="3.0"' in description and "<ModelExchange" in description and "<CoSimulation" not in description
+    assert entry in names and any(name.startswith("binaries/") for name in names)
+    assert f'fmiVersion="{version}"' in description and f"<{kind}" in description and f"<{other}" not in description
 
 
 @pytest.mark.parametrize("arguments, message", [
