@@ -11,7 +11,7 @@ from fractions import Fraction
 
 from .. import ir
 from ..source import SourceFile, Span
-from ..units import SI_SYMBOLS, Dimension, angle_power, dimension, parse_unit, si_factor, unit_dimension
+from ..frontend.units import SI_SYMBOLS, Dimension, angle_power, dimension, parse_unit, si_factor, unit_dimension
 
 UNKNOWN = "?"
 
