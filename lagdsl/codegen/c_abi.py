@@ -75,8 +75,35 @@ def status_printer() -> str:
         "}", ""])
 
 
-def _printf(status: Status) -> str:
-    """The fprintf of the status's message and detail: Python's format fields as printf's."""
+def status_formatter() -> str:
+    """lag_format_status, lag_print_status into a buffer (an FMU's log, codegen/fmu.py), and
+    lag_status_remedy, each status's remedy."""
+    cases, remedies = [], []
+    for status in [*STATUSES.values(), UNKNOWN_STATUS]:
+        label = f"case {status.c_name}:" if status.c_name else "default:"
+        cases += [f"    {label}", f"        {_printf(status, 'snprintf(buffer, size')}", "        break;"]
+        remedies += [f"    {label}", f"        return {c_string(status.remedy)};"]
+    return "\n".join([
+        "/* lag_print_status's words into `buffer` (of `size` bytes). */",
+        "static void lag_format_status(char *buffer, size_t size, int status, long max_steps, double rcond)",
+        "{",
+        "    switch (status) {",
+        *cases,
+        "    }",
+        "}",
+        "",
+        "/* What to try after a run failed with `status` (lagdsl.abi.STATUSES). */",
+        "static const char *lag_status_remedy(int status)",
+        "{",
+        "    switch (status) {",
+        *remedies,
+        "    }",
+        "}", ""])
+
+
+def _printf(status: Status, call: str = "fprintf(file") -> str:
+    """The printf (`call`, up to its format) of the status's message and detail: Python's format
+    fields as printf's."""
     text, arguments = "", []
     for literal, name, spec in format_fields(status.message + status.detail):
         text += literal.replace("%", "%%")
@@ -84,7 +111,7 @@ def _printf(status: Status) -> str:
             argument, conversion = MESSAGE_ARGUMENTS[name]
             text += f"%{spec}" if spec else conversion
             arguments.append(argument)
-    return f"fprintf(file, {', '.join([c_string(text), *arguments])});"
+    return f"{call}, {', '.join([c_string(text), *arguments])});"
 
 
 def summary_packer(layout: SummaryLayout) -> str:

@@ -119,6 +119,7 @@ typedef struct lag_options {
     real h;                 \
     stats_type stats;
 
+#ifndef LAG_FMU     /* an FMU reads and writes no text of numbers (codegen/fmu.py) */
 /* Reading and writing numbers in the working precision (the CSV and the command line). */
 #if defined(LAG_FLOAT128)
 #define r_strtod(text, end) strtoflt128((text), (end))
@@ -144,6 +145,7 @@ static void lag_print_real(FILE *file, real x)
     else
         lag_print_number(file, x);
 }
+#endif
 
 /* ---- the contract with lagdsl's Python side: lagdsl/abi.py and lagdsl/settings.py ---- */
 /* How a run ends: the status codes of the model functions, the integrators and the driver. */
@@ -1649,25 +1651,25 @@ static int lag_advance(lag_system *sys, lag_stepper *stepper, real tk, real *e_o
     return status;
 }
 
-/* The row at tk, which the stepper has reached: its state, or its dense output (projected). */
-static int lag_deliver_at(lag_system *sys, lag_stepper *stepper, real tk, lag_sink sink, void *context,
-                          lag_report *report)
+/* The state at tk, which the stepper has reached: its own, or its dense output (projected). */
+static int lag_state_at(lag_system *sys, lag_stepper *stepper, real tk, real *y)
 {
-    real y[LAG_NY];
     int status;
 #if LAG_HAS_CONSTRAINTS
     real moved;
+#else
+    (void)sys;
 #endif
-    if (tk == stepper->t)
-        return lag_deliver(sys, tk, stepper->y, sink, context, report);
+    if (tk == stepper->t) {
+        memcpy(y, stepper->y, sizeof(real) * LAG_NY);
+        return LAG_OK;
+    }
     status = lag_stepper_dense(stepper, tk, y);
 #if LAG_HAS_CONSTRAINTS
     if (status == LAG_OK)
         status = lag_project(sys, tk, y, &moved);    /* output rows lie on the constraints too */
 #endif
-    if (status != LAG_OK)
-        return status;
-    return lag_deliver(sys, tk, y, sink, context, report);
+    return status;
 }
 
 /* The first row, at t0 from y0 (projected onto the constraints); the stop condition may hold
@@ -1694,6 +1696,18 @@ static int lag_start(lag_system *sys, real t0, real *y, real *e_old, long *last,
     (void)last;
 #endif
     return status;
+}
+
+#ifndef LAG_FMU     /* an FMU steps from one communication point to the next (fmu_run.c) */
+/* The row at tk, which the stepper has reached (lag_state_at). */
+static int lag_deliver_at(lag_system *sys, lag_stepper *stepper, real tk, lag_sink sink, void *context,
+                          lag_report *report)
+{
+    real y[LAG_NY];
+    int status = lag_state_at(sys, stepper, tk, y);
+    if (status != LAG_OK)
+        return status;
+    return lag_deliver(sys, tk, y, sink, context, report);
 }
 
 /* The report of a run that ended with `status` where the stepper stands. */
@@ -1750,6 +1764,7 @@ static int lag_integrate(lag_system *sys, const real *y0, real t0, real t1, real
     free(stepper);
     return status;
 }
+#endif
 
 /* The run summary as lagdsl.abi.SummaryLayout lays it out for this scene: doubles, field by field. */
 #define LAG_SUMMARY_SIZE 26
