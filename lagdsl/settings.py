@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 
 from .errors import LagError, LagWarning, Setting, suggest
 from .integrators import registry
-from .integrators.registry import OPTION_ORDER, OPTIONS
+from .integrators.registry import MAX_STEPS_CEILING, OPTION_ORDER, OPTIONS
 from .source import Span
 
 # Integrator settings that can be given outside the model file (`lagc run --rtol`, `simulate(rtol=)`).
@@ -90,12 +90,18 @@ def grid_rows(start: float, stop: float, interval: float) -> int:
 
 
 def step_limit(integrator: IntegratorChoice, time: TimeGrid) -> int:
-    """The most steps (accepted + rejected) a run may take: the integrator's max_steps, or by
-    default DEFAULT_MAX_STEPS (as in Hairer's codes) or STEPS_PER_ROW per output row, whichever is
-    larger (the C driver's lag_step_limit)."""
-    given = dict(integrator.options).get("max_steps")
-    return int(given) if given else max(DEFAULT_MAX_STEPS, STEPS_PER_ROW * grid_rows(time.start, time.stop,
-                                                                                    time.interval))
+    """The most steps (accepted + rejected) a run may take (the C driver's lag_step_limit): the
+    integrator's max_steps if given; for a fixed step h, the steps it implies, which are the
+    user's own count: floor((stop - start) / h) + 1, and one more a row where a step is cut to land
+    on it; else DEFAULT_MAX_STEPS (as in Hairer's codes) or STEPS_PER_ROW per output row,
+    whichever is larger."""
+    options = dict(integrator.options)
+    rows = grid_rows(time.start, time.stop, time.interval)
+    if options.get("max_steps"):
+        return int(options["max_steps"])
+    if options.get("step", 0) > 0:
+        return min(math.floor((time.stop - time.start) / options["step"]) + 1 + rows, MAX_STEPS_CEILING)
+    return max(DEFAULT_MAX_STEPS, STEPS_PER_ROW * rows)
 
 
 class IntegratorTraits:

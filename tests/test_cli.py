@@ -11,6 +11,7 @@ import subprocess
 import sys
 import threading
 import time
+import zipfile
 from pathlib import Path
 
 import pytest
@@ -104,6 +105,30 @@ def test_emit_writes_source(tmp_path, language):
     done = lagc(MODELS / "kepler.lag", "--emit", language, "-o", out)
     assert done.returncode == 0, done.stderr
     assert "Kepler" in out.read_text()
+
+
+@pytest.mark.parametrize("options, version, kind, other, entry", [
+    (("--kind", "cs"), "2.0", "CoSimulation", "ModelExchange", "modelDescription.xml"),
+    (("--fmi", "3", "--kind", "me"), "3.0", "ModelExchange", "CoSimulation", "sources/buildDescription.xml")])
+def test_emit_fmu_writes_an_fmi_archive(tmp_path, options, version, kind, other, entry):
+    out = tmp_path / "Kepler.fmu"
+    done = lagc(MODELS / "kepler.lag", "--emit", "fmu", *options, "-o", out)
+    assert done.returncode == 0, done.stderr
+    with zipfile.ZipFile(out) as archive:
+        names = archive.namelist()
+        description = archive.read("modelDescription.xml").decode()
+    assert entry in names and any(name.startswith("binaries/") for name in names)
+    assert f'fmiVersion="{version}"' in description and f"<{kind}" in description and f"<{other}" not in description
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (("--emit", "fmu"), "error: -o: an FMU is a zip archive"),
+    (("--emit", "c", "--kind", "me"), "error: --kind: an option of --emit fmu only"),
+    (("--emit", "fmu", "--fmi", "4", "-o", "x.fmu"), "error: --fmi: FMI version 4: lagc exports 2.0 and 3.0 (--fmi 2 or 3)")])
+def test_emit_fmu_refuses_what_it_cannot_do(tmp_path, arguments, message):
+    done = lagc(MODELS / "kepler.lag", *arguments, cwd=tmp_path)
+    assert done.returncode == 1 and message in done.stderr and "Traceback" not in done.stderr
+    assert not (tmp_path / "x.fmu").exists()
 
 
 # ---- bounded, interruptible runs; checked inputs (tests/run/test_bounds.py has the API side) ----

@@ -22,9 +22,9 @@ from .. import __version__
 from ..errors import LagError, LagWarning, SimulationError
 from ..escape import visible
 from ..run.interrupt import terminate_as_interrupt
-from . import animate, bench, common, describe, fit, modes, simulate, sweep
+from . import animate, bench, common, describe, emit, fit, modes, simulate, sweep
 
-COMMANDS = (describe, simulate, animate, sweep, bench, modes, fit)    # each adds its subcommands to the parser
+COMMANDS = (describe, emit, simulate, animate, sweep, bench, modes, fit)    # each adds its subcommands to the parser
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -73,7 +73,8 @@ def _dispatch(argv: list[str]) -> int:
 def _parser() -> tuple[argparse.ArgumentParser, argparse._SubParsersAction]:
     parser = argparse.ArgumentParser(
         prog="lagc", description="Compile Lagrangian models (.lag) to equations of motion, code and simulations.",
-        epilog="Write `lagc MODEL.lag --emit c|numpy [-o FILE] [--scene S]` to emit source code.")
+        epilog="Write `lagc MODEL.lag --emit c|numpy [-o FILE] [--scene S]` to emit source code, "
+               "`lagc MODEL.lag --emit fmu -o Model.fmu [--fmi 2|3] [--kind cs|me|both]` for an FMU.")
     parser.add_argument("--version", action="version", version=f"lagc {__version__}")
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for command in COMMANDS:

@@ -1,12 +1,11 @@
-"""The commands that show a model rather than run it: `lagc check`, `lagc eom`, `lagc MODEL
---emit c|numpy`, and `lagc cache` for the build cache."""
+"""The commands that show a model rather than run it: `lagc check`, `lagc eom`, and `lagc cache`
+for the build cache."""
 from __future__ import annotations
 
 import sys
 
 from ..escape import visible
 from ..run import cache
-from ..run.files import check_writable
 from ..source import SourceFile
 from . import common
 
@@ -24,21 +23,6 @@ def add(commands) -> None:
     cache_command_parser = commands.add_parser("cache", help="show where the build cache is and its size, or empty it")
     cache_command_parser.add_argument("action", choices=("info", "clear"))
     cache_command_parser.set_defaults(handler=cache_command)
-
-    emit_parser = commands.add_parser("emit", help="write the generated source: lagc MODEL --emit c|numpy [-o FILE]")
-    emit_parser.add_argument("model")
-    emit_parser.add_argument("--emit", required=True, choices=("c", "numpy"), dest="language")
-    common.scene_options(emit_parser)
-    emit_parser.add_argument("-o", "--output", help="file to write (default: standard output)")
-    emit_parser.set_defaults(handler=emit)
-
-
-def emit(arguments) -> int:
-    if arguments.output is not None:
-        check_writable(arguments.output, arguments.model)
-    model = common.load_model(SourceFile.read(arguments.model))
-    common.deliver(model.emit(arguments.language, arguments.scene).text, arguments.output)
-    return 0
 
 
 def check(arguments) -> int:

@@ -30,7 +30,9 @@ FUNCTION_PARAMETERS = {
 }
 
 
-def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
+def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = None) -> GeneratedSource:
+    """The scene's C file: with `fmu` (the FMU's variables and FMI functions, codegen/fmu.py) in place
+    of the shared library's entry points and the standalone program."""
     printer = CPrinter()
     blocks = {name: _print_block(getattr(kernel, name), signature(kernel, name), kernel, printer)
               for name in FUNCTION_PARAMETERS if getattr(kernel, name) is not None}
@@ -67,7 +69,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
         "t_interval": _literal(kernel.time.interval),
         "options_init": _options_initializer(options),
         "option_fields": _option_fields(method.options),
-        "stop_text": kernel.stop_text, "stop": None, "constant_mass": None,      # blocks a scene may not have (below)
+        "fmu": fmu, "stop_text": kernel.stop_text, "stop": None, "constant_mass": None,      # blocks a scene may not have (below)
         **_gram_tables(kernel),
         **blocks,
     }

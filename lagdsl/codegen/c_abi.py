@@ -11,6 +11,7 @@ from ..abi import SETTINGS, STATUSES, UNKNOWN_STATUS, Status, SummaryLayout, for
 from ..escape import c_comment, c_string
 from ..frontend.functions import LIBM_TABLE_MARKER, libm_table
 from ..integrators import COUNTER_LABELS, SWITCH_TIMES, c_file
+from ..integrators.registry import MAX_STEPS_CEILING
 from ..settings import (DEFAULT_MAX_STEPS, GRID_SLACK, MAX_ROWS, MIN_STEP_EPS, RCOND_MIN_EPS, RTOL_FLOOR_EPS,
                         STEPS_PER_ROW)
 
@@ -20,6 +21,7 @@ SHARED_CONSTANTS = (
     ("LAG_MAX_ROWS", f"{MAX_ROWS}L", "the largest output grid, in rows"),
     ("LAG_DEFAULT_MAX_STEPS", f"{DEFAULT_MAX_STEPS}L", "the default step limit, or ..."),
     ("LAG_STEPS_PER_ROW", f"{STEPS_PER_ROW}L", "... this many steps per output row"),
+    ("LAG_MAX_STEPS_CEILING", f"{MAX_STEPS_CEILING}L", "the largest step limit, given or implied by a fixed step"),
     ("LAG_GRID_SLACK", f"LAG_LIT({GRID_SLACK!r})", "a grid time within this many intervals of t1 is t1"),
     ("LAG_RTOL_FLOOR_EPS", f"{RTOL_FLOOR_EPS}", "the smallest rtol, in eps ..."),
     ("LAG_RTOL_FLOOR", "(LAG_RTOL_FLOOR_EPS * REAL_EPSILON)", "... and as a number"),
@@ -73,8 +75,35 @@ def status_printer() -> str:
         "}", ""])
 
 
-def _printf(status: Status) -> str:
-    """The fprintf of the status's message and detail: Python's format fields as printf's."""
+def status_formatter() -> str:
+    """lag_format_status, lag_print_status into a buffer (an FMU's log, codegen/fmu.py), and
+    lag_status_remedy, each status's remedy."""
+    cases, remedies = [], []
+    for status in [*STATUSES.values(), UNKNOWN_STATUS]:
+        label = f"case {status.c_name}:" if status.c_name else "default:"
+        cases += [f"    {label}", f"        {_printf(status, 'snprintf(buffer, size')}", "        break;"]
+        remedies += [f"    {label}", f"        return {c_string(status.remedy)};"]
+    return "\n".join([
+        "/* lag_print_status's words into `buffer` (of `size` bytes). */",
+        "static void lag_format_status(char *buffer, size_t size, int status, long max_steps, double rcond)",
+        "{",
+        "    switch (status) {",
+        *cases,
+        "    }",
+        "}",
+        "",
+        "/* What to try after a run failed with `status` (lagdsl.abi.STATUSES). */",
+        "static const char *lag_status_remedy(int status)",
+        "{",
+        "    switch (status) {",
+        *remedies,
+        "    }",
+        "}", ""])
+
+
+def _printf(status: Status, call: str = "fprintf(file") -> str:
+    """The printf (`call`, up to its format) of the status's message and detail: Python's format
+    fields as printf's."""
     text, arguments = "", []
     for literal, name, spec in format_fields(status.message + status.detail):
         text += literal.replace("%", "%%")
@@ -82,7 +111,7 @@ def _printf(status: Status) -> str:
             argument, conversion = MESSAGE_ARGUMENTS[name]
             text += f"%{spec}" if spec else conversion
             arguments.append(argument)
-    return f"fprintf(file, {', '.join([c_string(text), *arguments])});"
+    return f"{call}, {', '.join([c_string(text), *arguments])});"
 
 
 def summary_packer(layout: SummaryLayout) -> str:

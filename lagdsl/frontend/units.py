@@ -264,3 +264,9 @@ class _UnitParser:
         if kind == "number":
             self.fail(f"unexpected '{text}' in unit: the only number allowed is 1, as in [1/s], or an exponent")
         self.fail(f"unexpected '{text}' in unit: expected a unit name")
+
+
+def angle_power(unit: Unit) -> Fraction:
+    """The power of angle units in `unit`: 1 for [rad/s], -1 for [1/deg] (the dimension leaves
+    angles out: they are dimensionless)."""
+    return sum((Fraction(power) for name, power in unit.factors if _named_unit(name)[2]), Fraction(0))

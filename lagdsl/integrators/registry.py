@@ -30,6 +30,9 @@ class Option:
         return self.name.replace("_", "-")
 
 
+# The largest step limit: the most a run may be given (--max-steps), and the most a fixed step implies.
+MAX_STEPS_CEILING = 10**15
+
 OPTIONS: dict[str, Option] = {option.name: option for option in (
     Option("rtol", "relative tolerance (adaptive integrators)", "a finite number >= 0",
            lambda v: 0 <= v < math.inf, "r_isfinite(value) && value >= 0"),
@@ -41,9 +44,10 @@ OPTIONS: dict[str, Option] = {option.name: option for option in (
            lambda v: 0 < v < math.inf, "r_isfinite(value) && value > 0"),
     Option("stages", "Gauss-Legendre stages (gauss: order 2s)", "a whole number from 1 to 6",
            lambda v: 1 <= v <= 6 and v == int(v), "value >= 1 && value <= 6 && value == r_floor(value)", "(int)"),
-    Option("max_steps", "the step limit (accepted + rejected steps)", "a whole number from 1 to 1e15",
-           lambda v: 1 <= v <= 1e15 and v == int(v),
-           "value >= 1 && value <= LAG_LIT(1e15) && value == r_floor(value)", "(long)"),
+    Option("max_steps", "the step limit (accepted + rejected steps)",
+           "a whole number from 1 to " + f"{MAX_STEPS_CEILING:.0e}".replace("e+", "e"),
+           lambda v: 1 <= v <= MAX_STEPS_CEILING and v == int(v),
+           "value >= 1 && value <= (real)LAG_MAX_STEPS_CEILING && value == r_floor(value)", "(long)"),
 )}
 # The order of the options in lag_options, the settings array of lag_run and the run summary.
 OPTION_ORDER = ("rtol", "atol", "step", "max_step", "stages", "max_steps")

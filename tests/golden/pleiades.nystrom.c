@@ -119,6 +119,7 @@ typedef struct lag_options {
     real h;                 \
     stats_type stats;
 
+#ifndef LAG_FMU     /* an FMU reads and writes no text of numbers (codegen/fmu.py) */
 /* Reading and writing numbers in the working precision (the CSV and the command line). */
 #if defined(LAG_FLOAT128)
 #define r_strtod(text, end) strtoflt128((text), (end))
@@ -144,6 +145,7 @@ static void lag_print_real(FILE *file, real x)
     else
         lag_print_number(file, x);
 }
+#endif
 
 /* ---- the contract with lagdsl's Python side: lagdsl/abi.py and lagdsl/settings.py ---- */
 /* How a run ends: the status codes of the model functions, the integrators and the driver. */
@@ -162,6 +164,7 @@ enum lag_status {
 #define LAG_MAX_ROWS 10000000L                   /* the largest output grid, in rows */
 #define LAG_DEFAULT_MAX_STEPS 100000L            /* the default step limit, or ... */
 #define LAG_STEPS_PER_ROW 100L                   /* ... this many steps per output row */
+#define LAG_MAX_STEPS_CEILING 1000000000000000L  /* the largest step limit, given or implied by a fixed step */
 #define LAG_GRID_SLACK LAG_LIT(1e-09)            /* a grid time within this many intervals of t1 is t1 */
 #define LAG_RTOL_FLOOR_EPS 10                    /* the smallest rtol, in eps ... */
 #define LAG_RTOL_FLOOR (LAG_RTOL_FLOOR_EPS * REAL_EPSILON) /* ... and as a number */
@@ -1264,12 +1267,19 @@ static long lag_last_row(real t0, real t1, real dt)
     return ratio - last > LAG_GRID_SLACK || last == 0 ? last + 1 : last;
 }
 
-/* The step limit of a run whose final row is `last`: `given`, else LAG_DEFAULT_MAX_STEPS (as in
- * Hairer's codes) or LAG_STEPS_PER_ROW per output row, whichever is larger. */
-static long lag_step_limit(long given, long last)
+/* The step limit of a run from t0 to t1 whose final row is `last`: the options' max_steps if
+ * given; for a fixed step (options->step > 0: rk4, gauss), the steps it implies, the user's own
+ * count (one a step, and one more a row where a step is cut to land on it); else
+ * LAG_DEFAULT_MAX_STEPS (as in Hairer's codes) or LAG_STEPS_PER_ROW per output row, whichever is
+ * larger (settings.step_limit). */
+static long lag_step_limit(const lag_options *options, real t0, real t1, long last)
 {
-    if (given > 0)
-        return given;
+    if (options->max_steps > 0)
+        return options->max_steps;
+    if (options->step > 0) {
+        real implied = r_floor((t1 - t0) / options->step) + 2 + last;
+        return implied < (real)LAG_MAX_STEPS_CEILING ? (long)implied : LAG_MAX_STEPS_CEILING;
+    }
     return last + 1 > LAG_DEFAULT_MAX_STEPS / LAG_STEPS_PER_ROW ? LAG_STEPS_PER_ROW * (last + 1) : LAG_DEFAULT_MAX_STEPS;
 }
 
@@ -1309,25 +1319,25 @@ static int lag_advance(lag_system *sys, lag_stepper *stepper, real tk, real *e_o
     return status;
 }
 
-/* The row at tk, which the stepper has reached: its state, or its dense output (projected). */
-static int lag_deliver_at(lag_system *sys, lag_stepper *stepper, real tk, lag_sink sink, void *context,
-                          lag_report *report)
+/* The state at tk, which the stepper has reached: its own, or its dense output (projected). */
+static int lag_state_at(lag_system *sys, lag_stepper *stepper, real tk, real *y)
 {
-    real y[LAG_NY];
     int status;
 #if LAG_HAS_CONSTRAINTS
     real moved;
+#else
+    (void)sys;
 #endif
-    if (tk == stepper->t)
-        return lag_deliver(sys, tk, stepper->y, sink, context, report);
+    if (tk == stepper->t) {
+        memcpy(y, stepper->y, sizeof(real) * LAG_NY);
+        return LAG_OK;
+    }
     status = lag_stepper_dense(stepper, tk, y);
 #if LAG_HAS_CONSTRAINTS
     if (status == LAG_OK)
         status = lag_project(sys, tk, y, &moved);    /* output rows lie on the constraints too */
 #endif
-    if (status != LAG_OK)
-        return status;
-    return lag_deliver(sys, tk, y, sink, context, report);
+    return status;
 }
 
 /* The first row, at t0 from y0 (projected onto the constraints); the stop condition may hold
@@ -1354,6 +1364,18 @@ static int lag_start(lag_system *sys, real t0, real *y, real *e_old, long *last,
     (void)last;
 #endif
     return status;
+}
+
+#ifndef LAG_FMU     /* an FMU steps from one communication point to the next (fmu_run.c) */
+/* The row at tk, which the stepper has reached (lag_state_at). */
+static int lag_deliver_at(lag_system *sys, lag_stepper *stepper, real tk, lag_sink sink, void *context,
+                          lag_report *report)
+{
+    real y[LAG_NY];
+    int status = lag_state_at(sys, stepper, tk, y);
+    if (status != LAG_OK)
+        return status;
+    return lag_deliver(sys, tk, y, sink, context, report);
 }
 
 /* The report of a run that ended with `status` where the stepper stands. */
@@ -1389,7 +1411,7 @@ static int lag_integrate(lag_system *sys, const real *y0, real t0, real t1, real
     memset(stepper, 0, sizeof *stepper);
     stepper->t = t0;           /* where a failure before the first step (projecting y0) is reported */
     memcpy(stepper->y, y, sizeof stepper->y);
-    limited.max_steps = lag_step_limit(options->max_steps, last);
+    limited.max_steps = lag_step_limit(options, t0, t1, last);
     lag_progress_t = (double)t0;
     status = lag_start(sys, t0, y, &e_old, &last, sink, context, report);
     if (status == LAG_OK)
@@ -1410,6 +1432,7 @@ static int lag_integrate(lag_system *sys, const real *y0, real t0, real t1, real
     free(stepper);
     return status;
 }
+#endif
 
 /* The run summary as lagdsl.abi.SummaryLayout lays it out for this scene: doubles, field by field. */
 #define LAG_SUMMARY_SIZE 37
@@ -1609,7 +1632,7 @@ static int lag_option_setting(const char *program, const char *text, const char 
         return 1;
     }
     if (strncmp(text, "max-steps=", 10) == 0) {
-        if (!(value >= 1 && value <= LAG_LIT(1e15) && value == r_floor(value))) {
+        if (!(value >= 1 && value <= (real)LAG_MAX_STEPS_CEILING && value == r_floor(value))) {
             fprintf(stderr, "%s: --max-steps must be a whole number from 1 to 1e15, got '%s'\n", program, equals + 1);
             return -1;
         }
@@ -2085,7 +2108,7 @@ static int lag_batch_main(const char *program, const lag_member *given, real t0,
     settings[LAG_SET_STEP] = (double)options->step;
     settings[LAG_SET_MAX_STEP] = (double)options->max_step;
     settings[LAG_SET_STAGES] = options->stages;
-    settings[LAG_SET_MAX_STEPS] = (double)lag_step_limit(options->max_steps, last);
+    settings[LAG_SET_MAX_STEPS] = (double)lag_step_limit(options, t0, t1, last);
     if (lag_read_members(program, given, &members)) {
         lag_print_header(1);
         lag_catch_interrupt();    /* members in flight stop, the others are not begun */
@@ -2288,7 +2311,7 @@ int main(int argc, char **argv)
     lag_catch_interrupt();    /* stop between two steps, keeping the rows written so far */
     clock_start = clock();
     lag_integrate(&sys, y0, grid[0], grid[1], grid[2], &options, lag_print_row, NULL, &report);
-    return lag_print_summary(&report, &options, lag_step_limit(options.max_steps, lag_last_row(grid[0], grid[1], grid[2])),
+    return lag_print_summary(&report, &options, lag_step_limit(&options, grid[0], grid[1], lag_last_row(grid[0], grid[1], grid[2])),
                              (double)(clock() - clock_start) / CLOCKS_PER_SEC);
 }
 

@@ -220,9 +220,13 @@ def test_max_step_is_honoured(oscillator, backend):
     assert result.summary.count("accepted") >= 100
 
 
-def test_a_fixed_step_run_over_the_limit_is_refused_before_it_starts(oscillator):
-    with pytest.raises(LagError, match="would take 1e\\+06 steps .* more than the step limit of 100000"):
-        oscillator.simulate(integrator="rk4", step=1e-6)
+def test_a_fixed_step_run_takes_the_steps_its_step_implies(oscillator):
+    """A fixed step fixes the count (here 5e5, over the default limit of 1e5 that an adaptive run
+    has): no default limit refuses it. A limit given below the count refuses it before it starts."""
+    result = oscillator.simulate(integrator="rk4", step=2e-6)
+    assert result.t[-1] == 1.0 and result.summary.count("accepted") == 500000
+    with pytest.raises(LagError, match="would take 5e\\+05 steps .* more than the step limit of 1000"):
+        oscillator.simulate(integrator="rk4", step=2e-6, max_steps=1000)
     assert len(oscillator.simulate(integrator="rk4", step=1e-3, max_steps=1000).t) == 5
 
 

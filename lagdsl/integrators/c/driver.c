@@ -209,12 +209,19 @@ static long lag_last_row(real t0, real t1, real dt)
     return ratio - last > LAG_GRID_SLACK || last == 0 ? last + 1 : last;
 }
 
-/* The step limit of a run whose final row is `last`: `given`, else LAG_DEFAULT_MAX_STEPS (as in
- * Hairer's codes) or LAG_STEPS_PER_ROW per output row, whichever is larger. */
-static long lag_step_limit(long given, long last)
+/* The step limit of a run from t0 to t1 whose final row is `last`: the options' max_steps if
+ * given; for a fixed step (options->step > 0: rk4, gauss), the steps it implies, the user's own
+ * count (one a step, and one more a row where a step is cut to land on it); else
+ * LAG_DEFAULT_MAX_STEPS (as in Hairer's codes) or LAG_STEPS_PER_ROW per output row, whichever is
+ * larger (settings.step_limit). */
+static long lag_step_limit(const lag_options *options, real t0, real t1, long last)
 {
-    if (given > 0)
-        return given;
+    if (options->max_steps > 0)
+        return options->max_steps;
+    if (options->step > 0) {
+        real implied = r_floor((t1 - t0) / options->step) + 2 + last;
+        return implied < (real)LAG_MAX_STEPS_CEILING ? (long)implied : LAG_MAX_STEPS_CEILING;
+    }
     return last + 1 > LAG_DEFAULT_MAX_STEPS / LAG_STEPS_PER_ROW ? LAG_STEPS_PER_ROW * (last + 1) : LAG_DEFAULT_MAX_STEPS;
 }
 
@@ -254,25 +261,25 @@ static int lag_advance(lag_system *sys, lag_stepper *stepper, real tk, real *e_o
     return status;
 }
 
-/* The row at tk, which the stepper has reached: its state, or its dense output (projected). */
-static int lag_deliver_at(lag_system *sys, lag_stepper *stepper, real tk, lag_sink sink, void *context,
-                          lag_report *report)
+/* The state at tk, which the stepper has reached: its own, or its dense output (projected). */
+static int lag_state_at(lag_system *sys, lag_stepper *stepper, real tk, real *y)
 {
-    real y[LAG_NY];
     int status;
 #if LAG_HAS_CONSTRAINTS
     real moved;
+#else
+    (void)sys;
 #endif
-    if (tk == stepper->t)
-        return lag_deliver(sys, tk, stepper->y, sink, context, report);
+    if (tk == stepper->t) {
+        memcpy(y, stepper->y, sizeof(real) * LAG_NY);
+        return LAG_OK;
+    }
     status = lag_stepper_dense(stepper, tk, y);
 #if LAG_HAS_CONSTRAINTS
     if (status == LAG_OK)
         status = lag_project(sys, tk, y, &moved);    /* output rows lie on the constraints too */
 #endif
-    if (status != LAG_OK)
-        return status;
-    return lag_deliver(sys, tk, y, sink, context, report);
+    return status;
 }
 
 /* The first row, at t0 from y0 (projected onto the constraints); the stop condition may hold
@@ -299,6 +306,18 @@ static int lag_start(lag_system *sys, real t0, real *y, real *e_old, long *last,
     (void)last;
 #endif
     return status;
+}
+
+#ifndef LAG_FMU     /* an FMU steps from one communication point to the next (fmu_run.c) */
+/* The row at tk, which the stepper has reached (lag_state_at). */
+static int lag_deliver_at(lag_system *sys, lag_stepper *stepper, real tk, lag_sink sink, void *context,
+                          lag_report *report)
+{
+    real y[LAG_NY];
+    int status = lag_state_at(sys, stepper, tk, y);
+    if (status != LAG_OK)
+        return status;
+    return lag_deliver(sys, tk, y, sink, context, report);
 }
 
 /* The report of a run that ended with `status` where the stepper stands. */
@@ -334,7 +353,7 @@ static int lag_integrate(lag_system *sys, const real *y0, real t0, real t1, real
     memset(stepper, 0, sizeof *stepper);
     stepper->t = t0;           /* where a failure before the first step (projecting y0) is reported */
     memcpy(stepper->y, y, sizeof stepper->y);
-    limited.max_steps = lag_step_limit(options->max_steps, last);
+    limited.max_steps = lag_step_limit(options, t0, t1, last);
     lag_progress_t = (double)t0;
     status = lag_start(sys, t0, y, &e_old, &last, sink, context, report);
     if (status == LAG_OK)
@@ -355,3 +374,4 @@ static int lag_integrate(lag_system *sys, const real *y0, real t0, real t1, real
     free(stepper);
     return status;
 }
+#endif

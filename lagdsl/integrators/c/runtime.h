@@ -68,6 +68,7 @@ typedef struct lag_options {
     real h;                 \
     stats_type stats;
 
+#ifndef LAG_FMU     /* an FMU reads and writes no text of numbers (codegen/fmu.py) */
 /* Reading and writing numbers in the working precision (the CSV and the command line). */
 #if defined(LAG_FLOAT128)
 #define r_strtod(text, end) strtoflt128((text), (end))
@@ -93,3 +94,4 @@ static void lag_print_real(FILE *file, real x)
     else
         lag_print_number(file, x);
 }
+#endif

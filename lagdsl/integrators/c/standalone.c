@@ -416,7 +416,7 @@ static int lag_batch_main(const char *program, const lag_member *given, real t0,
     settings[LAG_SET_STEP] = (double)options->step;
     settings[LAG_SET_MAX_STEP] = (double)options->max_step;
     settings[LAG_SET_STAGES] = options->stages;
-    settings[LAG_SET_MAX_STEPS] = (double)lag_step_limit(options->max_steps, last);
+    settings[LAG_SET_MAX_STEPS] = (double)lag_step_limit(options, t0, t1, last);
     if (lag_read_members(program, given, &members)) {
         lag_print_header(1);
         lag_catch_interrupt();    /* members in flight stop, the others are not begun */
@@ -619,6 +619,6 @@ int main(int argc, char **argv)
     lag_catch_interrupt();    /* stop between two steps, keeping the rows written so far */
     clock_start = clock();
     lag_integrate(&sys, y0, grid[0], grid[1], grid[2], &options, lag_print_row, NULL, &report);
-    return lag_print_summary(&report, &options, lag_step_limit(options.max_steps, lag_last_row(grid[0], grid[1], grid[2])),
+    return lag_print_summary(&report, &options, lag_step_limit(&options, grid[0], grid[1], lag_last_row(grid[0], grid[1], grid[2])),
                              (double)(clock() - clock_start) / CLOCKS_PER_SEC);
 }
