@@ -19,6 +19,7 @@ from .calculus import Differentiator, tree_size
 from .escape import visible
 from .mechanics import Equations
 from .tidying import reduced, written
+from .typeset import typeset
 
 SHOW_LIMIT = 400          # tree nodes of a row's entry, tidied; larger ones are shown through named intermediates
 INLINE_LIMIT = 40         # tree nodes of a tidied definition that is written out where it is used
@@ -196,12 +197,7 @@ def format_equations(equations: Equations, latex: bool = False) -> str:
     where = display.where(side for _, lhs, rhs in rows for side in (lhs, rhs))
     n = equations.size
     if latex:
-        names = latex_names(equations, (s for s, _ in where))
-        body = [rf"{_latex(lhs, names)} &= {_latex(rhs, names)} \\" for _, lhs, rhs in rows]
-        if where:
-            body.append(r"&\text{where} \\")
-            body.extend(rf"{names[s]} &= {_latex(e, names)} \\" for s, e in where)
-        return "\\begin{aligned}\n" + "\n".join(body) + "\n\\end{aligned}"
+        return typeset(rows, where)
     lines = [f"equations of motion of {equations.model.name}"
              + (" (M q'' = f + A^T λ, then the constraint rows A q'' = γ)" if len(rows) > n else "")]
     width = max(len(label) for label, _, _ in rows) if rows else 0
@@ -216,37 +212,3 @@ def format_equations(equations: Equations, latex: bool = False) -> str:
 
 def _text(expr: sympy.Expr) -> str:
     return sympy.sstr(expr).replace("**", "^")
-
-
-def _latex(expr: sympy.Expr, names: dict) -> str:
-    return sympy.latex(expr, symbol_names=names)
-
-
-def latex_names(equations: Equations, intermediates=()) -> dict[sympy.Symbol, str]:
-    """theta1 -> \\theta_{1}, theta1' -> \\dot{\\theta}_{1}, theta[2]'' -> \\ddot{\\theta}_{2};
-    an intermediate der(x[2]) -> \\operatorname{der}(x_{2}), δL/δtheta[1] -> \\delta L/\\delta \\theta_{1}."""
-    names = {}
-    for q, a in zip(equations.coordinates, accelerations(equations)):
-        base = _latex_identifier(q.name)
-        names[q] = base
-        names[sympy.Symbol(q.name + "'", real=True)] = rf"\dot{{{base}}}"
-        names[a] = rf"\ddot{{{base}}}"
-    for lam in multipliers(equations):
-        names[lam] = rf"\lambda_{{\mathrm{{{lam.name[2:-1]}}}}}".replace("_", r"\_").replace(r"\lambda\_", r"\lambda_")
-    for symbol in intermediates:
-        names[symbol] = _LATEX_NAME_PART.sub(_latex_name_part, symbol.name)
-    return names
-
-
-_LATEX_NAME_PART = re.compile(r"der\(|[δ∂]|[A-Za-z_][A-Za-z0-9_]*(?:\[[0-9, ]*\])?")
-_LATEX_MARKS = {"der(": r"\operatorname{der}(", "δ": r"\delta ", "∂": r"\partial "}
-
-
-def _latex_name_part(match: re.Match) -> str:
-    part = match.group()
-    return _LATEX_MARKS.get(part) or _latex_identifier(part)
-
-
-def _latex_identifier(name: str) -> str:
-    """x -> x, theta[2] -> \\theta_{2}, theta1 -> \\theta_{1} (sympy's reading of a trailing number)."""
-    return sympy.latex(sympy.Symbol(name.replace("[", "_").replace("]", "")))

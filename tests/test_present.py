@@ -11,6 +11,7 @@ from lagdsl.api import Model, load
 from lagdsl.present import format_equations
 from lagdsl.source import SourceFile
 from lagdsl.tidying import tidy
+from lagdsl.typeset import latex_name
 from tests.conftest import MODELS, without_units
 from tests.mechanics.eom import symbols_of
 from tests.models.support import gimbal_rows
@@ -60,6 +61,41 @@ def test_entries_too_large_to_write_out_are_shown_through_the_models_own_names(c
         assert not any(name in body for name in defined[k:]), line
     used = " ".join(rows)
     assert all(name in used or any(name in d for d in definitions) for name in defined)
+
+
+def test_the_named_intermediates_in_latex(chain12, monkeypatch):
+    monkeypatch.setattr(present, "SHOW_LIMIT", 60)
+    shown = format_equations(chain12.equations, latex=True)
+    assert shown.startswith("\\begin{aligned}") and shown.endswith("\\end{aligned}")
+    assert "&\\text{where} \\\\" in shown
+    assert "\\ddot{x}_{12} &= " in shown and "\\ddot{\\theta}_{1}" in shown
+
+
+LATEX_NAMES = """model Names
+  parameter eps = 0.1;  parameter epsilon = 0.2;  parameter me = 2;  parameter m_rotor = 3;
+  parameter Omega = 1;  parameter k = 4;
+  coordinate theta1(start = 1);  coordinate x[2];
+  let w = {der(theta1), 0, 0};
+  T = me/2*der(theta1)^2 + m_rotor/2*(der(x[1])^2 + der(x[2])^2) + eps*w.x^2;
+  U = -epsilon*cos(theta1)^2 + k/2*(x[1] - x[2] + Omega)^2;
+end Names;
+"""
+
+
+def test_latex_writes_each_name_one_way_everywhere():
+    """Greek names are their letters (eps and epsilon both varepsilon, but two quantities stay
+    two: here eps is upright), other words upright,
+    subscripts from digits, underscores and indices; parentheses stretch; no break after the
+    last row."""
+    shown = format_equations(Model(SourceFile("names.lag", LATEX_NAMES)).equations, latex=True)
+    for name in ("\\varepsilon", "\\mathrm{eps}", "\\mathrm{me}", "m_{\\mathrm{rotor}}", "\\Omega",
+                 "\\ddot{\\theta}_{1}", "\\ddot{x}_{2}", "x_{1}"):
+        assert name in shown, name
+    assert latex_name("eps") == latex_name("epsilon") == "\\varepsilon"      # alone, both are the letter
+    assert not re.search(r"(?<!\\left)(?<!\\right)[()]", shown.replace("\\right)", "")), shown
+    rows = shown.splitlines()
+    assert rows[-1] == "\\end{aligned}" and not rows[-2].endswith("\\\\")
+    assert all(row.endswith(" \\\\") for row in rows[1:-2])
 
 
 def test_the_gimbal_gyroscope_is_three_short_rows():
