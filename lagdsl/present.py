@@ -14,7 +14,7 @@ from __future__ import annotations
 import re
 import sympy
 
-from . import ir
+from . import ir, units
 from .calculus import Differentiator, tree_size
 from .escape import visible
 from .mechanics import Equations
@@ -37,8 +37,7 @@ def describe_model(model: ir.Model, equations: Equations) -> str:
     for c in model.coordinates:
         lines.append(f"  {c.name}{shown_unit(model, c.name)}" + (f"  {c.description}" if c.description else ""))
     if model.parameters:
-        lines.append("parameters: " + ", ".join(
-            f"{p.name} = {format_number(p.value)}{shown_unit(model, p.name)}" for p in model.parameters))
+        lines.append("parameters: " + ", ".join(shown_parameter(model, p) for p in model.parameters))
     if model.outputs:
         lines.append("outputs: " + ", ".join(f"{o.name}{shown_unit(model, o.name)}" for o in model.outputs))
     lines.append("energy: " + ("T and U (natural system)" if model.lagrangian.is_natural else "general Lagrangian L"))
@@ -69,14 +68,42 @@ def describe_model(model: ir.Model, equations: Equations) -> str:
 
 
 def shown_unit(model: ir.Model, name: str) -> str:
-    """` [kg*m/s^2]`: the unit a quantity is computed in (SI; an output's own), `, inferred` when
+    """` [N/m] (= kg/s^2)`: the unit as declared, with the SI unit it is computed in beside it where
+    that reads differently (` [cm] (= 0.01 m)` where it is a multiple); ` [kg*m/s^2, inferred]` when
     the dimensional analysis found it, `[?]` when it could not; without units, the unit as written."""
-    if model.units is None:
-        unit = next((q.unit for q in (*model.parameters, *model.coordinates, *model.outputs)
-                     if q.name == name), None)
-        return f" [{unit.text}]" if unit else ""
+    declared = declared_unit(model, name)
+    if model.units is None or declared is not None:
+        return f" [{declared.text}]{_si_beside(declared)}" if declared else ""
     unit, inferred = next((u, i) for q, u, i in model.units.quantities if q == name)
     return f" [{unit}{', inferred' if inferred and unit != '?' else ''}]"
+
+
+def shown_parameter(model: ir.Model, parameter: ir.Parameter) -> str:
+    """`k = 40 [N/m] (= kg/s^2)`, `m = 50 [g] (= 0.05 kg)`: the value in the declared unit."""
+    unit = parameter.unit
+    if unit is None or model.units is None:
+        return f"{parameter.name} = {format_number(parameter.value)}{shown_unit(model, parameter.name)}"
+    factor = float(units.si_factor(unit))
+    si = f" (= {format_number(parameter.value)} {_si_text(unit)})" if factor != 1 else _si_beside(unit)
+    return f"{parameter.name} = {format_number(parameter.value / factor)} [{unit.text}]{si}"
+
+
+def declared_unit(model: ir.Model, name: str) -> ir.Unit | None:
+    """The unit written on a parameter, coordinate (any member of a family) or output, or None."""
+    return next((q.unit for q in (*model.parameters, *model.coordinates, *model.outputs) if q.name == name), None)
+
+
+def _si_beside(unit: ir.Unit) -> str:
+    """` (= 0.01 m)` for a multiple of the SI unit, ` (= kg/s^2)` for a product written otherwise,
+    ` (= 0.01)` for a multiple of a pure number (`%`)."""
+    factor, si = float(units.si_factor(unit)), _si_text(unit)
+    if factor != 1:
+        return f" (= {format_number(factor)}{'' if si == '1' else ' ' + si})"
+    return f" (= {si})" if si != unit.text else ""
+
+
+def _si_text(unit: ir.Unit) -> str:
+    return "rad" if units.is_angle(unit) else units.dimension(unit).si()
 
 
 def degrees_of_freedom(equations: Equations) -> str:

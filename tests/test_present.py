@@ -8,7 +8,7 @@ import sympy
 
 from lagdsl import present
 from lagdsl.api import Model, load
-from lagdsl.present import format_equations
+from lagdsl.present import describe_model, format_equations
 from lagdsl.source import SourceFile
 from lagdsl.tidying import tidy
 from lagdsl.typeset import latex_name
@@ -151,3 +151,16 @@ def test_tidy_leaves_alone_numbers_out_of_the_ordinary():
         assert tidy(extreme) == extreme
     assert tidy(sympy.Rational(6626, 10**37) * a * pythagorean) == sympy.Rational(6626, 10**37) * a
     assert tidy(a ** 3 * (b + 1) ** -2 * pythagorean) == a ** 3 / (b + 1) ** 2      # a denominator stays whole
+
+
+def test_check_shows_a_derived_unit_as_written_with_si_beside():
+    model = Model(SourceFile("field.lag", """model Field
+  parameter k = 40 [N/m];  parameter B = 2 [T];  parameter m = 1 [kg];
+  coordinate x [m];
+  T = m/2*der(x)^2;  U = k/2*x^2;
+  output pull = k*x [N];
+end Field;
+"""))
+    shown = describe_model(model.ir, model.equations)
+    assert "parameters: k = 40 [N/m] (= kg/s^2), B = 2 [T] (= kg/(s^2*A)), m = 1 [kg]" in shown
+    assert "outputs: pull [N]" in shown

@@ -195,9 +195,10 @@ def test_check_shows_each_quantity_with_its_unit(tmp_path):
     path = tmp_path / "pendulum.lag"
     path.write_text(PENDULUM_PREFIXED)
     done = subprocess.run([sys.executable, "-m", "lagdsl", "check", str(path)], capture_output=True, text=True)
-    assert "  theta [rad]" in done.stdout
-    assert "parameters: m = 0.5 [kg], l = 0.4 [m], g = 9.81 [m/s^2], b = 0.002 [kg*m^2/s]" in done.stdout
-    assert "outputs: x [cm]" in done.stdout
+    assert "  theta [deg] (= 0.0174532925199 rad)" in done.stdout        # as declared, SI beside
+    assert ("parameters: m = 500 [g] (= 0.5 kg), l = 40 [cm] (= 0.4 m), g = 9.81 [m/s^2], "
+            "b = 2 [mN*m*s] (= 0.002 kg*m^2/s)") in done.stdout
+    assert "outputs: x [cm] (= 0.01 m)" in done.stdout
 
 
 @pytest.mark.parametrize("unit, words, si", [
