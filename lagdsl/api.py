@@ -92,7 +92,8 @@ class Model:
         _check_backend(backend)
         scene_plan = self.plan(scene, overrides)
         program = self._program(scene, scene_plan, backend, overrides)
-        result = execute(program.kernel, program.source, scene_plan, progress, program.loaded)
+        result = self._described(execute(program.kernel, program.source, scene_plan, progress, program.loaded),
+                                 scene_plan.scene_name)
         if not estimate_error:
             return result
 
@@ -102,6 +103,11 @@ class Model:
 
         error = reference.estimate_error(result, self.equations, scene_plan, self.source.name, rerun)
         return replace(result, summary=replace(result.summary, error=error))
+
+    def _described(self, result: Result, scene_name: str) -> Result:
+        """`result` with its columns' units and what ran (the model and scene), for its plots."""
+        units = None if self.ir.units is None else self.ir.units.column_units(scene_name, result.columns)
+        return replace(result, units=units, origin=f"{self.name}, scene {scene_name}")
 
     def bench(self, scene: str | None = None, *, integrators: tuple[str, ...] | None = None, backend: str = "c",
               peers: bool = False, repeat: int = 3, set: dict | None = None, start: float | None = None,

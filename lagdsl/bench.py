@@ -108,6 +108,7 @@ class BenchReport:
     rows: tuple[BenchRow, ...]
     notes: tuple[str, ...] = ()              # integrators not admitted, ladders cut short
     drifts: tuple[Drift, ...] = field(default=())
+    invariant_units: tuple[tuple[str, str], ...] = ()     # (conserved quantity, its unit) for the drifts
 
     def sorted_rows(self) -> list[BenchRow]:
         """By method (lagdsl's integrators first, then the peers), then by time."""
@@ -222,7 +223,9 @@ def run_bench(model, scene: str | None = None, overrides: Overrides = Overrides(
             rows += done
             if drift:
                 drifts += _peer_drift(plan, done, watched)
-    return BenchReport(model.name, plan.scene_name, reference, tuple(rows), tuple(notes), tuple(drifts))
+    from .present import invariant_unit
+    units = tuple((name, invariant_unit(model.ir, name)) for name in plan.invariants)
+    return BenchReport(model.name, plan.scene_name, reference, tuple(rows), tuple(notes), tuple(drifts), units)
 
 
 def _admitted(model, scene, base: Overrides, interval: float, integrators, backends) -> tuple[list[tuple[str, str]], list[str]]:

@@ -88,6 +88,18 @@ def shown_parameter(model: ir.Model, parameter: ir.Parameter) -> str:
     return f"{parameter.name} = {format_number(parameter.value / factor)} [{unit.text}]{si}"
 
 
+def invariant_unit(model: ir.Model, name: str) -> str:
+    """The SI unit of a conserved quantity: the energy's, `J`, or an energy times a time over q's
+    for `momentum(q)`; "?" where the model has no units or q's unit was inferred, not declared."""
+    if model.units is None:
+        return "?"
+    action = units.unit_dimension("J") * units.unit_dimension("s")
+    if name == "energy":
+        return "J"
+    coordinate = declared_unit(model, name[len("momentum("):-1])
+    return (action / units.dimension(coordinate)).si() if coordinate is not None else "?"
+
+
 def declared_unit(model: ir.Model, name: str) -> ir.Unit | None:
     """The unit written on a parameter, coordinate (any member of a family) or output, or None."""
     return next((q.unit for q in (*model.parameters, *model.coordinates, *model.outputs) if q.name == name), None)

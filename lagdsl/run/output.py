@@ -135,6 +135,8 @@ class Result:
     columns: tuple[str, ...]
     values: np.ndarray            # shape (len(t), len(columns))
     summary: RunSummary
+    units: tuple[str, ...] | None = None    # each column's unit ("?" unknown; None: a model without units)
+    origin: str = ""                        # what ran, for titles: "Kepler, scene ellipse"
 
     def __getitem__(self, column: str) -> np.ndarray:
         if column == "t":
@@ -160,3 +162,11 @@ class Result:
     def to_csv(self, path: str | os.PathLike) -> None:
         from .files import write_output
         write_output(path, self.csv())
+
+    def plot(self, path: str | os.PathLike, xy: tuple[str, str] | None = None) -> None:
+        """Write a PNG figure (atomically, as to_csv): the columns against t, or with `xy` =
+        ("x", "y") the trajectory of column y against column x; titled with the model and scene,
+        each axis with its unit (plots.py)."""
+        from .. import plots
+        from .files import write_output
+        write_output(path, plots.outputs_png(self) if xy is None else plots.trajectory_png(self, *xy))
