@@ -101,13 +101,16 @@ class RunSummary:
     switches: Switches | None = None                    # auto: its changes of method
     stopped: Stop | None = None                         # the scene's stop condition ended the run
     error: ErrorEstimate | None = None                  # lagc run --error, simulate(estimate_error=True)
+    uncounted: tuple[tuple[str, str], ...] = ()         # counters this run could not keep, and why
 
     def count(self, counter: str) -> int | None:
         """A work counter ("accepted", "rhs_evals", ...), None when the integrator does not keep it."""
         return dict(self.counters).get(counter)
 
     def render(self) -> str:
-        counts = [f"{value} {COUNTER_LABELS[name]}" for name, value in self.counters]
+        entries = [(name, f"{value} {COUNTER_LABELS[name]}") for name, value in self.counters]
+        entries += [(name, f"{COUNTER_LABELS[name]}: {why}") for name, why in self.uncounted]
+        counts = [text for _, text in sorted(entries, key=lambda entry: list(COUNTER_LABELS).index(entry[0]))]
         lines = [f"integrator {self.integrator}({self.settings_text()}) ({self.backend}): "
                  + ", ".join([*counts, f"{self.wall_time:.3g} s"])]
         lines += [part.render() for part in (self.stiffness, self.switches, self.stopped, self.error)
