@@ -71,9 +71,11 @@ class Model:
         given as keyword arguments (`simulate(m2=3)`). The other arguments override the scene's
         time grid and integrator; `max_steps` bounds the steps (default: 100000, or 100 per
         output row). `estimate_error` fills `result.summary.error` (an ErrorEstimate: `.value`, the
-        largest absolute error over rows and columns, against a 100x tighter rerun or the
-        extended-precision reference; `float(...)` gives the value). Raises SimulationError (with `.partial`, the rows computed so far) when the
-        integration fails, SimulationInterrupted (a SimulationError) when Ctrl-C stops it.
+        largest absolute error over rows and columns, in `.column`; `.columns`, each column's
+        largest, in its unit; against a 100x tighter rerun or the extended-precision reference;
+        `float(...)` gives the value). Raises SimulationError (with `.partial`, the rows computed
+        so far) when the integration fails, SimulationInterrupted (a SimulationError) when Ctrl-C
+        stops it.
         """
         _check_backend(backend)
         values = dict(set or {})

@@ -59,18 +59,38 @@ class Switches:
 @dataclass(frozen=True)
 class ErrorEstimate:
     """The estimated global error of a run: the largest absolute difference, over the output rows
-    and columns, from a more accurate solution (`against` says which), and the seconds it took."""
+    and columns, from a more accurate solution (`against` says which), and the seconds it took.
+    `columns` gives the largest over the rows of each column, in the column's unit (`units`): the
+    columns of a run are in different units, so the one largest number says little without them."""
 
     value: float
     against: str
     seconds: float
+    columns: tuple[tuple[str, float], ...] = ()      # (column, its largest error over the rows)
+    units: tuple[str, ...] | None = None              # each column's unit, as Result.units
 
     def __float__(self) -> float:
         return self.value
 
+    @property
+    def column(self) -> str | None:
+        """The column where the largest error is."""
+        return max(self.columns, key=lambda entry: entry[1])[0] if self.columns else None
+
+    def _unit(self, column: str) -> str:
+        if self.units is None:
+            return ""
+        unit = self.units[[name for name, _ in self.columns].index(column)]
+        return "" if unit == "?" else f" {unit}"
+
     def render(self) -> str:
-        return (f"estimated global error: {self.value:.2g} (max abs over rows and columns, against {self.against}; "
-                f"{self.seconds:.3g} s)")
+        where = f"{self._unit(self.column)} in {self.column}" if self.column is not None else ""
+        text = (f"estimated global error: {self.value:.2g}{where} (the largest over the rows and columns, "
+                f"against {self.against}; {self.seconds:.3g} s)")
+        if len(self.columns) > 1:
+            text += "\n  per column: " + ", ".join(f"{name} {error:.2g}{self._unit(name)}"
+                                                  for name, error in self.columns)
+        return text
 
 
 @dataclass(frozen=True)

@@ -12,6 +12,7 @@ from lagdsl import bench, reference
 from lagdsl.cli import main
 from lagdsl.run import toolchain
 from lagdsl.scene import Overrides
+from tests.conftest import MODELS
 
 # The Kepler ellipse of models/kepler.lag (r0 = 1, r0' = 0, theta0' = 1.2, GM = 1): energy
 # E = 1.44/2 - 1 = -0.28, semi-major axis a = -1/(2E), period T = 2 pi a^(3/2). At t = kT the
@@ -118,6 +119,24 @@ def test_simulate_estimates_its_global_error(kepler):
     assert "rerun at rtol = 1e-12" in estimate.against
     assert "estimated global error" in result.summary.render()
     assert model.simulate().summary.error is None
+    errors = dict(estimate.columns)                          # per column: here r and theta
+    assert list(errors) == ["r", "theta"] and max(errors.values()) == estimate.value
+    assert estimate.column == max(errors, key=errors.get)
+
+
+def test_the_error_names_its_column_and_unit(tmp_path, monkeypatch):
+    """Columns of different units: the largest error is named with its column and unit, and each
+    column's largest error is listed in its unit."""
+    monkeypatch.setenv("LAGDSL_CACHE", str(tmp_path / "cache"))
+    estimate = lagdsl.load(MODELS / "kepler.lag").simulate(stop=5.0, estimate_error=True).summary.error
+    errors = dict(estimate.columns)
+    units = dict(zip(errors, estimate.units))
+    assert units == {"r": "m", "theta": "rad", "energy": "J", "momentum(theta)": "kg*m^2/s"}
+    shown = estimate.render()
+    assert shown.startswith(f"estimated global error: {estimate.value:.2g} {units[estimate.column]} in "
+                            f"{estimate.column} (")
+    assert shown.splitlines()[1] == "  per column: " + ", ".join(
+        f"{name} {error:.2g} {units[name]}" for name, error in errors.items())
 
 
 def test_run_error_and_plot(kepler, tmp_path, capsys):
