@@ -6,10 +6,13 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+import numpy as np
+
 from . import ir, reference
 from .codegen import GeneratedSource
 from .codegen.kernel import Kernel
-from .errors import LagError
+from .errors import LagError, Setting
+from .escape import visible
 from .mechanics import Equations
 from .pipeline import compile_model, execute, generate, plan
 from .progress import bar as progress_bar
@@ -82,7 +85,7 @@ class Model:
         values.update(parameters)
         options = given_options(dict(rtol=rtol, atol=atol, step=step, stages=stages, max_step=max_step,
                                      max_steps=max_steps))
-        overrides = Overrides(tuple((k, float(v)) for k, v in values.items()), start, stop, interval,
+        overrides = Overrides(tuple((k, single_number(k, v)) for k, v in values.items()), start, stop, interval,
                               integrator, options)
         return self.simulate_plan(scene, backend, overrides, estimate_error=estimate_error)
 
@@ -123,7 +126,7 @@ class Model:
         rejected, error, reference_error.
         """
         from . import bench
-        overrides = Overrides(tuple((k, float(v)) for k, v in (set or {}).items()), start, stop, interval)
+        overrides = Overrides(tuple((k, single_number(k, v)) for k, v in (set or {}).items()), start, stop, interval)
         report = bench.run_bench(self, scene, overrides, integrators, bench.backends(backend), peers, repeat,
                                  progress=bench.progress_bar() if progress else None)
         return bench.table(report)
@@ -223,6 +226,18 @@ def _progress_bar(show: bool, members: int):
         return
     with progress_bar(members, "member") as bar:
         yield lambda finished: bar.update(max(0, finished - bar.n))
+
+
+def single_number(name: str, value) -> float:
+    """`value` as the one number simulate() and bench() take for input `name`; a list or an array
+    (several values) is refused with a pointer to sweep(), which runs one member per value."""
+    if np.ndim(value) > 0:
+        raise LagError(f"a run takes one value of each input, got {np.size(value)} values; to run a member "
+                       f"for each, use model.sweep(set={{'{name}': [...]}})", Setting(name))
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise LagError(f"expected a number, got {visible(repr(value))}", Setting(name)) from None
 
 
 def _check_backend(backend: str) -> None:
