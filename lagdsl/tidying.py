@@ -7,7 +7,7 @@ Every step is polynomial in the size of the expanded form, never sympy's simplif
     -> sin(x)² + cos(x)² = 1 among the terms (`pythagoras`), in three forms: as expanded, and
        with the even powers of sines written in cosines and those of cosines in sines (where
        sin⁴ + 2 sin² cos² + cos⁴ has become 1); the form with the fewest terms is kept
-    -> cos a cos b + sin a sin b = cos(a - b) and its kin (fu's TR10i)
+    -> cos a cos b + sin a sin b = cos(a - b) and its kin (`sum_formulas`)
     -> common factors out.
 
 An expression whose expansion would have more than EXPANSION_LIMIT terms, or with numbers out
@@ -19,12 +19,10 @@ from __future__ import annotations
 import sympy
 from sympy import QQ
 from sympy.polys.rings import PolyRing
-from sympy.simplify.fu import TR10i
 
 EXPANSION_LIMIT = 2000    # terms of the expanded form; more and an expression is left untidied
 NUMBER_LIMIT = 10**100    # numerators and denominators of the numbers tidied (physical constants fit)
 EXPONENT_LIMIT = 100      # numerators and denominators of the numeric exponents tidied
-SUM_FORMULA_TERMS = 60    # terms of a sum searched for cos a cos b + sin a sin b (pairs: quadratic)
 
 
 def tidy(expr: sympy.Expr) -> sympy.Expr:
@@ -49,14 +47,57 @@ def written(expr: sympy.Expr, state=frozenset()) -> sympy.Expr:
     ((A + B) sin(q)²); then common factors out."""
     if not tidiable(expr):
         return expr
-    angles = {f.args[0] for f in expr.atoms(sympy.sin, sympy.cos)}
-    if len(angles) >= 2 and len(sympy.Add.make_args(expr)) <= SUM_FORMULA_TERMS:
-        expr = TR10i(expr)
+    expr = sum_formulas(expr)
     groups: dict[sympy.Expr, list[sympy.Expr]] = {}
     for term in sympy.Add.make_args(expr):
         varying = sympy.Mul(*(f for f in sympy.Mul.make_args(term) if f.free_symbols & state))
         groups.setdefault(varying, []).append(term / varying)
     return sympy.factor_terms(sympy.Add(*(sympy.factor_terms(sympy.Add(*c)) * k for k, c in groups.items())))
+
+
+def sum_formulas(expr: sympy.Expr) -> sympy.Expr:
+    """The terms of a sum read back through the sum and difference formulas, in pairs:
+    k r cos(a) cos(b) ± k r sin(a) sin(b) = k r cos(a ∓ b) and
+    k r sin(a) cos(b) ± k r cos(a) sin(b) = k r sin(a ± b) (each pair found from its first
+    member by a dictionary lookup: linear in the terms, where fu's TR10i tries every pair)."""
+    terms: dict[sympy.Expr, sympy.Expr] = {}
+    for term in sympy.Add.make_args(expr):
+        coefficient, monomial = term.as_coeff_Mul()
+        terms[monomial] = terms.get(monomial, sympy.S.Zero) + coefficient
+    changed = True
+    while changed:
+        changed = False
+        for monomial in sorted(terms, key=sympy.default_sort_key):
+            if monomial in terms and _combine_pair(terms, monomial):
+                changed = True
+    return sympy.Add(*(coefficient * monomial for monomial, coefficient in terms.items() if coefficient != 0))
+
+
+def _combine_pair(terms: dict, monomial: sympy.Expr) -> bool:
+    """Replace `monomial` and its partner by one term of the sum formulas, if the partner is there
+    with the same coefficient or its negative; True if it did."""
+    powers = monomial.as_powers_dict()
+    single = [f for f, exponent in powers.items() if exponent == 1 and isinstance(f, (sympy.sin, sympy.cos))]
+    for first in single:
+        for second in single:
+            a, b = first.args[0], second.args[0]
+            if a == b or isinstance(first, sympy.sin) and isinstance(second, sympy.sin):
+                continue
+            if isinstance(first, sympy.cos) and isinstance(second, sympy.cos) and sympy.default_sort_key(a) > \
+                    sympy.default_sort_key(b):
+                continue                     # cos a cos b: seen once, from the first angle
+            rest = monomial / (first * second)
+            both_cos = isinstance(first, sympy.cos)
+            partner = rest * (sympy.sin(a) * sympy.sin(b) if both_cos else sympy.cos(a) * sympy.sin(b))
+            mine, theirs = terms[monomial], terms.get(partner, sympy.S.Zero)
+            if partner == monomial or theirs not in (mine, -mine):
+                continue
+            same = theirs == mine
+            combined = rest * (sympy.cos(a - b if same else a + b) if both_cos else sympy.sin(a + b if same else a - b))
+            del terms[monomial], terms[partner]
+            terms[combined] = terms.get(combined, sympy.S.Zero) + mine
+            return True
+    return False
 
 
 def tidiable(expr: sympy.Expr) -> bool:
@@ -192,19 +233,15 @@ class Expansion:
             changed = False
             for monomial in sorted(terms):
                 for s, c in self.angles:
-                    for base in _bases(monomial, s, c):
-                        changed |= _reduce(terms, base, s, c)
+                    # a combination is found from its member with sin² or cos²: r itself has neither
+                    for k in (s, c):
+                        if monomial[k] >= 2 and monomial in terms:
+                            changed |= _reduce(terms, _shifted(monomial, k, -2), s, c)
         return self.ring.from_dict(terms)
 
 
 def _shifted(monomial: tuple, index: int, by: int) -> tuple:
     return monomial[:index] + (monomial[index] + by,) + monomial[index + 1:]
-
-
-def _bases(monomial: tuple, s: int, c: int) -> list[tuple]:
-    """The monomials r of which `monomial` is r, r sin(x)² or r cos(x)² (sin(x), cos(x) the
-    generators s, c)."""
-    return [monomial, *(_shifted(monomial, k, -2) for k in (s, c) if monomial[k] >= 2)]
 
 
 def _reduce(terms: dict, base: tuple, s: int, c: int) -> bool:
