@@ -174,14 +174,8 @@ class Display:
     def where(self, exprs) -> list[tuple[sympy.Symbol, sympy.Expr]]:
         """The named intermediates that `exprs` use, directly or through others, each after the
         ones it uses."""
-        wanted: set[sympy.Symbol] = set()
-        stack = [s for e in exprs for s in e.free_symbols if s in self.named]
-        while stack:
-            symbol = stack.pop()
-            if symbol not in wanted:
-                wanted.add(symbol)
-                stack.extend(s for s in self.named[symbol].free_symbols if s in self.named)
-        return [(s, written(e, self.state)) for s, e in self.named.items() if s in wanted]
+        named = Differentiator(self.named.items(), self.state)
+        return [(s, written(e, self.state)) for s, e in named.needed(exprs)]
 
 
 def _reduced(expr: sympy.Expr) -> sympy.Expr:
