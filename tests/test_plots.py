@@ -115,6 +115,7 @@ def test_lagc_run_plots_a_trajectory(tmp_path, monkeypatch, capsys):
     assert picture.read_bytes().startswith(b"\x89PNG")
     capsys.readouterr()
     assert main(["run", model, "--plot-xy", "x,y"]) == 1
-    assert capsys.readouterr().err == "lagc: error: --plot-xy: needs --plot FILE.png, the figure to draw the trajectory in\n"
+    assert capsys.readouterr().err == ("lagc: error: --plot-xy: needs --plot FILE.png, the figure to draw the "
+                                       "trajectory in\n")
     assert main(["run", model, "--plot", str(picture), "--plot-xy", "x,w"]) == 1
     assert "lagc: error: --plot-xy: no column 'w' to plot (columns: t, x, y, z" in capsys.readouterr().err

@@ -187,7 +187,8 @@ class _StepWatch:
 
     def record(self, solver) -> None:
         if self.stiffness is not None and self.stiffness.record(solver):
-            self.at_detection = (self.counts["accepted"], self.counts["rejected"], self.counts["rhs_evals"] + solver.nfev)
+            counts = self.counts
+            self.at_detection = (counts["accepted"], counts["rejected"], counts["rhs_evals"] + solver.nfev)
         if self.switches is not None:
             self.switches.record(solver)
 
