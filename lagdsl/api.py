@@ -20,6 +20,7 @@ from .run import plans
 from .run.output import Result
 from .run import sweep as batch
 from .run.loading import load as load_program
+from .run.runner import run
 from .run.sweep_job import SweepJob
 from .run.tables import TableFile
 from .scene import (RUN_OPTIONS, Overrides, ScenePlan, given_options, parameters_in_expressions,
@@ -39,6 +40,7 @@ class Model:
         self.equations: Equations
         self.ir, self.equations = compile_model(source)
         self._programs: dict[tuple[str, str, str], Program] = {}
+        self._quick_plans: dict[str | None, plans.StoredPlan] = {}     # by the scene asked for
 
     @property
     def name(self) -> str:
@@ -72,13 +74,13 @@ class Model:
 
         `set` maps parameter names, "q.start" and "q.velocity" to values; parameters may also be
         given as keyword arguments (`simulate(m2=3)`). The other arguments override the scene's
-        time grid and integrator; `max_steps` bounds the steps (default: 100000, or 100 per
-        output row). `estimate_error` fills `result.summary.error` (an ErrorEstimate: `.value`, the
-        largest absolute error over rows and columns, in `.column`; `.columns`, each column's
-        largest, in its unit; against a 100x tighter rerun or the extended-precision reference;
-        `float(...)` gives the value). Raises SimulationError (with `.partial`, the rows computed
-        so far) when the integration fails, SimulationInterrupted (a SimulationError) when Ctrl-C
-        stops it.
+        time grid and integrator; `max_steps` bounds the steps (default: settings.step_limit,
+        DEFAULT_MAX_STEPS or STEPS_PER_ROW per output row). `estimate_error` fills
+        `result.summary.error` (an ErrorEstimate: `.value`, the largest absolute error over rows
+        and columns, in `.column`; `.columns`, each column's largest, in its unit; against a 100x
+        tighter rerun or the extended-precision reference; `float(...)` gives the value). Raises
+        SimulationError (with `.partial`, the rows computed so far) when the integration fails,
+        SimulationInterrupted (a SimulationError) when Ctrl-C stops it.
         """
         _check_backend(backend)
         values = dict(set or {})
@@ -95,10 +97,14 @@ class Model:
         """`simulate` with the overrides already gathered (what `lagc run` calls); `progress` is
         called as progress(t reached, start, stop) every so often."""
         _check_backend(backend)
+        quick = None if estimate_error else self._quick_run(scene, backend, overrides)
+        if quick is not None:
+            return self._described(run(quick[0], backend, quick[1].loaded, progress), quick[0].scene_name)
         scene_plan = self.plan(scene, overrides)
         program = self._program(scene, scene_plan, backend, overrides)
         result = self._described(execute(program.kernel, program.source, scene_plan, progress, program.loaded),
                                  scene_plan.scene_name)
+        self._keep_quick_plan(scene, scene_plan)
         if not estimate_error:
             return result
 
@@ -170,6 +176,43 @@ class Model:
                          given_options(options))
         return SweepJob(lambda o: self.plan(scene, o), lambda p: self._program(scene, p, backend, base), base,
                         {**overrides, **dict(varied)}, backend)
+
+    def equilibrium(self, scene: str | None = None, *, guess: dict | None = None, set: dict | None = None):
+        """An equilibrium near `guess` ({"q": value, "q.velocity": value}; what is not given is the
+        scene's start) with `set` applied: Newton on the accelerations at the given velocities
+        (zero, or the rates of cyclic coordinates), the constraints kept. Returns a
+        linear.Equilibrium (`.at`, `.residual`); raises AnalysisError when Newton does not converge."""
+        from .linear import evaluator, find_equilibrium
+        return find_equilibrium(evaluator(self, scene, guess, set))
+
+    def linearize(self, scene: str | None = None, *, at: dict | None = None, set: dict | None = None,
+                  inputs=(), outputs=None, find: bool = False):
+        """The linear model about `at` (or, with `find`, about the equilibrium near it): a
+        linear.LinearModel with .M .D .G .K .N .A .B .C .Dm, .coordinates, .modes(), .to_control().
+        `inputs` are parameter names (B), `outputs` names of scene columns, outputs, coordinates,
+        `energy` or `momentum(q)` (C, Dm; default: the scene's columns). See docs/numerics.md."""
+        from .linear import linearize_model
+        return linearize_model(self, scene, at, set, tuple(inputs), outputs, find)[0]
+
+    def _quick_run(self, scene: str | None, backend: str, overrides: Overrides):
+        """(run plan, program) for a repeated run, planned without sympy from the scene's settings
+        and values (as a warm `lagc run` plans, run/plans.py), or None where that cannot serve: the
+        first run of a scene, a value computed from the overrides, code not yet generated."""
+        quick = self._quick_plans.get(scene)
+        run_plan = quick.resolve(overrides) if quick is not None else None
+        program = run_plan and self._programs.get((run_plan.scene_name, run_plan.integrator.name, backend))
+        return None if program is None else (run_plan, program)
+
+    def _keep_quick_plan(self, scene: str | None, scene_plan: ScenePlan) -> None:
+        if scene in self._quick_plans:
+            return
+        try:
+            settings, parameters, initial_state = scene_defaults(self.ir, self.equations, scene)
+        except LagError:        # a value computed from the others is not finite unless overridden
+            return
+        self._quick_plans[scene] = plans.StoredPlan(
+            settings, parameters, initial_state, parameters_in_expressions(self.ir), scene_plan.columns,
+            scene_plan.invariants, scene_plan.stop.text if scene_plan.stop else None, None)
 
     def _program(self, scene: str | None, scene_plan: ScenePlan, backend: str, overrides: Overrides) -> Program:
         """The generated, loaded code for a scene, integrator and backend: built on first use, then kept.

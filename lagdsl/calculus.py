@@ -29,13 +29,15 @@ INLINE_SIZE = 6   # derivatives with at most this many tree nodes are inlined, n
 SPLIT_SYMBOLS = 8
 
 
-def tree_size(expr: sympy.Basic, limit: int = 1 << 30) -> int:
-    """Number of nodes of the expression tree, counting no further than `limit`."""
+def tree_size(expr: sympy.Basic, limit: int = 1 << 30, weights: dict | None = None) -> int:
+    """Number of nodes of the expression tree, counting no further than `limit`; a symbol in
+    `weights` counts as that many (the size of what it stands for, as if inlined)."""
     count = 0
     stack = [expr]
+    weights = weights or {}
     while stack and count <= limit:
         node = stack.pop()
-        count += 1
+        count += weights.get(node, 1)
         stack.extend(node.args)
     return count
 

@@ -1,6 +1,7 @@
 """Figures as PNG bytes (matplotlib, Agg backend: no display needed): the outputs of a run against
 t (`lagc run --plot`, `Result.plot`), a trajectory y against x (`--plot-xy x,y`,
-`Result.plot(xy=...)`) and the work-precision diagram of `lagc bench --plot`.
+`Result.plot(xy=...)`), the work-precision diagram of `lagc bench --plot` and the mode shapes of
+`lagc modes --plot`.
 
 Every figure is titled with the model and the scene, and every axis carries its unit as the model
 declares or infers it (a column is plotted in the unit it is written in). Tick labels are plain
@@ -110,23 +111,33 @@ def work_precision_png(report) -> bytes:
 def outputs_figure(result):
     """The output columns against t, one panel per column (two columns of panels beyond three);
     the lowest panel of each column of panels carries the t axis."""
-    pyplot = _pyplot()
-    count = max(1, len(result.columns))
-    across = 1 if count <= 3 else 2
-    down = math.ceil(count / across)
-    figure, axes = pyplot.subplots(down, across, figsize=(6.5 * across, 2.3 * down + 0.8), squeeze=False,
-                                   sharex=True)
-    for index, name in enumerate(result.columns):
-        _plot_column(axes[index // across][index % across], result.t, result, name)
-    for index in range(len(result.columns), down * across):
-        axes[index // across][index % across].set_visible(False)
-    for column in range(across):
-        lowest = max(row for row in range(down) if axes[row][column].get_visible())
-        axes[lowest][column].tick_params(labelbottom=True)
-        axes[lowest][column].set_xlabel(labelled("t", _unit_of(result, "t")))
+    figure, panels, lowest = _panel_grid(len(result.columns), 2.3, 0.8)
+    for name, axis in zip(result.columns, panels):
+        _plot_column(axis, result.t, result, name)
+    for axis in lowest:
+        axis.set_xlabel(labelled("t", _unit_of(result, "t")))
     figure.suptitle(_title(result), fontsize=10)
     figure.tight_layout()
     return figure
+
+
+def _panel_grid(count: int, panel_height: float, margin: float):
+    """A figure of `count` panels sharing x, one column of them up to three, two beyond: (figure,
+    the panels in order, the lowest visible panel of each column, which shows the x tick labels,
+    also above an empty cell)."""
+    pyplot = _pyplot()
+    across = 1 if max(1, count) <= 3 else 2
+    down = math.ceil(max(1, count) / across)
+    figure, axes = pyplot.subplots(down, across, figsize=(6.5 * across, panel_height * down + margin), squeeze=False,
+                                   sharex=True)
+    panels = [axes[index // across][index % across] for index in range(down * across)]
+    for axis in panels[max(1, count):]:     # an empty run keeps one panel, for its t axis
+        axis.set_visible(False)
+    lowest = [axes[max(row for row in range(down) if axes[row][column].get_visible())][column]
+              for column in range(across)]
+    for axis in lowest:
+        axis.tick_params(labelbottom=True)
+    return figure, panels[:count], lowest
 
 
 def check_columns(columns, xy: tuple[str, str], option: str = "--plot-xy") -> None:
@@ -222,3 +233,29 @@ def _drift_panel(axis, report, colors: dict) -> None:
     handles = [Line2D([], [], color="black", linewidth=0.8, linestyle=style, label=labelled(name, units.get(name)))
                for name, style in styles.items()]
     axis.legend(handles=handles, **LEGEND_BELOW, ncol=2)
+
+
+def mode_shapes_png(modes, title: str, count: int = 10) -> bytes:
+    """The shapes of the `count` lowest modes (linear/modes.py), one panel each: every
+    coordinate's amplitude (the real part of the shape scaled to a largest entry of 1; the
+    modulus dashed where the shape is complex), the frequency and the verdict above it."""
+    shown = modes.modes[:max(1, count)]
+    figure, panels, lowest = _panel_grid(len(shown), 1.9, 0.9)
+    positions = np.arange(len(modes.coordinates))
+    marker = "o" if len(positions) <= 40 else None
+    for number, (mode, axis) in enumerate(zip(shown, panels), start=1):
+        axis.axhline(0, color="0.6", linewidth=0.6)
+        axis.plot(positions, mode.shape.real, marker=marker, linewidth=1)
+        if np.any(np.abs(mode.shape.imag) > 1e-12):
+            axis.plot(positions, np.abs(mode.shape), linestyle="--", linewidth=0.8, color="0.4")
+        axis.set_ylim(-1.1, 1.1)
+        axis.set_title(f"mode {number}: {mode.omega:.6g} rad/s, {mode.verdict}", fontsize=9)
+        axis.grid(True, alpha=0.3)
+    for axis in lowest:
+        if len(positions) <= 12:
+            axis.set_xticks(positions, modes.coordinates, rotation=30, fontsize=8)
+        else:
+            axis.set_xlabel("coordinate (in the model's order)")
+    figure.suptitle(title, fontsize=10)
+    figure.tight_layout()
+    return _png(figure)

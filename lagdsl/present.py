@@ -146,13 +146,14 @@ class Display:
     """
 
     def __init__(self, calculus: Differentiator):
-        self.full: dict[sympy.Symbol, sympy.Expr] = {}
+        self.full: dict[sympy.Symbol, sympy.Expr | None] = {}
+        self.sizes: dict[sympy.Symbol, int] = {}
         self.partial: dict[sympy.Symbol, sympy.Expr] = {}
         self.named: dict[sympy.Symbol, sympy.Expr] = {}
         self.state = frozenset(calculus.base)
         for symbol, definition in calculus.definitions():
             uses = [s for s in definition.free_symbols if s in self.full]
-            self.full[symbol] = _reduced(definition.xreplace({s: self.full[s] for s in uses}))
+            self.full[symbol] = self._inlined(symbol, definition, uses)
             if all(self.partial[s] is self.full[s] for s in uses):
                 value = self.full[symbol]
             else:
@@ -163,12 +164,24 @@ class Display:
                 self.partial[symbol] = symbol
                 self.named[symbol] = value
 
+    def _inlined(self, symbol: sympy.Symbol, definition: sympy.Expr, uses) -> sympy.Expr | None:
+        """The definition with every intermediate inlined, reduced; None when it would exceed
+        TIDY_LIMIT nodes, sized before it is built (lets that each use the one before twice double
+        at every link, and sympy's constructors walk what they are given)."""
+        if tree_size(definition, TIDY_LIMIT, self.sizes) > TIDY_LIMIT:
+            self.sizes[symbol] = TIDY_LIMIT + 1
+            return None
+        inlined = _reduced(definition.xreplace({s: self.full[s] for s in uses}))
+        self.sizes[symbol] = tree_size(inlined, TIDY_LIMIT)
+        return inlined
+
     def show(self, expr: sympy.Expr) -> sympy.Expr:
         """`expr` fully inlined and tidied when that is small, else through the named intermediates."""
         uses = [s for s in expr.free_symbols if s in self.full]
-        inlined = _reduced(expr.xreplace({s: self.full[s] for s in uses}))
-        if tree_size(inlined, SHOW_LIMIT) <= SHOW_LIMIT:
-            return written(inlined, self.state)
+        if tree_size(expr, TIDY_LIMIT, self.sizes) <= TIDY_LIMIT:      # else too large to build
+            inlined = _reduced(expr.xreplace({s: self.full[s] for s in uses}))
+            if tree_size(inlined, SHOW_LIMIT) <= SHOW_LIMIT:
+                return written(inlined, self.state)
         return written(_reduced(expr.xreplace({s: self.partial[s] for s in uses})), self.state)
 
     def where(self, exprs) -> list[tuple[sympy.Symbol, sympy.Expr]]:

@@ -1,9 +1,10 @@
 """The `lagc` command: a thin layer over the Python API.
 
 This is the only place that catches LagError: it prints `file:line:column: error: ...`
-with the source line and a caret, and exits 1. Every message not about a place in a model file
-begins `lagc: error:` (`lagc: warning:`, `lagc: interrupted`), usage errors included (exit 1, as
-docs/language.md says). Anything else escaping is a bug in lagdsl.
+with the source line and a caret, and exits 1 (`lagc modes` and `lagc linearize` exit 2 for bad
+input and 1 for a numerical failure: cli/modes.py). Every message not about a place in a model
+file begins `lagc: error:` (`lagc: warning:`, `lagc: interrupted`), usage errors included (exit 1,
+as docs/language.md says). Anything else escaping is a bug in lagdsl.
 Ctrl-C exits 130 (128 + SIGINT, as shells report it) without a traceback; during `lagc run`
 the rows computed so far are written and the summary says where the run stopped.
 
@@ -23,9 +24,9 @@ from .. import __version__
 from ..errors import PREFIX, LagError, LagWarning, SimulationError
 from ..escape import visible
 from ..run.interrupt import terminate_as_interrupt
-from . import bench, common, describe, simulate, sweep
+from . import bench, common, describe, modes, simulate, sweep
 
-COMMANDS = (describe, simulate, sweep, bench)      # each adds its subcommands to the parser
+COMMANDS = (describe, simulate, sweep, bench, modes)      # each adds its subcommands to the parser
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -73,12 +74,15 @@ def _dispatch(argv: list[str]) -> int:
 
 class _Parser(argparse.ArgumentParser):
     """argparse with lagc's way of saying a usage error: the usage, then `lagc: error: ...`, exit
-    status 1, as for every other bad option (argparse's own is `lagc run: error: ...`, exit 2)."""
+    status `usage_exit`: 1, as for every other bad option (argparse's own is `lagc run: error: ...`,
+    exit 2); a command whose bad input exits otherwise sets it on its parser (cli/modes.py)."""
+
+    usage_exit = 1
 
     def error(self, message: str):
         self.print_usage(sys.stderr)
         print(f"{PREFIX}error: {message}", file=sys.stderr)
-        raise SystemExit(1)
+        raise SystemExit(self.usage_exit)
 
 
 def _parser() -> tuple[argparse.ArgumentParser, argparse._SubParsersAction]:

@@ -17,6 +17,7 @@ from ..errors import LagError
 DOUBLE = 8
 SHARE = 0.5                    # of the memory available, what one result may take
 NUMPY_ROW_OVERHEAD = 112       # bytes a NumPy backend state array costs beside its numbers
+SMALL_RESULT = 64 * 2 ** 20    # bytes: a result this small is not checked
 
 
 def available_bytes() -> int:

@@ -17,16 +17,15 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..abi import INTERRUPTED, SummaryLayout, member_summary, plan_summary, settings_vector, status_of
 from ..errors import LagError, SimulationError, SimulationInterrupted
-from ..integrators import registry, summary_extras
+from ..integrators import registry
 from ..scene import Overrides, ScenePlan
-from .c_backend import settings_array
 from .interrupt import CtrlC, interruptible
 from .numpy_backend import run_numpy
 from .output import output_times
 from .tables import csv_text, parquet_bytes
 from .scipy_steps import SCIPY_RTOL_FLOOR, ScipyProblem, integrate_scipy
-from .status import INTERRUPTED, status_message
 
 NUMPY_CHUNK = 256            # NumPy: members integrated as one stacked system
 
@@ -212,30 +211,30 @@ def _check_finite(inputs: dict[str, np.ndarray]) -> None:
 # ---- the C batch entry point -------------------------------------------------------------------
 @dataclass(frozen=True)
 class BatchLayout:
-    """What lag_run_batch needs besides the members: shared settings, grid rows, summary stride."""
+    """What lag_run_batch needs besides the members: shared settings, grid rows, the summaries."""
 
     settings: tuple[float, ...]
     rows: int
     columns: int
-    stride: int
-    counters: tuple[str, ...]
+    summary: SummaryLayout
+
+    @property
+    def counters(self) -> tuple[str, ...]:
+        return self.summary.counters
 
 
 def batch_layout(plan: ScenePlan) -> BatchLayout:
-    settings = settings_array(plan)
-    counters = registry.get(plan.integrator.name).counters
-    stride = 6 + len(counters) + summary_extras(plan.integrator.name) + 2 * len(plan.invariants) \
-        + 2 * len(plan.model.coordinates) + (2 if plan.stop else 0)
-    return BatchLayout(settings, len(output_times(plan)), len(plan.columns), stride, counters)
+    return BatchLayout(tuple(settings_vector(plan)), len(output_times(plan)), len(plan.columns), plan_summary(plan))
 
 
 def run_c_batch(library: ctypes.CDLL, layout: BatchLayout, parameters: np.ndarray, initial: np.ndarray,
                 threads: int, on_progress: Callable[[int], None] | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """(values (B, T, C), summaries (B, stride)) of lag_run_batch; rows not delivered are NaN.
+    """(values (B, T, C), summaries (B records of layout.summary)) of lag_run_batch; rows not
+    delivered are NaN.
     `on_progress(members finished)` is called every so often; Ctrl-C stops the members in flight."""
     count = len(initial)
     values = np.full((count, layout.rows, layout.columns), np.nan)
-    summaries = np.zeros((count, layout.stride))
+    summaries = layout.summary.empty(count)
     packed = np.ascontiguousarray(parameters if parameters.shape[1] else np.zeros((count, 0)))
     state = np.ascontiguousarray(initial)
     settings = np.array(layout.settings)
@@ -249,7 +248,7 @@ def run_c_batch(library: ctypes.CDLL, layout: BatchLayout, parameters: np.ndarra
 
     def call() -> int:
         entry(count, pointer(packed), pointer(state), pointer(settings), pointer(values), layout.rows,
-              pointer(summaries), layout.stride, threads)
+              pointer(summaries), layout.summary.size, threads)
         return 0
 
     interruptible(library, call, None if on_progress is None else lambda: on_progress(done.value))
@@ -272,10 +271,10 @@ def default_threads(workers: int | None) -> int:
 
 # ---- reading the summaries ---------------------------------------------------------------------
 def statuses(plan: ScenePlan, summaries: np.ndarray) -> np.ndarray:
-    codes = summaries[:, 0].astype(int)
+    codes = summaries["status"].astype(int)
     messages = np.full(len(codes), "ok", dtype=object)
     for code in np.unique(codes[codes != 0]):
-        messages[codes == code] = status_message(int(code), plan.max_steps)
+        messages[codes == code] = status_of(int(code)).describe(plan.max_steps)
     return messages
 
 
@@ -283,9 +282,9 @@ def assemble(plan: ScenePlan, members: Members, values: np.ndarray, summaries: n
              counters: tuple[str, ...], wall_time: float, workers: str, first_member: int = 0) -> Sweep:
     """The Sweep of a batch run; raises SimulationInterrupted (with the sweep as `.partial`) after Ctrl-C."""
     status = statuses(plan, summaries)
-    codes = summaries[:, 0].astype(int)
-    failure_time = np.where(codes != 0, summaries[:, 2], np.nan)
-    counts = {name: summaries[:, 6 + i].astype(np.int64) for i, name in enumerate(counters)}
+    codes = summaries["status"].astype(int)
+    failure_time = np.where(codes != 0, summaries["t_fail"], np.nan)
+    counts = {name: summaries[name].astype(np.int64) for name in counters}
     failures = {}
     for message in status[codes != 0]:
         failures[message] = failures.get(message, 0) + 1
@@ -293,17 +292,17 @@ def assemble(plan: ScenePlan, members: Members, values: np.ndarray, summaries: n
                            tuple((name, int(c.sum())) for name, c in counts.items()), wall_time, backend,
                            plan.integrator.name, workers)
     sweep = Sweep(output_times(plan), plan.columns, values, members.inputs, status, failure_time, counts, summary,
-                  summaries[:, 1].astype(np.int64), first_member)
+                  summaries["rows"].astype(np.int64), first_member)
     if np.any(codes == INTERRUPTED):
         first = int(np.flatnonzero(codes == INTERRUPTED)[0])
-        raise SimulationInterrupted("interrupted", float(summaries[first, 2]), {}, "", sweep)
+        raise SimulationInterrupted("interrupted", float(summaries["t_fail"][first]), {}, "", sweep, INTERRUPTED)
     return sweep
 
 
 # ---- NumPy -------------------------------------------------------------------------------------
 def run_numpy_batch(module, kernel, source, members: Members, on_progress: Callable[[int], None] | None = None
                     ) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
-    """The NumPy backend's batch path: (values, summaries in the C layout's first columns, counters).
+    """The NumPy backend's batch path: (values, summaries (abi.member_summary), counters).
 
     Chunks of NUMPY_CHUNK members of an explicit scipy method without constraints are integrated as one
     stacked system, states (n, B) through one vectorised right-hand side. scipy controls the
@@ -317,7 +316,7 @@ def run_numpy_batch(module, kernel, source, members: Members, on_progress: Calla
     count = len(members.initial)
     counters = ("accepted", "rhs_evals")
     values = np.full((count, len(output_times(plan)), len(plan.columns)), np.nan)
-    summaries = np.zeros((count, 6 + len(counters)))
+    summaries = member_summary(counters).empty(count)
     # (a stop condition ends each member at its own time: members run one at a time then)
     stacked = registry.get(plan.integrator.name).stacks_in_sweeps and not plan.constraints and plan.stop is None
     size = NUMPY_CHUNK if stacked else 1
@@ -339,7 +338,7 @@ def run_numpy_batch(module, kernel, source, members: Members, on_progress: Calla
     if interrupted or ctrl_c.pressed:
         # Ctrl-C stops the sweep, as in C: the member it stopped keeps its rows and is marked
         # interrupted (by run_numpy or the stacked chunk), and so are the members not begun
-        summaries[(summaries[:, 0] == 0) & (summaries[:, 1] == 0), 0] = INTERRUPTED
+        summaries["status"][(summaries["status"] == 0) & (summaries["rows"] == 0)] = INTERRUPTED
     return values, summaries, counters
 
 
@@ -376,12 +375,10 @@ def _stacked_chunk(module, members: Members, lo: int, hi: int, values: np.ndarra
         except (np.linalg.LinAlgError, ValueError, ArithmeticError):
             return False
     values[lo:hi, :rows] = np.transpose(np.array(observed), (0, 2, 1))
-    summaries[lo:hi, 1] = rows
-    summaries[lo:hi, 6] = counts["accepted"]
-    summaries[lo:hi, 7] = counts["rhs_evals"]
+    chunk = summaries[lo:hi]
+    chunk["rows"], chunk["accepted"], chunk["rhs_evals"] = rows, counts["accepted"], counts["rhs_evals"]
     if failure is not None:
-        summaries[lo:hi, 0] = INTERRUPTED
-        summaries[lo:hi, 2] = failure[1]
+        chunk["status"], chunk["t_fail"] = INTERRUPTED, failure[1]
         raise KeyboardInterrupt
     return True
 
@@ -395,6 +392,7 @@ def _single_member(module, kernel, source, members: Members, b: int, values: np.
     except SimulationError as error:
         result, status, t_fail = error.partial, error.status, error.time
     values[b, :len(result.t)] = result.values
-    summaries[b, :3] = (status, len(result.t), t_fail)
-    summaries[b, 6] = result.summary.count("accepted") or 0
-    summaries[b, 7] = result.summary.count("rhs_evals") or 0
+    member = summaries[b:b + 1]
+    member["status"], member["rows"], member["t_fail"] = status, len(result.t), t_fail
+    for counter in ("accepted", "rhs_evals"):
+        member[counter] = result.summary.count(counter) or 0

@@ -49,7 +49,7 @@ def test_a_sweep_on_dask_equals_the_local_one_even_when_a_worker_dies(client):
                                                     members.parameters, members.initial, kill_one_worker)
     assert killed and chunks > 2
     assert values_dask.shape == local.values.shape and np.array_equal(values_dask, local.values)
-    assert list(summaries[:, 0]) == [0] * count
+    assert list(summaries["status"]) == [0] * count
 
 
 def test_every_member_arrives_when_both_workers_die_together(client):
@@ -77,5 +77,5 @@ def test_every_member_arrives_when_both_workers_die_together(client):
                                                     program.source.suggested_name, batch.batch_layout(members.plan),
                                                     members.parameters, members.initial, kill_every_worker)
     assert len(killed) == 2
-    assert np.array_equal(values_dask, local.values) and list(summaries[:, 0]) == [0] * count
+    assert np.array_equal(values_dask, local.values) and list(summaries["status"]) == [0] * count
     client.wait_for_workers(2)
