@@ -68,7 +68,9 @@ def _dispatch(argv: list[str]) -> int:
     parser, commands = _parser()
     if argv and argv[0] not in (*commands.choices, "-h", "--help", "--version") and "--emit" in argv:
         argv = ["emit", *argv]          # `lagc MODEL.lag --emit c` is `lagc emit MODEL.lag --emit c`
-    arguments = parser.parse_args(argv)
+    arguments, unknown = parser.parse_known_args(argv)
+    if unknown:     # said by the command's own parser: its usage line, its exit status
+        commands.choices[arguments.command].error(f"unrecognized arguments: {' '.join(unknown)}")
     return arguments.handler(arguments)
 
 

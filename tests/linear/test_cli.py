@@ -96,6 +96,16 @@ def test_bad_input_exits_2_with_a_located_message(capsys, tmp_path, arguments, m
     assert not list(tmp_path.iterdir())                  # nothing written
 
 
+@pytest.mark.parametrize("arguments", [["--frobnicate"], ["--count"], ["--at"]])
+def test_a_usage_error_is_bad_input_too(capsys, arguments):
+    """lagc modes says a usage error as every lagc command does (the usage, then `lagc: error:`),
+    with the exit status of its bad input."""
+    with pytest.raises(SystemExit) as stopped:
+        lagc(capsys, "modes", MODELS / "pendulum.lag", *arguments)
+    err = capsys.readouterr().err
+    assert stopped.value.code == 2 and err.startswith("usage: lagc modes") and "lagc: error: " in err
+
+
 def test_a_model_error_exits_2(capsys, tmp_path):
     path = tmp_path / "bad.lag"
     path.write_text("model Bad\n  coordinate x;\n  T = der(y)^2;\nend Bad;\n")
