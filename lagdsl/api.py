@@ -271,12 +271,14 @@ def _progress_bar(show: bool, members: int):
         yield lambda finished: bar.update(max(0, finished - bar.n))
 
 
-def single_number(name: str, value) -> float:
+def single_number(name: str, value) -> float | str:
     """`value` as the one number simulate() and bench() take for input `name`; a list or an array
     (several values) is refused with a pointer to sweep(), which runs one member per value."""
     if np.ndim(value) > 0:
         raise LagError(f"a run takes one value of each input, got {np.size(value)} values; to run a member "
                        f"for each, use model.sweep(set={{'{name}': [...]}})", Setting(name))
+    if isinstance(value, str):
+        return value        # a number and its unit, "30 deg": scene.plan_scene converts it to SI
     try:
         return float(value)
     except (TypeError, ValueError):

@@ -52,7 +52,7 @@ def test_parameter_and_initial_overrides():
     (dict(m2=[1, 2]), "lagc: error: m2: a run takes one value of each input, got 2 values; to run a member for "
                       "each, use model.sweep(set={'m2': [...]})"),
     (dict(set={"theta1.start": np.linspace(0, 1, 5)}), "theta1.start: a run takes one value of each input, got 5"),
-    (dict(m2="heavy"), "lagc: error: m2: expected a number, got 'heavy'"),
+    (dict(m2="heavy"), "lagc: error: m2: expected a number, or a number and a unit such as '30 deg', got 'heavy'"),
 ])
 def test_several_values_where_one_is_expected_point_to_sweep(values, words):
     """simulate(m2=[1, 2]) raised a bare TypeError from float()."""
