@@ -37,7 +37,8 @@ def run(arguments) -> int:
         if path is not None:
             check_writable(path, arguments.model)
     model = common.load_model(SourceFile.read(arguments.model))
-    overrides = Overrides(common.set_values(arguments.set, with_units=True), arguments.start, arguments.stop, arguments.interval)
+    overrides = Overrides(common.set_values(arguments.set, with_units=True), arguments.start, arguments.stop,
+                          arguments.interval)
     progress = bench.progress_bar()
     try:
         report = bench.run_bench(model, arguments.scene, overrides, integrators, bench.backends(arguments.backend),

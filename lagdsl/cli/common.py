@@ -62,7 +62,8 @@ def overrides(arguments) -> Overrides:
                      arguments.integrator, options)
 
 
-def set_values(items: list[str], option: str = "--set", with_units: bool = False) -> tuple[tuple[str, float | str], ...]:
+def set_values(items: list[str], option: str = "--set",
+               with_units: bool = False) -> tuple[tuple[str, float | str], ...]:
     """NAME=VALUE items of `option` (--set, or --at of `lagc modes`) as (name, number) pairs; with
     `with_units`, a VALUE that is a number and a unit (`theta.start=30 deg`) is kept as its text,
     which the plan converts to SI (scene.plan_scene)."""
