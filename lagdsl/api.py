@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import ir, reference
+from . import ir, reference, units
 from .codegen import GeneratedSource
 from .codegen.kernel import Kernel
 from .errors import LagError, Setting
@@ -72,9 +72,10 @@ class Model:
                  max_steps: int | None = None, estimate_error: bool = False, **parameters: float) -> Result:
         """Run a scene and return its outputs.
 
-        `set` maps parameter names, "q.start" and "q.velocity" to values; parameters may also be
-        given as keyword arguments (`simulate(m2=3)`). The other arguments override the scene's
-        time grid and integrator; `max_steps` bounds the steps (default: settings.step_limit,
+        `set` maps parameter names, "q.start" and "q.velocity" to values (numbers in SI, or texts
+        with a unit: "30 deg"); parameters may also be given as keyword arguments
+        (`simulate(m2=3)`). The other arguments override the scene's time grid (seconds, or
+        "0.8 ns") and integrator; `max_steps` bounds the steps (default: settings.step_limit,
         DEFAULT_MAX_STEPS or STEPS_PER_ROW per output row). `estimate_error` fills
         `result.summary.error` (an ErrorEstimate: `.value`, the largest absolute error over rows
         and columns, in `.column`; `.columns`, each column's largest, in its unit; against a 100x
@@ -87,7 +88,7 @@ class Model:
         values.update(parameters)
         options = given_options(dict(rtol=rtol, atol=atol, step=step, stages=stages, max_step=max_step,
                                      max_steps=max_steps))
-        overrides = Overrides(tuple((k, single_number(k, v)) for k, v in values.items()), start, stop, interval,
+        overrides = Overrides(tuple((k, single_number(k, v)) for k, v in values.items()), *_times(start, stop, interval),
                               integrator, options)
         return self.simulate_plan(scene, backend, overrides, estimate_error=estimate_error)
 
@@ -132,7 +133,7 @@ class Model:
         rejected, error, reference_error.
         """
         from . import bench
-        overrides = Overrides(tuple((k, single_number(k, v)) for k, v in (set or {}).items()), start, stop, interval)
+        overrides = Overrides(tuple((k, single_number(k, v)) for k, v in (set or {}).items()), *_times(start, stop, interval))
         report = bench.run_bench(self, scene, overrides, integrators, bench.backends(backend), peers, repeat,
                                  progress=bench.progress_bar() if progress else None)
         return bench.table(report)
@@ -269,6 +270,12 @@ def _progress_bar(show: bool, members: int):
         return
     with progress_bar(members, "member") as bar:
         yield lambda finished: bar.update(max(0, finished - bar.n))
+
+
+def _times(start, stop, interval) -> tuple[float | None, ...]:
+    """The time grid's overrides in seconds: numbers, or texts with a unit of time ("0.8 ns")."""
+    return tuple(units.time_in_seconds(value, name) for name, value in
+                 (("start", start), ("stop", stop), ("interval", interval)))
 
 
 def single_number(name: str, value) -> float | str:

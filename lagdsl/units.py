@@ -15,7 +15,7 @@ from fractions import Fraction
 
 import sympy
 
-from .errors import LagError
+from .errors import LagError, Setting
 from .ir import Unit
 from .source import SourceFile, Span
 
@@ -137,6 +137,19 @@ _VALUE_WITH_UNIT = re.compile(r"\s*(?P<number>[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-
                               r"(?:\[(?P<bracketed>[^\]]*)\]|(?P<bare>[A-Za-z_][^\[\]]*))\s*")
 
 
+def time_in_seconds(value: float | str | None, option: str) -> float | None:
+    """A time given outside the model file (`--stop`, simulate(stop=...)): a number in seconds,
+    or a number and a unit of time (`0.8 ns`, `2 min`)."""
+    if not isinstance(value, str):
+        return value
+    return value_in_si(value, _written_unit("s"), Setting(option))
+
+
+def _written_unit(text: str) -> Unit:
+    """A unit written outside a model file (no brackets), parsed as a model's `[text]` is."""
+    return parse_unit(Span(SourceFile("<value>", f"[{text}]"), 1, 1, 0, len(text) + 2))
+
+
 def per_second(unit: Unit | None) -> Unit | None:
     """The unit of the rate of a quantity in `unit` (a coordinate's velocity)."""
     if unit is None:
@@ -155,9 +168,8 @@ def value_in_si(text: str, declared: Unit | None, where) -> float:
     if match is None:
         raise LagError(f"expected a number, or a number and a unit such as '30 deg', got '{text}'", where)
     written = match.group("bracketed") if match.group("bracketed") is not None else match.group("bare")
-    written = written.strip()
     try:
-        unit = parse_unit(Span(SourceFile("<value>", f"[{written}]"), 1, 1, 0, len(written) + 2))
+        unit = _written_unit(written.strip())
     except LagError as error:
         raise LagError(f"in '{text}': {error.diagnostics[0].message}", where) from None
     if declared is None:

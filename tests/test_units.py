@@ -368,3 +368,20 @@ def test_a_sweep_refuses_a_value_with_a_unit_clearly(tmp_path):
                            "--vary", "l=0.3:0.5:2", "-o", str(tmp_path / "out.csv")], capture_output=True, text=True)
     assert done.returncode == 1 and "Traceback" not in done.stderr
     assert "lagc: error: sweep: the values of 'm' are numbers, in SI; '500g'" in done.stderr
+
+
+def test_times_take_a_unit_of_time(tmp_path):
+    """--stop "200 ms" is --stop 0.2; simulate(stop="0.2 s", interval="50 ms") likewise; a length is refused."""
+    path = tmp_path / "pendulum.lag"
+    path.write_text(PENDULUM_PREFIXED)
+    command = [sys.executable, "-m", "lagdsl", "run", str(path), "--backend", "numpy", "--interval", "0.05"]
+    seconds = subprocess.run([*command, "--stop", "0.2"], capture_output=True, text=True)
+    milliseconds = subprocess.run([*command, "--stop", "200 ms"], capture_output=True, text=True)
+    assert milliseconds.returncode == 0 and milliseconds.stdout == seconds.stdout
+    wrong = subprocess.run([*command, "--stop", "2 m"], capture_output=True, text=True)
+    assert wrong.returncode == 1 and "lagc: error: --stop: '2 m' is a length, but this value is declared in [s]" \
+        in wrong.stderr
+    model = loaded(PENDULUM_PREFIXED)
+    given = model.simulate(backend="numpy", stop="0.2 s", interval="50 ms")
+    plain = model.simulate(backend="numpy", stop=0.2, interval=0.05)
+    assert np.array_equal(given.t, plain.t) and np.array_equal(given["theta"], plain["theta"])

@@ -51,9 +51,10 @@ def input_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                         help="override a parameter, or an initial value as COORDINATE.start / COORDINATE.velocity; "
                              "a plain number is in SI, a number with a unit ('30 deg', '500g') is converted")
-    parser.add_argument("--start", type=float, help="start time of the output grid")
-    parser.add_argument("--stop", type=float, help="stop time")
-    parser.add_argument("--interval", type=float, help="output interval")
+    for option, meaning in (("start", "start time of the output grid"), ("stop", "stop time"),
+                            ("interval", "output interval")):
+        parser.add_argument(f"--{option}", type=lambda text, option=option: time_value(f"--{option}", text),
+                            help=f"{meaning}: seconds, or a number and a unit of time ('0.8 ns', '2 min')")
 
 
 def overrides(arguments) -> Overrides:
@@ -78,6 +79,14 @@ def set_values(items: list[str], option: str = "--set",
                            f"got '{item}'")
         values.append((name.strip(), value))
     return tuple(values)
+
+
+def time_value(option: str, text: str) -> float:
+    value = parse_number(text.strip())
+    if value is not None:
+        return value
+    from ..units import time_in_seconds     # with sympy, which a warm run does without
+    return time_in_seconds(text.strip(), option)
 
 
 def refuse(option: str, message: str):
