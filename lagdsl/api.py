@@ -8,7 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import ir, reference, units
+from . import ir, reference
+from .frontend import units
 from .codegen import GeneratedSource
 from .codegen.kernel import Kernel
 from .errors import LagError, Setting
@@ -41,6 +42,7 @@ class Model:
         self.ir, self.equations = compile_model(source)
         self._programs: dict[tuple[str, str, str], Program] = {}
         self._quick_plans: dict[str | None, plans.StoredPlan] = {}     # by the scene asked for
+        self._sensitivity_programs: dict[str, object] = {}             # sensitivity.run.Program by scene
 
     @property
     def name(self) -> str:
@@ -69,7 +71,8 @@ class Model:
                  start: float | None = None, stop: float | None = None, interval: float | None = None,
                  integrator: str | None = None, rtol: float | None = None, atol: float | None = None,
                  step: float | None = None, stages: int | None = None, max_step: float | None = None,
-                 max_steps: int | None = None, estimate_error: bool = False, **parameters: float) -> Result:
+                 max_steps: int | None = None, estimate_error: bool = False, sensitivities=None,
+                 sensitivity_error_control: bool = True, **parameters: float) -> Result:
         """Run a scene and return its outputs.
 
         `set` maps parameter names, "q.start" and "q.velocity" to values (numbers in SI, or texts
@@ -82,15 +85,39 @@ class Model:
         tighter rerun or the extended-precision reference; `float(...)` gives the value). Raises
         SimulationError (with `.partial`, the rows computed so far) when the integration fails,
         SimulationInterrupted (a SimulationError) when Ctrl-C stops it.
+
+        `sensitivities` names parameters and start values ("q.start", "q.velocity"): the run then
+        integrates the variational equations with the state (sensitivity/run.py; backend
+        "numpy", an adaptive integrator) and returns a SensitivityResult, whose
+        `.sensitivity("x", "k")` is ∂x(t)/∂k on the grid; `sensitivity_error_control` says whether
+        they enter the step-size control (default: they do).
         """
         _check_backend(backend)
         values = dict(set or {})
         values.update(parameters)
         options = given_options(dict(rtol=rtol, atol=atol, step=step, stages=stages, max_step=max_step,
                                      max_steps=max_steps))
-        overrides = Overrides(tuple((k, single_number(k, v)) for k, v in values.items()), *_times(start, stop, interval),
-                              integrator, options)
+        overrides = Overrides(tuple((k, single_number(k, v)) for k, v in values.items()),
+                              *_times(start, stop, interval), integrator, options)
+        if sensitivities is not None:
+            return self.sensitivities(scene, backend, overrides, sensitivities, error_control=sensitivity_error_control)
         return self.simulate_plan(scene, backend, overrides, estimate_error=estimate_error)
+
+    def sensitivities(self, scene: str | None, backend: str, overrides: Overrides, names, times=None,
+                      error_control: bool = True):
+        """A run with its sensitivities by `names` (see simulate), on `times` (default: the grid)."""
+        from .sensitivity import run as sensitivity
+        _check_backend(backend)
+        if backend != "numpy":
+            raise LagError("sensitivities are integrated on the NumPy backend only; use backend='numpy'",
+                           Setting("--backend"))
+        scene_plan = self.plan(scene, overrides)
+        chosen = sensitivity.directions(self.ir, list(names))
+        if scene_plan.scene_name not in self._sensitivity_programs:
+            self._sensitivity_programs[scene_plan.scene_name] = sensitivity.build(self, scene)
+        result = sensitivity.integrate(self._sensitivity_programs[scene_plan.scene_name], scene_plan, chosen, times,
+                                       error_control)
+        return _described(self.ir, result, scene_plan.scene_name)
 
     def simulate_plan(self, scene: str | None, backend: str, overrides: Overrides,
                       progress: Callable[[float, float, float], None] | None = None,
@@ -100,10 +127,10 @@ class Model:
         _check_backend(backend)
         quick = None if estimate_error else self._quick_run(scene, backend, overrides)
         if quick is not None:
-            return self._described(run(quick[0], backend, quick[1].loaded, progress), quick[0].scene_name)
+            return _described(self.ir, run(quick[0], backend, quick[1].loaded, progress), quick[0].scene_name)
         scene_plan = self.plan(scene, overrides)
         program = self._program(scene, scene_plan, backend, overrides)
-        result = self._described(execute(program.kernel, program.source, scene_plan, progress, program.loaded),
+        result = _described(self.ir, execute(program.kernel, program.source, scene_plan, progress, program.loaded),
                                  scene_plan.scene_name)
         self._keep_quick_plan(scene, scene_plan)
         if not estimate_error:
@@ -116,10 +143,19 @@ class Model:
         error = reference.estimate_error(result, self.equations, scene_plan, self.source.name, rerun)
         return replace(result, summary=replace(result.summary, error=error))
 
-    def _described(self, result: Result, scene_name: str) -> Result:
-        """`result` with its columns' units and what ran (the model and scene), for its plots."""
-        units = None if self.ir.units is None else self.ir.units.column_units(scene_name, result.columns)
-        return replace(result, units=units, origin=f"{self.name}, scene {scene_name}")
+    def fit(self, data, params: dict, *, outputs=None, sigma=None, scene: str | None = None,
+            bounds: dict | None = None, set: dict | None = None, integrator: str | None = None, **options):
+        """Fit `params` ({name: start value}) to `data` (a CSV path or a DataFrame with a `t` column
+        and columns named as the scene's outputs) by least squares, the sensitivities as the
+        Jacobian; returns a sensitivity.fit.Fit (.values, .stderr, .correlation, .residuals, .cost,
+        .nfev). `integrator` and `options` (rtol, atol, max_step, ...) override the scene's. See
+        sensitivity/fit.py for the statistics."""
+        from .sensitivity.fit import fit
+        unknown = [name for name in options if name not in RUN_OPTIONS]
+        if unknown:
+            raise LagError(f"fit: unknown option '{unknown[0]}' (options: {', '.join(RUN_OPTIONS)})")
+        held = {name: single_number(name, value) for name, value in (set or {}).items()}
+        return fit(self, data, params, outputs, sigma, scene, bounds, held, integrator, options)
 
     def bench(self, scene: str | None = None, *, integrators: tuple[str, ...] | None = None, backend: str = "c",
               peers: bool = False, repeat: int = 3, set: dict | None = None, start: float | None = None,
@@ -133,7 +169,8 @@ class Model:
         rejected, error, reference_error.
         """
         from . import bench
-        overrides = Overrides(tuple((k, single_number(k, v)) for k, v in (set or {}).items()), *_times(start, stop, interval))
+        overrides = Overrides(tuple((k, single_number(k, v)) for k, v in (set or {}).items()),
+                              *_times(start, stop, interval))
         report = bench.run_bench(self, scene, overrides, integrators, bench.backends(backend), peers, repeat,
                                  progress=bench.progress_bar() if progress else None)
         return bench.table(report)
@@ -270,6 +307,12 @@ def _progress_bar(show: bool, members: int):
         return
     with progress_bar(members, "member") as bar:
         yield lambda finished: bar.update(max(0, finished - bar.n))
+
+
+def _described(model: ir.Model, result: Result, scene_name: str) -> Result:
+    """`result` with its columns' units and what ran (the model and scene), for its plots."""
+    units = None if model.units is None else model.units.column_units(scene_name, result.columns)
+    return replace(result, units=units, origin=f"{model.name}, scene {scene_name}")
 
 
 def _times(start, stop, interval) -> tuple[float | None, ...]:

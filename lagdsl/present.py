@@ -14,7 +14,8 @@ from __future__ import annotations
 import re
 import sympy
 
-from . import ir, units
+from . import ir
+from .frontend import units
 from .calculus import Differentiator, tree_size
 from .escape import visible
 from .mechanics import Equations

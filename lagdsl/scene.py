@@ -14,7 +14,8 @@ from dataclasses import dataclass, replace
 
 import sympy
 
-from . import ir, units
+from . import ir
+from .frontend import units
 from .errors import LagError, Setting, suggest
 from .integrators import registry
 from .mechanics import Equations

@@ -7,7 +7,6 @@ import sys
 from ..errors import SimulationError, SimulationInterrupted
 from ..progress import TimeProgress
 from ..run import cache
-from ..run.files import check_writable
 from ..source import SourceFile
 from . import common
 
@@ -50,9 +49,7 @@ def _simulate(arguments) -> int:
     full = arguments.units or arguments.error or arguments.plot is not None
     stored = None if full else plans.find(source, arguments.scene, arguments.backend, arguments.integrator)
     model = None if stored else common.load_model(source)      # the model's errors first, as always
-    for path in (arguments.output, arguments.plot):
-        if path is not None:
-            check_writable(path, arguments.model)      # refuse before the run, not after it
+    common.check_destinations(arguments.model, arguments.output, arguments.plot)
     overrides = common.overrides(arguments)
     xy = _trajectory(arguments, model)
     progress = TimeProgress()

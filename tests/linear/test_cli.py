@@ -81,6 +81,8 @@ BAD_INPUT = [
     (["modes", "cart_pole.lag", "--at", "thetta=0"],
      "--at: 'thetta' names no coordinate of model CartPole; did you mean 'theta'?"),
     (["modes", "cart_pole.lag", "--at", "theta"], "--at takes NAME=VALUE"),
+    (["modes", "pendulum.lag", "--count", "0"], "--count: expected a whole number >= 1, got '0'"),
+    (["modes", "pendulum.lag", "--count", "x"], "--count: expected a whole number >= 1, got 'x'"),
     (["modes", "cartesian_pendulum.lag", "--at", "x=0", "--at", "y=-1", "--at", "y.velocity=1"],
      "--at: the state is not on constraint 'rod' (residual 0, velocity residual -2)"),
     (["linearize", "cartesian_pendulum.lag", "--input", "l", "-o", "lin.json"],

@@ -15,9 +15,9 @@ from fractions import Fraction
 
 import sympy
 
-from .errors import LagError, Setting
-from .ir import Unit
-from .source import SourceFile, Span
+from ..errors import LagError, Setting
+from ..ir import Unit
+from ..source import SourceFile, Span
 
 BASE_DIMENSIONS = ("mass", "length", "time", "current", "temperature", "substance", "luminosity")
 SI_SYMBOLS = {"mass": "kg", "length": "m", "time": "s", "current": "A", "temperature": "K",

@@ -8,8 +8,8 @@ from importlib import resources
 import lark
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
 
-from .errors import LagError
-from .source import SourceFile, Span
+from ..errors import LagError
+from ..source import SourceFile, Span
 
 KEYWORDS = {
     "MODEL": "model", "END": "end", "PARAMETER": "parameter", "COORDINATE": "coordinate",
@@ -37,7 +37,7 @@ STATEMENT_LEVEL = DECLARATION_STARTS | {"SEMI", "END", "TIME", "INTEGRATOR", "SE
 
 @lru_cache(maxsize=1)
 def _lark() -> lark.Lark:
-    grammar = resources.files("lagdsl").joinpath("grammar.lark").read_text(encoding="utf-8")
+    grammar = resources.files(__package__).joinpath("grammar.lark").read_text(encoding="utf-8")
     return lark.Lark(grammar, parser="lalr", lexer="contextual", propagate_positions=True,
                      maybe_placeholders=False)
 
