@@ -10,7 +10,7 @@ from __future__ import annotations
 from ..abi import SETTINGS, STATUSES, UNKNOWN_STATUS, Status, SummaryLayout, format_fields
 from ..escape import c_comment, c_string
 from ..frontend.functions import LIBM_TABLE_MARKER, libm_table
-from ..integrators import COUNTER_LABELS, c_file
+from ..integrators import COUNTER_LABELS, SWITCH_TIMES, c_file
 from ..settings import (DEFAULT_MAX_STEPS, GRID_SLACK, MAX_ROWS, MIN_STEP_EPS, RCOND_MIN_EPS, RTOL_FLOOR_EPS,
                         STEPS_PER_ROW)
 
@@ -25,6 +25,7 @@ SHARED_CONSTANTS = (
     ("LAG_RTOL_FLOOR", "(LAG_RTOL_FLOOR_EPS * REAL_EPSILON)", "... and as a number"),
     ("LAG_MIN_STEP_EPS", f"{MIN_STEP_EPS}", "the smallest step, in eps of max(|t|, span)"),
     ("LAG_RCOND_MIN", f"({RCOND_MIN_EPS} * REAL_EPSILON)", "below this reciprocal condition, K is singular"),
+    ("LAG_AUTO_LOGGED", f"{SWITCH_TIMES}", "the switches of auto whose times the summary keeps"),
 )
 # The C argument of each value a status message may name, and its printf conversion where the
 # message gives no format of its own ({rcond:.3g} is printed with %.3g).

@@ -10,7 +10,7 @@ from . import registry
 COUNTER_LABELS = {"accepted": "steps accepted", "rejected": "rejected", "rhs_evals": "right-hand sides",
                   "jac_evals": "Jacobians", "lu_decomps": "LU", "newton_iters": "iterations"}
 # The times of a composite's first switches that its run summary reports (abi.summary_layout).
-SWITCH_TIMES = 8                  # LAG_AUTO_LOGGED in auto.c
+SWITCH_TIMES = 8                  # auto's switch times in a summary (LAG_AUTO_LOGGED in C)
 
 
 def integrator_files(name: str) -> tuple[str, ...]:
