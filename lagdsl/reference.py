@@ -76,8 +76,12 @@ class Reference:
     def error_of(self, values: np.ndarray) -> float:
         """The largest absolute difference of `values` (rows of the same grid and columns) from the
         reference, over the rows both have (a stop condition may end a run a row sooner or later)."""
+        return float(np.max(self.column_errors(values), initial=0.0))
+
+    def column_errors(self, values: np.ndarray) -> np.ndarray:
+        """The largest absolute difference from the reference in each column, over the rows both have."""
         rows = min(len(values), len(self.values))
-        return float(np.max(np.abs(values[:rows] - self.values[:rows]), initial=0.0))
+        return _column_differences(values[:rows], self.values[:rows])
 
 
 def reference_method(plan: ScenePlan) -> str:
@@ -161,15 +165,23 @@ def estimate_error(result: Result, equations: Equations, plan: ScenePlan, source
     if tighter is not None and not reference_is_cached(equations, plan, source_name):
         try:
             other = rerun(tighter)
+            if other.values.shape != result.values.shape:
+                raise SimulationError("the rerun delivered other rows", 0.0, {}, "")
             settings = ", ".join(f"{key} = {value:g}" for key, value in tighter)
-            return ErrorEstimate(_largest_difference(result.values, other.values), f"a rerun at {settings}",
-                                 clock.perf_counter() - started)
+            return _estimate(result, _column_differences(result.values, other.values), f"a rerun at {settings}",
+                             started)
         except (SimulationError, LagError):
             pass
     reference = reference_solution(equations, plan, source_name)
-    return ErrorEstimate(reference.error_of(result.values),
-                         f"the {PRECISION_NAMES[reference.precision]} reference (its accuracy {reference.accuracy:.2g})",
-                         clock.perf_counter() - started)
+    return _estimate(result, reference.column_errors(result.values),
+                     f"the {PRECISION_NAMES[reference.precision]} reference (its accuracy {reference.accuracy:.2g})",
+                     started)
+
+
+def _estimate(result: Result, errors: np.ndarray, against: str, started: float) -> ErrorEstimate:
+    """The estimate from each column's largest error, with the columns' names and units."""
+    return ErrorEstimate(float(np.max(errors, initial=0.0)), against, clock.perf_counter() - started,
+                         tuple(zip(result.columns, map(float, errors))), result.units)
 
 
 def tighter_options(plan: ScenePlan) -> tuple[tuple[str, float], ...] | None:
@@ -185,10 +197,8 @@ def tighter_options(plan: ScenePlan) -> tuple[tuple[str, float], ...] | None:
     return (("rtol", options["rtol"] / 100), ("atol", options["atol"] / 100))
 
 
-def _largest_difference(a: np.ndarray, b: np.ndarray) -> float:
-    if a.shape != b.shape:
-        raise SimulationError("the rerun delivered other rows", 0.0, {}, "")
-    return float(np.max(np.abs(a - b), initial=0.0))
+def _column_differences(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.max(np.abs(a - b), axis=0, initial=0.0)
 
 
 def _with_tolerance(plan: ScenePlan, method: str, rtol: float, ratio: float) -> ScenePlan:
