@@ -7,6 +7,7 @@ from ..integrators import COUNTER_LABELS, c_file, integrator_source, registry, s
 from ..integrators.registry import OPTION_ORDER, OPTIONS
 from . import GeneratedSource, template_environment
 from .c_factor import factorisation_text
+from .c_taylor import series_text
 from .kernel import Block, Kernel, Loop, Store
 from .printers import CPrinter
 
@@ -52,6 +53,8 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
         "canonical": kernel.momenta is not None,
         "outputs_need_multipliers": kernel.outputs_need_multipliers,
         "integrator_source": integrator_source(kernel.integrator.name),
+        "taylor_series": series_text(kernel, printer, [_position(s, kernel) for s in kernel.system.stores
+                                                       if s.array == "K"]) if method.series else "",
         "switching": bool(method.parts),
         "stiffness_test": method.stiffness_test,
         "summary_fixed": 6 + len(counters) + summary_extras(method.name),

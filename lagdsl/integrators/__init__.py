@@ -8,7 +8,8 @@ from importlib import resources
 from . import registry
 
 COUNTER_LABELS = {"accepted": "steps accepted", "rejected": "rejected", "rhs_evals": "right-hand sides",
-                  "jac_evals": "Jacobians", "lu_decomps": "LU", "newton_iters": "iterations"}
+                  "jac_evals": "Jacobians", "lu_decomps": "LU", "newton_iters": "iterations",
+                  "orders": "Taylor orders"}
 # The run summary's entries after the counters: the stiffness test's verdict (stiff, its time,
 # accepted, rejected, rhs_evals then) and a composite's switches (count, two spans, the times).
 STIFFNESS_ENTRIES = 5

@@ -1,0 +1,227 @@
+"""SeriesGraph -> the C that computes the Taylor coefficients of the state (for integrators/c/taylor.c).
+
+Printed into the model part of a generated file (templates/c/taylor_series.c.j2):
+
+  lag_taylor_KIND      one function per recurrence the model uses, u_k for k >= 1, printed from
+                       its entry in taylor.RECURRENCES (so the C is the table, not a copy of it)
+  lag_taylor_series    the coefficients s[i][0 .. order] of every node at (t, y), order by order:
+                       loops over the order k, straight-line over the nodes within an order
+
+The accelerations come order by order from M(t) x(t) = f(t) (with constraints K = [[M, -Aᵀ],
+[A, 0]] and x = (q'', λ)): with K = Σ K_j τ^j and x = Σ x_k τ^k,
+
+    K_0 x_k = f_k - Σ_{j=1..k} K_j x_{k-j},
+
+so K_0 is factored once per step, with the factorisation the model's layout already uses, and
+each order costs one substitution. A constant M (factored once per run) and a diagonal one
+cost nothing beyond that. Then q_{k+1} = q'_k / (k+1) and q'_{k+1} = x_k / (k+1).
+"""
+from __future__ import annotations
+
+import re
+
+import sympy
+
+from . import template_environment
+from .taylor import J, K, OWN, RECURRENCES, Coefficient, Convolution, Recurrence, zeroth
+from .taylor_graph import Node, Scaled, SeriesGraph, series_graph
+
+# The series of node i is the row s[i] of the work array; the order lives in the column.
+ROW = "s[{}]"
+
+
+def helper_name(kind: str) -> str:
+    return f"lag_taylor_{kind}"
+
+
+def reads_own(recurrence: Recurrence) -> bool:
+    used = {t.operand for _, t in recurrence.terms if isinstance(t, Coefficient)}
+    used |= {name for _, t in recurrence.terms if isinstance(t, Convolution) for name in (t.left, t.right)}
+    return OWN in used or zeroth(OWN) in recurrence.divisor.free_symbols
+
+
+def helper_operands(recurrence: Recurrence) -> tuple[str, ...]:
+    """The arrays a helper reads: the operands, then u when it reads its own earlier orders."""
+    return recurrence.operands + ((OWN,) if reads_own(recurrence) else ())
+
+
+def helper(recurrence: Recurrence, printer) -> str:
+    """The C function that returns u_k (k >= 1) by `recurrence`."""
+    arrays = helper_operands(recurrence)
+    signature = ", ".join([f"const real *{name}" for name in arrays] + ["int k"]
+                          + [f"real {name}" for name in recurrence.parameters])
+    lines = [f"/* u = {recurrence.name}({', '.join(recurrence.operands)}): {recurrence.ode} */",
+             f"static real {helper_name(recurrence.name)}({signature})", "{"]
+    if not recurrence.terms:
+        lines += [f"    (void){name};" for name in arrays] + ["    (void)k;", "    return 0;", "}"]
+        return "\n".join(lines)
+    if any(isinstance(term, Convolution) for _, term in recurrence.terms):
+        lines.append("    int j;")
+    lines.append("    real sum = 0;")
+    for sign, term in recurrence.terms:
+        lines += _term_lines(sign, term, printer)
+    divisor = _c(recurrence.divisor, printer)
+    lines += [f"    return sum / ({divisor});" if recurrence.divisor != 1 else "    return sum;", "}"]
+    return "\n".join(lines)
+
+
+def _c(expr: sympy.Expr, printer) -> str:
+    """A weight or divisor: the zeroth coefficient a0 as a[0], j and k as the C ints."""
+    names = {symbol: sympy.Symbol(f"{symbol.name[:-1]}[0]") for symbol in expr.free_symbols
+             if symbol.name.endswith("0")}
+    names.update({J: sympy.Symbol("j"), K: sympy.Symbol("k")})
+    return printer.doprint(expr.xreplace(names))
+
+
+def _term_lines(sign: int, term, printer) -> list[str]:
+    add = "+=" if sign > 0 else "-="
+    if isinstance(term, Coefficient):
+        weight = "" if term.weight == 1 else f"{_c(term.weight, printer)} * "
+        return [f"    sum {add} {weight}{term.operand}[k];"]
+    weight = "" if term.weight == 1 else f"{_c(term.weight, printer)} * " if term.weight.is_Atom \
+        else f"({_c(term.weight, printer)}) * "
+    last = "k" if term.gap == 0 else f"k - {term.gap}"
+    if term.left == term.right and term.weight == 1 and term.first == term.gap:
+        # Σ_j x_j x_{k-j} over a symmetric range: each pair once, doubled, and the middle term.
+        x = term.left
+        return [f"    for (j = {term.first}; 2 * j < k; ++j)", f"        sum {add} 2 * {x}[j] * {x}[k - j];",
+                "    if (k % 2 == 0)", f"        sum {add} {x}[k / 2] * {x}[k / 2];"]
+    return [f"    for (j = {term.first}; j <= {last}; ++j)",
+            f"        sum {add} {weight}{term.left}[j] * {term.right}[k - j];"]
+
+
+def tail_helper() -> str:
+    return "\n".join([
+        "/* Σ_{j=1..k} a_j b_{k-j}: what the terms of order >= 1 of a matrix entry a contribute to",
+        " * order k of its product with b (b's order k is the unknown). */",
+        "static real lag_taylor_tail(const real *a, const real *b, int k)", "{",
+        "    real sum = 0;", "    int j;", "    for (j = 1; j <= k; ++j)", "        sum += a[j] * b[k - j];",
+        "    return sum;", "}"])
+
+
+class SeriesPrinter:
+    """The statements of lag_taylor_series for one graph."""
+
+    def __init__(self, graph: SeriesGraph, printer):
+        self.graph, self.printer = graph, printer
+        self.hoisted: dict[sympy.Expr, str] = {}
+
+    def constant(self, expr: sympy.Expr) -> str:
+        """A constant as C: a number or a name as itself, anything else hoisted into a `kN`."""
+        if expr.is_Number or expr.is_Symbol or (-expr).is_Symbol:
+            return self.printer.doprint(expr)
+        if expr not in self.hoisted:
+            self.hoisted[expr] = f"k{len(self.hoisted)}"
+        return self.hoisted[expr]
+
+    def term(self, scale: sympy.Expr, node: int, order: str) -> str:
+        row = f"{ROW.format(node)}[{order}]"
+        if scale == 1:
+            return row
+        if scale == -1:
+            return f"-{row}"
+        return f"{self.constant(scale)} * {row}"
+
+    def scaled(self, value: Scaled, order: str) -> str:
+        """A Scaled at `order` ("0" includes a constant, higher orders drop it)."""
+        if value.node is None:
+            return self.constant(value.scale) if order == "0" else "0"
+        return self.term(value.scale, value.node, order)
+
+    def linear(self, node: Node, order: str) -> str:
+        terms = [self.term(scale, operand, order) for scale, operand in zip(node.scales, node.operands)]
+        if order == "0" and node.offset != 0:
+            terms.insert(0, self.constant(node.offset))
+        return " + ".join(terms).replace("+ -", "- ")
+
+    def zeroth(self, index: int, node: Node) -> str | None:
+        """The statement for order 0 of a node (None for the state, time and solution rows)."""
+        if node.kind in ("state", "time", "solution"):
+            return None
+        if node.kind == "lin":
+            return f"{ROW.format(index)}[0] = {self.linear(node, '0')};"
+        recurrence = RECURRENCES[node.kind]
+        names = {zeroth(name): sympy.Symbol(f"{ROW.format(operand)}[0]")
+                 for name, operand in zip(recurrence.operands, node.operands)}
+        names.update({sympy.Symbol(name, real=True): value
+                      for name, value in zip(recurrence.parameters, node.parameters)})
+        return f"{ROW.format(index)}[0] = {self.printer.doprint(recurrence.value.xreplace(names))};"
+
+    def at_order(self, index: int, node: Node) -> str | None:
+        """The statement for order k >= 1 of a node (None for the state and solution rows)."""
+        if node.kind in ("state", "solution"):
+            return None
+        if node.kind == "time":
+            return f"{ROW.format(index)}[k] = k == 1;"
+        if node.kind == "lin":
+            return f"{ROW.format(index)}[k] = {self.linear(node, 'k')};"
+        recurrence = RECURRENCES[node.kind]
+        operands = [ROW.format(o) for o in node.operands]
+        if reads_own(recurrence):
+            operands.append(ROW.format(index))
+        arguments = operands + ["k"] + [self.constant(value) for value in node.parameters]
+        return f"{ROW.format(index)}[k] = {helper_name(node.kind)}({', '.join(arguments)});"
+
+    def right_side(self, order: str) -> list[str]:
+        """r = b at `order`, less Σ_{j>=1} K_j x_{order-j} for the entries of K that vary."""
+        lines = [f"r[{i}] = {self.scaled(value, order)};" for i, value in enumerate(self.graph.rhs)]
+        if order == "0":
+            return lines
+        for row, column, value in self.graph.matrix:
+            if value.node is not None:
+                tail = f"lag_taylor_tail({ROW.format(value.node)}, {ROW.format(self.graph.solution[column])}, k)"
+                scale = "" if value.scale == 1 else f"{self.constant(value.scale)} * "
+                lines.append(f"r[{row}] -= {scale}{tail};")
+        return lines
+
+
+def series_text(kernel, printer, positions: list[str]) -> str:
+    """The model part's Taylor series (templates/c/taylor_series.c.j2) for kernel.system.
+    `positions` are the C indices of K's stores in the system block, in order."""
+    graph = series_graph(kernel)
+    series = SeriesPrinter(graph, printer)
+    zeroth_lines = [line for i, node in enumerate(graph.nodes) if (line := series.zeroth(i, node))]
+    order_lines = [line for i, node in enumerate(graph.nodes) if (line := series.at_order(i, node))]
+    assemble = [f"K[{position}] = {series.scaled(value, '0')};" for position, (_, value) in zip(positions, graph.stored)]
+    rhs_zero, rhs_k = series.right_side("0"), series.right_side("k")
+    body = zeroth_lines + order_lines + assemble + rhs_zero + rhs_k
+    declarations = [(name, f"{printer.doprint(expr)}") for name, expr in graph.constants]
+    declarations += [(name, printer.doprint(expr)) for expr, name in series.hoisted.items()]
+    inputs = [(name, source) for block in (kernel.constant_mass, kernel.system) if block is not None
+              for name, source in block.inputs if source.startswith("par[")]
+    used = _used(body, inputs + declarations)
+    time = [i for i, node in enumerate(graph.nodes) if node.kind == "time"]
+    helpers = [helper(RECURRENCES[kind], printer) for kind in graph.kinds()]
+    if any(value.node is not None for _, _, value in graph.matrix):
+        helpers.append(tail_helper())
+    context = {
+        "taylor_helpers": helpers, "taylor_nodes": len(graph.nodes), "taylor_solution": graph.solution[0],
+        "taylor_time": time[0] if time else None, "taylor_solver": solver_kind(kernel),
+        "taylor_inputs": [(name, source) for name, source in dict(inputs).items() if name in used],
+        "taylor_constants": [f"const real {name} = {value};" for name, value in declarations if name in used],
+        "taylor_hoisted": [], "taylor_zeroth": zeroth_lines, "taylor_order": order_lines,
+        "taylor_assemble": assemble, "taylor_rhs_zero": rhs_zero, "taylor_rhs": rhs_k,
+        "constraints": kernel.constraints}
+    return template_environment().get_template("c/taylor_series.c.j2").render(context)
+
+
+def solver_kind(kernel) -> str:
+    """How lag_taylor_series solves K_0 x_k = r: with M factored once per run ("constant"), with the
+    compact layout's lag_factor and lag_substitute, or the dense Cholesky or LU."""
+    if kernel.constant_mass is not None:
+        return "constant"
+    if kernel.layout is not None and kernel.layout.compact:
+        return "compact"
+    return "cholesky" if kernel.solver == "cholesky" else "lu"
+
+
+def _used(body: list[str], declarations: list[tuple[str, str]]) -> set[str]:
+    """The declared names the body reads, directly or through other declarations: the graph may
+    leave a constant unread (a sum the identities removed), and C warns of unused variables."""
+    words = set(re.findall(r"[A-Za-z_][A-Za-z0-9_]*", " ".join(body)))
+    used: set[str] = set()
+    for name, value in reversed(declarations):
+        if name in words:
+            used.add(name)
+            words |= set(re.findall(r"[A-Za-z_][A-Za-z0-9_]*", value))
+    return used
