@@ -28,40 +28,51 @@ from .taylor_graph import Node, Scaled, SeriesGraph, series_graph
 
 # The series of node i is the row s[i] of the work array; the order lives in the column.
 ROW = "s[{}]"
+# The largest K whose inverse lag_taylor_series forms at order 0 (from the factor, column by
+# column) and multiplies by at every order: a substitution's steps wait on one another and
+# divide by the pivots, a product with the inverse does not; beyond this order, n² per order
+# costs more than the factor's sparse substitution.
+INVERSE_LARGEST = 4
 
 
 def helper_name(kind: str) -> str:
     return f"lag_taylor_{kind}"
 
 
-def reads_own(recurrence: Recurrence) -> bool:
-    used = {t.operand for _, t in recurrence.terms if isinstance(t, Coefficient)}
-    used |= {name for _, t in recurrence.terms if isinstance(t, Convolution) for name in (t.left, t.right)}
-    return OWN in used or zeroth(OWN) in recurrence.divisor.free_symbols
+def helper_arrays(recurrence: Recurrence) -> tuple[str, ...]:
+    """The series a helper reads: its operands, and its own earlier orders if a term reads them."""
+    read = {t.operand for _, t in recurrence.terms if isinstance(t, Coefficient)}
+    read |= {name for _, t in recurrence.terms if isinstance(t, Convolution) for name in (t.left, t.right)}
+    return recurrence.operands + ((OWN,) if OWN in read else ())
 
 
-def helper_operands(recurrence: Recurrence) -> tuple[str, ...]:
-    """The arrays a helper reads: the operands, then u when it reads its own earlier orders."""
-    return recurrence.operands + ((OWN,) if reads_own(recurrence) else ())
+def divisor_parts(recurrence: Recurrence) -> tuple[int, sympy.Expr]:
+    """divisor = k^e · D0: (e, D0), D0 in the zeroth coefficients (or a number)."""
+    power, rest = recurrence.divisor.as_independent(K, as_Add=False)[::-1]
+    return (0 if power == 1 else int(sympy.degree(power, K))), rest
 
 
 def helper(recurrence: Recurrence, printer) -> str:
-    """The C function that returns u_k (k >= 1) by `recurrence`."""
-    arrays = helper_operands(recurrence)
+    """The C function that returns u_k (k >= 1) by `recurrence`. The caller passes `factor`,
+    1 / divisor (the reciprocals of k and of the zeroth coefficients are taken once, not per
+    node and order), when the divisor is not 1."""
+    arrays = helper_arrays(recurrence)
     signature = ", ".join([f"const real *{name}" for name in arrays] + ["int k"]
-                          + [f"real {name}" for name in recurrence.parameters])
+                          + [f"real {name}" for name in recurrence.parameters]
+                          + (["real factor"] if recurrence.divisor != 1 else []))
     lines = [f"/* u = {recurrence.name}({', '.join(recurrence.operands)}): {recurrence.ode} */",
-             f"static real {helper_name(recurrence.name)}({signature})", "{"]
+             f"static inline real {helper_name(recurrence.name)}({signature})", "{"]
     if not recurrence.terms:
         lines += [f"    (void){name};" for name in arrays] + ["    (void)k;", "    return 0;", "}"]
         return "\n".join(lines)
     if any(isinstance(term, Convolution) for _, term in recurrence.terms):
-        lines.append("    int j;")
+        lines += ["    real s0 = 0, s1 = 0, s2 = 0, s3 = 0;", "    int j;"]
     lines.append("    real sum = 0;")
     for sign, term in recurrence.terms:
         lines += _term_lines(sign, term, printer)
-    divisor = _c(recurrence.divisor, printer)
-    lines += [f"    return sum / ({divisor});" if recurrence.divisor != 1 else "    return sum;", "}"]
+    if any(isinstance(term, Convolution) for _, term in recurrence.terms):
+        lines.append("    sum += (s0 + s1) + (s2 + s3);")
+    lines += ["    return sum * factor;" if recurrence.divisor != 1 else "    return sum;", "}"]
     return "\n".join(lines)
 
 
@@ -74,29 +85,44 @@ def _c(expr: sympy.Expr, printer) -> str:
 
 
 def _term_lines(sign: int, term, printer) -> list[str]:
+    """A term added into sum (a coefficient) or into the four partial sums s0 .. s3 (a
+    convolution, four products at a time: the additions into one partial sum wait for each
+    other, the four do not, so a sum of k products takes about k/4 of the adder's latency)."""
     add = "+=" if sign > 0 else "-="
     if isinstance(term, Coefficient):
         weight = "" if term.weight == 1 else f"{_c(term.weight, printer)} * "
         return [f"    sum {add} {weight}{term.operand}[k];"]
-    weight = "" if term.weight == 1 else f"{_c(term.weight, printer)} * " if term.weight.is_Atom \
-        else f"({_c(term.weight, printer)}) * "
-    last = "k" if term.gap == 0 else f"k - {term.gap}"
+
+    def product(offset: int) -> str:
+        j = "j" if offset == 0 else f"j + {offset}"
+        weight = term.weight.xreplace({J: J + offset})
+        factor = "" if weight == 1 else f"{_c(weight, printer)} * " if weight.is_Atom else f"({_c(weight, printer)}) * "
+        right = "k - j" if offset == 0 else f"k - j - {offset}"
+        return f"{factor}{term.left}[{j}] * {term.right}[{right}]"
     if term.left == term.right and term.weight == 1 and term.first == term.gap:
         # Σ_j x_j x_{k-j} over a symmetric range: each pair once, doubled, and the middle term.
         x = term.left
-        return [f"    for (j = {term.first}; 2 * j < k; ++j)", f"        sum {add} 2 * {x}[j] * {x}[k - j];",
-                "    if (k % 2 == 0)", f"        sum {add} {x}[k / 2] * {x}[k / 2];"]
-    return [f"    for (j = {term.first}; j <= {last}; ++j)",
-            f"        sum {add} {weight}{term.left}[j] * {term.right}[k - j];"]
+        return [f"    for (j = {term.first}; 2 * j + 6 < k; j += 4) {{",
+                *(f"        s{i} {add} 2 * {product(i)};" for i in range(4)), "    }",
+                "    for (; 2 * j < k; ++j)", f"        s0 {add} 2 * {product(0)};",
+                "    if (k % 2 == 0)", f"        s1 {add} {x}[k / 2] * {x}[k / 2];"]
+    last = "k" if term.gap == 0 else f"k - {term.gap}"
+    return [f"    for (j = {term.first}; j + 3 <= {last}; j += 4) {{",
+            *(f"        s{i} {add} {product(i)};" for i in range(4)), "    }",
+            f"    for (; j <= {last}; ++j)", f"        s0 {add} {product(0)};"]
 
 
 def tail_helper() -> str:
     return "\n".join([
         "/* Σ_{j=1..k} a_j b_{k-j}: what the terms of order >= 1 of a matrix entry a contribute to",
         " * order k of its product with b (b's order k is the unknown). */",
-        "static real lag_taylor_tail(const real *a, const real *b, int k)", "{",
-        "    real sum = 0;", "    int j;", "    for (j = 1; j <= k; ++j)", "        sum += a[j] * b[k - j];",
-        "    return sum;", "}"])
+        "static inline real lag_taylor_tail(const real *a, const real *b, int k)", "{",
+        "    real s0 = 0, s1 = 0, s2 = 0, s3 = 0;", "    int j;",
+        "    for (j = 1; j + 3 <= k; j += 4) {",
+        *(f"        s{i} += a[j + {i}] * b[k - j - {i}];".replace(" + 0]", "]").replace(" - 0]", "]")
+          for i in range(4)), "    }",
+        "    for (; j <= k; ++j)", "        s0 += a[j] * b[k - j];",
+        "    return (s0 + s1) + (s2 + s3);", "}"])
 
 
 class SeriesPrinter:
@@ -134,33 +160,47 @@ class SeriesPrinter:
             terms.insert(0, self.constant(node.offset))
         return " + ".join(terms).replace("+ -", "- ")
 
-    def zeroth(self, index: int, node: Node) -> str | None:
-        """The statement for order 0 of a node (None for the state, time and solution rows)."""
+    def zeroth(self, index: int, node: Node) -> list[str]:
+        """The statements for order 0 of a node: its value, and the reciprocal zN of the part of
+        its divisor that holds zeroth coefficients (none for the state, time and solution rows)."""
         if node.kind in ("state", "time", "solution"):
-            return None
+            return []
         if node.kind == "lin":
-            return f"{ROW.format(index)}[0] = {self.linear(node, '0')};"
+            return [f"{ROW.format(index)}[0] = {self.linear(node, '0')};"]
         recurrence = RECURRENCES[node.kind]
         names = {zeroth(name): sympy.Symbol(f"{ROW.format(operand)}[0]")
                  for name, operand in zip(recurrence.operands, node.operands)}
+        names[zeroth(OWN)] = sympy.Symbol(f"{ROW.format(index)}[0]")
         names.update({sympy.Symbol(name, real=True): value
                       for name, value in zip(recurrence.parameters, node.parameters)})
-        return f"{ROW.format(index)}[0] = {self.printer.doprint(recurrence.value.xreplace(names))};"
+        lines = [f"{ROW.format(index)}[0] = {self.printer.doprint(recurrence.value.xreplace(names))};"]
+        _, rest = divisor_parts(recurrence)
+        if rest != 1:
+            lines.append(f"const real z{index} = 1 / ({self.printer.doprint(rest.xreplace(names))});")
+        return lines
 
-    def at_order(self, index: int, node: Node) -> str | None:
-        """The statement for order k >= 1 of a node (None for the state and solution rows)."""
+    def at_order(self, index: int, node: Node) -> list[str]:
+        """The statements for order k >= 1 of a node (none for the state and solution rows)."""
         if node.kind in ("state", "solution"):
-            return None
+            return []
         if node.kind == "time":
-            return f"{ROW.format(index)}[k] = k == 1;"
-        if node.kind == "lin":
-            return f"{ROW.format(index)}[k] = {self.linear(node, 'k')};"
+            value = "k == 1"
+        elif node.kind == "lin":
+            value = self.linear(node, "k")
+        else:
+            value = self.call(index, node)
+        return [f"{ROW.format(index)}[k] = {value};"]
+
+    def call(self, index: int, node: Node) -> str:
         recurrence = RECURRENCES[node.kind]
-        operands = [ROW.format(o) for o in node.operands]
-        if reads_own(recurrence):
-            operands.append(ROW.format(index))
-        arguments = operands + ["k"] + [self.constant(value) for value in node.parameters]
-        return f"{ROW.format(index)}[k] = {helper_name(node.kind)}({', '.join(arguments)});"
+        rows = dict(zip(recurrence.operands, node.operands))
+        rows[OWN] = index
+        arguments = [ROW.format(rows[name]) for name in helper_arrays(recurrence)]
+        arguments += ["k"] + [self.constant(value) for value in node.parameters]
+        if recurrence.divisor != 1:
+            power, rest = divisor_parts(recurrence)
+            arguments.append(" * ".join(["inv_k"] * power + ([f"z{index}"] if rest != 1 else [])))
+        return f"{helper_name(node.kind)}({', '.join(arguments)})"
 
     def right_side(self, order: str) -> list[str]:
         """r = b at `order`, less Σ_{j>=1} K_j x_{order-j} for the entries of K that vary."""
@@ -180,15 +220,14 @@ def series_text(kernel, printer, positions: list[str]) -> str:
     `positions` are the C indices of K's stores in the system block, in order."""
     graph = series_graph(kernel)
     series = SeriesPrinter(graph, printer)
-    zeroth_lines = [line for i, node in enumerate(graph.nodes) if (line := series.zeroth(i, node))]
-    order_lines = [line for i, node in enumerate(graph.nodes) if (line := series.at_order(i, node))]
+    zeroth_lines = [line for i, node in enumerate(graph.nodes) for line in series.zeroth(i, node)]
+    order_lines = [line for i, node in enumerate(graph.nodes) for line in series.at_order(i, node)]
     assemble = [f"K[{position}] = {series.scaled(value, '0')};" for position, (_, value) in zip(positions, graph.stored)]
     rhs_zero, rhs_k = series.right_side("0"), series.right_side("k")
     body = zeroth_lines + order_lines + assemble + rhs_zero + rhs_k
     declarations = [(name, f"{printer.doprint(expr)}") for name, expr in graph.constants]
     declarations += [(name, printer.doprint(expr)) for expr, name in series.hoisted.items()]
-    inputs = [(name, source) for block in (kernel.constant_mass, kernel.system) if block is not None
-              for name, source in block.inputs if source.startswith("par[")]
+    inputs = list(graph.inputs)
     used = _used(body, inputs + declarations)
     time = [i for i, node in enumerate(graph.nodes) if node.kind == "time"]
     helpers = [helper(RECURRENCES[kind], printer) for kind in graph.kinds()]
@@ -197,7 +236,8 @@ def series_text(kernel, printer, positions: list[str]) -> str:
     context = {
         "taylor_helpers": helpers, "taylor_nodes": len(graph.nodes), "taylor_solution": graph.solution[0],
         "taylor_time": time[0] if time else None, "taylor_solver": solver_kind(kernel),
-        "taylor_inputs": [(name, source) for name, source in dict(inputs).items() if name in used],
+        "taylor_inverse": kernel.size <= INVERSE_LARGEST,
+        "taylor_inputs": [(name, source) for name, source in inputs if name in used],
         "taylor_constants": [f"const real {name} = {value};" for name, value in declarations if name in used],
         "taylor_hoisted": [], "taylor_zeroth": zeroth_lines, "taylor_order": order_lines,
         "taylor_assemble": assemble, "taylor_rhs_zero": rhs_zero, "taylor_rhs": rhs_k,

@@ -74,6 +74,13 @@ class Recurrence:
     parameters: tuple[str, ...] = ()       # constants of the instance (the exponent alpha)
     ode: str = ""                          # the equation the recurrence comes from
 
+    @property
+    def cost(self) -> float:
+        """The products per order, in Cauchy products of the same length: one per convolution,
+        half for one over a symmetric range (each pair of a square once)."""
+        return sum(0.5 if term.left == term.right else 1.0
+                   for _, term in self.terms if isinstance(term, Convolution))
+
     def highest_read(self, operand: str) -> int:
         """The highest order of `operand` the terms read, as an offset from k (0: order k itself)."""
         highest = -10**9

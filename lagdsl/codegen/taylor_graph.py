@@ -74,9 +74,17 @@ class SeriesGraph:
     rhs: tuple[Scaled, ...]                                # b
     states: int                                            # nodes 0 .. states - 1 are y
     solution: tuple[int, ...]                              # the nodes of x
+    inputs: tuple[tuple[str, str], ...]                    # the parameters the block reads: (name, "par[i]")
 
     def kinds(self) -> tuple[str, ...]:
         return tuple(sorted({node.kind for node in self.nodes} & set(RECURRENCES)))
+
+    def cost(self) -> float:
+        """The work per order, in Cauchy products: each node's recurrence (taylor.Recurrence.cost),
+        a twentieth per term of a sum, one per entry of K that varies (its tail Σ K_j x_{k-j})."""
+        work = sum(RECURRENCES[node.kind].cost if node.kind in RECURRENCES else
+                   len(node.operands) / 20 for node in self.nodes)
+        return work + sum(value.node is not None for _, _, value in self.matrix)
 
 
 @dataclass
@@ -232,36 +240,42 @@ class GraphBuilder:
 
 
 def series_graph(kernel) -> SeriesGraph:
-    """The graph of kernel.system (and kernel.constant_mass): y as nodes 0 .. 2n - 1, the block's
-    intermediates, K and b as scaled nodes or constants, x as the last nodes."""
+    """The graph of kernel.system, or of its rewriting by taylor_rewrite if that is cheaper:
+    y as nodes 0 .. 2n - 1, the block's intermediates, K and b as scaled nodes or constants, x as
+    the last nodes. (A constant M has a block of its own, kernel.constant_mass, which the series
+    do not need: lag_system_prepare factors it.)"""
+    from .taylor_rewrite import rewritten_block
+    graphs = [block_graph(kernel, block) for block in (kernel.system, rewritten_block(kernel.system))
+              if block is not None]
+    return min(graphs, key=lambda graph: graph.cost())
+
+
+def block_graph(kernel, block) -> SeriesGraph:
+    """The graph of one system block (the kernel gives the sizes and K's layout)."""
     builder = GraphBuilder()
-    blocks = [block for block in (kernel.constant_mass, kernel.system) if block is not None]
-    for block in blocks:
-        for name, source in block.inputs:
-            if source.startswith("par["):
-                builder.constant_names.add(name)
-    state_names = {source: name for block in blocks for name, source in block.inputs if source.startswith("y[")}
+    inputs = tuple((name, source) for name, source in block.inputs if source.startswith("par["))
+    builder.constant_names.update(name for name, _ in inputs)
+    state_names = {source: name for name, source in block.inputs if source.startswith("y[")}
     for i in range(2 * kernel.n):
         node = builder.add(Node("state", index=i))
         if f"y[{i}]" in state_names:
             builder.memo[sympy.Symbol(state_names[f"y[{i}]"], real=True)] = Scaled(1, node)
     time = sympy.Symbol("t", real=True)
-    if any(time in expr.free_symbols for block in blocks for expr in block_expressions(block)):
+    if any(time in expr.free_symbols for expr in block_expressions(block)):
         builder.memo[time] = Scaled(1, builder.add(Node("time")))
     constants = []
-    for block in blocks:
-        for name, expr in block.assignments:
-            symbol = sympy.Symbol(name, real=True)
-            if builder.is_constant(expr):
-                builder.constant_names.add(name)
-                constants.append((name, expr))
-            else:
-                builder.memo[symbol] = builder.value(expr)
-    stored = tuple((store.index, builder.value(store.value)) for store in kernel.system.stores if store.array == "K")
-    rhs = {store.index[0]: builder.value(store.value) for store in kernel.system.stores if store.array == "b"}
+    for name, expr in block.assignments:
+        if builder.is_constant(expr):
+            builder.constant_names.add(name)
+            constants.append((name, expr))
+        else:
+            builder.memo[sympy.Symbol(name, real=True)] = builder.value(expr)
+    stored = tuple((store.index, builder.value(store.value)) for store in block.stores if store.array == "K")
+    rhs = {store.index[0]: builder.value(store.value) for store in block.stores if store.array == "b"}
     solution = tuple(builder.add(Node("solution", index=i)) for i in range(kernel.size))
     graph = SeriesGraph(tuple(builder.nodes), tuple(constants), _full_matrix(kernel, stored), stored,
-                        tuple(rhs.get(i, Scaled(sympy.S.Zero)) for i in range(kernel.size)), 2 * kernel.n, solution)
+                        tuple(rhs.get(i, Scaled(sympy.S.Zero)) for i in range(kernel.size)), 2 * kernel.n, solution,
+                        inputs)
     return without_dead_nodes(graph)
 
 
@@ -283,7 +297,8 @@ def without_dead_nodes(graph: SeriesGraph) -> SeriesGraph:
                   for old, node in enumerate(graph.nodes) if old in live)
     return SeriesGraph(nodes, graph.constants, tuple((r, c, renumbered(v)) for r, c, v in graph.matrix),
                        tuple((index, renumbered(v)) for index, v in graph.stored),
-                       tuple(renumbered(v) for v in graph.rhs), graph.states, tuple(number[n] for n in graph.solution))
+                       tuple(renumbered(v) for v in graph.rhs), graph.states, tuple(number[n] for n in graph.solution),
+                       graph.inputs)
 
 
 def _full_matrix(kernel, stored) -> tuple[tuple[int, int, Scaled], ...]:

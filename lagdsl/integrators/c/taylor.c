@@ -42,6 +42,8 @@ typedef struct lag_stepper {
     real t_end, span, hmax, rtol, atol;
     long max_steps;
     int order;                        /* the last step's order */
+    int safety_order;                 /* the order `safety` was computed for */
+    real safety;                      /* h / rho = e^-2 exp(-0.7 / (p - 1)) */
     real y_end[LAG_NY];               /* the polynomial at t, before the driver may move y */
     real shift[LAG_NY];               /* y - y_end: the move, spread over the dense output */
     real s[LAG_TAYLOR_NODES][LAG_TAYLOR_ORDERS];    /* the last step's series (lag_taylor_series) */
@@ -63,6 +65,7 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
     s->max_steps = opt->max_steps;
     s->h = 0;
     s->order = 0;                     /* until the first step, the dense output is y0 */
+    s->safety_order = 0;
     memcpy(s->y, y0, sizeof s->y);
     memcpy(s->y_end, y0, sizeof s->y_end);
     memset(s->shift, 0, sizeof s->shift);
@@ -89,8 +92,10 @@ static int taylor_order(const lag_stepper *s, const real *weight, real *size)
 {
     real largest = 1 / (s->atol + s->rtol), wanted;
     int i, order;
-    for (i = 0; i < LAG_NY; ++i)
-        largest = r_fmax(largest, r_fabs(s->y[i]) * weight[i]);
+    for (i = 0; i < LAG_NY; ++i) {
+        real x = r_fabs(s->y[i]) * weight[i];
+        largest = x > largest ? x : largest;     /* not r_fmax: a libm call in this loop */
+    }
     *size = largest;
     wanted = r_log(largest) / 2 + 1;
     if (!(wanted < LAG_TAYLOR_MAX_ORDER))
@@ -101,7 +106,7 @@ static int taylor_order(const lag_stepper *s, const real *weight, real *size)
 }
 
 /* The step from the last two coefficients (Jorba and Zou (3.11)), or LAG_ERR_NONFINITE. */
-static int taylor_step_size(const lag_stepper *s, const real *weight, real size, real *h)
+static int taylor_step_size(lag_stepper *s, const real *weight, real size, real *h)
 {
     const int p = s->order;
     real last = taylor_norm(s, weight, p), before = taylor_norm(s, weight, p - 1), rho = REAL_MAX;
@@ -109,9 +114,15 @@ static int taylor_step_size(const lag_stepper *s, const real *weight, real size,
         return LAG_ERR_NONFINITE;
     if (before > 0)
         rho = r_pow(size / before, (real)1 / (p - 1));
-    if (last > 0)
-        rho = r_fmin(rho, r_pow(size / last, (real)1 / p));
-    *h = rho * r_exp(-2 - LAG_LIT(0.7) / (p - 1));
+    if (last > 0) {
+        real other = r_pow(size / last, (real)1 / p);
+        rho = other < rho ? other : rho;
+    }
+    if (p != s->safety_order) {       /* the order rarely changes: exp once per change */
+        s->safety = r_exp(-2 - LAG_LIT(0.7) / (p - 1));
+        s->safety_order = p;
+    }
+    *h = rho * s->safety;
     return LAG_OK;
 }
 
@@ -143,7 +154,7 @@ static int lag_stepper_step(lag_stepper *s)
     s->stats.orders += s->order;
     if ((status = taylor_step_size(s, weight, size, &h)) != LAG_OK)
         return status;
-    h = r_fmin(h, s->hmax);
+    h = h < s->hmax ? h : s->hmax;
     if (!(h >= LAG_MIN_STEP(s->t, s->span)))
         return LAG_ERR_STEP_TOO_SMALL;
     if ((landing = s->t + LAG_LIT(1.01) * h >= s->t_end))
