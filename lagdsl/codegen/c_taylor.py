@@ -24,10 +24,23 @@ import sympy
 
 from . import template_environment
 from .taylor import J, K, OWN, RECURRENCES, Coefficient, Convolution, Recurrence, zeroth
+from .c_taylor_straight import StraightPrinter, straight_orders
 from .taylor_graph import Node, Scaled, SeriesGraph, series_graph
 
 # The series of node i is the row s[i] of the work array; the order lives in the column.
 ROW = "s[{}]"
+# The highest order of a build whose `real` has REAL_DIG digits: Jorba and Zou's order for a
+# tolerance of the precision's epsilon, -ln(eps)/2 + 1 = 1.15 digits + 1, and a margin (22 in
+# double, 27 in long double, 42 in __float128).
+MAX_ORDER = "((116 * REAL_DIG) / 100 + 3)"
+DOUBLE_DIGITS = 17
+
+
+def max_order(digits: int) -> int:
+    """MAX_ORDER for `digits` (what the C macro computes)."""
+    return (116 * digits) // 100 + 3
+
+
 # The largest K whose inverse lag_taylor_series forms at order 0 (from the factor, column by
 # column) and multiplies by at every order: a substitution's steps wait on one another and
 # divide by the pivots, a product with the inverse does not; beyond this order, n² per order
@@ -44,12 +57,6 @@ def helper_arrays(recurrence: Recurrence) -> tuple[str, ...]:
     read = {t.operand for _, t in recurrence.terms if isinstance(t, Coefficient)}
     read |= {name for _, t in recurrence.terms if isinstance(t, Convolution) for name in (t.left, t.right)}
     return recurrence.operands + ((OWN,) if OWN in read else ())
-
-
-def divisor_parts(recurrence: Recurrence) -> tuple[int, sympy.Expr]:
-    """divisor = k^e · D0: (e, D0), D0 in the zeroth coefficients (or a number)."""
-    power, rest = recurrence.divisor.as_independent(K, as_Add=False)[::-1]
-    return (0 if power == 1 else int(sympy.degree(power, K))), rest
 
 
 def helper(recurrence: Recurrence, printer) -> str:
@@ -174,7 +181,7 @@ class SeriesPrinter:
         names.update({sympy.Symbol(name, real=True): value
                       for name, value in zip(recurrence.parameters, node.parameters)})
         lines = [f"{ROW.format(index)}[0] = {self.printer.doprint(recurrence.value.xreplace(names))};"]
-        _, rest = divisor_parts(recurrence)
+        _, rest = recurrence.split_divisor()
         if rest != 1:
             lines.append(f"const real z{index} = 1 / ({self.printer.doprint(rest.xreplace(names))});")
         return lines
@@ -198,7 +205,7 @@ class SeriesPrinter:
         arguments = [ROW.format(rows[name]) for name in helper_arrays(recurrence)]
         arguments += ["k"] + [self.constant(value) for value in node.parameters]
         if recurrence.divisor != 1:
-            power, rest = divisor_parts(recurrence)
+            power, rest = recurrence.split_divisor()
             arguments.append(" * ".join(["inv_k"] * power + ([f"z{index}"] if rest != 1 else [])))
         return f"{helper_name(node.kind)}({', '.join(arguments)})"
 
@@ -224,11 +231,16 @@ def series_text(kernel, printer, positions: list[str]) -> str:
     order_lines = [line for i, node in enumerate(graph.nodes) for line in series.at_order(i, node)]
     assemble = [f"K[{position}] = {series.scaled(value, '0')};" for position, (_, value) in zip(positions, graph.stored)]
     rhs_zero, rhs_k = series.right_side("0"), series.right_side("k")
-    body = zeroth_lines + order_lines + assemble + rhs_zero + rhs_k
+    straight = StraightPrinter(series)
+    orders = [(k, straight.order(k)) for k in range(1, straight_orders(graph, max_order(DOUBLE_DIGITS) - 1) + 1)]
+    body = zeroth_lines + order_lines + assemble + rhs_zero + rhs_k + [line for _, lines in orders for line in lines]
     declarations = [(name, f"{printer.doprint(expr)}") for name, expr in graph.constants]
     declarations += [(name, printer.doprint(expr)) for expr, name in series.hoisted.items()]
     inputs = list(graph.inputs)
     used = _used(body, inputs + declarations)
+    local = [name for name, _ in inputs + declarations if name in used]
+    local += [line.split()[2] for line in zeroth_lines if line.startswith("const real z")]
+    fields = [name for name in local if any(_reads(line, name) for _, lines in orders for line in lines)]
     time = [i for i, node in enumerate(graph.nodes) if node.kind == "time"]
     helpers = [helper(RECURRENCES[kind], printer) for kind in graph.kinds()]
     if any(value.node is not None for _, _, value in graph.matrix):
@@ -241,6 +253,11 @@ def series_text(kernel, printer, positions: list[str]) -> str:
         "taylor_constants": [f"const real {name} = {value};" for name, value in declarations if name in used],
         "taylor_hoisted": [], "taylor_zeroth": zeroth_lines, "taylor_order": order_lines,
         "taylor_assemble": assemble, "taylor_rhs_zero": rhs_zero, "taylor_rhs": rhs_k,
+        "taylor_max_order": MAX_ORDER, "taylor_fields": fields,
+        "taylor_straight": [(k, [f"const real {name} = c->{name};" for name in fields
+                                 if any(_reads(line, name) for line in lines)]
+                             + (["const real inv_k = (real)1 / %d;" % k] if any(_reads(line, "inv_k") for line in lines)
+                                else []), lines) for k, lines in orders],
         "constraints": kernel.constraints}
     return template_environment().get_template("c/taylor_series.c.j2").render(context)
 
@@ -253,6 +270,10 @@ def solver_kind(kernel) -> str:
     if kernel.layout is not None and kernel.layout.compact:
         return "compact"
     return "cholesky" if kernel.solver == "cholesky" else "lu"
+
+
+def _reads(line: str, name: str) -> bool:
+    return re.search(rf"\b{name}\b", line) is not None
 
 
 def _used(body: list[str], declarations: list[tuple[str, str]]) -> set[str]:

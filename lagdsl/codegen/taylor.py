@@ -74,6 +74,11 @@ class Recurrence:
     parameters: tuple[str, ...] = ()       # constants of the instance (the exponent alpha)
     ode: str = ""                          # the equation the recurrence comes from
 
+    def split_divisor(self) -> tuple[int, sympy.Expr]:
+        """divisor = k^e · D0: (e, D0), D0 in the zeroth coefficients (or a number)."""
+        rest, power = self.divisor.as_independent(K, as_Add=False)
+        return (0 if power == 1 else int(sympy.degree(power, K))), rest
+
     @property
     def cost(self) -> float:
         """The products per order, in Cauchy products of the same length: one per convolution,
