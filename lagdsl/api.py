@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import contextlib
-import time as clock
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -18,7 +17,10 @@ from .run import plans
 from .run.output import Result
 from .run import sweep as batch
 from .run.loading import load as load_program
-from .scene import (RUN_OPTIONS, Overrides, ScenePlan, check_step_count, given_options, parameters_in_expressions,
+from .run.runner import run
+from .run.sweep_job import SweepJob
+from .run.tables import TableFile
+from .scene import (RUN_OPTIONS, Overrides, ScenePlan, given_options, parameters_in_expressions,
                     scene_defaults)
 from .source import SourceFile
 
@@ -35,6 +37,7 @@ class Model:
         self.equations: Equations
         self.ir, self.equations = compile_model(source)
         self._programs: dict[tuple[str, str, str], Program] = {}
+        self._quick_plans: dict[str | None, plans.StoredPlan] = {}     # by the scene asked for
 
     @property
     def name(self) -> str:
@@ -68,9 +71,9 @@ class Model:
 
         `set` maps parameter names, "q.start" and "q.velocity" to values; parameters may also be
         given as keyword arguments (`simulate(m2=3)`). The other arguments override the scene's
-        time grid and integrator; `max_steps` bounds the steps (default: 100000, or 100 per
-        output row). `estimate_error` fills `result.summary.error` (an ErrorEstimate: `.value`, the
-        largest absolute error over rows and columns, against a 100x tighter rerun or the
+        time grid and integrator; `max_steps` bounds the steps (default: settings.step_limit,
+        DEFAULT_MAX_STEPS or STEPS_PER_ROW per output row). `estimate_error` fills
+        `result.summary.error` (an ErrorEstimate: `.value`, the largest absolute error over rows and columns, against a 100x tighter rerun or the
         extended-precision reference; `float(...)` gives the value). Raises SimulationError (with `.partial`, the rows computed so far) when the
         integration fails, SimulationInterrupted (a SimulationError) when Ctrl-C stops it.
         """
@@ -89,9 +92,13 @@ class Model:
         """`simulate` with the overrides already gathered (what `lagc run` calls); `progress` is
         called as progress(t reached, start, stop) every so often."""
         _check_backend(backend)
+        quick = None if estimate_error else self._quick_run(scene, backend, overrides)
+        if quick is not None:
+            return run(quick[0], backend, quick[1].loaded, progress)
         scene_plan = self.plan(scene, overrides)
         program = self._program(scene, scene_plan, backend, overrides)
         result = execute(program.kernel, program.source, scene_plan, progress, program.loaded)
+        self._keep_quick_plan(scene, scene_plan)
         if not estimate_error:
             return result
 
@@ -129,24 +136,72 @@ class Model:
         parallel on `workers` threads (default: OMP_NUM_THREADS, else every CPU), or on the Dask
         cluster behind `client` (a dask.distributed.Client); member b equals
         simulate(set={k: v[b]}) bit for bit. A member that fails is marked in `.status` with its
-        `.failure_time`; the others complete. `progress` shows a tqdm bar on stderr.
+        `.failure_time`; the others complete. `progress` shows a progress bar on stderr. A sweep
+        whose values would not fit in memory is refused before it runs: see sweep_to_file.
         """
+        job = self._sweep_job(scene, backend, set, client, overrides)
+        job.check_fits()
+        with _progress_bar(progress, job.count) as advance:
+            return job.run(0, job.count, workers, client, advance)
+
+    def sweep_to_file(self, path: str | Path, scene: str | None = None, backend: str = "c", *, set: dict,
+                      workers: int | None = None, client=None, progress: bool = False,
+                      **overrides) -> batch.SweepSummary:
+        """`sweep`, its tidy table (Sweep.tidy) written to `path` block by block, in memory bounded
+        by a block whatever the number of members: Parquet if the name ends in .parquet (and
+        pyarrow is installed), else CSV. The file appears complete or not at all; after Ctrl-C it
+        holds the members run so far and SimulationInterrupted carries their summary."""
+        job = self._sweep_job(scene, backend, set, client, overrides)
+        with TableFile(path) as table, _progress_bar(progress, job.count) as advance:
+            return job.stream(table, workers, client, advance)
+
+    def _sweep_job(self, scene: str | None, backend: str, varied: dict, client, overrides: dict) -> SweepJob:
         _check_backend(backend)
         if client is not None and backend != "c":
             raise LagError("sweep: a Dask client runs the C backend only; use backend='c'")
         grid = {k: overrides.pop(k) for k in GRID_OVERRIDES if k in overrides}
         options = {k: overrides.pop(k) for k in RUN_OPTIONS if k in overrides}
-        varied = {**overrides, **dict(set)}
         base = Overrides((), grid.get("start"), grid.get("stop"), grid.get("interval"), grid.get("integrator"),
                          given_options(options))
-        members = batch.member_inputs(lambda o: self.plan(scene, o), base, varied)
-        check_step_count(members.plan)
-        program = self._program(scene, members.plan, backend, base)
-        with _progress_bar(progress, len(members.initial)) as advance:
-            started = clock.perf_counter()
-            values, summaries, counters, how = _run_members(program, members, backend, workers, client, advance)
-            elapsed = clock.perf_counter() - started
-        return batch.assemble(members.plan, members, values, summaries, backend, counters, elapsed, how)
+        return SweepJob(lambda o: self.plan(scene, o), lambda p: self._program(scene, p, backend, base), base,
+                        {**overrides, **dict(varied)}, backend)
+
+    def equilibrium(self, scene: str | None = None, *, guess: dict | None = None, set: dict | None = None):
+        """An equilibrium near `guess` ({"q": value, "q.velocity": value}; what is not given is the
+        scene's start) with `set` applied: Newton on the accelerations at the given velocities
+        (zero, or the rates of cyclic coordinates), the constraints kept. Returns a
+        linear.Equilibrium (`.at`, `.residual`); raises AnalysisError when Newton does not converge."""
+        from .linear import evaluator, find_equilibrium
+        return find_equilibrium(evaluator(self, scene, guess, set))
+
+    def linearize(self, scene: str | None = None, *, at: dict | None = None, set: dict | None = None,
+                  inputs=(), outputs=None, find: bool = False):
+        """The linear model about `at` (or, with `find`, about the equilibrium near it): a
+        linear.LinearModel with .M .D .G .K .N .A .B .C .Dm, .coordinates, .modes(), .to_control().
+        `inputs` are parameter names (B), `outputs` names of scene columns, outputs, coordinates,
+        `energy` or `momentum(q)` (C, Dm; default: the scene's columns). See docs/numerics.md."""
+        from .linear import linearize_model
+        return linearize_model(self, scene, at, set, tuple(inputs), outputs, find)[0]
+
+    def _quick_run(self, scene: str | None, backend: str, overrides: Overrides):
+        """(run plan, program) for a repeated run, planned without sympy from the scene's settings
+        and values (as a warm `lagc run` plans, run/plans.py), or None where that cannot serve: the
+        first run of a scene, a value computed from the overrides, code not yet generated."""
+        quick = self._quick_plans.get(scene)
+        run_plan = quick.resolve(overrides) if quick is not None else None
+        program = run_plan and self._programs.get((run_plan.scene_name, run_plan.integrator.name, backend))
+        return None if program is None else (run_plan, program)
+
+    def _keep_quick_plan(self, scene: str | None, scene_plan: ScenePlan) -> None:
+        if scene in self._quick_plans:
+            return
+        try:
+            settings, parameters, initial_state = scene_defaults(self.ir, self.equations, scene)
+        except LagError:        # a value computed from the others is not finite unless overridden
+            return
+        self._quick_plans[scene] = plans.StoredPlan(
+            settings, parameters, initial_state, parameters_in_expressions(self.ir), scene_plan.columns,
+            scene_plan.invariants, scene_plan.stop.text if scene_plan.stop else None, None)
 
     def _program(self, scene: str | None, scene_plan: ScenePlan, backend: str, overrides: Overrides) -> Program:
         """The generated, loaded code for a scene, integrator and backend: built on first use, then kept.
@@ -193,24 +248,6 @@ class Program:
 def load(path: str | Path) -> Model:
     """Read, check and derive a model file; raises LagError with located diagnostics."""
     return Model(SourceFile.read(path))
-
-
-def _run_members(program: Program, members: batch.Members, backend: str, workers: int | None, client,
-                 advance: Callable[[int], None] | None):
-    """(values, summaries, counters, how they ran) of the members: NumPy, a Dask cluster, or C threads."""
-    if backend == "numpy":
-        return (*batch.run_numpy_batch(program.loaded, program.kernel, program.source, members, advance),
-                "one process")
-    layout = batch.batch_layout(members.plan)
-    if client is not None:
-        values, summaries, chunks = batch.run_dask(client, program.library_bytes(), program.source.text,
-                                                   program.source.suggested_name, layout, members.parameters,
-                                                   members.initial, advance)
-        return values, summaries, layout.counters, f"Dask, {chunks} chunks"
-    threads = batch.default_threads(workers)
-    values, summaries = batch.run_c_batch(program.loaded, layout, members.parameters, members.initial, threads,
-                                          advance)
-    return values, summaries, layout.counters, f"{threads} thread{'s' if threads > 1 else ''}"
 
 
 @contextlib.contextmanager

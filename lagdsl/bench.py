@@ -25,7 +25,8 @@ from . import progress as progress_module
 from .pipeline import execute, generate
 from .reference import Reference, atol_ratio, reference_solution
 from .run.loading import load as load_program
-from .run.output import csv_text, output_times
+from .run.output import output_times
+from .run.tables import csv_text
 from .scene import ScenePlan
 from .settings import Overrides, check_integrator_name
 

@@ -182,6 +182,26 @@ class Differentiator:
         return sympy.Symbol(f"{kind}({symbol.name})", real=True)
 
     # -- evaluation helpers ------------------------------------------------------------------
+    def inlined_size(self, expr: sympy.Expr, limit: int) -> int:
+        """The tree size `inline(expr)` would have, counted no further than `limit` and without
+        building it: a chain of lets that each use the one before twice doubles in size at
+        every link, and building (or sorting) the inlined tree would take exponential time."""
+        sizes: dict[sympy.Symbol, int] = {}
+
+        def size(node, budget: int) -> int:
+            if node in self._definitions:
+                if node not in sizes:
+                    sizes[node] = size(self._definitions[node], limit)
+                return sizes[node]
+            count = 1
+            for argument in node.args:
+                count += size(argument, budget - count)
+                if count > budget:
+                    return count
+            return count
+
+        return size(expr, limit)
+
     def inline(self, expr: sympy.Expr) -> sympy.Expr:
         """`expr` with every intermediate replaced by its definition (for display and tests)."""
         cache: dict[sympy.Symbol, sympy.Expr] = {}

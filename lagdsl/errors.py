@@ -6,6 +6,8 @@
 - `SimulationError`: the numbers failed (singular mass matrix, step-size collapse, NaN, the
   step limit). It names the time, the state and a remedy, and keeps the results computed so
   far. `SimulationInterrupted` is the same for a run stopped by Ctrl-C.
+- `AnalysisError`: the numbers of a linear analysis failed (no equilibrium near the guess, a
+  mass matrix singular at the point). It names the state it reached and a remedy.
 - `InternalError`: a bug in lagdsl. It keeps its traceback and asks to be reported.
 """
 from __future__ import annotations
@@ -39,7 +41,7 @@ class Diagnostic:
         if self.span is None:
             return f"{self.severity}: {message}"
         if isinstance(self.span, Setting):
-            return f"lagc: error: {self.span.option}: {message}"
+            return f"lagc: error: {visible(self.span.option)}: {message}"
         span = self.span
         line = span.source.line(span.line)
         before = line[:span.column - 1]
@@ -94,7 +96,7 @@ class ErrorCollector:
 
 class SimulationError(Exception):
     """The integration failed; `partial` holds what was computed before the failure, `status`
-    the run's status code (run/status.py), 0 where no run ended with one."""
+    the run's status code (abi.STATUSES), 0 where no run ended with one."""
 
     def __init__(self, message: str, time: float, state: dict[str, float], remedy: str,
                  partial: Any = None, status: int = 0):
@@ -113,6 +115,19 @@ class SimulationInterrupted(SimulationError):
 
     def render(self) -> str:
         return f"interrupted at t = {self.time:.17g}"
+
+
+class AnalysisError(Exception):
+    """An equilibrium or linearization failed on the numbers: what failed, the state it was at
+    (the last iterate of a search), and a remedy."""
+
+    def __init__(self, message: str, state: dict[str, float], remedy: str):
+        self.message, self.state, self.remedy = message, state, remedy
+        super().__init__(self.render())
+
+    def render(self) -> str:
+        state = ", ".join(f"{name} = {value:.17g}" for name, value in self.state.items())
+        return f"analysis failed: {self.message}\n  state: {state}\n  remedy: {self.remedy}"
 
 
 class LagWarning(UserWarning):

@@ -14,6 +14,8 @@ plan_scene       Model + scene + overrides -> plan     scene.py
 lower            Equations + plan -> Kernel (CSE)      codegen/kernel.py (loops.py: the local form)
 render           Kernel -> source text                 codegen/c.py, codegen/numpy.py
 run              source -> trajectories                run/
+linearize        Kernel's Jacobians at a state ->      linear/ (equilibria, M D G K N, A B C D, modes)
+                 LinearModel, Modes
 """
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Figures as PNG bytes (matplotlib, Agg backend: no display needed): the work-precision diagram
-of `lagc bench --plot` and the outputs of `lagc run --plot`."""
+of `lagc bench --plot`, the outputs of `lagc run --plot` and the mode shapes of `lagc modes --plot`."""
 from __future__ import annotations
 
 import io
@@ -94,6 +94,39 @@ def outputs_png(result, title: str) -> bytes:
         axes[index // columns][index % columns].set_visible(False)
     for axis in axes[-1]:
         axis.set_xlabel("t")
+    figure.suptitle(title, fontsize=10)
+    figure.tight_layout()
+    return _png(figure)
+
+
+def mode_shapes_png(modes, title: str, count: int = 10) -> bytes:
+    """The shapes of the `count` lowest modes (linear/modes.py), one panel each: every
+    coordinate's amplitude (the real part of the shape scaled to a largest entry of 1; the
+    modulus dashed where the shape is complex), the frequency and the verdict above it."""
+    pyplot = _pyplot()
+    shown = modes.modes[:max(1, count)]
+    columns = 1 if len(shown) <= 3 else 2
+    rows = math.ceil(len(shown) / columns)
+    figure, axes = pyplot.subplots(rows, columns, figsize=(6.5 * columns, 1.9 * rows + 0.9), squeeze=False,
+                                   sharex=True)
+    positions = np.arange(len(modes.coordinates))
+    marker = "o" if len(positions) <= 40 else None
+    for index, mode in enumerate(shown):
+        axis = axes[index // columns][index % columns]
+        axis.axhline(0, color="0.6", linewidth=0.6)
+        axis.plot(positions, mode.shape.real, marker=marker, linewidth=1)
+        if np.any(np.abs(mode.shape.imag) > 1e-12):
+            axis.plot(positions, np.abs(mode.shape), linestyle="--", linewidth=0.8, color="0.4")
+        axis.set_ylim(-1.1, 1.1)
+        axis.set_title(f"mode {index + 1}: {mode.omega:.6g} rad/s, {mode.verdict}", fontsize=9)
+        axis.grid(True, alpha=0.3)
+    for index in range(len(shown), rows * columns):
+        axes[index // columns][index % columns].set_visible(False)
+    for axis in axes[-1]:
+        if len(positions) <= 12:
+            axis.set_xticks(positions, modes.coordinates, rotation=30, fontsize=8)
+        else:
+            axis.set_xlabel("coordinate (in the model's order)")
     figure.suptitle(title, fontsize=10)
     figure.tight_layout()
     return _png(figure)

@@ -18,7 +18,7 @@ import sympy
 from sympy.simplify.fu import TR10i
 
 from . import ir
-from .calculus import Differentiator, tree_size
+from .calculus import Differentiator
 from .escape import visible
 from .mechanics import Equations
 
@@ -99,10 +99,9 @@ def degrees_of_freedom(equations: Equations) -> str:
 
 def shown(expr: sympy.Expr, calculus: Differentiator) -> sympy.Expr:
     """`expr` inlined and tidied when that is small, else as derived (through intermediates)."""
-    inlined = calculus.inline(expr)
-    if tree_size(inlined, TIDY_LIMIT) > TIDY_LIMIT:
+    if calculus.inlined_size(expr, TIDY_LIMIT) > TIDY_LIMIT:
         return expr
-    return tidy(inlined)
+    return tidy(calculus.inline(expr))
 
 
 def tidy(expr: sympy.Expr) -> sympy.Expr:

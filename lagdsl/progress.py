@@ -5,9 +5,12 @@ A bar appears only after DELAY seconds (a short command prints nothing) and only
 """
 from __future__ import annotations
 
+import contextlib
 import sys
+import threading
 
 DELAY = 2.0       # seconds before a bar is shown
+NOTICE = 60.0     # seconds after which a stage without a bar says what it is doing
 
 
 def bar(total: float, unit: str, description: str = "lagc", stream=None, **options):
@@ -36,3 +39,18 @@ class TimeProgress:
         if self.bar is not None:
             self.bar.close()
             self.bar = None
+
+
+@contextlib.contextmanager
+def slow_stage(doing: str, stream=None):
+    """Within the block, a note on standard error once it has taken NOTICE seconds: `lagc: still
+    DOING after 60 s`. Stages without a measure of progress (deriving the equations of a large
+    model, compiling its code) never run for minutes without saying why."""
+    timer = threading.Timer(NOTICE, lambda: print(f"lagc: still {doing} after {NOTICE:.0f} s",
+                                                    file=stream or sys.stderr, flush=True))
+    timer.daemon = True
+    timer.start()
+    try:
+        yield
+    finally:
+        timer.cancel()

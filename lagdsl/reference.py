@@ -156,7 +156,7 @@ def estimate_error(result: Result, equations: Equations, plan: ScenePlan, source
                    rerun: Callable[[tuple[tuple[str, float], ...]], Result]) -> ErrorEstimate:
     """The global error of `result` (a run of `plan`): its largest absolute difference from a rerun
     with 100x tighter settings (`rerun(options)`), or from the reference when that is cached or the
-    tighter settings are beyond double precision (rtol / 100 below 10 eps) or fail. A rerun costs
+    tighter settings are beyond double precision (rtol / 100 below RTOL_FLOOR) or fail. A rerun costs
     a few times the run (dop853's work grows like tol^(-1/8)); a reference, dozens of times."""
     started = clock.perf_counter()
     tighter = tighter_options(plan)

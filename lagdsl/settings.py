@@ -20,10 +20,25 @@ from .source import Span
 # Integrator settings that can be given outside the model file (`lagc run --rtol`, `simulate(rtol=)`).
 RUN_OPTIONS = OPTION_ORDER
 
+# Numbers the generated C shares (codegen/c_abi.py emits them as LAG_MAX_ROWS, ...). Those
+# counted in units of the rounding unit eps are eps of the working precision in C.
 MAX_ROWS = 10**7              # the largest output grid
-DEFAULT_MAX_STEPS = 100000    # the step limit unless the grid asks for more (step_limit)
+DEFAULT_MAX_STEPS = 100000    # the step limit unless the grid asks for more (step_limit) ...
+STEPS_PER_ROW = 100           # ... at this many steps per output row
 GRID_SLACK = 1e-9             # a grid time within this many intervals of stop is stop
-RTOL_FLOOR = 10 * sys.float_info.epsilon   # no error control is finer than the rounding of y
+RTOL_FLOOR_EPS = 10           # no error control is finer than the rounding of y: rtol >= this many eps
+RTOL_FLOOR = RTOL_FLOOR_EPS * sys.float_info.epsilon
+# The smallest step an adaptive method may take from t on a run of length `span` is
+# MIN_STEP_EPS eps max(|t|, span): below a few eps |t|, t + h == t (HNW I, II.4), and the span makes
+# the test fire near t = 0 too, where eps |t| is no bound at all (10^14 such steps would not
+# cross the run).
+MIN_STEP_EPS = 10
+# K (M, or the saddle-point matrix of a constrained system) counts as singular below this
+# reciprocal condition estimate: q'' would keep fewer than about 3 correct digits (relative error
+# ~ eps / rcond). It is taken after equilibration, so it measures how nearly dependent the
+# coordinates (and constraints) are, not their units.
+RCOND_MIN_EPS = 1000
+RCOND_MIN = RCOND_MIN_EPS * sys.float_info.epsilon
 
 
 @dataclass(frozen=True)
@@ -76,9 +91,11 @@ def grid_rows(start: float, stop: float, interval: float) -> int:
 
 def step_limit(integrator: IntegratorChoice, time: TimeGrid) -> int:
     """The most steps (accepted + rejected) a run may take: the integrator's max_steps, or by
-    default 100000 (as in Hairer's codes) or 100 per output row, whichever is larger."""
+    default DEFAULT_MAX_STEPS (as in Hairer's codes) or STEPS_PER_ROW per output row, whichever is
+    larger (the C driver's lag_step_limit)."""
     given = dict(integrator.options).get("max_steps")
-    return int(given) if given else max(DEFAULT_MAX_STEPS, 100 * grid_rows(time.start, time.stop, time.interval))
+    return int(given) if given else max(DEFAULT_MAX_STEPS, STEPS_PER_ROW * grid_rows(time.start, time.stop,
+                                                                                    time.interval))
 
 
 class IntegratorTraits:
@@ -205,7 +222,7 @@ def _integrator(choice: IntegratorChoice, overrides: Overrides) -> IntegratorCho
     values = {k: v for k, v in choice.options if k in allowed}
     origins: dict[str, Setting] = {}
     for key, value in overrides.options:
-        origins[key] = Setting("--" + key.replace("_", "-"))
+        origins[key] = Setting("--" + OPTIONS[key].flag)
         if key not in allowed:
             raise LagError(f"{name} has no option '{key}' (options: {', '.join(allowed)})", origins[key])
         values[key] = value
@@ -213,12 +230,12 @@ def _integrator(choice: IntegratorChoice, overrides: Overrides) -> IntegratorCho
 
 
 def _raise_rtol_to_floor(choice: IntegratorChoice) -> IntegratorChoice:
-    """rtol below 10 eps asks for more than double precision can deliver: the step size would
+    """rtol below RTOL_FLOOR asks for more than double precision can deliver: the step size would
     collapse or the run crawl. Raise it, as Hairer's codes do, and say so once."""
     options = dict(choice.options)
     if "rtol" not in options or options["rtol"] >= RTOL_FLOOR:
         return choice
-    warnings.warn(f"rtol = {options['rtol']:g} is below 10 eps; raised to {RTOL_FLOOR:.3g}", LagWarning,
+    warnings.warn(f"rtol = {options['rtol']:g} is below {RTOL_FLOOR_EPS} eps; raised to {RTOL_FLOOR:.3g}", LagWarning,
                   stacklevel=2)
     options["rtol"] = RTOL_FLOOR
     return replace(choice, options=tuple(sorted(options.items())))
@@ -234,7 +251,7 @@ def validate_integrator(name: str, values: dict[str, float], span: Span | Settin
                         origins: dict[str, Span | Setting] | None = None) -> IntegratorChoice:
     """Check and complete an integrator's options: each value as its option's record requires,
     rtol and atol not both 0 (and atol positive for an implicit method), a step for a fixed-step
-    one, the record's defaults for the rest. rtol below 10 eps is raised by the scene plan, not
+    one, the record's defaults for the rest. rtol below RTOL_FLOOR is raised by the scene plan, not
     here. `span` is where the integrator was chosen, `origins` where each option's value was
     given (in the scene, or a command-line option): errors point there."""
     origins = origins or {}

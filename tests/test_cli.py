@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import io
+import math
 import os
 import re
 import shutil
@@ -13,6 +14,7 @@ from pathlib import Path
 
 import pytest
 
+from lagdsl.cli import main
 from lagdsl.progress import TimeProgress
 from tests.conftest import MODELS
 from tests.run.test_bounds import OSCILLATOR
@@ -185,10 +187,10 @@ def _standalone(oscillator, tmp_path) -> Path:
 
 def test_the_standalone_program_checks_its_arguments(oscillator, tmp_path):
     program = _standalone(oscillator, tmp_path)
-    for argument, words in [("rtol=-1", "rtol must be a finite number >= 0"),
-                            ("atol=nan", "atol must be a finite number >= 0"),
-                            ("max_step=-1", "max_step must be a finite number > 0"),
-                            ("max_steps=0.5", "max_steps must be a whole number"),
+    for argument, words in [("--rtol=-1", "--rtol must be a finite number >= 0"),
+                            ("--atol=nan", "--atol must be a finite number >= 0"),
+                            ("--max_step=-1", "--max-step must be a finite number > 0"),
+                            ("--max-steps=0.5", "--max-steps must be a whole number"),
                             ("t.stop=inf", "must be finite numbers"),
                             ("t.interval=1e-300", "more than the limit of 10000000"),
                             ("k=inf", "the parameter k is inf"),
@@ -196,18 +198,41 @@ def test_the_standalone_program_checks_its_arguments(oscillator, tmp_path):
                             ("x.start=nan", "the initial value of x is nan")]:
         done = subprocess.run([program, argument], capture_output=True, text=True, timeout=30)
         assert done.returncode == 2 and words in done.stderr, (argument, done.stderr)
-    warned = subprocess.run([program, "rtol=1e-300"], capture_output=True, text=True, timeout=30)
+    warned = subprocess.run([program, "--rtol=1e-300"], capture_output=True, text=True, timeout=30)
     assert warned.returncode == 0 and "warning: rtol = 1e-300 is below 10 eps" in warned.stderr
-    limited = subprocess.run([program, "t.stop=100", "max_steps=10"], capture_output=True, text=True, timeout=30)
-    assert limited.returncode == 1 and "the step limit (max_steps) was reached" in limited.stderr
+    limited = subprocess.run([program, "t.stop=100", "--max-steps=10"], capture_output=True, text=True, timeout=30)
+    assert limited.returncode == 1 and "the step limit of 10 steps was reached" in limited.stderr
+    for argument, words in [("rtol=1e-12", "'rtol' is an option of the integrator: write --rtol=1e-12"),
+                            ("k=0x10", "expected NAME=VALUE, got 'k=0x10'"),
+                            ("--k=1", "unknown option '--k'")]:
+        done = subprocess.run([program, argument], capture_output=True, text=True, timeout=30)
+        assert done.returncode == 2 and words in done.stderr, (argument, done.stderr)
+    helped = subprocess.run([program, "--help"], capture_output=True, text=True, timeout=30)
+    assert helped.returncode == 0 and "--rtol" in helped.stdout and "NAME is a parameter: m k w" in helped.stdout
     grid = subprocess.run([program, "t.interval=0.3"], capture_output=True, text=True, timeout=30)
     times = [row[0] for row in _assert_valid_partial_csv(grid.stdout, "t,x,energy")]
     assert times == pytest.approx([0.0, 0.3, 0.6, 0.9, 1.0], abs=1e-15) and times[-1] == 1.0
 
 
+def test_a_parameter_named_like_an_option_does_not_shadow_it(tmp_path):
+    """Options have a syntax of their own (--rtol=...): `rtol=` sets the parameter rtol, in the
+    program as in `lagc run --set`, and the summary says the tolerance the run used."""
+    model = tmp_path / "shadow.lag"
+    model.write_text(OSCILLATOR.replace("parameter k = 1.0;", "parameter k = 1.0;\n  parameter rtol = 1.0;")
+                     .replace("U = k/2*x^2;", "U = rtol*k/2*x^2;"))
+    program = _standalone(model, tmp_path)
+    done = subprocess.run([program, "rtol=4", "--rtol=1e-12"], capture_output=True, text=True, timeout=30)
+    assert done.returncode == 0, done.stderr
+    assert "rtol = 1e-12" in done.stderr
+    x = [row[1] for row in _assert_valid_partial_csv(done.stdout, "t,x,energy")]
+    assert x[-1] == pytest.approx(math.cos(2.0), abs=1e-9)          # k_eff = 4: w = 2
+    api = lagc("run", model, "--set", "rtol=4", "--rtol", "1e-12")
+    assert api.returncode == 0 and float(api.stdout.splitlines()[-1].split(",")[1]) == pytest.approx(x[-1], abs=1e-12)
+
+
 def test_ctrl_c_stops_the_standalone_program_with_a_valid_csv(oscillator, tmp_path):
     program = _standalone(oscillator, tmp_path)
-    process = subprocess.Popen([program, "t.stop=5e7", "t.interval=10", "rtol=1e-13", "max_steps=1e15"],
+    process = subprocess.Popen([program, "t.stop=5e7", "t.interval=10", "--rtol=1e-13", "--max-steps=1e15"],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     time.sleep(1.0)
     process.send_signal(signal.SIGINT)
@@ -233,3 +258,46 @@ def test_the_progress_bar_shows_on_a_terminal_only_and_erases_itself(monkeypatch
         progress.close()
     assert "t - t0 = 12.5 of 50" in terminal.getvalue()
     assert log.getvalue() == ""
+
+
+def test_sigterm_stops_lagc_run_as_ctrl_c_does_keeping_the_rows(oscillator, tmp_path, capsys, monkeypatch):
+    """`kill` (a batch system's time limit) ends the run with the rows computed so far, exit 143.
+    The signal is sent once the run has passed t = 1000 (its progress report says so)."""
+    class KillAfterTime:
+        def __init__(self):
+            self.sent = False
+
+        def __call__(self, t, start, stop):
+            if t > 1000 and not self.sent:
+                self.sent = True
+                os.kill(os.getpid(), signal.SIGTERM)
+
+        def close(self):
+            pass
+
+    monkeypatch.setattr("lagdsl.cli.simulate.TimeProgress", KillAfterTime)
+    out = tmp_path / "out.csv"
+    status = main(["run", str(oscillator), "--stop", "1e7", "--interval", "10", "--rtol", "1e-13",
+                   "--max-steps", "1000000000000", "-o", str(out)])
+    stderr = capsys.readouterr().err
+    assert status == 143, stderr
+    assert re.search(r"lagc: interrupted at t = [0-9.e+]+, after \d+ rows", stderr)
+    rows = _assert_valid_partial_csv(out.read_text(), "t,x,energy")
+    assert rows[-1][0] >= 1000 and len(rows) > 100
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL      # lagc's handler is gone after it
+
+
+def test_a_slow_stage_says_what_it_is_doing(monkeypatch):
+    """A stage without a progress bar (deriving, compiling) says what it does once it has taken
+    NOTICE seconds; the event here is the note itself, with NOTICE set to nothing."""
+    import io
+    import threading
+
+    from lagdsl import progress
+    monkeypatch.setattr(progress, "NOTICE", 0.0)
+    stream, said = io.StringIO(), threading.Event()
+    original = stream.write
+    monkeypatch.setattr(stream, "write", lambda text: (original(text), said.set())[0])
+    with progress.slow_stage("deriving the equations of motion", stream):
+        assert said.wait(30)
+    assert stream.getvalue() == "lagc: still deriving the equations of motion after 0 s\n"

@@ -182,3 +182,40 @@ end Huge;
   T = der(q[1])^2/2;
 end Index;
 """))
+
+
+TOWER = oscillator("x^2/2", "(2 + sin(exp(exp(exp(x + 2)))))*der(x)^2/2")
+
+
+def let_chain(levels: int) -> str:
+    """Lets that each use the one before twice: a_i = a_(i-1)^2 + sin(a_(i-1)), doubling in
+    size when inlined and squaring in magnitude at every link."""
+    lets = "\n".join(f"  let a{i} = a{i - 1}^2 + sin(a{i - 1});" for i in range(1, levels + 1))
+    return (f"model Chain\n  coordinate x(start = 0.1);\n  let a0 = x;\n{lets}\n"
+            f"  T = (2 + cos(a{levels}))*der(x)^2/2;\n  U = x^2/2;\nend Chain;\n")
+
+
+@pytest.mark.parametrize("command", [["check"], ["eom"], ["emit"]])
+@pytest.mark.parametrize("text", [TOWER, let_chain(24)], ids=["exponential tower", "24 doubling lets"])
+def test_magnitudes_beyond_double_precision_end_the_identity_checks_and_the_display(tmp_path, text, command):
+    """The 50-digit identity checks give up on sin of an argument of astronomical magnitude (the
+    phase is unknown: never "zero") instead of computing pi to 1e30 bits; `lagc eom` sizes the
+    inlined form without building it. Each command ends (it used to run for ever)."""
+    import subprocess
+    import sys
+    path = tmp_path / "model.lag"
+    path.write_text(text)
+    arguments = [str(path), "--emit", "c"] if command == ["emit"] else [*command, str(path)]
+    done = subprocess.run([sys.executable, "-m", "lagdsl", *arguments], capture_output=True, text=True,
+                          timeout=300, env={**__import__("os").environ, "LAGDSL_CACHE": str(tmp_path / "cache")})
+    assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
+
+
+def test_the_identity_probe_matches_double_precision_where_it_overflows():
+    from lagdsl.calculus import Differentiator
+    from lagdsl.mechanics.probe import Probe
+    x = sympy.Symbol("x", real=True)
+    probe = Probe(Differentiator((), (x,)), (x,))
+    values = probe.evaluate([sympy.exp(1000 * x + 800), sympy.sin(sympy.exp(sympy.exp(x + 80))), sympy.sinh(-800 - x)])
+    for exp_value, sin_value, sinh_value in values:
+        assert exp_value == float("inf") and str(sin_value) == "nan" and sinh_value == float("-inf")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import re
 
 from lagdsl.cli import main as lagc
+from tests.conftest import MODELS
 
 HIDDEN = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u202a-\u202e\u2066-\u2069]")   # all but tab and newline
 MODEL = """model Spring "\x1b[2Jcleared\u202e"
@@ -50,3 +51,12 @@ def test_a_missing_file_with_control_characters_in_its_name(tmp_path, capsys):
     assert lagc(["check", str(tmp_path / "\x1b[2J.lag")]) == 1
     error = capsys.readouterr().err
     assert "\\x1b[2J.lag" in error and not HIDDEN.search(error)
+
+
+def test_control_characters_in_an_option_or_an_output_path_reach_the_terminal_escaped(tmp_path, capsys):
+    model = tmp_path / "pendulum.lag"
+    model.write_text((MODELS / "pendulum.lag").read_text())
+    assert lagc(["run", str(model), "--integrator", "dop\x1b[31m853"]) == 1
+    assert lagc(["run", str(model), "-o", str(tmp_path / "no\x1b[2Jdir" / "out.csv")]) == 1
+    err = capsys.readouterr().err
+    assert "\x1b" not in err and err.count("\\x1b") == 4      # the label and the name, the path twice

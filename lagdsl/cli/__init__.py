@@ -1,7 +1,8 @@
 """The `lagc` command: a thin layer over the Python API.
 
 This is the only place that catches LagError: it prints `file:line:column: error: ...`
-with the source line and a caret, and exits 1. Anything else escaping is a bug in lagdsl.
+with the source line and a caret, and exits 1 (`lagc modes` and `lagc linearize` exit 2 for bad
+input and 1 for a numerical failure: cli/modes.py). Anything else escaping is a bug in lagdsl.
 Ctrl-C exits 130 (128 + SIGINT, as shells report it) without a traceback; during `lagc run`
 the rows computed so far are written and the summary says where the run stopped.
 
@@ -12,27 +13,32 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
+import threading
 import warnings
 
 from .. import __version__
 from ..errors import LagError, LagWarning, SimulationError
 from ..escape import visible
-from . import bench, common, describe, simulate, sweep
+from ..run.interrupt import terminate_as_interrupt
+from . import bench, common, describe, modes, simulate, sweep
 
-COMMANDS = (describe, simulate, sweep, bench)      # each adds its subcommands to the parser
+COMMANDS = (describe, simulate, sweep, bench, modes)      # each adds its subcommands to the parser
 
 
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
+    previous = signal.getsignal(signal.SIGTERM)
     try:
+        terminate_as_interrupt()        # a `kill` keeps the rows computed so far, as Ctrl-C does
         with warnings.catch_warnings():
             warnings.simplefilter("default", LagWarning)
             warnings.showwarning = _show_warning
             return _dispatch(argv)
     except KeyboardInterrupt:
         print("lagc: interrupted", file=sys.stderr)
-        return common.INTERRUPTED_EXIT
+        return common.interrupted_exit()
     except LagError as error:
         print(error.render(), file=sys.stderr)
         return 1
@@ -47,6 +53,9 @@ def main(argv: list[str] | None = None) -> int:
         where = f": {visible(str(error.filename))}" if error.filename else ""
         print(f"lagc: error: {error.strerror}{where}", file=sys.stderr)
         return 1
+    finally:
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGTERM, previous)
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:

@@ -2,7 +2,7 @@
 extended-precision reference."""
 from __future__ import annotations
 
-from ..run.output import check_writable, write_output
+from ..run.files import check_writable, write_output
 from ..settings import Overrides
 from ..source import SourceFile
 from . import common
@@ -34,8 +34,8 @@ def run(arguments) -> int:
     repeat = common.positive_integer("--repeat", arguments.repeat)
     integrators = common.integrator_list(arguments.integrators)
     for path in (arguments.output, arguments.plot):
-        if path:
-            check_writable(path)
+        if path is not None:
+            check_writable(path, arguments.model)
     model = common.load_model(SourceFile.read(arguments.model))
     overrides = Overrides(common.set_values(arguments.set), arguments.start, arguments.stop, arguments.interval)
     progress = bench.progress_bar()
@@ -44,9 +44,9 @@ def run(arguments) -> int:
                                  arguments.peers, repeat, drift=bool(arguments.plot), progress=progress)
     finally:
         progress.close()
-    print(report.render())
-    if arguments.output:
+    common.deliver(report.render() + "\n", None)
+    if arguments.output is not None:
         write_output(arguments.output, report.csv())
-    if arguments.plot:
+    if arguments.plot is not None:
         write_output(arguments.plot, plots.work_precision_png(report))
     return 0

@@ -3,22 +3,30 @@ delivering a text."""
 from __future__ import annotations
 
 import argparse
-import sys
+import signal
 
+from ..abi import parse_number
 from ..errors import LagError, Setting
 from ..integrators import registry
 from ..integrators.registry import OPTION_ORDER, OPTIONS
-from ..run.output import write_output
+from ..run.files import write_output, write_stdout
+from ..progress import slow_stage
+from ..run.interrupt import terminated
 from ..settings import Overrides, check_integrator_name, given_options
 from ..source import SourceFile
 
-INTERRUPTED_EXIT = 130
+
+def interrupted_exit() -> int:
+    """The exit status after an interrupt, as shells report a death by the signal: 128 + SIGINT
+    (Ctrl-C) or 128 + SIGTERM (`kill`)."""
+    return 128 + (signal.SIGTERM if terminated() else signal.SIGINT)
 
 
 def load_model(source: SourceFile):
     """The model parsed and derived: the pipeline (sympy, lark) is imported only here."""
     from ..api import Model
-    return Model(source)
+    with slow_stage(f"parsing {source.name} and deriving its equations of motion"):
+        return Model(source)
 
 
 def run_options(parser: argparse.ArgumentParser) -> None:
@@ -30,7 +38,7 @@ def run_options(parser: argparse.ArgumentParser) -> None:
     for name in OPTION_ORDER:
         option = OPTIONS[name]
         users = ", ".join(record for record in registry.names() if name in registry.get(record).options)
-        parser.add_argument("--" + name.replace("_", "-"), type=int if option.c_cast else float,
+        parser.add_argument("--" + option.flag, type=int if option.c_cast else float,
                             help=f"{option.meaning}: {option.requirement} ({users})")
 
 
@@ -53,16 +61,14 @@ def overrides(arguments) -> Overrides:
                      arguments.integrator, options)
 
 
-def set_values(items: list[str]) -> tuple[tuple[str, float], ...]:
+def set_values(items: list[str], option: str = "--set") -> tuple[tuple[str, float], ...]:
+    """NAME=VALUE items of `option` (--set, or --at of `lagc modes`) as (name, number) pairs."""
     values = []
     for item in items:
         name, equals, text = item.partition("=")
-        try:
-            value = float(text)
-        except ValueError:
-            value = None
+        value = parse_number(text)
         if not equals or value is None:
-            raise LagError(f"--set takes NAME=VALUE with a number, got '{item}'")
+            raise LagError(f"{option} takes NAME=VALUE with a number, got '{item}'")
         values.append((name.strip(), value))
     return tuple(values)
 
@@ -90,7 +96,7 @@ def integrator_list(text: str | None) -> tuple[str, ...] | None:
 
 def deliver(text: str, output: str | None) -> None:
     """To the -o file (see `write_output`), or to standard output."""
-    if output:
+    if output is not None:
         write_output(output, text)
     else:
-        sys.stdout.write(text)
+        write_stdout(text)

@@ -6,6 +6,7 @@ import sys
 
 from ..escape import visible
 from ..run import cache
+from ..run.files import check_writable
 from ..source import SourceFile
 from . import common
 
@@ -33,6 +34,8 @@ def add(commands) -> None:
 
 
 def emit(arguments) -> int:
+    if arguments.output is not None:
+        check_writable(arguments.output, arguments.model)
     model = common.load_model(SourceFile.read(arguments.model))
     common.deliver(model.emit(arguments.language, arguments.scene).text, arguments.output)
     return 0
@@ -43,7 +46,7 @@ def check(arguments) -> int:
     model = common.load_model(SourceFile.read(arguments.model))
     for note in model.ir.units.notes if model.ir.units else ():
         print(note.render(), file=sys.stderr)
-    print(describe_model(model.ir, model.equations))
+    common.deliver(describe_model(model.ir, model.equations) + "\n", None)
     return 0
 
 
@@ -51,7 +54,7 @@ def eom(arguments) -> int:
     from ..mechanics.families import expanded
     from ..present import format_equations
     model = common.load_model(SourceFile.read(arguments.model))
-    print(format_equations(expanded(model.equations), latex=arguments.latex))
+    common.deliver(format_equations(expanded(model.equations), latex=arguments.latex) + "\n", None)
     return 0
 
 
@@ -59,8 +62,8 @@ def cache_command(arguments) -> int:
     """`lagc cache info`: where the cache is, how many entries and bytes; `lagc cache clear`: empty it."""
     where = visible(cache.cache_root())
     if arguments.action == "clear":
-        print(f"removed {cache.clear()} entries from the build cache {where}")
+        common.deliver(f"removed {cache.clear()} entries from the build cache {where}\n", None)
     else:
         entries, size = cache.usage()
-        print(f"build cache {where}: {entries} entries, {size / 1e6:.1f} MB")
+        common.deliver(f"build cache {where}: {entries} entries, {size / 1e6:.1f} MB\n", None)
     return 0

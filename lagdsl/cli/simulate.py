@@ -7,7 +7,7 @@ import sys
 from ..errors import SimulationError, SimulationInterrupted
 from ..progress import TimeProgress
 from ..run import cache
-from ..run.output import check_writable, write_output
+from ..run.files import check_writable, write_output
 from ..source import SourceFile
 from . import common
 
@@ -48,8 +48,8 @@ def _simulate(arguments) -> int:
                                                                         arguments.integrator)
     model = None if stored else common.load_model(source)      # the model's errors first, as always
     for path in (arguments.output, arguments.plot):
-        if path:
-            check_writable(path)      # refuse before the run, not after it
+        if path is not None:
+            check_writable(path, arguments.model)      # refuse before the run, not after it
     overrides = common.overrides(arguments)
     progress = TimeProgress()
     units = model.column_units(arguments.scene) if arguments.units else None
@@ -65,7 +65,7 @@ def _simulate(arguments) -> int:
         common.deliver(stopped.partial.csv(units), arguments.output)
         print(stopped.partial.summary.render(), file=sys.stderr)
         print(f"lagc: {stopped.render()}, after {len(stopped.partial.t)} rows", file=sys.stderr)
-        return common.INTERRUPTED_EXIT
+        return common.interrupted_exit()
     except SimulationError as error:
         progress.close()
         if error.partial is not None:
@@ -75,7 +75,7 @@ def _simulate(arguments) -> int:
         raise
     progress.close()
     common.deliver(result.csv(units), arguments.output)
-    if arguments.plot:
+    if arguments.plot is not None:
         from .. import plots
         write_output(arguments.plot, plots.outputs_png(result, _title(source, arguments.scene)))
     print(result.summary.render(), file=sys.stderr)

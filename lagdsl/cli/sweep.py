@@ -5,19 +5,18 @@ from __future__ import annotations
 import contextlib
 import math
 import sys
-import warnings
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..errors import LagError, LagWarning, Setting, SimulationInterrupted
-from ..run.output import check_writable, write_output
+from ..errors import LagError, Setting, SimulationInterrupted
+from ..run.files import check_writable
 from ..settings import RUN_OPTIONS
 from ..source import SourceFile
 from . import common
 
 if TYPE_CHECKING:
-    from ..run.sweep import Sweep
+    pass
 
 RUN_KEYWORDS = ("start", "stop", "interval", "integrator", *RUN_OPTIONS)     # model.sweep's overrides
 
@@ -47,24 +46,22 @@ def run(arguments) -> int:
     """Run the members of a grid or random sample; write the tidy table and the summary. Members
     that fail are rows with their status; Ctrl-C writes the members finished so far."""
     model = common.load_model(SourceFile.read(arguments.model))
-    check_writable(arguments.output)
+    check_writable(arguments.output, arguments.model)
     varied = sweep_values(arguments.vary, arguments.random, arguments.count, arguments.seed)
     overrides = common.overrides(arguments)
     keywords = {k: getattr(arguments, k) for k in RUN_KEYWORDS if getattr(arguments, k) is not None}
     with _dask_client(arguments.dask, arguments.workers) as client:
         try:
-            sweep = model.sweep(arguments.scene, arguments.backend, set={**dict(overrides.values), **varied},
-                                workers=None if client else arguments.workers, client=client,
-                                progress=sys.stderr.isatty(),
-                                **keywords)
+            summary = model.sweep_to_file(arguments.output, arguments.scene, arguments.backend,
+                                          set={**dict(overrides.values), **varied},
+                                          workers=None if client else arguments.workers, client=client,
+                                          progress=True, **keywords)
         except SimulationInterrupted as stopped:
-            write_output(arguments.output, sweep_table(stopped.partial, arguments.output))
-            print(stopped.partial.summary.render(), file=sys.stderr)
-            print(f"lagc: interrupted; the table in {arguments.output} has every member, those not finished "
-                  "with status 'interrupted'", file=sys.stderr)
-            return common.INTERRUPTED_EXIT
-    write_output(arguments.output, sweep_table(sweep, arguments.output))
-    print(sweep.summary.render(), file=sys.stderr)
+            print(stopped.partial.render(), file=sys.stderr)
+            print(f"lagc: interrupted; the table in {arguments.output} has the {stopped.partial.members} members "
+                  "begun, those not finished with status 'interrupted'", file=sys.stderr)
+            return common.interrupted_exit()
+    print(summary.render(), file=sys.stderr)
     return 0
 
 
@@ -134,13 +131,3 @@ def _range(option: str, item: str, fields: int) -> tuple[str, tuple[float, ...]]
     if fields == 2 and not numbers[0] < numbers[1]:
         raise LagError(f"need LOW < HIGH, got '{text}'", Setting(f"{option} {item}"))
     return name.strip(), numbers
-
-
-def sweep_table(sweep: Sweep, path: str) -> str | bytes:
-    """The tidy table for `path`: Parquet when it ends in .parquet and pyarrow is installed, else CSV."""
-    if str(path).endswith(".parquet"):
-        try:
-            return sweep.parquet()
-        except ImportError:
-            warnings.warn(f"pyarrow is not installed; writing CSV to {path}", LagWarning, stacklevel=2)
-    return sweep.csv()

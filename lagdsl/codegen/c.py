@@ -3,9 +3,11 @@ from __future__ import annotations
 
 from .. import __version__
 from ..escape import c_comment, csv_field
-from ..integrators import COUNTER_LABELS, c_file, integrator_source, registry, summary_extras
+from ..abi import summary_layout
+from ..integrators import c_file, integrator_source, registry
 from ..integrators.registry import OPTION_ORDER, OPTIONS
 from . import GeneratedSource, template_environment
+from .c_abi import runtime_contract, status_printer, summary_packer
 from .c_factor import factorisation_text
 from .c_taylor import series_text
 from .kernel import Block, Kernel, Loop, Store
@@ -24,19 +26,20 @@ FUNCTION_PARAMETERS = {
     "outputs": ("par", "t", "y", "out", "inv"),
     "stop": ("par", "t", "y", "ev"),
 }
+
+
 def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
     printer = CPrinter()
     blocks = {name: _print_block(getattr(kernel, name), signature(kernel, name), kernel, printer)
               for name in FUNCTION_PARAMETERS if getattr(kernel, name) is not None}
     options = dict(kernel.integrator.options)
     method = registry.get(kernel.integrator.name)
-    counters = method.counters
     context = {
         "title": f"{kernel.model_name}, scene {kernel.scene_name}: generated C simulation",
         "version": __version__, "source_name": source_name, "scene": kernel.scene_name,
         "stem": stem(kernel), "model": kernel.model_name, "integrator": kernel.integrator.name,
         "parameter_list": ", ".join(name for name, _ in kernel.parameters) or "none",
-        "option_list": ", ".join(k for k in OPTION_ORDER if k in method.options),
+        "option_list": ", ".join(OPTIONS[k].flag for k in OPTION_ORDER if k in method.options),
         "runtime": c_file("runtime.h"), "linalg": _linear_algebra(kernel),
         "n": kernel.n, "size": kernel.size, "parameters": kernel.parameters,
         "columns": kernel.columns, "constraints": kernel.constraints, "holonomic": kernel.holonomic,
@@ -55,22 +58,19 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
         "integrator_source": integrator_source(kernel.integrator.name),
         "taylor_series": series_text(kernel, printer, [_position(s, kernel) for s in kernel.system.stores
                                                        if s.array == "K"]) if method.series else "",
-        "switching": bool(method.parts),
-        "stiffness_test": method.stiffness_test,
-        "summary_fixed": 6 + len(counters) + summary_extras(method.name),
-        "counters": counters,
-        "counter_format": ", ".join(f"%ld {COUNTER_LABELS[c]}" for c in counters),
-        "counter_fields": ", ".join(f"report.stats.{c}" for c in counters),
+        "contract": runtime_contract(), "flags": _driver_flags(kernel, method),
+        "driver": c_file("driver.c"), "library": c_file("library.c"), "standalone": c_file("standalone.c"),
+        "summary_packer": summary_packer(summary_layout(method.name, len(kernel.invariant_names), 2 * kernel.n,
+                                                        bool(kernel.constraints), kernel.stop is not None)),
+        "status_printer": status_printer(),
         "t_start": _literal(kernel.time.start), "t_stop": _literal(kernel.time.stop),
         "t_interval": _literal(kernel.time.interval),
         "options_init": _options_initializer(options),
         "option_fields": _option_fields(method.options),
-        "tolerances": "rtol" in method.options,
         "stop_text": kernel.stop_text, "stop": None, "constant_mass": None,      # blocks a scene may not have (below)
         **_gram_tables(kernel),
         **blocks,
     }
-    context["driver"] = template_environment().get_template("c/driver.c.j2").render(context)
     text = template_environment().get_template("c/model.c.j2").render(context)
     return GeneratedSource("c", text, stem(kernel))
 
@@ -88,6 +88,16 @@ def layout_kind(kernel: Kernel) -> str:
     return kernel.layout.kind if kernel.layout else "dense"
 
 
+def _driver_flags(kernel: Kernel, method: registry.Integrator) -> list[tuple[str, int, str]]:
+    """The LAG_HAS_* switches of driver.c and standalone.c: what this scene has."""
+    return [("LAG_HAS_CONSTRAINTS", int(bool(kernel.constraints)), "project onto constraints, watch their residual"),
+            ("LAG_HAS_INVARIANTS", int(bool(kernel.invariant_names)), "watch conserved quantities"),
+            ("LAG_HAS_STOP", int(kernel.stop is not None), "a stop condition may end the run"),
+            ("LAG_HAS_STIFFNESS_TEST", int(method.stiffness_test), "report the integrator's stiffness test"),
+            ("LAG_HAS_SWITCHES", int(bool(method.parts)), "report the composite integrator's switches"),
+            ("LAG_HAS_TOLERANCES", int("rtol" in method.options), "the integrator takes rtol and atol")]
+
+
 def _linear_algebra(kernel: Kernel) -> str:
     """Only the factorisations the scene calls: unused static functions are warnings."""
     dense = layout_kind(kernel) == "dense"
@@ -98,7 +108,7 @@ def _linear_algebra(kernel: Kernel) -> str:
 
 
 def _gram_tables(kernel: Kernel) -> dict:
-    """The pattern of the constraints' Jacobian A, for the projection's G = A Aᵀ (driver.c.j2):
+    """The pattern of the constraints' Jacobian A, for the projection's G = A Aᵀ (lag_gram, driver.c):
     the columns where each row may be nonzero (row i's are a_columns[a_start[i] .. a_start[i + 1])),
     and the pairs of rows (i >= j, by i) that share a column, the entries of G that are not zero."""
     if kernel.constraint_rows is None:
@@ -123,8 +133,9 @@ def stem(kernel: Kernel) -> str:
 def _option_fields(allowed: tuple[str, ...]) -> list[dict[str, str]]:
     """The options the standalone program accepts (each sets the lag_options field of its name),
     with their checks."""
-    return [{"key": key, "field": key, "check": OPTIONS[key].c_accepts, "requirement": OPTIONS[key].requirement,
-             "cast": OPTIONS[key].c_cast} for key in OPTION_ORDER if key in allowed]
+    return [{"key": key, "flag": OPTIONS[key].flag, "field": key, "check": OPTIONS[key].c_accepts,
+             "requirement": OPTIONS[key].requirement, "cast": OPTIONS[key].c_cast}
+            for key in OPTION_ORDER if key in allowed]
 
 
 def _options_initializer(options: dict[str, float]) -> str:

@@ -29,13 +29,11 @@ The blocks are exactly what the scene needs:
   stop         a scene with `stop when ...` only: the function e(t, y) whose sign change to
                negative ends the run
 
-All symbols are renamed to target-safe names (p_m1, q_theta1, v_theta1, let_x1, c12, ...)
-that cannot collide with C or Python keywords, libm or POSIX names.
+All symbols are renamed to target-safe names (p_m1, q_theta1, v_theta1, let_x1, c12, ...;
+naming.py) that cannot collide with C or Python keywords, libm or POSIX names.
 """
 from __future__ import annotations
 
-import keyword
-import re
 from dataclasses import dataclass
 
 import sympy
@@ -47,6 +45,7 @@ from ..mechanics import Equations
 from ..mechanics.families import LocalEquations
 from ..scene import ScenePlan
 from .cse import eliminate_common_subexpressions
+from .naming import NameTable, check_target_names
 from .structure import JacobianLayout, MassLayout, jacobian_layout, kkt_layout, mass_layout
 
 
@@ -139,38 +138,6 @@ def local_form_serves(plan: ScenePlan, constant_mass: bool) -> bool:
             and all(o.kind in ("expression", "energy") for o in plan.outputs))
 
 
-def safe_name(text: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_]", "_", text.replace("[", "_").replace("]", "")).strip("_") or "x"
-
-
-IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
-C_KEYWORDS = frozenset(
-    "auto break case char const continue default do double else enum extern float for goto if "
-    "inline int long register restrict return short signed sizeof static struct switch typedef "
-    "union unsigned void volatile while _Bool _Complex _Imaginary".split())
-
-
-def is_target_name(name: str) -> bool:
-    """A valid identifier of both targets: C99 (not a keyword) and Python (not a keyword)."""
-    return (IDENTIFIER.fullmatch(name) is not None and name not in C_KEYWORDS
-            and not keyword.iskeyword(name))
-
-
-def check_target_names(rename: dict[sympy.Symbol, sympy.Symbol]) -> None:
-    """Every name a block emits must print as itself in C and Python, and name one symbol.
-
-    A symbol that missed the name table would otherwise surface as a C compiler error or a
-    Python SyntaxError in generated code; here it is our bug, reported where it happens.
-    """
-    owners: dict[str, sympy.Symbol] = {}
-    for symbol, target in rename.items():
-        if not is_target_name(target.name):
-            raise InternalError(f"the kernel name {target.name!r} of {symbol} is not a C and Python identifier")
-        if owners.setdefault(target.name, symbol) != symbol:
-            raise InternalError(f"the kernel name {target.name!r} stands for both {owners[target.name]} "
-                                f"and {symbol}")
-
-
 class _Lowering:
     def __init__(self, equations: Equations, plan: ScenePlan):
         self.eq, self.plan = equations, plan
@@ -180,18 +147,9 @@ class _Lowering:
         self.active.sort(key=lambda c: c.kind != "holonomic")      # holonomic rows first
         self.n = equations.size
         self.solver, self.layout = self.linear_system()
-        q, v = equations.coordinates, equations.velocities
         self.accelerations = [sympy.Symbol(f"{c.name}''", real=True) for c in self.model.coordinates]
         self.multipliers = [ir.multiplier_symbol(c.name) for c in self.active]
-        self.sources: dict[sympy.Symbol, str] = {ir.TIME: "t"}
-        self.sources.update({p.symbol: f"par[{i}]" for i, p in enumerate(self.model.parameters)})
-        self.sources.update({s: f"y[{k}]" for k, s in enumerate(q)})
-        self.sources.update({s: f"y[{self.n + k}]" for k, s in enumerate(v)})
-        self.sources.update({s: f"acc[{k}]" for k, s in enumerate(self.accelerations)})
-        self.sources.update({s: f"lam[{i}]" for i, s in enumerate(self.multipliers)})
-        self.names: dict[sympy.Symbol, str] = {ir.TIME: "t"}
-        self._taken: set[str] = {"t"}
-        self._name_table()
+        self.table = NameTable(self.model, self.calculus, self.accelerations, self.active, self.multipliers)
 
     def linear_system(self) -> tuple[str, MassLayout | None]:
         """How K is factored, and its layout: Cholesky or LDLᵀ for a positive definite M
@@ -207,74 +165,30 @@ class _Lowering:
     def mass_layout(self) -> MassLayout:
         return mass_layout(self.eq.mass_matrix)
 
-    # -- names ---------------------------------------------------------------------------------
-    def _claim(self, symbol: sympy.Symbol, wanted: str) -> None:
-        name, counter = wanted, 1
-        while name in self._taken:
-            counter += 1
-            name = f"{wanted}_{counter}"
-        self._taken.add(name)
-        self.names[symbol] = name
-
-    def _name_table(self) -> None:
-        """Names of the inputs and of the intermediates the equations define."""
-        for p in self.model.parameters:
-            self._claim(p.symbol, "p_" + safe_name(p.name))
-        for c in self.model.coordinates:
-            self._claim(c.symbol, "q_" + safe_name(c.name))
-            self._claim(c.velocity_symbol, "v_" + safe_name(c.name))
-        for c, a in zip(self.model.coordinates, self.accelerations):
-            self._claim(a, "a_" + safe_name(c.name))
-        for c, lam in zip(self.active, self.multipliers):
-            self._claim(lam, "lam_" + safe_name(c.name))
-        self._name_new_intermediates()
-
-    def _name_new_intermediates(self) -> None:
-        """Name the intermediates not named yet, in definition order.
-
-        Lowering differentiates too (the Jacobian's ∂R/∂y), and every derivative it names
-        becomes a new intermediate after the table was first built.
-        """
-        user_lets = {let.symbol for let in self.model.lets if let.span is not None}
-        for index, (symbol, _) in enumerate(self.calculus.definitions()):
-            if symbol in self.names:
-                continue
-            if symbol in user_lets:
-                self._claim(symbol, "let_" + safe_name(symbol.name))
-            elif symbol.name.startswith("der(") and symbol.name.count("(") == 1:
-                self._claim(symbol, "der_" + safe_name(symbol.name[4:-1]))
-            else:
-                self._claim(symbol, f"w{index}")
-
     # -- blocks --------------------------------------------------------------------------------
     def block(self, stores: list[tuple[str, tuple[int, ...], sympy.Expr]]) -> Block:
         values = [value for _, _, value in stores]
         needed = self.calculus.needed(values)
-        self._name_new_intermediates()
+        self.table.name_new_intermediates()
+        names, sources = self.table.names, self.table.sources
         ordered, reduced = eliminate_common_subexpressions(needed, values)
         rename = {}
         for symbol, _ in ordered:                   # intermediates and CSE temporaries (c0, c1, ...)
-            rename[symbol] = sympy.Symbol(self.names.get(symbol, symbol.name), real=True)
+            rename[symbol] = sympy.Symbol(names.get(symbol, symbol.name), real=True)
         used = set().union(*(e.free_symbols for _, e in ordered), *(e.free_symbols for e in reduced)) \
             if (ordered or reduced) else set()
         inputs = []
-        for symbol in sorted(used - set(rename), key=lambda s: self._input_order(s)):
-            if symbol not in self.sources:
+        for symbol in sorted(used - set(rename), key=self.table.input_order):
+            if symbol not in sources:
                 raise InternalError(f"unbound symbol {symbol} in a kernel block")
-            rename[symbol] = sympy.Symbol(self.names[symbol], real=True)
+            rename[symbol] = sympy.Symbol(names[symbol], real=True)
             if symbol != ir.TIME:
-                inputs.append((self.names[symbol], self.sources[symbol]))
+                inputs.append((names[symbol], sources[symbol]))
         check_target_names(rename)
         return Block(tuple(inputs),
                      tuple((rename[s].name, e.xreplace(rename)) for s, e in ordered),
                      tuple(Store(array, index, value.xreplace(rename))
                            for (array, index, _), value in zip(stores, reduced)))
-
-    def _input_order(self, symbol):
-        source = self.sources.get(symbol, "")
-        array, _, rest = source.partition("[")
-        return (("par", "y", "acc", "lam", "t").index(array) if array in ("par", "y", "acc", "lam", "t") else 9,
-                int(rest[:-1]) if rest else 0)
 
     # -- the kernel ----------------------------------------------------------------------------
     def kernel(self) -> Kernel:

@@ -28,8 +28,8 @@ class LocalLowering(_Lowering):
 
     def __init__(self, equations: LocalEquations, plan):
         super().__init__(equations, plan)
-        self.sources[ENERGY] = LOOPS
-        self._claim(ENERGY, "energy")
+        self.table.sources[ENERGY] = LOOPS
+        self.table.claim(ENERGY, "energy")
 
     def mass_layout(self) -> MassLayout:
         return local_layout(self.n, self.eq.bandwidth)
@@ -79,7 +79,7 @@ class LocalLowering(_Lowering):
         if not any(ENERGY in value.free_symbols for _, _, value in stores):
             return self.block(stores)
         loops = [loop for stencil in self.eq.stencils for loop in [self.stencil_loop(stencil, ("energy",))] if loop]
-        return self.looped_block(stores, loops, accumulators=(self.names[ENERGY],))
+        return self.looped_block(stores, loops, accumulators=(self.table.names[ENERGY],))
 
     def looped_block(self, stores, loops: list[Loop], cleared=(), accumulators=()) -> Block:
         """A block whose loops run first; the inputs are the plain part's and those the loop
@@ -88,10 +88,10 @@ class LocalLowering(_Lowering):
         inputs = {name: source for name, source in plain.inputs if source != LOOPS}
         read = {x.name for loop in loops for value in (*(v for _, v in loop.assignments),
                                                        *(v for _, _, v in loop.stores)) for x in value.free_symbols}
-        for symbol, source in self.sources.items():
-            if self.names.get(symbol) in read and source not in (LOOPS, "t"):
-                inputs[self.names[symbol]] = source
-        order = {name: self._input_order(symbol) for symbol, name in self.names.items()}
+        for symbol, source in self.table.sources.items():
+            if self.table.names.get(symbol) in read and source not in (LOOPS, "t"):
+                inputs[self.table.names[symbol]] = source
+        order = {name: self.table.input_order(symbol) for symbol, name in self.table.names.items()}
         return Block(tuple(sorted(inputs.items(), key=lambda item: order.get(item[0], (9, 0)))),
                      plain.assignments, plain.stores, tuple(loops), accumulators, cleared)
 
@@ -109,7 +109,7 @@ class LocalLowering(_Lowering):
                 targets.append(("K", (self._member(stencil, a), self._member(stencil, b))))
                 values.append(value)
         if "energy" in arrays and stencil.energy != 0:
-            targets.append((self.names[ENERGY], ()))
+            targets.append((self.table.names[ENERGY], ()))
             values.append(stencil.energy)
         return self.member_loop(stencil, targets, values)
 
@@ -121,8 +121,8 @@ class LocalLowering(_Lowering):
         ordered, reduced = eliminate_common_subexpressions(bases, values, prefix="s")
         rename, inputs = self._slot_names(stencil, [*values, *(e for _, e in ordered)])
         rename.update({s: sympy.Symbol(s.name, real=True) for s, _ in ordered})
-        rename.update({s: sympy.Symbol(self.names[s], real=True) for e in values for s in e.free_symbols
-                       if s in self.names})
+        rename.update({s: sympy.Symbol(self.table.names[s], real=True) for e in values for s in e.free_symbols
+                       if s in self.table.names})
         return Loop(stencil.count, tuple(inputs),
                     tuple((rename[s].name, e.xreplace(rename)) for s, e in ordered),
                     tuple((array, index, value.xreplace(rename)) for (array, index), value in zip(targets, reduced)))

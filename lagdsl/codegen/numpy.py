@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from .. import __version__
+from ..settings import RCOND_MIN_EPS
 from . import GeneratedSource, template_environment
 from .c import FUNCTION_PARAMETERS, layout_kind
 from .kernel import Block, Kernel, Loop, Store
@@ -27,7 +28,7 @@ def render_numpy(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSou
         "jacobian": kernel.jacobian is not None, "canonical": kernel.momenta is not None,
         "outputs_need_multipliers": kernel.outputs_need_multipliers,
         "stop_text": kernel.stop_text, "stop": None, "constant_mass": None,      # blocks a scene may not have (below)
-        "totals": any(block["accumulators"] for block in blocks.values()),
+        "totals": any(block["accumulators"] for block in blocks.values()), "rcond_min_eps": RCOND_MIN_EPS,
         **blocks,
     }
     text = template_environment().get_template("numpy/model.py.j2").render(context)

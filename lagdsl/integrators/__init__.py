@@ -10,24 +10,15 @@ from . import registry
 COUNTER_LABELS = {"accepted": "steps accepted", "rejected": "rejected", "rhs_evals": "right-hand sides",
                   "jac_evals": "Jacobians", "lu_decomps": "LU", "newton_iters": "iterations",
                   "orders": "Taylor orders"}
-# The run summary's entries after the counters: the stiffness test's verdict (stiff, its time,
-# accepted, rejected, rhs_evals then) and a composite's switches (count, two spans, the times).
-STIFFNESS_ENTRIES = 5
+# The times of a composite's first switches that its run summary reports (abi.summary_layout).
 SWITCH_TIMES = 8                  # LAG_AUTO_LOGGED in auto.c
-SWITCH_ENTRIES = 3 + SWITCH_TIMES
-
-
-def summary_extras(name: str) -> int:
-    """How many summary entries follow integrator `name`'s counters (before the invariants)."""
-    record = registry.get(name)
-    return (STIFFNESS_ENTRIES if record.stiffness_test else 0) + (SWITCH_ENTRIES if record.parts else 0)
 
 
 def integrator_files(name: str) -> tuple[str, ...]:
     """The C files that make up integrator `name`, in the order they are pasted."""
     record = registry.get(name)
     parts = [file for part in record.parts for file in integrator_files(part)]
-    return tuple(dict.fromkeys([*parts, *record.c_fragments, record.c_file]))
+    return tuple(dict.fromkeys([*parts, *record.c_fragments, record.c_file, *record.c_protocol]))
 
 
 def integrator_source(name: str) -> str:

@@ -24,6 +24,11 @@ class Option:
     c_accepts: str                      # the same check in C, on a double `value`
     c_cast: str = ""                    # how the standalone program stores it: "", "(int)", "(long)"
 
+    @property
+    def flag(self) -> str:
+        """Its name on a command line, lagc's or the standalone program's: --max-step."""
+        return self.name.replace("_", "-")
+
 
 OPTIONS: dict[str, Option] = {option.name: option for option in (
     Option("rtol", "relative tolerance (adaptive integrators)", "a finite number >= 0",
@@ -70,6 +75,7 @@ class Integrator:
     stiffness_test: bool = False                # reports the explicit pairs' stiffness test
     parts: tuple[str, ...] = ()                 # a composite: the methods it switches between
     c_fragments: tuple[str, ...] = ()           # shared C files pasted before its own
+    c_protocol: tuple[str, ...] = ()            # shared C files pasted after it, which use what it defines
     scipy: str | None = None                    # NumPy backend: the scipy.integrate solver
     python: str | None = None                   # NumPy backend: our own stepper
     numpy_constraints: str | None = None        # why the NumPy backend refuses it with constraints
@@ -132,19 +138,26 @@ def known(name: str) -> bool:
     return name in _REGISTRY
 
 
-_EXPLICIT = ("explicit_control.c", "stiffness_test.c")
+# The explicit pairs: step-size control before, the step protocol after (the Dormand-Prince pairs
+# have a stiffness test, and share their start, acceptance and restart).
+_DORMAND_PRINCE = ("explicit_control.c", "stiffness_test.c")
+_DORMAND_PRINCE_STEP = ("dormand_prince.c", "explicit_step.c")
+_EXPLICIT_STEP = ("explicit_step.c",)
 for _record in (
     Integrator("rk4", "the classical Runge-Kutta method rk4", "classical Runge-Kutta, order 4, fixed step",
                options=("step", "max_steps"), defaults=(), counters=("accepted", "rhs_evals"), fixed_step=True,
                c_fragments=("fixed_step.c",), python="fixed_step:run_rk4", order=4),
     Integrator("dopri5", "the Dormand-Prince pair dopri5", "Dormand-Prince 5(4), adaptive, dense output of order 4",
-               stiffness_test=True, c_fragments=_EXPLICIT, scipy="RK45", stacks_in_sweeps=True, order=5),
+               stiffness_test=True, c_fragments=_DORMAND_PRINCE, c_protocol=_DORMAND_PRINCE_STEP, scipy="RK45",
+               stacks_in_sweeps=True, order=5),
     Integrator("dop853", "the Dormand-Prince pair dop853",
                "Dormand-Prince 8(5,3), adaptive, dense output of order 7 (the default)",
-               stiffness_test=True, c_fragments=_EXPLICIT, scipy="DOP853", stacks_in_sweeps=True, order=8),
+               stiffness_test=True, c_fragments=_DORMAND_PRINCE, c_protocol=_DORMAND_PRINCE_STEP, scipy="DOP853",
+               stacks_in_sweeps=True, order=8),
     Integrator("rkn8", "the Nystrom integrator rkn8",
                "Runge-Kutta-Nystrom 8(6) for q'' = a(t, q), adaptive (no velocity-dependent forces)",
                second_order=True, constraints="use dop853 or radau5", c_fragments=("explicit_control.c",),
+               c_protocol=_EXPLICIT_STEP,
                python="nystrom:run_rkn8", order=8),
     Integrator("radau5", "the implicit Radau IIA method radau5", "Radau IIA order 5, implicit, for stiff models",
                counters=("accepted", "rejected", "rhs_evals", "jac_evals", "lu_decomps", "newton_iters"),

@@ -35,8 +35,37 @@ def _dirac_delta(x, order=0):
     return mpmath.inf if x == 0 else mpmath.mpf(0)
 
 
-# Derivatives of abs, sign, min and max bring in Heaviside and DiracDelta, which mpmath lacks.
-MPMATH_EXTRAS = {"Heaviside": _heaviside, "DiracDelta": _dirac_delta}
+# Beyond this magnitude 50 digits no longer resolve the phase of sin, cos or tan, and mpmath's
+# argument reduction would compute pi to as many bits as the argument's exponent (1e30 bits for
+# sin(exp(exp(exp(x + 2))))): such a value is unknown (NaN), never a reason to hang.
+PHASE_LIMIT = mpmath.mpf(10) ** 30
+# exp overflows a double beyond this: the generated code gets inf there, and so does the probe
+# (a tower of exponentials would otherwise grow numbers of astronomical exponent).
+EXP_LIMIT = mpmath.mpf("709.782712893384")
+
+
+def _periodic(function):
+    def bounded(x):
+        return mpmath.nan if abs(x) > PHASE_LIMIT else function(x)
+    return bounded
+
+
+def _exponential(function, sign=1):
+    def bounded(x):
+        if mpmath.re(x) > EXP_LIMIT:
+            return mpmath.inf
+        if mpmath.re(x) < -EXP_LIMIT:
+            return sign * mpmath.inf if function is not mpmath.exp else mpmath.mpf(0)
+        return function(x)
+    return bounded
+
+
+# Derivatives of abs, sign, min and max bring in Heaviside and DiracDelta, which mpmath lacks;
+# the functions whose cost grows with their argument's magnitude are bounded as above.
+MPMATH_EXTRAS = {"Heaviside": _heaviside, "DiracDelta": _dirac_delta,
+                 **{name: _periodic(getattr(mpmath, name)) for name in ("sin", "cos", "tan", "sec", "csc", "cot")},
+                 "exp": _exponential(mpmath.exp), "cosh": _exponential(mpmath.cosh),
+                 "sinh": _exponential(mpmath.sinh, sign=-1)}
 
 
 class Probe:
@@ -50,33 +79,7 @@ class Probe:
 
     def evaluate(self, exprs: Sequence[sympy.Expr]) -> list[list]:
         """Values of `exprs` at each probe point: a list (one per point) of mpmath numbers."""
-        if not exprs:
-            return [[] for _ in self.points]
-        definitions = self.calculus.needed(exprs)
-        stray = set().union(*(e.free_symbols for e in exprs)) | set().union(
-            *(e.free_symbols for _, e in definitions))
-        stray -= set(self.symbols) | {s for s, _ in definitions}
-        symbols = self.symbols + tuple(sorted(stray, key=sympy.default_sort_key))
-        # lambdify prints names as Python identifiers; ours ("theta1'", "∂L/∂x'") are not.
-        safe = {s: sympy.Symbol(f"_p{i}") for i, s in enumerate((*symbols, *(d for d, _ in definitions)))}
-        try:
-            function = sympy.lambdify(
-                [safe[s] for s in symbols], [e.xreplace(safe) for e in exprs], modules=[MPMATH_EXTRAS, "mpmath"],
-                cse=lambda e: ([(safe[d], x.xreplace(safe)) for d, x in definitions], e))
-        except (ValueError, KeyError, TypeError, NotImplementedError):
-            # Not printable for mpmath (an unevaluated Derivative, say): unknown, so never "zero".
-            # derive_equations reports an underivable expression itself.
-            return [[mpmath.nan] * len(exprs) for _ in self.points]
-        results = []
-        with mpmath.workdps(DIGITS):
-            for point in self.points:
-                extra = [mpmath.mpf(0.5)] * (len(symbols) - len(point))
-                try:
-                    results.append(function(*point, *extra))
-                except (ArithmeticError, ValueError, TypeError, AttributeError):   # a pole, an overflow, or
-                    # a complex value where mpmath wants a real one (atan2 of sqrt(log(0.5)))
-                    results.append([mpmath.nan] * len(exprs))
-        return results
+        return evaluate_at(self.calculus, exprs, self.symbols, self.points, fill=mpmath.mpf(0.5))
 
     def zeros(self, exprs: Sequence[sympy.Expr]) -> list[bool]:
         """For each expression: does it vanish identically (at every probe point)?"""
@@ -102,9 +105,43 @@ class Probe:
         matrices = []
         for point in self.evaluate([flat[i] for i in nonzero]):
             values = np.zeros(len(flat))
-            values[nonzero] = [_to_float(x) for x in point]
+            values[nonzero] = [to_float(x) for x in point]
             matrices.append(values.reshape(shape))
         return matrices
+
+
+def evaluate_at(calculus: Differentiator, exprs: Sequence[sympy.Expr], symbols: Sequence[sympy.Symbol],
+                points: Sequence[Sequence], fill=mpmath.nan) -> list[list]:
+    """Values of `exprs` (over the intermediates of `calculus`) at each point, in DIGITS-digit
+    arithmetic: a list (one per point) of mpmath numbers. A point gives the values of `symbols`
+    in order; any other free symbol takes the value `fill`."""
+    if not exprs:
+        return [[] for _ in points]
+    definitions = calculus.needed(exprs)
+    stray = set().union(*(e.free_symbols for e in exprs)) | set().union(
+        *(e.free_symbols for _, e in definitions))
+    stray -= set(symbols) | {s for s, _ in definitions}
+    symbols = tuple(symbols) + tuple(sorted(stray, key=sympy.default_sort_key))
+    # lambdify prints names as Python identifiers; ours ("theta1'", "∂L/∂x'") are not.
+    safe = {s: sympy.Symbol(f"_p{i}") for i, s in enumerate((*symbols, *(d for d, _ in definitions)))}
+    try:
+        function = sympy.lambdify(
+            [safe[s] for s in symbols], [e.xreplace(safe) for e in exprs], modules=[MPMATH_EXTRAS, "mpmath"],
+            cse=lambda e: ([(safe[d], x.xreplace(safe)) for d, x in definitions], e))
+    except (ValueError, KeyError, TypeError, NotImplementedError):
+        # Not printable for mpmath (an unevaluated Derivative, say): unknown, so never "zero".
+        # derive_equations reports an underivable expression itself.
+        return [[mpmath.nan] * len(exprs) for _ in points]
+    results = []
+    with mpmath.workdps(DIGITS):
+        for point in points:
+            extra = [fill] * (len(symbols) - len(point))
+            try:
+                results.append(function(*[mpmath.mpf(x) for x in point], *extra))
+            except (ArithmeticError, ValueError, TypeError, AttributeError):   # a pole, an overflow, or
+                # a complex value where mpmath wants a real one (atan2 of sqrt(log(0.5)))
+                results.append([mpmath.nan] * len(exprs))
+    return results
 
 
 def _is_tiny(value) -> bool:
@@ -114,7 +151,8 @@ def _is_tiny(value) -> bool:
         return False
 
 
-def _to_float(value) -> float:
+def to_float(value) -> float:
+    """An mpmath number as a float: nan for a complex or non-numeric value."""
     try:
         value = complex(value)
     except OverflowError:                   # an exact integer beyond double range

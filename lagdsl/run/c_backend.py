@@ -1,7 +1,7 @@
 """The C backend: the generated library called through ctypes, its run summary read back.
 
-lag_run takes the parameters, the initial state and the settings as arrays of doubles and fills
-the output rows and the run summary (driver.c.j2 documents both layouts).
+lag_run takes the parameters, the initial state and the settings (abi.SETTINGS) as arrays of
+doubles and fills the output rows and the run summary, whose fields abi.SummaryLayout lays out.
 """
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..integrators import SWITCH_TIMES, registry, summary_extras
-from ..integrators.registry import OPTION_ORDER
+from ..abi import SummaryLayout, plan_summary, settings_vector
+from ..integrators import SWITCH_TIMES
 from ..settings import RunPlan
 from .interrupt import interruptible
 from .loading import load
@@ -24,14 +24,6 @@ if TYPE_CHECKING:
     from ..codegen.kernel import Kernel
 
 
-def settings_array(plan: RunPlan) -> tuple[float, ...]:
-    """lag_run's settings: t0, t1, dt, then the options in lag_options order (0: not given), the
-    step limit last."""
-    options = dict(plan.integrator.options)
-    return (plan.time.start, plan.time.stop, plan.time.interval,
-            *(float(options.get(k, 0.0)) for k in OPTION_ORDER if k != "max_steps"), float(plan.max_steps))
-
-
 def run_c(kernel: Kernel, source: GeneratedSource, plan: RunPlan, progress: Progress | None = None,
           loaded: ctypes.CDLL | None = None) -> Result:
     library = loaded if loaded is not None else load(source)
@@ -40,52 +32,55 @@ def run_c(kernel: Kernel, source: GeneratedSource, plan: RunPlan, progress: Prog
     entry.argtypes = [double_p, double_p, double_p, double_p, ctypes.c_long, double_p]
     entry.restype = ctypes.c_int
     times = output_times(plan)
-    settings = np.array(settings_array(plan))
+    settings = settings_vector(plan)
     parameters = np.array(plan.parameters or (0.0,), dtype=float)
     initial = np.array(plan.initial_state, dtype=float)
-    ncols = len(plan.columns)
-    rows = np.zeros((len(times), ncols + 1))
-    counters = registry.get(plan.integrator.name).counters
-    head = 6 + len(counters)        # status, rows, t_fail, rcond_fail, residual, projection, counters
-    extras = head + summary_extras(plan.integrator.name)     # the stiffness verdict, the switches
-    failure_state = extras + 2 * len(plan.invariants)
-    summary = np.zeros(failure_state + len(initial) + (2 if plan.stop else 0))
+    rows = np.zeros((len(times), len(plan.columns) + 1))
+    layout = plan_summary(plan)
+    summary = np.zeros(layout.size)
     pointer = lambda a: a.ctypes.data_as(double_p)   # noqa: E731
     reached = ctypes.c_double.in_dll(library, "lag_progress_t")
     poll = None if progress is None else lambda: progress(reached.value, plan.time.start, plan.time.stop)
     status, elapsed = interruptible(
         library, lambda: entry(pointer(parameters), pointer(initial), pointer(settings), pointer(rows),
                                len(times), pointer(summary)), poll)
-    used = int(summary[1])
-    invariants = tuple((name, float(summary[extras + 2 * i]), float(summary[extras + 1 + 2 * i]))
-                       for i, name in enumerate(plan.invariants))
-    name = plan.integrator.name
-    report = RunSummary("c", name, tuple(zip(counters, map(int, summary[6:head]))), elapsed,
-                        invariants, plan.constraints, float(summary[4]) if plan.constraints else None,
-                        float(summary[5]) if plan.constraints else None,
-                        plan.integrator.options,
-                        stiffness=_c_stiffness(summary[head:], dict(zip(counters, summary[6:head])))
-                        if registry.get(name).stiffness_test else None,
-                        switches=_c_switches(summary[head:]) if name == "auto" else None,
-                        stopped=Stop(plan.stop, float(summary[-1])) if plan.stop and summary[-2] else None)
-    result = Result(rows[:used, 0].copy(), plan.columns, rows[:used, 1:].copy(), report)
+    values, at = summary.tolist(), layout.offsets      # a list reads faster than a record, field by field
+    used = int(values[at["rows"]])
+    result = Result(rows[:used, 0].copy(), plan.columns, rows[:used, 1:].copy(),
+                    _run_summary(plan, layout, values, elapsed))
     if status != 0:
-        raise simulation_error(plan, status, float(summary[2]), summary[failure_state:failure_state + len(initial)], result,
-                       float(summary[3]))
+        y_fail = values[at["y_fail"]:at["y_fail"] + len(plan.initial_state)]
+        raise simulation_error(plan, status, values[at["t_fail"]], y_fail, result, values[at["rcond_fail"]])
     return result
 
 
-def _c_stiffness(extras: np.ndarray, counts: dict) -> Stiffness | None:
-    """The summary's entries after the counters: stiff, its time, and accepted, rejected, rhs_evals then."""
-    if not extras[0]:
+def _run_summary(plan: RunPlan, layout: SummaryLayout, values: list[float], elapsed: float) -> RunSummary:
+    """The RunSummary of a summary's doubles, `values`, laid out as `layout`."""
+    at = layout.offsets
+    counts = {name: int(values[at[name]]) for name in layout.counters}
+    invariants = tuple((name, values[at["invariant_start"] + i], values[at["invariant_drift"] + i])
+                       for i, name in enumerate(plan.invariants))
+    return RunSummary("c", plan.integrator.name, tuple(counts.items()), elapsed, invariants, plan.constraints,
+                      values[at["residual"]] if plan.constraints else None,
+                      values[at["projection"]] if plan.constraints else None,
+                      plan.integrator.options,
+                      stiffness=_stiffness(values, at, counts) if "stiff" in at else None,
+                      switches=_switches(values, at) if "switches" in at else None,
+                      stopped=Stop(plan.stop, values[at["t_stop"]]) if plan.stop and values[at["stopped"]] else None)
+
+
+def _stiffness(values: list[float], at: dict[str, int], counts: dict) -> Stiffness | None:
+    """The stiffness test's verdict: when it fired, and the work done since."""
+    if not values[at["stiff"]]:
         return None
-    return Stiffness(float(extras[1]), int(counts["accepted"] - extras[2]), int(counts["rejected"] - extras[3]),
-                     int(counts["rhs_evals"] - extras[4]), int(counts["rhs_evals"]))
+    return Stiffness(values[at["stiff_time"]], int(counts["accepted"] - values[at["stiff_accepted"]]),
+                     int(counts["rejected"] - values[at["stiff_rejected"]]),
+                     int(counts["rhs_evals"] - values[at["stiff_rhs_evals"]]), counts["rhs_evals"])
 
 
-def _c_switches(extras: np.ndarray) -> Switches:
-    """The summary's entries after the counters: the number of switches, the spans of t of dop853
-    and radau5, then the times of the first SWITCH_TIMES switches."""
-    count = int(extras[0])
-    times = tuple(float(t) for t in extras[3:3 + min(count, SWITCH_TIMES)])
-    return Switches(("dop853", "radau5"), count, times, (float(extras[1]), float(extras[2])))
+def _switches(values: list[float], at: dict[str, int]) -> Switches:
+    """auto's switches: how many, the times of the first ones logged, the span of t of each method."""
+    count = int(values[at["switches"]])
+    times = tuple(values[at["switch_times"]:at["switch_times"] + min(count, SWITCH_TIMES)])
+    spans = (values[at["explicit_span"]], values[at["implicit_span"]])
+    return Switches(("dop853", "radau5"), count, times, spans)

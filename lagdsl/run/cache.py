@@ -9,8 +9,11 @@ stale manifest all lead to a rebuild instead of a crash or silently wrong result
 
 Builds happen in a private directory inside the cache (unique per process and thread) and are
 renamed into place, so concurrent builders never see or overwrite half a file. The cache is
-$LAGDSL_CACHE, or ~/.cache/lagdsl; when it cannot be created or written, a private temporary
-cache is used for the rest of the process (removed at exit) and one warning goes to stderr;
+$LAGDSL_CACHE, or ~/.cache/lagdsl, created private (0700). Since an entry's key is computed from
+public inputs, anyone who can write to the cache could plant a library whose constructor runs
+inside lagc: a cache directory that is writable by others or owned by another user is not used,
+nor an entry or manifest that is. When the cache cannot be created, written or trusted, a private
+temporary cache is used for the rest of the process (removed at exit) and one warning goes to stderr;
 `private_cache()` (`lagc run --no-cache`) does the same on purpose, without the warning.
 `find_entry` only looks an entry up (a warm `lagc run`, `plans.py`); `clear` and `usage` serve
 `lagc cache clear` and `lagc cache info`.
@@ -19,16 +22,20 @@ from __future__ import annotations
 
 import atexit
 import contextlib
+import errno
 import hashlib
 import json
 import os
 import re
 import shutil
+import stat
 import sys
 import tempfile
 import time
 from pathlib import Path
 from typing import Callable, Iterator
+
+from ..escape import visible
 
 MANIFEST_SUFFIX = ".manifest"
 # What the cache holds: entries named `<stem>-<20 hex digits of the key>.so|.py|.json` (or `_`
@@ -36,6 +43,7 @@ MANIFEST_SUFFIX = ".manifest"
 ENTRY_NAME = re.compile(r"[-_][0-9a-f]{20}\.(so|py|json)(\.manifest)?$")
 BUILD_PREFIX = ".build-"
 STALE_BUILD_SECONDS = 3600      # a build directory this old was left by a process that died
+MAX_NAME = 200                  # bytes of an entry's name: room for the manifest's suffix and the build's
 _fallbacks: dict[str, Path] = {}     # unusable cache root -> the private cache standing in for it
 PRIVATE = "private"                  # the _fallbacks key of private_cache()
 
@@ -58,23 +66,55 @@ def private_cache() -> Iterator[None]:
 
 
 def cache_directory() -> Path:
-    """The cache directory, created if needed; a private temporary one if it cannot be written."""
+    """The cache directory, created if needed; a private temporary one if it cannot be written or trusted."""
     root = cache_root()
     if PRIVATE in _fallbacks or root in _fallbacks:
         return _fallbacks.get(PRIVATE) or _fallbacks[root]
     try:
         path = Path(root)
-        path.mkdir(parents=True, exist_ok=True)
+        path.mkdir(mode=0o700, parents=True, exist_ok=True)
+        _check_trusted(path)
         # Try to create a file rather than trust the mode bits: as root, a 0o500 directory is
         # writable, and a read-only file system or a full quota only shows when one writes.
         with tempfile.TemporaryFile(dir=path):
             pass
         return path
     except OSError as error:
-        _fallbacks[root] = _private_cache()
-        print(f"lagc: warning: cannot use the build cache '{root}' ({error.strerror or error}); "
-              f"using a temporary cache for this run", file=sys.stderr)
-        return _fallbacks[root]
+        return _fall_back(root, error)
+
+
+def _fall_back(root: str, error: OSError) -> Path:
+    """A private temporary cache standing in for `root` from now on, with one warning."""
+    _fallbacks[root] = _private_cache()
+    print(f"lagc: warning: cannot use the build cache '{visible(root)}' ({error.strerror or error}); "
+          f"using a temporary cache for this run", file=sys.stderr)
+    return _fallbacks[root]
+
+
+def _check_trusted(path: Path) -> None:
+    """Raise PermissionError if another user could have put files at `path` (or in it, for a
+    directory): it is owned by another user, or writable by group or others."""
+    status = path.stat()
+    if status.st_uid != os.getuid():
+        raise PermissionError(errno.EPERM, f"it is owned by another user (uid {status.st_uid})")
+    if status.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+        raise PermissionError(errno.EPERM, f"it is writable by others (mode {stat.S_IMODE(status.st_mode):o})")
+
+
+def _trusted_root() -> Path | None:
+    """The directory to look entries up in without creating anything: the stand-in cache, or the
+    cache if it exists and can be trusted (if it cannot, a stand-in from now on), else None."""
+    root = cache_root()
+    if PRIVATE in _fallbacks or root in _fallbacks:
+        return _fallbacks.get(PRIVATE) or _fallbacks[root]
+    path = Path(root)
+    if not path.is_dir():
+        return None
+    try:
+        _check_trusted(path)
+    except OSError as error:
+        return _fall_back(root, error)
+    return path
 
 
 def _private_cache() -> Path:
@@ -90,6 +130,7 @@ def cached_entry(name: str, key: str, build: Callable[[Path], None]) -> Path:
     prefix of it, so that different inputs never share an entry.
     """
     directory = cache_directory()
+    name = bounded_name(name)
     entry = directory / name
     if _is_valid(entry, key):
         return entry
@@ -105,14 +146,37 @@ def cached_entry(name: str, key: str, build: Callable[[Path], None]) -> Path:
 
 def find_entry(name: str, key: str) -> Path | None:
     """The verified entry `name` built from `key` if the cache holds one (nothing is created)."""
-    root = cache_root()
-    entry = (_fallbacks.get(PRIVATE) or _fallbacks.get(root) or Path(root)) / name
-    return entry if _is_valid(entry, key) else None
+    directory = _trusted_root()
+    entry = directory / bounded_name(name) if directory is not None else None
+    return entry if entry is not None and _is_valid(entry, key) else None
+
+
+def discard(entry: Path) -> None:
+    """Remove an entry that proved unusable (its manifest first), so that it is built again."""
+    _manifest_path(entry).unlink(missing_ok=True)
+    entry.unlink(missing_ok=True)
+
+
+def bounded_name(name: str) -> str:
+    """`name` with a long stem (a model or scene name of hundreds of characters) shortened to a
+    prefix and a hash of the whole, so that every file name made from it stays within the file
+    system's limit of 255 bytes; the key's digits and the suffix are kept."""
+    if len(name.encode()) <= MAX_NAME:
+        return name
+    tail = ENTRY_NAME.search(name)
+    cut = tail.start() if tail else len(name)
+    stem = name[:cut]
+    return stem[:40] + "~" + hashlib.sha256(stem.encode()).hexdigest()[:16] + name[cut:]
 
 
 def _is_valid(entry: Path, key: str) -> bool:
-    """The entry exists, its manifest was written for `key`, and its bytes are the ones recorded."""
+    """The entry exists, both it and its manifest are regular files only this user could have
+    written, the manifest was written for `key`, and the entry's bytes are the ones recorded."""
     try:
+        for path in (entry, _manifest_path(entry)):
+            if not stat.S_ISREG(path.lstat().st_mode):
+                return False
+            _check_trusted(path)
         record = json.loads(_manifest_path(entry).read_text(encoding="utf-8"))
         return (isinstance(record, dict) and record.get("key") == key
                 and record.get("sha256") == _digest(entry))
@@ -143,7 +207,10 @@ def clear() -> int:
         file.unlink(missing_ok=True)
     if directory.is_dir():
         for build in directory.glob(BUILD_PREFIX + "*"):
-            if time.time() - build.stat().st_mtime > STALE_BUILD_SECONDS:
+            status = build.lstat()
+            if stat.S_ISLNK(status.st_mode):            # never one of ours: remove the link, not its target
+                build.unlink(missing_ok=True)
+            elif time.time() - status.st_mtime > STALE_BUILD_SECONDS:
                 shutil.rmtree(build, ignore_errors=True)
     return sum(1 for f in files if not f.name.endswith(MANIFEST_SUFFIX))
 

@@ -64,6 +64,32 @@ def interruptible(library: ctypes.CDLL, call: Callable[[], int],
     return outcome[0]
 
 
+def terminate_as_interrupt() -> None:
+    """Make SIGTERM (`kill`, a batch system's time limit) stop a run as Ctrl-C does, keeping the
+    rows computed so far: what `lagc` asks for; a Python program using lagdsl keeps SIGTERM's
+    default, which ends the process."""
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _terminated)
+
+
+def terminated() -> bool:
+    """Whether SIGTERM was received since terminate_as_interrupt()."""
+    return _received_sigterm
+
+
+_received_sigterm = False
+
+
+def _terminated(signal_number, frame) -> None:
+    _terminated_note()
+    signal.default_int_handler(signal_number, frame)
+
+
+def _terminated_note() -> None:
+    global _received_sigterm
+    _received_sigterm = True
+
+
 class CtrlC:
     """Ctrl-C during a run, never lost.
 
@@ -74,6 +100,7 @@ class CtrlC:
     default handler, a press first calls `on_press` and sets `pressed`, which the run's loops
     test between steps (`check`), and then raises as usual. A context within another (a run of
     a NumPy sweep) leaves the handler to the outer one, which presses for every open context.
+    SIGTERM, where terminate_as_interrupt() made it an interrupt, is handled the same way.
     """
 
     _innermost: CtrlC | None = None      # the context of the main thread that is open now
@@ -81,23 +108,26 @@ class CtrlC:
     def __init__(self, on_press: Callable[[], None] = lambda: None):
         self.pressed = False
         self._on_press = on_press
-        self._previous = None
+        self._previous: dict[int, Callable] = {}
         self._outer: CtrlC | None = None
 
     def __enter__(self) -> CtrlC:
         if threading.current_thread() is threading.main_thread():
             self._outer, CtrlC._innermost = CtrlC._innermost, self
-            if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
-                self._previous = signal.signal(signal.SIGINT, self._handle)
+            for number, default in ((signal.SIGINT, signal.default_int_handler), (signal.SIGTERM, _terminated)):
+                if signal.getsignal(number) is default:
+                    self._previous[number] = signal.signal(number, self._handle)
         return self
 
     def __exit__(self, *exception) -> None:
-        if self._previous is not None:
-            signal.signal(signal.SIGINT, self._previous)
+        for number, previous in self._previous.items():
+            signal.signal(number, previous)
         if CtrlC._innermost is self:
             CtrlC._innermost = self._outer
 
     def _handle(self, signal_number, frame) -> None:
+        if signal_number == signal.SIGTERM:
+            _terminated_note()
         context = CtrlC._innermost
         while context is not None:
             context.pressed = True

@@ -5,6 +5,7 @@ the same program neither compiles nor writes anything.
 """
 from __future__ import annotations
 
+import _ctypes
 import ctypes
 import hashlib
 import importlib.abc
@@ -13,7 +14,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..errors import InternalError, LagError
-from .cache import cached_entry
+from .cache import cached_entry, discard
 from .toolchain import shared_library
 
 if TYPE_CHECKING:       # the code generators import sympy; running generated code does not need it
@@ -27,8 +28,25 @@ def load(source: GeneratedSource):
     straight to the integration: no hashing of the source, no compiler, no dlopen or import.
     """
     if source.language == "c":
-        return load_library(shared_library(source.text, source.suggested_name))
+        path = shared_library(source.text, source.suggested_name)
+        library = load_program_library(path)
+        if library is None:             # not one of ours, manifest or not: build it again
+            discard(path)
+            library = load_program_library(shared_library(source.text, source.suggested_name))
+        if library is None:
+            raise InternalError(f"the library built from the generated C has no lag_run: {path}")
+        return library
     return load_module(source)
+
+
+def load_program_library(path: Path) -> ctypes.CDLL | None:
+    """The library at `path` if it is a lagdsl program (it has lag_run), else None, closed again
+    (dlopen would hand back a library still open under the same path, even after a rebuild)."""
+    library = load_library(path)
+    if hasattr(library, "lag_run"):
+        return library
+    _ctypes.dlclose(library._handle)
+    return None
 
 
 def load_library(path: Path) -> ctypes.CDLL:

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..abi import NONFINITE, PROJECTION_FAILED, SINGULAR
 from ..errors import LagError, LagWarning
 from ..integrators import registry
 from ..integrators.python import IntegrationFailure, PythonRun
@@ -22,7 +23,7 @@ from .loading import load
 from .output import Result, RunSummary, Stop, output_times
 from .projection import project
 from .scipy_steps import SCIPY_RTOL_FLOOR, Progress, ScipyProblem, integrate_scipy
-from .status import NONFINITE, PROJECTION_FAILED, SINGULAR, simulation_error
+from .status import simulation_error
 from .stop import StopCondition
 
 if TYPE_CHECKING:

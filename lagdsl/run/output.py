@@ -1,39 +1,14 @@
-"""Results of a run: the table of outputs, the run summary, and writing them safely."""
+"""Results of a run: the output grid, the table of outputs (its CSV by run.tables) and the run summary."""
 from __future__ import annotations
 
-import errno
 import os
-import secrets
-import stat
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-from ..escape import csv_field
 from ..integrators import COUNTER_LABELS
 from ..integrators.registry import OPTION_ORDER
 from ..settings import RunPlan, grid_rows
-
-
-def csv_text(header, columns) -> str:
-    """The one CSV format of lagdsl's tables: a header of RFC 4180 fields, then one line per row
-    of `columns` (equal-length sequences). Numbers are written as C's printf("%.17g") writes a
-    double, so that `lagc run`, the Python API and the standalone C program write the same bytes:
-    17 significant digits (they read back to the same double), no trailing zeros, `-0`, `inf`,
-    `-inf`, `nan`; integers as integers, text quoted where it must be, None as an empty field."""
-    cells = [_csv_cells(column) for column in columns]
-    lines = [",".join(csv_field(str(name)) for name in header), *map(",".join, zip(*cells))]
-    return "\n".join(lines) + "\n"
-
-
-def _csv_cells(column) -> list[str]:
-    array = np.asarray(column)
-    if array.dtype.kind == "f":
-        return list(map("%.17g".__mod__, array.tolist()))
-    if array.dtype.kind in "iub":
-        return list(array.astype(np.int64).astype(str))
-    return ["" if x is None else format(x, ".17g") if isinstance(x, float) else csv_field(str(x)) for x in column]
 
 
 def output_times(plan: RunPlan) -> np.ndarray:
@@ -170,6 +145,7 @@ class Result:
             raise KeyError(f"no column '{column}' (columns: {', '.join(self.columns)})") from None
 
     def csv(self, units: tuple[str, ...] | None = None) -> str:
+        from .tables import csv_text
         """The header `t,<columns>` (RFC 4180 fields) and one row per output time.
 
         With `units` (one per column, "?" where unknown), the header names them: `t [s],x [m]`.
@@ -182,83 +158,5 @@ class Result:
         return csv_text(names, (np.asarray(self.t, dtype=float), *np.asarray(self.values, dtype=float).T))
 
     def to_csv(self, path: str | os.PathLike) -> None:
+        from .files import write_output
         write_output(path, self.csv())
-
-
-class CannotWrite(OSError):
-    """An output file that cannot be written; the message names the path as the user gave it."""
-
-    def __init__(self, path: str | os.PathLike, reason: OSError):
-        super().__init__(reason.errno, f"cannot write '{os.fspath(path)}': {_describe(reason)}")
-
-
-def check_writable(path: str | os.PathLike) -> None:
-    """Raise CannotWrite now if `write_output(path, ...)` is bound to fail (before a long run, say)."""
-    try:
-        _destination(path)
-    except OSError as error:
-        raise CannotWrite(path, error) from None
-
-
-def write_output(path: str | os.PathLike, text: str | bytes) -> None:
-    """Write `text` (UTF-8, or bytes as they are: a Parquet file, a PNG) to `path` without damaging what is there.
-
-    A regular file (new, or existing and writable) is written to a temporary file beside it and
-    renamed over it, so readers never see half a file; an existing file keeps its mode, a new one
-    gets the default mode (umask). A symbolic link is followed: its target is written and the link
-    stays. A device or FIFO (/dev/null, a pipe) is written in place, never replaced. A directory,
-    a read-only file or a missing directory is refused with CannotWrite, and no temporary file is
-    left behind.
-    """
-    try:
-        target, existing = _destination(path)
-        if existing is not None and not stat.S_ISREG(existing.st_mode):
-            with _open(target, text) as stream:
-                stream.write(text)
-        else:
-            _replace(target, text, stat.S_IMODE(existing.st_mode) if existing is not None else None)
-    except OSError as error:
-        raise CannotWrite(path, error) from None
-
-
-def _destination(path: str | os.PathLike) -> tuple[Path, os.stat_result | None]:
-    """The file to write (symbolic links resolved) and its status, None if it does not exist yet."""
-    target = Path(os.path.realpath(path))
-    try:
-        existing = target.stat()
-    except FileNotFoundError:
-        if not target.parent.is_dir():
-            raise FileNotFoundError(errno.ENOENT, f"the directory '{target.parent}' does not exist") from None
-        return target, None
-    if stat.S_ISDIR(existing.st_mode):
-        raise IsADirectoryError(errno.EISDIR, "it is a directory")
-    # Root may write anything, so os.access alone would let root replace a file marked read-only.
-    if stat.S_ISREG(existing.st_mode) and (not existing.st_mode & 0o222 or not os.access(target, os.W_OK)):
-        raise PermissionError(errno.EACCES, "the file is read-only")
-    return target, existing
-
-
-def _open(target, text: str | bytes, descriptor: int | None = None):
-    opener = open if descriptor is None else os.fdopen
-    where = target if descriptor is None else descriptor
-    return opener(where, "wb") if isinstance(text, bytes) else opener(where, "w", encoding="utf-8")
-
-
-def _replace(target: Path, text: str | bytes, mode: int | None) -> None:
-    """Write a temporary file beside `target` (unique per process and thread) and rename it over `target`."""
-    partial = target.with_name(f".{target.name}.{secrets.token_hex(8)}.tmp")
-    descriptor = os.open(partial, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)   # 0o666 & ~umask
-    try:
-        with _open(partial, text, descriptor) as stream:
-            stream.write(text)
-            if mode is not None:
-                os.fchmod(stream.fileno(), mode)
-        os.replace(partial, target)
-    except BaseException:
-        partial.unlink(missing_ok=True)
-        raise
-
-
-def _describe(error: OSError) -> str:
-    reason = error.strerror or str(error)
-    return reason[:1].lower() + reason[1:]

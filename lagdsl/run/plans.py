@@ -54,7 +54,7 @@ class ProgramEntry:
         if path is None:
             return None
         if self.language == "c":
-            return loading.load_library(path)
+            return loading.load_program_library(path)
         return loading.import_module(path.read_text(encoding="utf-8"), path, self.key)
 
 

@@ -3,7 +3,7 @@ Python methods (numpy_backend.py).
 
 Both deliver the same `Result`: rows at the output grid t0, t0 + dt, ... < t1 and t1 itself
 (`settings.grid_rows`), the scene's columns, and a `RunSummary`. A numerical failure raises
-SimulationError naming the time, the state and a remedy (status.py), with the rows computed so
+SimulationError naming the time, the state and a remedy (abi.py, status.py), with the rows computed so
 far in `error.partial`. Every run is bounded by the plan's step limit, and Ctrl-C stops it
 between two steps with SimulationInterrupted, which keeps the rows computed so far as well
 (interrupt.py). `progress`, if given, is called as progress(t reached, start, stop) every
@@ -13,8 +13,9 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from ..settings import RunPlan, check_step_count
+from ..settings import RunPlan, check_step_count, grid_rows
 from .c_backend import run_c
+from .memory import SMALL_RESULT, check_fits, run_bytes
 from .loading import load  # noqa: F401  (what runs a GeneratedSource: part of this module's interface)
 from .numpy_backend import run_numpy
 from .output import Result
@@ -29,4 +30,10 @@ def run(plan: RunPlan, language: str, loaded=None, progress: Progress | None = N
     """Run `plan` with `loaded`, what load() returned (a shared library or a NumPy module), or
     else with `source`, loaded once the plan's step count has been checked."""
     check_step_count(plan)
+    rows = grid_rows(plan.time.start, plan.time.stop, plan.time.interval)
+    size = run_bytes(rows, len(plan.columns), len(plan.coordinates), language)
+    if size > SMALL_RESULT:         # asking the system what memory is left costs more than a small run
+        check_fits(size, f"the result ({rows} rows of {len(plan.columns) + 1} columns)",
+                   "choose a larger --interval or fewer outputs, or run the standalone program (lagc MODEL --emit "
+                   "c), which writes its rows as it goes")
     return {"c": run_c, "numpy": run_numpy}[language](None, source, plan, progress, loaded)

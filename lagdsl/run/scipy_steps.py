@@ -14,9 +14,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..abi import HOPELESS, INTERRUPTED, MAX_STEPS, NONFINITE, SINGULAR, STEP_TOO_SMALL
 from ..integrators.python.stiffness import STABILITY_BOUNDARY, StiffnessTest, SwitchLog
+from ..settings import MIN_STEP_EPS
 from .output import Stiffness, Switches
-from .status import HOPELESS, INTERRUPTED, MAX_STEPS, NONFINITE, SINGULAR, STEP_TOO_SMALL
 from .stop import StopCondition
 
 SCIPY_RTOL_FLOOR = 100 * float(np.finfo(float).eps)    # scipy raises a smaller rtol itself, with a warning
@@ -203,8 +204,8 @@ def _stopped(states, counts, solver, t0, y0, status, watch) -> tuple[list, dict,
 
 
 def min_step(t: float, span: float) -> float:
-    """The C integrators' LAG_MIN_STEP: 10 eps max(|t|, length of the run)."""
-    return 10 * np.finfo(float).eps * max(abs(t), span)
+    """The C integrators' LAG_MIN_STEP: MIN_STEP_EPS eps max(|t|, length of the run)."""
+    return MIN_STEP_EPS * np.finfo(float).eps * max(abs(t), span)
 
 
 def _tally(counts: dict, solver) -> dict:

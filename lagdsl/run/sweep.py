@@ -10,30 +10,23 @@ step-size collapse, step limit) is marked with its status and time and ends alon
 from __future__ import annotations
 
 import ctypes
-import hashlib
-import io
 import math
 import os
-import time as clock
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..codegen import GeneratedSource
+from ..abi import INTERRUPTED, SummaryLayout, member_summary, plan_summary, settings_vector, status_of
 from ..errors import LagError, SimulationError, SimulationInterrupted
-from ..integrators import registry, summary_extras
+from ..integrators import registry
 from ..scene import Overrides, ScenePlan
-from .cache import cached_entry
-from .c_backend import settings_array
 from .interrupt import CtrlC, interruptible
-from .loading import load
 from .numpy_backend import run_numpy
-from .output import csv_text, output_times
+from .output import output_times
+from .tables import csv_text, parquet_bytes
 from .scipy_steps import SCIPY_RTOL_FLOOR, ScipyProblem, integrate_scipy
-from .status import INTERRUPTED, status_message
 
-CHUNKS_PER_THREAD = 4        # Dask: chunks per worker thread, so that a lost worker costs little
 NUMPY_CHUNK = 256            # NumPy: members integrated as one stacked system
 
 
@@ -62,6 +55,21 @@ class SweepSummary:
         return "\n".join(lines)
 
 
+def merge(first: SweepSummary | None, then: SweepSummary) -> SweepSummary:
+    """The summary of two parts of one sweep (`first` None: `then` alone)."""
+    if first is None:
+        return then
+    failures = dict(first.failures)
+    for message, count in then.failures:
+        failures[message] = failures.get(message, 0) + count
+    counters = dict(first.counters)
+    for name, count in then.counters:
+        counters[name] = counters.get(name, 0) + count
+    return replace(first, members=first.members + then.members,
+                   failures=tuple(sorted(failures.items(), key=lambda kv: -kv[1])),
+                   counters=tuple(counters.items()), wall_time=first.wall_time + then.wall_time)
+
+
 @dataclass(frozen=True)
 class Sweep:
     """The runs of a sweep on their common grid `t` (T,).
@@ -80,6 +88,7 @@ class Sweep:
     counters: dict[str, np.ndarray]
     summary: SweepSummary
     rows: np.ndarray = field(repr=False)        # rows delivered per member
+    first_member: int = 0                       # the number of member 0 in a larger sweep (a block)
 
     def __len__(self) -> int:
         return len(self.values)
@@ -93,7 +102,7 @@ class Sweep:
     def tidy(self) -> dict[str, np.ndarray]:
         """One row per member and output time: member, the inputs, t, the columns, status."""
         members, times = len(self.values), len(self.t)
-        table = {"member": np.repeat(np.arange(members), times)}
+        table = {"member": np.repeat(np.arange(self.first_member, self.first_member + members), times)}
         table.update({name: np.repeat(values, times) for name, values in self.inputs.items()})
         table["t"] = np.tile(self.t, members)
         table.update({name: self.values[:, :, j].reshape(-1) for j, name in enumerate(self.columns)})
@@ -107,12 +116,7 @@ class Sweep:
 
     def parquet(self) -> bytes:
         """The tidy table as a Parquet file (needs pyarrow)."""
-        import pyarrow
-        import pyarrow.parquet
-        buffer = io.BytesIO()
-        table = {name: column.astype(str) if column.dtype == object else column for name, column in self.tidy().items()}
-        pyarrow.parquet.write_table(pyarrow.table(table), buffer)
-        return buffer.getvalue()
+        return parquet_bytes(self.tidy())
 
     def to_dataframe(self):
         """The tidy table as a pandas DataFrame (a dict of columns when pandas is not installed)."""
@@ -141,7 +145,7 @@ def member_inputs(plan: Callable[[Overrides], ScenePlan], base: Overrides, varie
     start value that is an expression), member b's inputs are member 0's with its values put in
     place, as plan_scene would put them; otherwise every member is planned.
     """
-    inputs = _broadcast(varied)
+    inputs = broadcast(varied)
     count = len(next(iter(inputs.values()))) if inputs else 1
     first = plan(_with_values(base, inputs, 0))
     parameters = np.tile(np.array(first.parameters, dtype=float), (count, 1))
@@ -165,7 +169,7 @@ def member_inputs(plan: Callable[[Overrides], ScenePlan], base: Overrides, varie
     return Members(first, parameters, initial, inputs)
 
 
-def _broadcast(varied: dict) -> dict[str, np.ndarray]:
+def broadcast(varied: dict) -> dict[str, np.ndarray]:
     arrays = {name: np.asarray(value, dtype=float) for name, value in varied.items()}
     for name, array in arrays.items():
         if array.ndim > 1:
@@ -207,30 +211,30 @@ def _check_finite(inputs: dict[str, np.ndarray]) -> None:
 # ---- the C batch entry point -------------------------------------------------------------------
 @dataclass(frozen=True)
 class BatchLayout:
-    """What lag_run_batch needs besides the members: shared settings, grid rows, summary stride."""
+    """What lag_run_batch needs besides the members: shared settings, grid rows, the summaries."""
 
     settings: tuple[float, ...]
     rows: int
     columns: int
-    stride: int
-    counters: tuple[str, ...]
+    summary: SummaryLayout
+
+    @property
+    def counters(self) -> tuple[str, ...]:
+        return self.summary.counters
 
 
 def batch_layout(plan: ScenePlan) -> BatchLayout:
-    settings = settings_array(plan)
-    counters = registry.get(plan.integrator.name).counters
-    stride = 6 + len(counters) + summary_extras(plan.integrator.name) + 2 * len(plan.invariants) \
-        + 2 * len(plan.model.coordinates) + (2 if plan.stop else 0)
-    return BatchLayout(settings, len(output_times(plan)), len(plan.columns), stride, counters)
+    return BatchLayout(tuple(settings_vector(plan)), len(output_times(plan)), len(plan.columns), plan_summary(plan))
 
 
 def run_c_batch(library: ctypes.CDLL, layout: BatchLayout, parameters: np.ndarray, initial: np.ndarray,
                 threads: int, on_progress: Callable[[int], None] | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """(values (B, T, C), summaries (B, stride)) of lag_run_batch; rows not delivered are NaN.
+    """(values (B, T, C), summaries (B records of layout.summary)) of lag_run_batch; rows not
+    delivered are NaN.
     `on_progress(members finished)` is called every so often; Ctrl-C stops the members in flight."""
     count = len(initial)
     values = np.full((count, layout.rows, layout.columns), np.nan)
-    summaries = np.zeros((count, layout.stride))
+    summaries = layout.summary.empty(count)
     packed = np.ascontiguousarray(parameters if parameters.shape[1] else np.zeros((count, 0)))
     state = np.ascontiguousarray(initial)
     settings = np.array(layout.settings)
@@ -244,7 +248,7 @@ def run_c_batch(library: ctypes.CDLL, layout: BatchLayout, parameters: np.ndarra
 
     def call() -> int:
         entry(count, pointer(packed), pointer(state), pointer(settings), pointer(values), layout.rows,
-              pointer(summaries), layout.stride, threads)
+              pointer(summaries), layout.summary.size, threads)
         return 0
 
     interruptible(library, call, None if on_progress is None else lambda: on_progress(done.value))
@@ -265,77 +269,22 @@ def default_threads(workers: int | None) -> int:
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 
 
-# ---- Dask --------------------------------------------------------------------------------------
-_worker_libraries: dict[str, ctypes.CDLL] = {}
-
-
-def run_chunk(library: bytes, source: str, stem: str, layout: BatchLayout, parameters: np.ndarray,
-              initial: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """A chunk of members on a Dask worker: the shipped library (kept in the worker's build cache
-    under the hash of its bytes), or, when this machine cannot load it, one built here from the
-    source. One thread per chunk: Dask runs the chunks in parallel."""
-    return run_c_batch(_worker_library(library, source, stem), layout, parameters, initial, 1)
-
-
-def _worker_library(library: bytes, source: str, stem: str) -> ctypes.CDLL:
-    key = hashlib.sha256(library).hexdigest()
-    if key not in _worker_libraries:
-        path = cached_entry(f"{stem}-shipped-{key[:20]}.so", key, lambda entry: entry.write_bytes(library))
-        try:
-            _worker_libraries[key] = ctypes.CDLL(str(path))
-        except OSError:         # another architecture or C library: build it here
-            _worker_libraries[key] = load(GeneratedSource("c", source, stem))
-    return _worker_libraries[key]
-
-
-def run_dask(client, library: bytes, source: str, stem: str, layout: BatchLayout, parameters: np.ndarray,
-             initial: np.ndarray, on_progress: Callable[[int], None] | None = None) -> tuple[np.ndarray, np.ndarray, int]:
-    """Send chunks of members to the cluster behind `client`; results come back in member order.
-
-    Dask reschedules the chunks of a worker that dies (and `retries` covers errors raised in a
-    chunk), so every member arrives exactly once. Returns the values, the summaries and the
-    number of chunks.
-    """
-    from dask.distributed import as_completed
-    threads = max(1, sum(client.nthreads().values()))
-    count = len(initial)
-    size = max(1, math.ceil(count / (CHUNKS_PER_THREAD * threads)))
-    bounds = [(lo, min(lo + size, count)) for lo in range(0, count, size)]
-    # A key of its own (hash=False): with the content hash as key, a second sweep of the same
-    # program could scatter while the first one's copy is being released, and its chunks then
-    # lost their dependency ("failed to acquire keys", the chunks cancelled).
-    shipped = client.scatter(library, broadcast=True, hash=False)
-    futures = [client.submit(run_chunk, shipped, source, stem, layout, parameters[lo:hi], initial[lo:hi],
-                             retries=3, pure=False, key=f"lagdsl-sweep-{stem}-{lo}-{os.getpid()}-{clock.time_ns()}")
-               for lo, hi in bounds]
-    finished = 0
-    for future in as_completed(futures):
-        lo, hi = bounds[futures.index(future)]
-        finished += hi - lo
-        if on_progress is not None:
-            on_progress(finished)
-    parts = client.gather(futures)
-    values = np.concatenate([p[0] for p in parts])
-    summaries = np.concatenate([p[1] for p in parts])
-    return values, summaries, len(bounds)
-
-
 # ---- reading the summaries ---------------------------------------------------------------------
 def statuses(plan: ScenePlan, summaries: np.ndarray) -> np.ndarray:
-    codes = summaries[:, 0].astype(int)
+    codes = summaries["status"].astype(int)
     messages = np.full(len(codes), "ok", dtype=object)
     for code in np.unique(codes[codes != 0]):
-        messages[codes == code] = status_message(int(code), plan.max_steps)
+        messages[codes == code] = status_of(int(code)).describe(plan.max_steps)
     return messages
 
 
 def assemble(plan: ScenePlan, members: Members, values: np.ndarray, summaries: np.ndarray, backend: str,
-             counters: tuple[str, ...], wall_time: float, workers: str) -> Sweep:
+             counters: tuple[str, ...], wall_time: float, workers: str, first_member: int = 0) -> Sweep:
     """The Sweep of a batch run; raises SimulationInterrupted (with the sweep as `.partial`) after Ctrl-C."""
     status = statuses(plan, summaries)
-    codes = summaries[:, 0].astype(int)
-    failure_time = np.where(codes != 0, summaries[:, 2], np.nan)
-    counts = {name: summaries[:, 6 + i].astype(np.int64) for i, name in enumerate(counters)}
+    codes = summaries["status"].astype(int)
+    failure_time = np.where(codes != 0, summaries["t_fail"], np.nan)
+    counts = {name: summaries[name].astype(np.int64) for name in counters}
     failures = {}
     for message in status[codes != 0]:
         failures[message] = failures.get(message, 0) + 1
@@ -343,17 +292,17 @@ def assemble(plan: ScenePlan, members: Members, values: np.ndarray, summaries: n
                            tuple((name, int(c.sum())) for name, c in counts.items()), wall_time, backend,
                            plan.integrator.name, workers)
     sweep = Sweep(output_times(plan), plan.columns, values, members.inputs, status, failure_time, counts, summary,
-                  summaries[:, 1].astype(np.int64))
+                  summaries["rows"].astype(np.int64), first_member)
     if np.any(codes == INTERRUPTED):
         first = int(np.flatnonzero(codes == INTERRUPTED)[0])
-        raise SimulationInterrupted("interrupted", float(summaries[first, 2]), {}, "", sweep)
+        raise SimulationInterrupted("interrupted", float(summaries["t_fail"][first]), {}, "", sweep, INTERRUPTED)
     return sweep
 
 
 # ---- NumPy -------------------------------------------------------------------------------------
 def run_numpy_batch(module, kernel, source, members: Members, on_progress: Callable[[int], None] | None = None
                     ) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
-    """The NumPy backend's batch path: (values, summaries in the C layout's first columns, counters).
+    """The NumPy backend's batch path: (values, summaries (abi.member_summary), counters).
 
     Chunks of NUMPY_CHUNK members of an explicit scipy method without constraints are integrated as one
     stacked system, states (n, B) through one vectorised right-hand side. scipy controls the
@@ -367,7 +316,7 @@ def run_numpy_batch(module, kernel, source, members: Members, on_progress: Calla
     count = len(members.initial)
     counters = ("accepted", "rhs_evals")
     values = np.full((count, len(output_times(plan)), len(plan.columns)), np.nan)
-    summaries = np.zeros((count, 6 + len(counters)))
+    summaries = member_summary(counters).empty(count)
     # (a stop condition ends each member at its own time: members run one at a time then)
     stacked = registry.get(plan.integrator.name).stacks_in_sweeps and not plan.constraints and plan.stop is None
     size = NUMPY_CHUNK if stacked else 1
@@ -389,7 +338,7 @@ def run_numpy_batch(module, kernel, source, members: Members, on_progress: Calla
     if interrupted or ctrl_c.pressed:
         # Ctrl-C stops the sweep, as in C: the member it stopped keeps its rows and is marked
         # interrupted (by run_numpy or the stacked chunk), and so are the members not begun
-        summaries[(summaries[:, 0] == 0) & (summaries[:, 1] == 0), 0] = INTERRUPTED
+        summaries["status"][(summaries["status"] == 0) & (summaries["rows"] == 0)] = INTERRUPTED
     return values, summaries, counters
 
 
@@ -426,12 +375,10 @@ def _stacked_chunk(module, members: Members, lo: int, hi: int, values: np.ndarra
         except (np.linalg.LinAlgError, ValueError, ArithmeticError):
             return False
     values[lo:hi, :rows] = np.transpose(np.array(observed), (0, 2, 1))
-    summaries[lo:hi, 1] = rows
-    summaries[lo:hi, 6] = counts["accepted"]
-    summaries[lo:hi, 7] = counts["rhs_evals"]
+    chunk = summaries[lo:hi]
+    chunk["rows"], chunk["accepted"], chunk["rhs_evals"] = rows, counts["accepted"], counts["rhs_evals"]
     if failure is not None:
-        summaries[lo:hi, 0] = INTERRUPTED
-        summaries[lo:hi, 2] = failure[1]
+        chunk["status"], chunk["t_fail"] = INTERRUPTED, failure[1]
         raise KeyboardInterrupt
     return True
 
@@ -445,6 +392,7 @@ def _single_member(module, kernel, source, members: Members, b: int, values: np.
     except SimulationError as error:
         result, status, t_fail = error.partial, error.status, error.time
     values[b, :len(result.t)] = result.values
-    summaries[b, :3] = (status, len(result.t), t_fail)
-    summaries[b, 6] = result.summary.count("accepted") or 0
-    summaries[b, 7] = result.summary.count("rhs_evals") or 0
+    member = summaries[b:b + 1]
+    member["status"], member["rows"], member["t_fail"] = status, len(result.t), t_fail
+    for counter in ("accepted", "rhs_evals"):
+        member[counter] = result.summary.count(counter) or 0

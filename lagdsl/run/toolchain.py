@@ -16,6 +16,7 @@ import tempfile
 from pathlib import Path
 
 from ..errors import InternalError, LagError
+from ..progress import slow_stage
 from .cache import cached_entry
 
 STRICT_FLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic")
@@ -60,10 +61,11 @@ def compile_c(source: str, output: Path, flags=STRICT_FLAGS, compiler: str | Non
     """Compile one C file; a compiler error in generated code is our bug, reported in full."""
     compiler = compiler or find_compiler()
     with tempfile.TemporaryDirectory() as work:
-        source_path = Path(work) / f"{output.stem}.c"
+        source_path = Path(work) / "model.c"        # the output's name may be long; this one never is
         source_path.write_text(source, encoding="utf-8")
-        result = subprocess.run([compiler, *flags, str(source_path), "-o", str(output), *libraries, "-lm"],
-                                capture_output=True, text=True)
+        with slow_stage(f"compiling the generated C ({len(source) / 1e6:.1f} MB) with {compiler}"):
+            result = subprocess.run([compiler, *flags, str(source_path), "-o", str(output), *libraries, "-lm"],
+                                    capture_output=True, text=True)
         if result.returncode != 0:
             raise InternalError(f"the generated C did not compile\n{result.stderr}")
 

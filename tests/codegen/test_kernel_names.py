@@ -18,7 +18,8 @@ from hypothesis import strategies as st
 
 from lagdsl.integrators import registry
 from lagdsl.codegen.c import FUNCTION_PARAMETERS, render_c
-from lagdsl.codegen.kernel import Block, Kernel, _Lowering, check_target_names, is_target_name, lower_to_kernel
+from lagdsl.codegen.kernel import Block, Kernel, _Lowering, lower_to_kernel
+from lagdsl.codegen.naming import check_target_names, is_target_name
 from lagdsl.codegen.numpy import render_numpy
 from lagdsl.errors import InternalError, LagError
 from lagdsl.pipeline import compile_model

@@ -4,10 +4,11 @@
  *     lagc models/pleiades.lag --emit c --scene nystrom
  *
  * Build:  cc -std=c99 -O2 -o Pleiades_nystrom Pleiades_nystrom.c -lm
- * Run:    ./Pleiades_nystrom [NAME=VALUE ...] > Pleiades_nystrom.csv
+ * Run:    ./Pleiades_nystrom [NAME=VALUE ...] [--OPTION=VALUE ...] > Pleiades_nystrom.csv
  *   NAME is a parameter (n, G, mu),
  *   COORDINATE.start or COORDINATE.velocity (initial values),
- *   t.start, t.stop, t.interval (the output grid), or rtol, atol, max_step, max_steps (rkn8).
+ *   or t.start, t.stop, t.interval (the output grid); OPTION is rtol, atol, max-step, max-steps (rkn8).
+ *   VALUE is a decimal number (or inf, nan). ./Pleiades_nystrom --help lists them all.
  *   The CSV goes to standard output, the run summary to standard error.
  * Batch:  ./Pleiades_nystrom --batch [NAME=VALUE ...] < members.txt > Pleiades_nystrom.csv
  *   One member a line of standard input: parameters, .start and .velocity as NAME=VALUE, on top of
@@ -18,6 +19,7 @@
 #if defined(__unix__) || defined(__APPLE__)
 #define _POSIX_C_SOURCE 200809L     /* sigaction, for a clean Ctrl-C (lag_catch_interrupt) */
 #endif
+#include <ctype.h>
 #include <math.h>
 #include <float.h>
 #include <signal.h>
@@ -29,8 +31,8 @@
 #include <omp.h>    /* the batch mode's default number of threads */
 #endif
 
-/* ---- runtime: precision, libm table, status codes ---- */
-/* lagdsl C runtime: precision, libm function table, status codes, run options.
+/* ---- runtime: precision, libm table, run options ---- */
+/* lagdsl C runtime: precision, libm function table, run options.
  *
  * This fragment is pasted at the top of every generated C file (after the system #includes
  * <math.h>, <float.h>, <stdio.h>, <stdlib.h>, <string.h>), so it has no #include of its own
@@ -88,23 +90,13 @@ typedef double real;
 
 static int r_isfinite(real x) { return x - x == x - x; } /* false for inf and nan in every precision */
 
-/* Status codes shared by the model functions, the integrators and the driver. */
-enum lag_status {
-    LAG_OK = 0,
-    LAG_ERR_SINGULAR = 1,      /* mass matrix (or augmented matrix) not invertible at this state */
-    LAG_ERR_NONFINITE = 2,     /* a NaN or infinity appeared in the state or a derivative */
-    LAG_ERR_STEP_TOO_SMALL = 3,/* the adaptive step size fell below the resolution of t */
-    LAG_ERR_MAX_STEPS = 4,     /* more steps than lag_options.max_steps */
-    LAG_ERR_NO_CONVERGENCE = 5,/* Newton or fixed-point iteration failed even after step reductions */
-    LAG_ERR_PROJECTION = 6,    /* projection onto the constraint manifold did not converge */
-    LAG_ERR_INTERRUPTED = 7    /* the driver was asked to stop (Ctrl-C), between two steps */
-};
+/* The status codes (enum lag_status), the constants shared with the Python side and the smallest
+ * step's factor LAG_MIN_STEP_EPS follow this fragment, generated from lagdsl/abi.py and
+ * lagdsl/settings.py (lagdsl/codegen/c_abi.py). */
 
-/* The smallest step an adaptive method may take from t on a run of length `span`: 10 eps |t|
- * (below it t + h == t, HNW I, II.4), and at least 10 eps times the length of the run, so that
- * the test also fires near t = 0, where eps |t| is no bound at all (it would take more than
- * 10^14 such steps to cross the run). */
-#define LAG_MIN_STEP(t, span) (10 * REAL_EPSILON * r_fmax(r_fabs(t), (span)))
+/* The smallest step an adaptive method may take from t on a run of length `span`:
+ * LAG_MIN_STEP_EPS eps max(|t|, span) (why: settings.MIN_STEP_EPS). */
+#define LAG_MIN_STEP(t, span) (LAG_MIN_STEP_EPS * REAL_EPSILON * r_fmax(r_fabs(t), (span)))
 
 /* What the driver asks of an integrator; unused fields are ignored by each method. */
 typedef struct lag_options {
@@ -115,6 +107,17 @@ typedef struct lag_options {
     long max_steps;    /* give up after this many attempted steps (every try counts), 0 = no limit;
                         * the driver always sets a limit */
 } lag_options;
+
+/* The members every integrator's lag_stepper begins with, which the driver reads (README.md): the
+ * time reached by the last accepted step, the start of that step (the dense output is valid on
+ * [t_old, t]), the state at t in (q, q') form, the step size proposed for the next step, and the
+ * integrator's work counters (its own `stats_type`, lag_stats). */
+#define LAG_STEPPER_PUBLIC(stats_type) \
+    real t;                 \
+    real t_old;             \
+    real y[LAG_NY];         \
+    real h;                 \
+    stats_type stats;
 
 /* Reading and writing numbers in the working precision (the CSV and the command line). */
 #if defined(LAG_FLOAT128)
@@ -142,6 +145,32 @@ static void lag_print_real(FILE *file, real x)
         lag_print_number(file, x);
 }
 
+/* ---- the contract with lagdsl's Python side: lagdsl/abi.py and lagdsl/settings.py ---- */
+/* How a run ends: the status codes of the model functions, the integrators and the driver. */
+enum lag_status {
+    LAG_OK = 0,                 /* no error */
+    LAG_ERR_SINGULAR = 1,       /* the mass matrix is singular at this state */
+    LAG_ERR_NONFINITE = 2,      /* the state or its derivative became infinite or NaN */
+    LAG_ERR_STEP_TOO_SMALL = 3, /* the step size collapsed below the resolution of t */
+    LAG_ERR_MAX_STEPS = 4,      /* the step limit of max_steps steps was reached */
+    LAG_ERR_NO_CONVERGENCE = 5, /* the implicit iteration did not converge */
+    LAG_ERR_PROJECTION = 6,     /* projection onto the constraints did not converge */
+    LAG_ERR_INTERRUPTED = 7,    /* interrupted */
+    LAG_ERR_HOPELESS = 8        /* at its pace so far, the run would need more steps than the step limit of max_steps allows */
+};
+
+#define LAG_MAX_ROWS 10000000L                   /* the largest output grid, in rows */
+#define LAG_DEFAULT_MAX_STEPS 100000L            /* the default step limit, or ... */
+#define LAG_STEPS_PER_ROW 100L                   /* ... this many steps per output row */
+#define LAG_GRID_SLACK LAG_LIT(1e-09)            /* a grid time within this many intervals of t1 is t1 */
+#define LAG_RTOL_FLOOR_EPS 10                    /* the smallest rtol, in eps ... */
+#define LAG_RTOL_FLOOR (LAG_RTOL_FLOOR_EPS * REAL_EPSILON) /* ... and as a number */
+#define LAG_MIN_STEP_EPS 10                      /* the smallest step, in eps of max(|t|, span) */
+#define LAG_RCOND_MIN (1000 * REAL_EPSILON)      /* below this reciprocal condition, K is singular */
+
+/* The positions in the settings vector of lag_run and lag_run_batch (lagdsl.abi.SETTINGS). */
+enum lag_setting { LAG_SET_T_START, LAG_SET_T_STOP, LAG_SET_T_INTERVAL, LAG_SET_RTOL, LAG_SET_ATOL, LAG_SET_STEP, LAG_SET_MAX_STEP, LAG_SET_STAGES, LAG_SET_MAX_STEPS, LAG_SETTINGS };
+
 /* ---- dense linear algebra ---- */
 
 /* ---- the model: Pleiades ---- */
@@ -152,6 +181,13 @@ static void lag_print_real(FILE *file, real x)
 #define LAG_NP 3     /* parameters */
 #define LAG_NOUT 17     /* output columns */
 #define LAG_NINV 1     /* conserved quantities watched */
+/* What the driver does for this scene (integrators/c/driver.c, standalone.c): */
+#define LAG_HAS_CONSTRAINTS 0     /* project onto constraints, watch their residual */
+#define LAG_HAS_INVARIANTS 1     /* watch conserved quantities */
+#define LAG_HAS_STOP 0     /* a stop condition may end the run */
+#define LAG_HAS_STIFFNESS_TEST 0     /* report the integrator's stiffness test */
+#define LAG_HAS_SWITCHES 0     /* report the composite integrator's switches */
+#define LAG_HAS_TOLERANCES 1     /* the integrator takes rtol and atol */
 
 typedef struct lag_system {
     real par[3];
@@ -162,6 +198,10 @@ typedef struct lag_system {
 
 static const char *const lag_parameter_names[] = { "n", "G", "mu" };
 static const char *const lag_coordinate_names[] = { "x[1]", "x[2]", "x[3]", "x[4]", "x[5]", "x[6]", "x[7]", "y[1]", "y[2]", "y[3]", "y[4]", "y[5]", "y[6]", "y[7]" };
+#define LAG_MODEL_NAME "Pleiades"
+#define LAG_SCENE_NAME "nystrom"
+#define LAG_NOPTIONS 4
+static const char *const lag_option_names[] = { "rtol", "atol", "max-step", "max-steps" };
 static const char *const lag_column_names[] = { "x[1]", "x[2]", "x[3]", "x[4]", "x[5]", "x[6]", "x[7]", "y[1]", "y[2]", "y[3]", "y[4]", "y[5]", "y[6]", "y[7]", "Px", "Lz", "energy" };     /* CSV header fields */
 static const char *const lag_invariant_names[] = { "energy" };
 
@@ -202,14 +242,6 @@ static void lag_initial_state(const real *par, real *y0)
     y0[12] = -4;
     y0[13] = 4;
 }
-
-/* Below this reciprocal condition estimate the linear system for q'' counts as singular: its
- * solution would keep fewer than about 3 correct digits (relative error ~ eps / rcond). The
- * estimate is taken after lag_equilibrate, so it does not depend on units: it measures how
- * nearly dependent the coordinates (and constraints) are, as at the singular configurations of
- * Euler angles (theta = 0, where two angles turn the body about the same axis), where q'' is
- * not determined. */
-#define LAG_RCOND_MIN (1000 * REAL_EPSILON)
 
 /* M is diagonal: K[i] holds M_ii, and its factor is the inverse, 1 / M_ii in place, so that the
  * solution of M x = b is x_i = b_i (1 / M_ii): a product per solve instead of a division, which
@@ -588,6 +620,19 @@ typedef struct lag_control {
     int rejected;    /* the last trial was rejected */
 } lag_control;
 
+/* The members of a Dormand-Prince pair's lag_stepper (dopri5.c, dop853.c) after
+ * LAG_STEPPER_PUBLIC that the code they share reads (dormand_prince.c, with the stiffness test of
+ * stiffness_test.c); `terms` is the number of terms r1, r2, ... of its continuous extension. */
+#define LAG_DORMAND_PRINCE_STATE(terms)                                                          \
+    const lag_system *sys;                                                                       \
+    lag_control control;                                                                         \
+    lag_stiffness_test stiffness;                                                                \
+    real h_done;                  /* size of the last accepted step */                           \
+    real k1[LAG_NY];              /* f(t, y), the first stage of the next step */                \
+    real k1_done[LAG_NY];         /* the first stage of the last accepted step */                \
+    real dense[terms][LAG_NY];    /* r1, r2, ... of the continuous extension on [t_old, t] */    \
+    int dense_built;              /* its terms past r2 are those of the last accepted step */
+
 static const real lag_control_safety = LAG_LIT(0.9),
                   lag_control_facmin = LAG_LIT(0.2),   /* the largest decrease of h, 5x */
                   lag_control_facmax = 10;             /* the largest increase */
@@ -751,10 +796,16 @@ static int lag_control_update(lag_control *c, lag_stats *stats, int status, real
  * When the output interval is shorter than the steps, dop853 (whose dense output is nearly free)
  * is the cheaper choice.
  * Step-size control (safety 0.9, factor within [0.2, 10]) and the starting step (from f = (v, a)):
- * explicit_control.c, which must be pasted before this file.
+ * explicit_control.c, which must be pasted before this file; the start and the accepted step:
+ * explicit_step.c, pasted after it.
  */
 
 #define LAG_INTEGRATOR_NAME "rkn8"
+/* For the step protocol (explicit_step.c): the power of h in the error estimate, and its parts. */
+#define LAG_PAIR_ORDER 7
+#define LAG_PAIR_START rkn8_start
+#define LAG_PAIR_TRIAL rkn8_trial
+#define LAG_PAIR_ACCEPT rkn8_accept
 
 static const real rkn8_c2 = (real)1 / 20, rkn8_c3 = (real)1 / 10, rkn8_c4 = (real)3 / 10,
                   rkn8_c5 = (real)1 / 2, rkn8_c6 = (real)7 / 10, rkn8_c7 = (real)9 / 10;
@@ -798,11 +849,7 @@ static const real rkn8_ev1 = (real)223 / 7938 - (real)7987313 / 109941300,
                   rkn8_ev9 = -(real)3 / 20;
 
 typedef struct lag_stepper {
-    real t;            /* time reached by the last accepted step */
-    real t_old;        /* start of the last accepted step */
-    real y[LAG_NY];    /* state at t: (q, v) */
-    real h;            /* step size proposed for the next step */
-    lag_stats stats;
+    LAG_STEPPER_PUBLIC(lag_stats)  /* t, t_old, y, h and stats, which the driver reads (runtime.h) */
     const lag_system *sys;
     lag_control control;
     real g[9][LAG_NQ];            /* g_1 .. g_9 of the current trial; g[0] = a(t, q) */
@@ -902,51 +949,23 @@ static int rkn8_trial(lag_stepper *s, real h, real t_new, real *err)
     return LAG_OK;
 }
 
-/* Accept the trial: keep the start of the step for the dense output, move to t_new. */
-static void rkn8_accept(lag_stepper *s, real t_new)
+/* The start at (t0, y0 = s->y) with f = (v, a(t0, q)). */
+static void rkn8_start(lag_stepper *s, const real *f)
 {
-    memcpy(s->y_old, s->y, sizeof s->y);
-    memcpy(s->g_old, s->g[0], sizeof s->g_old);
-    memcpy(s->y, s->y_new, sizeof s->y);
-    memcpy(s->g[0], s->g[8], sizeof s->g[0]);
-    s->t_old = s->t;
-    s->t = t_new;
-}
-
-static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, const real *y0,
-                            real t_end, const lag_options *opt)
-{
-    real f[LAG_NY];
-    int status;
-    memset(&s->stats, 0, sizeof s->stats);
-    s->sys = sys;
-    s->t = s->t_old = t0;
-    memcpy(s->y, y0, sizeof s->y);
-    memcpy(s->y_old, y0, sizeof s->y_old);
+    memcpy(s->y_old, s->y, sizeof s->y_old);
     memset(s->stage, 0, sizeof s->stage);
-    lag_control_init(&s->control, opt, t0, t_end, 7);
-    if ((status = lag_control_rhs(sys, &s->stats, t0, s->y, f)) != LAG_OK)
-        return status;
     memcpy(s->g[0], f + LAG_NQ, sizeof s->g[0]);
     memcpy(s->g_old, s->g[0], sizeof s->g_old);
-    s->h = lag_control_first_step(&s->control, opt, sys, &s->stats, t0, s->y, f);
-    return LAG_OK;
 }
 
-static int lag_stepper_step(lag_stepper *s)
+/* Accept the trial: keep the start of the step for the dense output; g_9 is the next g_1. */
+static void rkn8_accept(lag_stepper *s, real h, real t_new)
 {
-    real h, t_new, err = 0;
-    int status;
-    while (s->t < s->control.t_end) {
-        if ((status = lag_control_trial(&s->control, &s->stats, s->t, s->h, &h, &t_new)) != LAG_OK)
-            return status;
-        status = rkn8_trial(s, h, t_new, &err);
-        if (lag_control_update(&s->control, &s->stats, status, h, err, &s->h)) {
-            rkn8_accept(s, t_new);
-            break;
-        }
-    }
-    return LAG_OK;
+    (void)h;
+    (void)t_new;
+    memcpy(s->y_old, s->y, sizeof s->y);
+    memcpy(s->g_old, s->g[0], sizeof s->g_old);
+    memcpy(s->g[0], s->g[8], sizeof s->g[0]);
 }
 
 /* y at t_old <= t <= t: the end of the step itself, or a step of size t - t_old from its start
@@ -976,39 +995,257 @@ static int lag_stepper_restart(lag_stepper *s)
     return rkn8_acceleration(s, s->t, s->g[0]);
 }
 
+/* The step protocol of the embedded explicit pairs dopri5.c, dop853.c and rkn8.c: the start
+ * (f at the initial state, the starting step) and an accepted step (trials of decreasing size
+ * until one passes the error test), with the step-size control of explicit_control.c.
+ *
+ * Pasted after the pair's file, which defines its lag_stepper (with the members t, t_old, y, h,
+ * stats, sys, control and y_new, the new state of the current trial) and names its parts:
+ *   LAG_PAIR_ORDER                      p, the power of h in its error estimate
+ *   LAG_PAIR_START(s, f)                its own state at (t0, y0), f = f(t0, y0)
+ *   LAG_PAIR_TRIAL(s, h, t_new, &err)   a trial of size h from (t, y): y_new and the scaled error
+ *                                       err; returns LAG_OK or the status of a failed stage
+ *   LAG_PAIR_ACCEPT(s, h, t_new)        what it keeps of an accepted trial, before the step moves
+ *                                       the state to (t_new, y_new)
+ * (macros, so that each part of a composite names its own; undefined at the end of this file).
+ */
+
+static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, const real *y0,
+                            real t_end, const lag_options *opt)
+{
+    real f[LAG_NY];
+    int status;
+    memset(&s->stats, 0, sizeof s->stats);
+    s->sys = sys;
+    s->t = s->t_old = t0;
+    memcpy(s->y, y0, sizeof s->y);
+    lag_control_init(&s->control, opt, t0, t_end, LAG_PAIR_ORDER);
+    if ((status = lag_control_rhs(sys, &s->stats, t0, s->y, f)) != LAG_OK)
+        return status;
+    LAG_PAIR_START(s, f);
+    s->h = lag_control_first_step(&s->control, opt, sys, &s->stats, t0, s->y, f);
+    return LAG_OK;
+}
+
+static int lag_stepper_step(lag_stepper *s)
+{
+    real h, t_new, err = 0;
+    int status;
+    while (s->t < s->control.t_end) {
+        if ((status = lag_control_trial(&s->control, &s->stats, s->t, s->h, &h, &t_new)) != LAG_OK)
+            return status;
+        status = LAG_PAIR_TRIAL(s, h, t_new, &err);
+        if (lag_control_update(&s->control, &s->stats, status, h, err, &s->h)) {
+            LAG_PAIR_ACCEPT(s, h, t_new);
+            memcpy(s->y, s->y_new, sizeof s->y);
+            s->t_old = s->t;
+            s->t = t_new;
+            break;
+        }
+    }
+    return LAG_OK;
+}
+
+#undef LAG_PAIR_ORDER
+#undef LAG_PAIR_START
+#undef LAG_PAIR_TRIAL
+#undef LAG_PAIR_ACCEPT
+
 /* ---- driver ---- */
+/* The driver: integrate a scene on its output grid, projecting onto its constraints and watching
+ * its invariants and its stop condition, and report how the run went (lag_integrate).
+ *
+ * Pasted into every generated C file after the model and the integrator (lagdsl/codegen/c.py);
+ * library.c and standalone.c follow it. From the model it reads LAG_NQ, LAG_NY, LAG_NOUT,
+ * lag_system, lag_system_prepare, lag_outputs and lag_condition, and what the scene has, as its
+ * LAG_HAS_* flags say:
+ *   LAG_HAS_CONSTRAINTS   LAG_NC (LAG_NH of them holonomic, first), lag_constraint_rows, lag_gram
+ *   LAG_HAS_INVARIANTS    LAG_NINV, and lag_outputs(sys, t, y, out, inv)
+ *   LAG_HAS_STOP          lag_stop_function
+ *   LAG_HAS_SWITCHES      the integrator's lag_switches (auto)
+ * and from the integrator its interface (README.md in this directory).
+ */
+
 /* The run report: how the integration went, what it cost, how well invariants held. */
 typedef struct lag_report {
     int status;                    /* LAG_OK or the failure */
     real t_fail;                   /* on failure: the last time reached */
     real y_fail[LAG_NY];           /* on failure: the state there */
-    real rcond_fail;               /* on failure: the reciprocal condition estimate of K there */
+    real rcond_fail;               /* on failure: the reciprocal condition estimate of the system for q'' there */
     long rows;                     /* output rows delivered */
     lag_stats stats;
+#if LAG_HAS_SWITCHES
+    lag_switches switches;         /* auto: when it changed methods, and the span of t of each */
+#endif
+#if LAG_HAS_INVARIANTS
     real invariant_start[LAG_NINV];
     real invariant_drift[LAG_NINV];    /* max |I(t) - I(t0)| over the output rows */
+#endif
+#if LAG_HAS_CONSTRAINTS
+    real residual_max;             /* max |constraint residual| over the output rows */
+    real projection_start;         /* how far the initial state was moved onto the constraints */
+#endif
+#if LAG_HAS_STOP
+    int stopped;                   /* the stop condition ended the run ... */
+    real t_stop;                   /* ... at this time, the last row */
+#endif
 } lag_report;
 
 /* Receives each output row (t and the LAG_NOUT columns); returns nonzero to stop. */
 typedef int (*lag_sink)(void *context, real t, const real *out);
+#if LAG_HAS_CONSTRAINTS
+
+/* The least-norm correction of z (LAG_NQ entries) by the first `rows` rows of A (row-major, LAG_NQ
+ * columns) and residuals r: z <- z - A^T (A A^T)^-1 r. *step is the largest |change|; fails
+ * (LAG_ERR_PROJECTION) where A A^T is singular. */
+static int lag_correct(int rows, const real *A, const real *r, real *z, real *step)
+{
+    real G[LAG_NC * LAG_NC], x[LAG_NC];
+    int pivots[LAG_NC], i, k;
+    lag_gram(rows, A, r, G, x);
+    if (lag_lu_factor(rows, G, pivots) != 0)
+        return LAG_ERR_PROJECTION;
+    lag_lu_solve(rows, G, pivots, x);
+    *step = 0;
+    for (k = 0; k < LAG_NQ; ++k) {
+        real change = 0;
+        for (i = 0; i < rows; ++i)
+            change += A[i * LAG_NQ + k] * x[i];
+        z[k] -= change;
+        *step = r_fmax(*step, r_fabs(change));
+    }
+    return LAG_OK;
+}
+
+/* Project y onto the constraint manifold: positions by Gauss-Newton on g(q, t) = 0
+ * (q <- q - A_h^T (A_h A_h^T)^-1 g), then velocities onto A q' + b = 0
+ * (q' <- q' - A^T (A A^T)^-1 c). Hairer, Lubich, Wanner, GNI, IV.4. Returns the size of the move. */
+static int lag_project(const lag_system *sys, real t, real *y, real *moved)
+{
+    real c[LAG_NC], A[LAG_NC * LAG_NQ], step;
+    int status;
+#ifdef LAG_NH
+    real g[LAG_NH];
+    int k, iteration;
+#else
+    real *g = NULL;
+#endif
+    *moved = 0;
+#ifdef LAG_NH
+    for (iteration = 0;; ++iteration) {
+        real size = 0;
+        lag_constraint_rows(sys->par, t, y, g, c, A);
+        if ((status = lag_correct(LAG_NH, A, g, y, &step)) != LAG_OK)
+            return status;
+        for (k = 0; k < LAG_NQ; ++k)
+            size = r_fmax(size, r_fabs(y[k]));
+        *moved = r_fmax(*moved, step);
+        if (step <= 4 * REAL_EPSILON * (1 + size))
+            break;
+        if (iteration == 10)
+            return LAG_ERR_PROJECTION;
+    }
+#endif
+    lag_constraint_rows(sys->par, t, y, g, c, A);
+    if ((status = lag_correct(LAG_NC, A, c, y + LAG_NQ, &step)) != LAG_OK)
+        return status;
+    *moved = r_fmax(*moved, step);
+    return LAG_OK;
+}
+
+static real lag_residual(const lag_system *sys, real t, const real *y)
+{
+    real c[LAG_NC], A[LAG_NC * LAG_NQ], largest = 0;
+    int i;
+#ifdef LAG_NH
+    real g[LAG_NH];
+    lag_constraint_rows(sys->par, t, y, g, c, A);
+    for (i = 0; i < LAG_NH; ++i)
+        largest = r_fmax(largest, r_fabs(g[i]));
+#else
+    lag_constraint_rows(sys->par, t, y, NULL, c, A);
+#endif
+    for (i = 0; i < LAG_NC; ++i)
+        largest = r_fmax(largest, r_fabs(c[i]));
+    return largest;
+}
+#endif
 
 /* Deliver one output row and update the invariant and residual watch. */
 static int lag_deliver(const lag_system *sys, real t, const real *y, lag_sink sink, void *context,
                        lag_report *report)
 {
     real out[LAG_NOUT];
+#if LAG_HAS_INVARIANTS
     real inv[LAG_NINV];
     int i, status = lag_outputs(sys, t, y, out, inv);
+#else
+    int status = lag_outputs(sys, t, y, out);
+#endif
     if (status != LAG_OK)
         return status;
+#if LAG_HAS_INVARIANTS
     for (i = 0; i < LAG_NINV; ++i) {
         if (report->rows == 0)
             report->invariant_start[i] = inv[i];
         report->invariant_drift[i] = r_fmax(report->invariant_drift[i], r_fabs(inv[i] - report->invariant_start[i]));
     }
+#endif
+#if LAG_HAS_CONSTRAINTS
+    report->residual_max = r_fmax(report->residual_max, lag_residual(sys, t, y));
+#endif
     report->rows += 1;
     return sink(context, t, out) ? LAG_ERR_MAX_STEPS : LAG_OK;
 }
+#if LAG_HAS_STOP
+
+/* The time in the last step [t_old, t] where e = lag_stop_function turns negative: e(t_old) =
+ * e_old >= 0 > e_new = e(t). The root of e along the step's dense output, by regula falsi with
+ * the Illinois modification (Dahlquist and Bjorck, Numerical Methods, 6.2.3), to the resolution
+ * of t; the bracket's right end, where the condition holds, goes to *root. Returns the status of
+ * the dense output (which may evaluate the right-hand side on its first call in a step). */
+static int lag_stop_root(const lag_system *sys, lag_stepper *stepper, real e_old, real e_new, real *root)
+{
+    real a = stepper->t_old, b = stepper->t, fa = e_old, fb = e_new, y[LAG_NY];
+    int side = 0, iteration, status;
+    for (iteration = 0; iteration < 200 && b - a > 4 * REAL_EPSILON * r_fmax(r_fabs(a), r_fabs(b)); ++iteration) {
+        real c = b - fb * (b - a) / (fb - fa), fc;
+        if (!(c > a && c < b))
+            c = a + (b - a) / 2;    /* a secant step outside the bracket (or NaN): bisect */
+        if ((status = lag_stepper_dense(stepper, c, y)) != LAG_OK)
+            return status;
+        fc = lag_stop_function(sys->par, c, y);
+        if (fc < 0) {
+            b = c;
+            fb = fc;
+            if (side == -1)
+                fa /= 2;
+            side = -1;
+        } else {
+            a = c;
+            fa = fc;
+            if (side == 1)
+                fb /= 2;
+            side = 1;
+        }
+    }
+    *root = b;
+    return LAG_OK;
+}
+
+/* After a step: does the stop condition hold at its end? Then *stopped = 1 and *t_stop is where
+ * it began to. Returns a status (that of the dense output). */
+static int lag_stop_check(const lag_system *sys, lag_stepper *stepper, real *e_old, int *stopped, real *t_stop)
+{
+    real e = lag_stop_function(sys->par, stepper->t, stepper->y);
+    if (!(e < 0)) {
+        *e_old = e;
+        return LAG_OK;
+    }
+    *stopped = 1;
+    return lag_stop_root(sys, stepper, *e_old, e, t_stop);
+}
+#endif
 
 /* Set to 1 to stop the run between two steps (LAG_ERR_INTERRUPTED): by the standalone program's
  * SIGINT handler, or through ctypes by the Python side when Ctrl-C reaches it. */
@@ -1016,17 +1253,121 @@ volatile sig_atomic_t lag_interrupt = 0;
 /* The time the integration has reached, for the progress line of `lagc run` (read through ctypes). */
 volatile double lag_progress_t = 0;
 
-#define LAG_MAX_ROWS 10000000L         /* the largest output grid: 10^7 rows */
-#define LAG_DEFAULT_MAX_STEPS 100000L  /* the step limit (as in Hairer's codes), or 100 per output row */
-
-/* The output grid: rows t0 + k dt for k = 0 .. last - 1, then t1 (a grid time within 1e-9 dt of t1
- * is t1, so that 10 / 0.01 gives 1001 rows, not 1002); an interval longer than the run gives the
- * two rows t0 and t1. Returns `last`, the index of the final row. */
+/* The output grid: rows t0 + k dt for k = 0 .. last - 1, then t1 (a grid time within
+ * LAG_GRID_SLACK dt of t1 is t1, so that 10 / 0.01 gives 1001 rows, not 1002); an interval longer
+ * than the run gives the two rows t0 and t1. Returns `last`, the index of the final row. */
 static long lag_last_row(real t0, real t1, real dt)
 {
     real ratio = (t1 - t0) / dt;
-    long last = (long)r_floor(ratio + LAG_LIT(1e-9));
-    return ratio - last > LAG_LIT(1e-9) || last == 0 ? last + 1 : last;
+    long last = (long)r_floor(ratio + LAG_GRID_SLACK);
+    return ratio - last > LAG_GRID_SLACK || last == 0 ? last + 1 : last;
+}
+
+/* The step limit of a run whose final row is `last`: `given`, else LAG_DEFAULT_MAX_STEPS (as in
+ * Hairer's codes) or LAG_STEPS_PER_ROW per output row, whichever is larger. */
+static long lag_step_limit(long given, long last)
+{
+    if (given > 0)
+        return given;
+    return last + 1 > LAG_DEFAULT_MAX_STEPS / LAG_STEPS_PER_ROW ? LAG_STEPS_PER_ROW * (last + 1) : LAG_DEFAULT_MAX_STEPS;
+}
+
+/* Step until the stepper reaches tk (or the stop condition ends the run), projecting after each
+ * step; lag_interrupt ends it between two steps. */
+static int lag_advance(lag_system *sys, lag_stepper *stepper, real tk, real *e_old, lag_report *report)
+{
+    int status = LAG_OK;
+#if LAG_HAS_CONSTRAINTS
+    real moved;
+#elif !LAG_HAS_STOP
+    (void)sys;      /* to project and to test the stop condition */
+#endif
+#if LAG_HAS_STOP
+    while (stepper->t < tk && status == LAG_OK && !report->stopped) {
+#else
+    (void)e_old;
+    (void)report;
+    while (stepper->t < tk && status == LAG_OK) {
+#endif
+        status = lag_stepper_step(stepper);
+#if LAG_HAS_CONSTRAINTS
+        if (status == LAG_OK) {
+            status = lag_project(sys, stepper->t, stepper->y, &moved);
+            if (status == LAG_OK)
+                status = lag_stepper_restart(stepper);
+        }
+#endif
+#if LAG_HAS_STOP
+        if (status == LAG_OK)
+            status = lag_stop_check(sys, stepper, e_old, &report->stopped, &report->t_stop);
+#endif
+        lag_progress_t = (double)stepper->t;
+        if (status == LAG_OK && lag_interrupt)
+            status = LAG_ERR_INTERRUPTED;
+    }
+    return status;
+}
+
+/* The row at tk, which the stepper has reached: its state, or its dense output (projected). */
+static int lag_deliver_at(lag_system *sys, lag_stepper *stepper, real tk, lag_sink sink, void *context,
+                          lag_report *report)
+{
+    real y[LAG_NY];
+    int status;
+#if LAG_HAS_CONSTRAINTS
+    real moved;
+#endif
+    if (tk == stepper->t)
+        return lag_deliver(sys, tk, stepper->y, sink, context, report);
+    status = lag_stepper_dense(stepper, tk, y);
+#if LAG_HAS_CONSTRAINTS
+    if (status == LAG_OK)
+        status = lag_project(sys, tk, y, &moved);    /* output rows lie on the constraints too */
+#endif
+    if (status != LAG_OK)
+        return status;
+    return lag_deliver(sys, tk, y, sink, context, report);
+}
+
+/* The first row, at t0 from y0 (projected onto the constraints); the stop condition may hold
+ * there already (then *last = 0: no more rows). */
+static int lag_start(lag_system *sys, real t0, real *y, real *e_old, long *last, lag_sink sink, void *context,
+                     lag_report *report)
+{
+    int status = LAG_OK;
+#if LAG_HAS_CONSTRAINTS
+    status = lag_project(sys, t0, y, &report->projection_start);
+#else
+    (void)lag_stepper_restart;     /* only constrained scenes project the state and restart */
+#endif
+    if (status == LAG_OK)
+        status = lag_deliver(sys, t0, y, sink, context, report);
+#if LAG_HAS_STOP
+    if ((*e_old = lag_stop_function(sys->par, t0, y)) < 0) {    /* the condition holds at the start */
+        report->stopped = 1;
+        report->t_stop = t0;
+        *last = 0;
+    }
+#else
+    (void)e_old;
+    (void)last;
+#endif
+    return status;
+}
+
+/* The report of a run that ended with `status` where the stepper stands. */
+static void lag_finish(lag_system *sys, const lag_stepper *stepper, int status, lag_report *report)
+{
+    report->stats = stepper->stats;
+#if LAG_HAS_SWITCHES
+    report->switches = stepper->switches;
+#endif
+    report->status = status;
+    if (status != LAG_OK) {
+        report->t_fail = stepper->t;
+        memcpy(report->y_fail, stepper->y, sizeof report->y_fail);
+        report->rcond_fail = lag_condition(sys, report->t_fail, report->y_fail);
+    }
 }
 
 /* Integrate from (t0, y0) to t1 and deliver the outputs on the grid of lag_last_row. The caller
@@ -1036,9 +1377,9 @@ static int lag_integrate(lag_system *sys, const real *y0, real t0, real t1, real
 {
     lag_stepper *stepper = malloc(sizeof *stepper);
     lag_options limited = *options;
-    real y[LAG_NY];
+    real y[LAG_NY], e_old = 0;
     long k, last = lag_last_row(t0, t1, dt);
-    int status = LAG_OK;
+    int status;
     memset(report, 0, sizeof *report);
     memcpy(y, y0, sizeof y);
     lag_system_prepare(sys);
@@ -1047,61 +1388,71 @@ static int lag_integrate(lag_system *sys, const real *y0, real t0, real t1, real
     memset(stepper, 0, sizeof *stepper);
     stepper->t = t0;           /* where a failure before the first step (projecting y0) is reported */
     memcpy(stepper->y, y, sizeof stepper->y);
-    if (limited.max_steps <= 0)
-        limited.max_steps = last + 1 > LAG_DEFAULT_MAX_STEPS / 100 ? 100 * (last + 1) : LAG_DEFAULT_MAX_STEPS;
+    limited.max_steps = lag_step_limit(options->max_steps, last);
     lag_progress_t = (double)t0;
-    (void)lag_stepper_restart;     /* only constrained scenes project the state and restart */
-    if (status == LAG_OK)
-        status = lag_deliver(sys, t0, y, sink, context, report);
+    status = lag_start(sys, t0, y, &e_old, &last, sink, context, report);
     if (status == LAG_OK)
         status = lag_stepper_init(stepper, sys, t0, y, t1, &limited);
     for (k = 1; k <= last && status == LAG_OK; ++k) {
         real tk = k == last ? t1 : t0 + k * dt;
-        while (stepper->t < tk && status == LAG_OK) {
-            status = lag_stepper_step(stepper);
-            lag_progress_t = (double)stepper->t;
-            if (status == LAG_OK && lag_interrupt)
-                status = LAG_ERR_INTERRUPTED;
-        }
-        if (status != LAG_OK)
+        if ((status = lag_advance(sys, stepper, tk, &e_old, report)) != LAG_OK)
             break;
-        if (tk == stepper->t) {
-            status = lag_deliver(sys, tk, stepper->y, sink, context, report);
-        } else {
-            status = lag_stepper_dense(stepper, tk, y);
-            if (status != LAG_OK)
-                break;
-            status = lag_deliver(sys, tk, y, sink, context, report);
+#if LAG_HAS_STOP
+        if (report->stopped && report->t_stop <= tk) {    /* the last row is at the event */
+            tk = report->t_stop;
+            last = k;
         }
+#endif
+        status = lag_deliver_at(sys, stepper, tk, sink, context, report);
     }
-    report->stats = stepper->stats;
-    report->status = status;
-    if (status != LAG_OK) {
-        report->t_fail = stepper->t;
-        memcpy(report->y_fail, stepper->y, sizeof report->y_fail);
-        report->rcond_fail = lag_condition(sys, report->t_fail, report->y_fail);
-    }
+    lag_finish(sys, stepper, status, report);
     free(stepper);
     return status;
 }
 
-static const char *lag_status_message(int status)
+/* The run summary as lagdsl.abi.SummaryLayout lays it out for this scene: doubles, field by field. */
+#define LAG_SUMMARY_SIZE 37
+#define LAG_SUMMARY_STATUS 0
+#define LAG_SUMMARY_ROWS 1
+#define LAG_SUMMARY_T_FAIL 2
+#define LAG_SUMMARY_RCOND_FAIL 3
+#define LAG_SUMMARY_COUNTERS 4     /* the work counters, labelled: */
+#define LAG_NCOUNTERS 3
+static const char *const lag_counter_labels[LAG_NCOUNTERS] = { "steps accepted", "rejected", "right-hand sides" };
+
+static void lag_pack_summary(const lag_report *report, double *summary)
 {
-    switch (status) {
-    case LAG_ERR_SINGULAR: return "the mass matrix is singular at this state";
-    case LAG_ERR_NONFINITE: return "the state or its derivative became infinite or NaN";
-    case LAG_ERR_STEP_TOO_SMALL: return "the step size collapsed below the resolution of t";
-    case LAG_ERR_MAX_STEPS: return "the step limit (max_steps) was reached";
-    case LAG_ERR_NO_CONVERGENCE: return "the implicit iteration did not converge";
-    case LAG_ERR_PROJECTION: return "projection onto the constraints did not converge";
-    case LAG_ERR_INTERRUPTED: return "interrupted";
-    default: return "no error";
-    }
+    int i;
+    summary[0] = (double)report->status;
+    summary[1] = (double)report->rows;
+    summary[2] = (double)report->t_fail;
+    summary[3] = (double)report->rcond_fail;
+    summary[4] = (double)report->stats.accepted;
+    summary[5] = (double)report->stats.rejected;
+    summary[6] = (double)report->stats.rhs_evals;
+    for (i = 0; i < 1; ++i)
+        summary[7 + i] = (double)report->invariant_start[i];
+    for (i = 0; i < 1; ++i)
+        summary[8 + i] = (double)report->invariant_drift[i];
+    for (i = 0; i < 28; ++i)
+        summary[9 + i] = (double)report->y_fail[i];
 }
 
-/* ---- entry point for the Python API (ctypes): doubles in, doubles out ---- */
+/* ---- the shared library's entry points ---- */
+/* The entry points of the shared library, for the Python side (ctypes: lagdsl/run/runner.py and
+ * lagdsl/run/sweep.py): doubles in, doubles out.
+ *
+ * Pasted after driver.c and the generated lag_pack_summary. A run takes the settings vector
+ * (its entries LAG_SET_T_START ... LAG_SET_MAX_STEPS, lagdsl.abi.SETTINGS; max_steps 0 for the
+ * default limit), already checked as `lagc run` checks them, and writes its summary as
+ * lagdsl.abi.SummaryLayout lays it out (LAG_SUMMARY_SIZE doubles). The caller resets
+ * lag_interrupt before a call.
+ */
+
 int lag_run(const double *parameters, const double *initial, const double *settings,
             double *rows, long capacity, double *summary);
+void lag_run_batch(long members, const double *parameters, const double *initial, const double *settings,
+                   double *values, long capacity, double *summaries, long stride, int threads);
 
 typedef struct lag_buffer { double *rows; long capacity, used; } lag_buffer;
 
@@ -1118,10 +1469,8 @@ static int lag_buffer_row(void *context, real t, const real *out)
     return 0;
 }
 
-/* settings: t0, t1, dt, rtol, atol, step, max_step, stages, max_steps (0: the default limit).
- * The caller has checked them as `lagc run` does; it resets lag_interrupt before the call.
- * summary: status, rows, t_fail, rcond_fail, residual_max, projection_start, the counters
- *          accepted, rejected, rhs_evals, then the invariants' start values and drifts, then the state at failure. */
+/* One run of the model with `parameters` (LAG_NP) from `initial` (LAG_NY) on `settings`; its
+ * rows go to `sink`, its summary to `summary`. */
 static int lag_run_member(const double *parameters, const double *initial, const double *settings,
                           lag_sink sink, void *context, double *summary)
 {
@@ -1129,33 +1478,21 @@ static int lag_run_member(const double *parameters, const double *initial, const
     lag_options options;
     lag_report report;
     real y0[LAG_NY];
-    int i, n = 9;
+    int i;
     memset(&sys, 0, sizeof sys);    /* a model without parameters still has the placeholder par[0] */
     for (i = 0; i < LAG_NP; ++i)
         sys.par[i] = parameters[i];
     for (i = 0; i < LAG_NY; ++i)
         y0[i] = initial[i];
-    options.rtol = settings[3];
-    options.atol = settings[4];
-    options.step = settings[5];
-    options.max_step = settings[6];
-    options.stages = (int)settings[7];
-    options.max_steps = (long)settings[8];
-    lag_integrate(&sys, y0, settings[0], settings[1], settings[2], &options, sink, context, &report);
-    summary[0] = report.status;
-    summary[1] = (double)report.rows;
-    summary[2] = (double)report.t_fail;
-    summary[3] = (double)report.rcond_fail;
-    summary[4] = summary[5] = 0;
-    summary[6] = report.stats.accepted;
-    summary[7] = report.stats.rejected;
-    summary[8] = report.stats.rhs_evals;
-    for (i = 0; i < LAG_NINV; ++i) {
-        summary[n++] = (double)report.invariant_start[i];
-        summary[n++] = (double)report.invariant_drift[i];
-    }
-    for (i = 0; i < LAG_NY; ++i)
-        summary[n++] = (double)report.y_fail[i];
+    options.rtol = settings[LAG_SET_RTOL];
+    options.atol = settings[LAG_SET_ATOL];
+    options.step = settings[LAG_SET_STEP];
+    options.max_step = settings[LAG_SET_MAX_STEP];
+    options.stages = (int)settings[LAG_SET_STAGES];
+    options.max_steps = (long)settings[LAG_SET_MAX_STEPS];
+    lag_integrate(&sys, y0, settings[LAG_SET_T_START], settings[LAG_SET_T_STOP], settings[LAG_SET_T_INTERVAL],
+                  &options, sink, context, &report);
+    lag_pack_summary(&report, summary);
     return report.status;
 }
 
@@ -1169,10 +1506,6 @@ int lag_run(const double *parameters, const double *initial, const double *setti
     buffer.used = 0;
     return lag_run_member(parameters, initial, settings, lag_buffer_row, &buffer, summary);
 }
-
-/* ---- batch entry point for model.sweep (ctypes): many members, one call ---- */
-void lag_run_batch(long members, const double *parameters, const double *initial, const double *settings,
-                   double *values, long capacity, double *summaries, long stride, int threads);
 
 /* Members finished so far, for the progress bar of a sweep (read through ctypes). */
 volatile long lag_batch_done = 0;
@@ -1192,7 +1525,8 @@ static int lag_grid_row(void *context, real t, const real *out)
 }
 
 /* The loop of lag_run_batch, for any sink of the layout of lag_buffer: member b's rows, `width`
- * doubles each, go to values[b * capacity * width ...]. */
+ * doubles each, go to values[b * capacity * width ...]. A member not begun when lag_interrupt is
+ * set has the status LAG_ERR_INTERRUPTED at t0 and no rows. */
 static void lag_run_members(long members, const double *parameters, const double *initial, const double *settings,
                             lag_sink sink, long width, double *values, long capacity, double *summaries, long stride,
                             int threads)
@@ -1211,8 +1545,9 @@ static void lag_run_members(long members, const double *parameters, const double
         buffer.capacity = capacity;
         buffer.used = 0;
         if (lag_interrupt) {
-            summary[0] = LAG_ERR_INTERRUPTED;
-            summary[2] = settings[0];
+            memset(summary, 0, sizeof(double) * LAG_SUMMARY_SIZE);
+            summary[LAG_SUMMARY_STATUS] = LAG_ERR_INTERRUPTED;
+            summary[LAG_SUMMARY_T_FAIL] = settings[LAG_SET_T_START];
         } else {
             lag_run_member(parameters + b * LAG_NP, initial + b * LAG_NY, settings, sink, &buffer, summary);
         }
@@ -1225,11 +1560,11 @@ static void lag_run_members(long members, const double *parameters, const double
 
 /* Integrate `members` runs that share the settings (as lag_run) but each have their own
  * parameters (members x LAG_NP) and initial state (members x LAG_NY). Member b writes its rows
- * (the columns, without t) to values[b * capacity * LAG_NOUT ...] and its summary (the layout of
- * lag_run's) to summaries[b * stride ...]; a failure ends only that member. The members are
- * independent, so they run in parallel on `threads` OpenMP threads when the library is built
- * with OpenMP, and one after another otherwise, with the same results bit for bit. After
- * lag_interrupt is set, members not yet begun are not begun (status LAG_ERR_INTERRUPTED, no rows). */
+ * (the columns, without t) to values[b * capacity * LAG_NOUT ...] and its summary to
+ * summaries[b * stride ...]; a failure ends only that member. The members are independent, so
+ * they run in parallel on `threads` OpenMP threads when the library is built with OpenMP, and
+ * one after another otherwise, with the same results bit for bit. After lag_interrupt is set,
+ * members not yet begun are not begun (status LAG_ERR_INTERRUPTED, no rows). */
 void lag_run_batch(long members, const double *parameters, const double *initial, const double *settings,
                    double *values, long capacity, double *summaries, long stride, int threads)
 {
@@ -1237,7 +1572,112 @@ void lag_run_batch(long members, const double *parameters, const double *initial
                     stride, threads);
 }
 
-/* ---- standalone program: NAME=VALUE arguments, CSV on stdout, summary on stderr ---- */
+/* ---- the standalone program: the scene's grid and options ---- */
+#define LAG_SCENE_T_START LAG_LIT(0.0)
+#define LAG_SCENE_T_STOP LAG_LIT(3.0)
+#define LAG_SCENE_T_INTERVAL LAG_LIT(0.1)
+#define LAG_SCENE_OPTIONS { LAG_LIT(1e-12), LAG_LIT(1e-12), LAG_LIT(0.0), LAG_LIT(0.0), 0, 0L }
+
+/* NAME=VALUE for an option of rkn8: set it and return 1; 0 when NAME is none of its options;
+ * -1 after saying that the value is not allowed (the checks of lagc run). */
+static int lag_option_setting(const char *program, const char *text, const char *equals, real value,
+                              lag_options *options)
+{
+    if (strncmp(text, "rtol=", 5) == 0) {
+        if (!(r_isfinite(value) && value >= 0)) {
+            fprintf(stderr, "%s: --rtol must be a finite number >= 0, got '%s'\n", program, equals + 1);
+            return -1;
+        }
+        options->rtol = value;
+        return 1;
+    }
+    if (strncmp(text, "atol=", 5) == 0) {
+        if (!(r_isfinite(value) && value >= 0)) {
+            fprintf(stderr, "%s: --atol must be a finite number >= 0, got '%s'\n", program, equals + 1);
+            return -1;
+        }
+        options->atol = value;
+        return 1;
+    }
+    if (strncmp(text, "max-step=", 9) == 0) {
+        if (!(r_isfinite(value) && value > 0)) {
+            fprintf(stderr, "%s: --max-step must be a finite number > 0, got '%s'\n", program, equals + 1);
+            return -1;
+        }
+        options->max_step = value;
+        return 1;
+    }
+    if (strncmp(text, "max-steps=", 10) == 0) {
+        if (!(value >= 1 && value <= LAG_LIT(1e15) && value == r_floor(value))) {
+            fprintf(stderr, "%s: --max-steps must be a whole number from 1 to 1e15, got '%s'\n", program, equals + 1);
+            return -1;
+        }
+        options->max_steps = (long)value;
+        return 1;
+    }
+    return 0;
+}
+
+/* The options as the run uses them, as a scene writes them. */
+static void lag_print_options(FILE *file, const lag_options *options)
+{
+    fprintf(file, "rtol = %g", (double)options->rtol);
+    fprintf(file, ", atol = %g", (double)options->atol);
+    if (options->max_step > 0)
+        fprintf(file, ", max_step = %g", (double)options->max_step);
+}
+
+/* How a run with `status` failed, in the words of lagdsl.abi.STATUSES: the step limit was
+ * max_steps, the reciprocal condition estimate at the failure rcond. */
+static void lag_print_status(FILE *file, int status, long max_steps, double rcond)
+{
+    switch (status) {
+    case LAG_OK:
+        fprintf(file, "no error");
+        break;
+    case LAG_ERR_SINGULAR:
+        fprintf(file, "the mass matrix is singular at this state (reciprocal condition estimate %.3g, below %.3g)", rcond, (double)LAG_RCOND_MIN);
+        break;
+    case LAG_ERR_NONFINITE:
+        fprintf(file, "the state or its derivative became infinite or NaN");
+        break;
+    case LAG_ERR_STEP_TOO_SMALL:
+        fprintf(file, "the step size collapsed below the resolution of t");
+        break;
+    case LAG_ERR_MAX_STEPS:
+        fprintf(file, "the step limit of %ld steps was reached", max_steps);
+        break;
+    case LAG_ERR_NO_CONVERGENCE:
+        fprintf(file, "the implicit iteration did not converge");
+        break;
+    case LAG_ERR_PROJECTION:
+        fprintf(file, "projection onto the constraints did not converge");
+        break;
+    case LAG_ERR_INTERRUPTED:
+        fprintf(file, "interrupted");
+        break;
+    case LAG_ERR_HOPELESS:
+        fprintf(file, "at its pace so far, the run would need more steps than the step limit of %ld allows", max_steps);
+        break;
+    default:
+        fprintf(file, "unknown failure");
+        break;
+    }
+}
+
+/* ---- the standalone program ---- */
+/* The standalone program: NAME=VALUE arguments, the CSV on standard output, the run summary on
+ * standard error; with --batch, one member a line of standard input and one CSV of them all.
+ *
+ * Pasted last into every generated C file (lagdsl/codegen/c.py), after driver.c, library.c and
+ * what the code generator writes for the scene's command line: LAG_SCENE_T_START,
+ * LAG_SCENE_T_STOP, LAG_SCENE_T_INTERVAL and LAG_SCENE_OPTIONS (the scene's grid and options),
+ * lag_option_setting and lag_print_options (its integrator's options), lag_stop_text (with
+ * LAG_HAS_STOP), lag_counter_labels and lag_print_status (lagdsl/abi.py).
+ */
+
+#define LAG_LINE_MAX 4096                /* the longest line of batch input (and argument), with its newline */
+
 static int lag_print_row(void *context, real t, const real *out)
 {
     int i;
@@ -1261,6 +1701,14 @@ static void lag_print_header(int batch)
     fputc('\n', stdout);
 }
 
+/* The work counters as the summary labels them: "12 steps accepted, 3 rejected, ...". */
+static void lag_print_counters(FILE *file, const long *counts)
+{
+    int i;
+    for (i = 0; i < LAG_NCOUNTERS; ++i)
+        fprintf(file, "%s%ld %s", i == 0 ? "" : ", ", counts[i], lag_counter_labels[i]);
+}
+
 static int lag_index_of(const char *const *names, int count, const char *name, size_t length)
 {
     int i;
@@ -1270,17 +1718,52 @@ static int lag_index_of(const char *const *names, int count, const char *name, s
     return -1;
 }
 
+/* `text` is `word`, in any case. */
+static int lag_same_word(const char *text, const char *word)
+{
+    for (; *word != '\0'; ++text, ++word)
+        if (tolower((unsigned char)*text) != *word)
+            return 0;
+    return *text == '\0';
+}
+
+/* A value as `lagc run --set` takes it (abi.NUMBER): a decimal number with an optional sign,
+ * fraction and exponent, or inf, infinity or nan in any case; strtod alone would also take
+ * hexadecimal (0x10) and stop at a NUL byte. */
+static int lag_is_number(const char *text)
+{
+    const char *c = text + (*text == '+' || *text == '-');
+    int digits = 0;
+    if (lag_same_word(c, "inf") || lag_same_word(c, "infinity") || lag_same_word(c, "nan"))
+        return 1;
+    for (; isdigit((unsigned char)*c); ++c)
+        digits = 1;
+    if (*c == '.')
+        for (++c; isdigit((unsigned char)*c); ++c)
+            digits = 1;
+    if (digits && (*c == 'e' || *c == 'E')) {
+        c += 1 + (c[1] == '+' || c[1] == '-');
+        if (!isdigit((unsigned char)*c))
+            return 0;
+        while (isdigit((unsigned char)*c))
+            ++c;
+    }
+    return digits && *c == '\0';
+}
+
 static int lag_parse_value(const char *text, real *value)
 {
     char *end;
+    if (!lag_is_number(text))
+        return 0;
     *value = r_strtod(text, &end);
     return end != text && *end == '\0';
 }
 
 /* What may differ between the members of a batch: parameters and initial values, given by name. */
 typedef struct lag_member {
-    real par[3];
-    int fixed[3];    /* given, so not computed from the others */
+    real par[LAG_NP > 0 ? LAG_NP : 1];
+    int fixed[LAG_NP > 0 ? LAG_NP : 1];    /* given, so not computed from the others */
     real start[LAG_NY];
     int overridden[LAG_NY];
 } lag_member;
@@ -1364,6 +1847,27 @@ static int lag_check_grid(const char *program, real t0, real t1, real dt)
     return 1;
 }
 
+/* The checks of the tolerances (with LAG_HAS_TOLERANCES): not both 0, and rtol at least
+ * LAG_RTOL_FLOOR (raised, with a warning). */
+static int lag_check_tolerances(const char *program, lag_options *options)
+{
+#if LAG_HAS_TOLERANCES
+    if (!(options->rtol > 0 || options->atol > 0)) {
+        fprintf(stderr, "%s: rtol and atol cannot both be 0\n", program);
+        return 0;
+    }
+    if (options->rtol < LAG_RTOL_FLOOR) {
+        fprintf(stderr, "%s: warning: rtol = %g is below %d eps; raised to %g\n", program, (double)options->rtol,
+                LAG_RTOL_FLOOR_EPS, (double)LAG_RTOL_FLOOR);
+        options->rtol = LAG_RTOL_FLOOR;
+    }
+#else
+    (void)program;
+    (void)options;
+#endif
+    return 1;
+}
+
 /* Every parameter (given or derived) and every initial value must be a finite number. */
 static int lag_check_inputs(const char *program, const real *par, const real *y0)
 {
@@ -1396,10 +1900,8 @@ static int lag_member_state(const char *prefix, lag_member *member, real *y0)
     return lag_check_inputs(prefix, member->par, y0);
 }
 
-/* ---- the standalone program's batch mode: one member a line of standard input ---- */
-#define LAG_LINE_MAX 4096                /* the longest line of batch input, with its newline */
+/* ---- batch mode: one member a line of standard input ---- */
 #define LAG_BATCH_VALUES (1L << 22)      /* the doubles of output held at once: members run in chunks */
-#define LAG_SUMMARY_SIZE (9 + 2 * LAG_NINV + LAG_NY)
 
 /* The members read so far: their parameters and initial states, as lag_run_batch takes them. */
 typedef struct lag_members { long count, allocated; double *parameters, *initial; } lag_members;
@@ -1426,20 +1928,43 @@ static int lag_members_add(lag_members *members, const real *par, const real *y0
     return 1;
 }
 
+/* One line of `stream` into `line`, without its newline: 1, or 0 at the end of the input, -1
+ * when it is longer than LAG_LINE_MAX - 1 characters, -2 when it holds a NUL byte (which would
+ * end it early for every string function: the rest of the line unseen). */
+static int lag_read_line(FILE *stream, char *line)
+{
+    size_t length = 0;
+    int c, nul = 0;
+    while ((c = getc(stream)) != EOF && c != '\n') {
+        nul = nul || c == '\0';
+        if (length < LAG_LINE_MAX - 1)
+            line[length] = (char)c;
+        length += 1;
+    }
+    if (c == EOF && length == 0)
+        return 0;
+    line[length < LAG_LINE_MAX - 1 ? length : LAG_LINE_MAX - 1] = '\0';
+    return length > LAG_LINE_MAX - 1 ? -1 : nul ? -2 : 1;
+}
+
 /* Read the members from standard input, one a line of NAME=VALUE settings (parameters,
  * q.start, q.velocity) on top of the command line's (`common`); blank lines and lines that
  * begin with '#' hold no member. Returns 0 after saying what is wrong, as "line N: ...". */
 static int lag_read_members(const char *program, const lag_member *common, lag_members *members)
 {
-    char line[LAG_LINE_MAX + 2], prefix[300];
+    char line[LAG_LINE_MAX], prefix[300];
     long number = 0;
-    while (fgets(line, sizeof line, stdin) != NULL) {
+    int read;
+    while ((read = lag_read_line(stdin, line)) != 0) {
         lag_member member = *common;
         real y0[LAG_NY];
         char *word;
         snprintf(prefix, sizeof prefix, "%.256s: line %ld", program, ++number);
-        if (strlen(line) > LAG_LINE_MAX) {    /* its end, beyond the buffer, would read as another line */
-            fprintf(stderr, "%s: longer than %d characters\n", prefix, LAG_LINE_MAX - 1);
+        if (read < 0) {
+            if (read == -1)
+                fprintf(stderr, "%s: longer than %d characters\n", prefix, LAG_LINE_MAX - 1);
+            else
+                fprintf(stderr, "%s: holds a NUL byte\n", prefix);
             return 0;
         }
         word = strtok(line, " \t\r\n");
@@ -1471,15 +1996,29 @@ static int lag_read_members(const char *program, const lag_member *common, lag_m
     return 1;
 }
 
-/* Say how member b failed (its rows so far are written). */
-static void lag_report_member(long b, const double *summary)
+/* Write member `number`'s rows (`width` doubles each) and add its counters to `totals`; say how
+ * it failed. Returns its status. */
+static int lag_write_member(long number, const double *summary, const double *rows, long width, long max_steps,
+                            long *totals)
 {
-    int status = (int)summary[0];
-    fprintf(stderr, "member %ld: simulation failed at t = %.17g after %ld rows: %s", b, summary[2],
-            (long)summary[1], lag_status_message(status));
-    if (status == LAG_ERR_SINGULAR)
-        fprintf(stderr, " (reciprocal condition estimate %.3g, below %.3g)", summary[3], (double)LAG_RCOND_MIN);
-    fputc('\n', stderr);
+    int status = (int)summary[LAG_SUMMARY_STATUS], i;
+    long r;
+    for (r = 0; r < (long)summary[LAG_SUMMARY_ROWS]; ++r) {
+        real out[LAG_NOUT];
+        for (i = 0; i < LAG_NOUT; ++i)
+            out[i] = (real)rows[r * width + 1 + i];
+        fprintf(stdout, "%ld,", number);
+        lag_print_row(NULL, (real)rows[r * width], out);
+    }
+    for (i = 0; i < LAG_NCOUNTERS; ++i)
+        totals[i] += (long)summary[LAG_SUMMARY_COUNTERS + i];
+    if (status != LAG_OK && status != LAG_ERR_INTERRUPTED) {
+        fprintf(stderr, "member %ld: simulation failed at t = %.17g after %ld rows: ", number,
+                summary[LAG_SUMMARY_T_FAIL], (long)summary[LAG_SUMMARY_ROWS]);
+        lag_print_status(stderr, status, max_steps, summary[LAG_SUMMARY_RCOND_FAIL]);
+        fputc('\n', stderr);
+    }
+    return status;
 }
 
 /* Run the members in chunks on the grid of `settings` (OpenMP threads when built with -fopenmp)
@@ -1487,10 +2026,10 @@ static void lag_report_member(long b, const double *summary)
  * its member. Returns the exit status: 0, 1 when a member failed, 130 when interrupted. */
 static int lag_run_standalone_batch(const lag_members *members, const double *settings, long capacity)
 {
-    long width = LAG_NOUT + 1, chunk = LAG_BATCH_VALUES / (capacity * width), first, b, r, failed = 0, unfinished = -1;
-    long totals[3] = {0};
+    long width = LAG_NOUT + 1, chunk = LAG_BATCH_VALUES / (capacity * width), first, b, failed = 0, unfinished = -1;
+    long totals[LAG_NCOUNTERS] = {0};
     double *values, *summaries;
-    int i, threads = 1;
+    int threads = 1;
     clock_t clock_start = clock();
 #ifdef _OPENMP
     threads = omp_get_max_threads();    /* OMP_NUM_THREADS, else the processors */
@@ -1509,30 +2048,18 @@ static int lag_run_standalone_batch(const lag_members *members, const double *se
         lag_run_members(count, members->parameters + first * LAG_NP, members->initial + first * LAG_NY, settings,
                         lag_buffer_row, width, values, capacity, summaries, LAG_SUMMARY_SIZE, threads);
         for (b = 0; b < count; ++b) {
-            const double *summary = summaries + b * LAG_SUMMARY_SIZE;
-            for (r = 0; r < (long)summary[1]; ++r) {
-                const double *row = values + (b * capacity + r) * width;
-                real out[LAG_NOUT];
-                for (i = 0; i < LAG_NOUT; ++i)
-                    out[i] = (real)row[1 + i];
-                fprintf(stdout, "%ld,", first + b);
-                lag_print_row(NULL, (real)row[0], out);
-            }
-            for (i = 0; i < 3; ++i)
-                totals[i] += (long)summary[6 + i];
-            if ((int)summary[0] == LAG_ERR_INTERRUPTED) {
-                if (unfinished < 0)
-                    unfinished = first + b;
-            } else if ((int)summary[0] != LAG_OK) {
-                failed += 1;
-                lag_report_member(first + b, summary);
-            }
+            int status = lag_write_member(first + b, summaries + b * LAG_SUMMARY_SIZE, values + b * capacity * width,
+                                          width, (long)settings[LAG_SET_MAX_STEPS], totals);
+            if (status == LAG_ERR_INTERRUPTED && unfinished < 0)
+                unfinished = first + b;
+            failed += status != LAG_OK && status != LAG_ERR_INTERRUPTED;
         }
     }
     free(values);
     free(summaries);
-    fprintf(stderr, "%ld members, %ld failed; integrator %s, in all: %ld steps accepted, %ld rejected, %ld right-hand sides, %.3g s CPU\n",
-            members->count, failed, LAG_INTEGRATOR_NAME, totals[0], totals[1], totals[2], (double)(clock() - clock_start) / CLOCKS_PER_SEC);
+    fprintf(stderr, "%ld members, %ld failed; integrator %s, in all: ", members->count, failed, LAG_INTEGRATOR_NAME);
+    lag_print_counters(stderr, totals);
+    fprintf(stderr, ", %.3g s CPU\n", (double)(clock() - clock_start) / CLOCKS_PER_SEC);
     if (lag_interrupt) {
         fprintf(stderr, "interrupted: member %ld is incomplete, and so may be those after it\n", unfinished);
         return 130;
@@ -1546,135 +2073,221 @@ static int lag_batch_main(const char *program, const lag_member *given, real t0,
                           const lag_options *options)
 {
     lag_members members = { 0, 0, NULL, NULL };
-    double settings[9];
+    double settings[LAG_SETTINGS];
+    long last = lag_last_row(t0, t1, dt);
     int status = 2;
-    settings[0] = (double)t0;
-    settings[1] = (double)t1;
-    settings[2] = (double)dt;
-    settings[3] = (double)options->rtol;
-    settings[4] = (double)options->atol;
-    settings[5] = (double)options->step;
-    settings[6] = (double)options->max_step;
-    settings[7] = options->stages;
-    settings[8] = (double)options->max_steps;
+    settings[LAG_SET_T_START] = (double)t0;
+    settings[LAG_SET_T_STOP] = (double)t1;
+    settings[LAG_SET_T_INTERVAL] = (double)dt;
+    settings[LAG_SET_RTOL] = (double)options->rtol;
+    settings[LAG_SET_ATOL] = (double)options->atol;
+    settings[LAG_SET_STEP] = (double)options->step;
+    settings[LAG_SET_MAX_STEP] = (double)options->max_step;
+    settings[LAG_SET_STAGES] = options->stages;
+    settings[LAG_SET_MAX_STEPS] = (double)lag_step_limit(options->max_steps, last);
     if (lag_read_members(program, given, &members)) {
         lag_print_header(1);
         lag_catch_interrupt();    /* members in flight stop, the others are not begun */
-        status = members.count > 0 ? lag_run_standalone_batch(&members, settings, lag_last_row(t0, t1, dt) + 1) : 0;
+        status = members.count > 0 ? lag_run_standalone_batch(&members, settings, last + 1) : 0;
     }
     free(members.parameters);
     free(members.initial);
     return status;
 }
 
-int main(int argc, char **argv)
+/* OPTION=VALUE with the option's name as its flag (max_step -> max-step); 0 if too long. */
+static int lag_option_text(const char *text, char *option)
 {
-    lag_system sys;
-    lag_member given;
-    lag_options options = { LAG_LIT(1e-12), LAG_LIT(1e-12), LAG_LIT(0.0), LAG_LIT(0.0), 0, 0L };
-    lag_report report;
-    real y0[LAG_NY], t0 = LAG_LIT(0.0), t1 = LAG_LIT(3.0), dt = LAG_LIT(0.1);
-    int i, status, batch = 0;
-    clock_t clock_start;
-    memset(&given, 0, sizeof given);
-    lag_default_parameters(given.par);
+    size_t i, length = strlen(text);
+    int in_name = 1;
+    if (length >= LAG_LINE_MAX)
+        return 0;
+    for (i = 0; i <= length; ++i) {
+        in_name = in_name && text[i] != '=';
+        option[i] = in_name && text[i] == '_' ? '-' : text[i];
+    }
+    return 1;
+}
+
+/* What NAME=VALUE is not: an option written without its dashes says how to give it (a
+ * parameter of the same name would have taken the setting: the options have a syntax of their own). */
+static void lag_unknown_setting(const char *program, const char *text, const char *equals)
+{
+    int length = (int)(equals - text);
+    char option[LAG_LINE_MAX];
+    if (lag_option_text(text, option) && lag_index_of(lag_option_names, LAG_NOPTIONS, option, (size_t)length) >= 0)
+        fprintf(stderr, "%s: '%.*s' is an option of the integrator: write --%s\n", program, length, text, option);
+    else
+        fprintf(stderr, "%s: unknown setting '%.*s' (run %s --help)\n", program, length, text, program);
+}
+
+/* --help: what the program takes. */
+static void lag_print_help(const char *program)
+{
+    int i;
+    printf("usage: %s [--batch] [NAME=VALUE ...] [--OPTION=VALUE ...] > out.csv\n"
+           "Simulates %s (%s); the CSV goes to standard output, the run summary to standard error.\n"
+           "NAME is a parameter:", program, LAG_MODEL_NAME, LAG_SCENE_NAME);
+    for (i = 0; i < LAG_NP; ++i)
+        printf(" %s", lag_parameter_names[i]);
+    printf("\n  or COORDINATE.start, COORDINATE.velocity (initial values), COORDINATE one of:");
+    for (i = 0; i < LAG_NQ; ++i)
+        printf(" %s", lag_coordinate_names[i]);
+    printf("\n  or t.start, t.stop, t.interval (the output grid).\nOPTION is an option of %s:", LAG_INTEGRATOR_NAME);
+    for (i = 0; i < LAG_NOPTIONS; ++i)
+        printf(" --%s", lag_option_names[i]);
+    printf("\nVALUE is a decimal number (1e-12, -0.5; inf, nan).\n"
+           "--batch reads one member a line of standard input: NAME=VALUE settings of parameters and initial\n"
+           "values, on top of the command line's; the CSV's first column is the member's number.\n");
+}
+
+/* The command line: parameters, initial values, the grid and the options, onto the scene's.
+ * Returns 0 after saying what is wrong. */
+static int lag_parse_arguments(int argc, char **argv, lag_member *given, real *grid, lag_options *options,
+                               int *batch)
+{
+    int i, known;
     for (i = 1; i < argc; ++i) {
         const char *equals;
         real value;
         if (strcmp(argv[i], "--batch") == 0) {
-            batch = 1;
+            *batch = 1;
+            continue;
+        }
+        if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
+            lag_print_help(argv[0]);
+            exit(0);
+        }
+        if (strncmp(argv[i], "--", 2) == 0) {         /* an option: --rtol=1e-12, --max-step=0.1 */
+            char option[LAG_LINE_MAX];
+            if (!lag_option_text(argv[i] + 2, option)) {
+                fprintf(stderr, "%s: an argument longer than %d characters\n", argv[0], LAG_LINE_MAX - 1);
+                return 0;
+            }
+            if ((equals = lag_split_setting(argv[0], option, &value)) == NULL)
+                return 0;
+            if ((known = lag_option_setting(argv[0], option, equals, value, options)) == 0)
+                fprintf(stderr, "%s: unknown option '--%.*s' (run %s --help)\n", argv[0], (int)(equals - option),
+                        option, argv[0]);
+            if (known <= 0)
+                return 0;
             continue;
         }
         if ((equals = lag_split_setting(argv[0], argv[i], &value)) == NULL)
-            return 2;
-        if (lag_member_setting(argv[i], equals, value, &given)) {
+            return 0;
+        if (lag_member_setting(argv[i], equals, value, given))
             continue;
-        } else if (strncmp(argv[i], "t.start=", 8) == 0) {
-            t0 = value;
+        if (strncmp(argv[i], "t.start=", 8) == 0) {
+            grid[0] = value;
         } else if (strncmp(argv[i], "t.stop=", 7) == 0) {
-            t1 = value;
+            grid[1] = value;
         } else if (strncmp(argv[i], "t.interval=", 11) == 0) {
-            dt = value;
-        } else if (strncmp(argv[i], "rtol=", 5) == 0) {
-            if (!(r_isfinite(value) && value >= 0)) {
-                fprintf(stderr, "%s: rtol must be a finite number >= 0, got '%s'\n",
-                        argv[0], equals + 1);
-                return 2;
-            }
-            options.rtol = value;
-        } else if (strncmp(argv[i], "atol=", 5) == 0) {
-            if (!(r_isfinite(value) && value >= 0)) {
-                fprintf(stderr, "%s: atol must be a finite number >= 0, got '%s'\n",
-                        argv[0], equals + 1);
-                return 2;
-            }
-            options.atol = value;
-        } else if (strncmp(argv[i], "max_step=", 9) == 0) {
-            if (!(r_isfinite(value) && value > 0)) {
-                fprintf(stderr, "%s: max_step must be a finite number > 0, got '%s'\n",
-                        argv[0], equals + 1);
-                return 2;
-            }
-            options.max_step = value;
-        } else if (strncmp(argv[i], "max_steps=", 10) == 0) {
-            if (!(value >= 1 && value <= LAG_LIT(1e15) && value == r_floor(value))) {
-                fprintf(stderr, "%s: max_steps must be a whole number from 1 to 1e15, got '%s'\n",
-                        argv[0], equals + 1);
-                return 2;
-            }
-            options.max_steps = (long)value;
+            grid[2] = value;
         } else {
-            fprintf(stderr, "%s: unknown setting '%.*s'\n", argv[0], (int)(equals - argv[i]), argv[i]);
-            return 2;
+            lag_unknown_setting(argv[0], argv[i], equals);
+            return 0;
         }
     }
-    if (!lag_check_grid(argv[0], t0, t1, dt))
-        return 2;
-    if (!(options.rtol > 0 || options.atol > 0)) {
-        fprintf(stderr, "%s: rtol and atol cannot both be 0\n", argv[0]);
-        return 2;
+    return lag_check_grid(argv[0], grid[0], grid[1], grid[2]) && lag_check_tolerances(argv[0], options);
+}
+
+/* The integrator's work, and what the scene watches: the stiffness test, the switches, the stop
+ * condition, the invariants and the constraints. */
+static void lag_print_work(const lag_report *report, const lag_options *options, double seconds)
+{
+    double summary[LAG_SUMMARY_SIZE];
+    long counts[LAG_NCOUNTERS];
+    int i;
+    lag_pack_summary(report, summary);
+    for (i = 0; i < LAG_NCOUNTERS; ++i)
+        counts[i] = (long)summary[LAG_SUMMARY_COUNTERS + i];
+    fprintf(stderr, "integrator %s(", LAG_INTEGRATOR_NAME);    /* the options as used, as in a scene */
+    lag_print_options(stderr, options);
+    fputs("): ", stderr);
+    lag_print_counters(stderr, counts);
+    fprintf(stderr, ", %.3g s CPU\n", seconds);
+#if LAG_HAS_STIFFNESS_TEST
+    if (report->stats.stiff)
+        fprintf(stderr, "stiffness detected at t = %.6g: since then %ld steps (%ld rejected) and %ld of the "
+                "%ld right-hand sides; an implicit method needs far fewer steps: generate this program "
+                "with integrator radau5 (or auto) in the scene\n",
+                (double)report->stats.stiff_time, report->stats.accepted - report->stats.stiff_accepted,
+                report->stats.rejected - report->stats.stiff_rejected,
+                report->stats.rhs_evals - report->stats.stiff_rhs_evals, report->stats.rhs_evals);
+#endif
+#if LAG_HAS_SWITCHES
+    fprintf(stderr, "auto: %ld switch%s", report->switches.count, report->switches.count == 1 ? "" : "es");
+    for (i = 0; i < report->switches.count && i < LAG_AUTO_LOGGED; ++i)
+        fprintf(stderr, "%sto %s at t = %.6g", i == 0 ? " (" : ", ", i % 2 == 0 ? "radau5" : "dop853",
+                (double)report->switches.at[i]);
+    fprintf(stderr, "%s; dop853 over %.6g of t, radau5 over %.6g\n",
+            report->switches.count == 0 ? "" : report->switches.count > LAG_AUTO_LOGGED ? ", ...)" : ")",
+            (double)report->switches.span[LAG_AUTO_EXPLICIT], (double)report->switches.span[LAG_AUTO_IMPLICIT]);
+#endif
+#if LAG_HAS_STOP
+    if (report->stopped)
+        fprintf(stderr, "stopped at t = %.17g, where %s\n", (double)report->t_stop, lag_stop_text);
+#endif
+#if LAG_HAS_INVARIANTS
+    for (i = 0; i < LAG_NINV; ++i)
+        fprintf(stderr, "drift of %s: %.3g (from %.17g)\n", lag_invariant_names[i],
+                (double)report->invariant_drift[i], (double)report->invariant_start[i]);
+#endif
+#if LAG_HAS_CONSTRAINTS
+    fprintf(stderr, "largest constraint residual (%s", lag_constraint_names[0]);
+    for (i = 1; i < LAG_NC; ++i)
+        fprintf(stderr, ", %s", lag_constraint_names[i]);
+    fprintf(stderr, "): %.3g\n", (double)report->residual_max);
+#endif
+}
+
+/* The run summary on standard error: the work (lag_print_work) and how the run failed. Returns
+ * the exit status: 0, 1 after a failure, 130 when interrupted. */
+static int lag_print_summary(const lag_report *report, const lag_options *options, long max_steps, double seconds)
+{
+    int i;
+    lag_print_work(report, options, seconds);
+    if (report->status == LAG_ERR_INTERRUPTED) {
+        fprintf(stderr, "interrupted at t = %.17g after %ld rows\n", (double)report->t_fail, report->rows);
+        return 130;    /* 128 + SIGINT, as a shell reports a run stopped by Ctrl-C */
     }
-    if (options.rtol < 10 * REAL_EPSILON) {    /* no error control is finer than the rounding */
-        fprintf(stderr, "%s: warning: rtol = %g is below 10 eps; raised to %g\n", argv[0], (double)options.rtol,
-                (double)(10 * REAL_EPSILON));
-        options.rtol = 10 * REAL_EPSILON;
+    if (report->status != LAG_OK) {
+        fprintf(stderr, "the run is incomplete: %ld rows written\n", report->rows);
+        fprintf(stderr, "simulation failed at t = %.17g: ", (double)report->t_fail);
+        lag_print_status(stderr, report->status, max_steps, (double)report->rcond_fail);
+        fputs("\n  state:", stderr);
+        for (i = 0; i < LAG_NQ; ++i)
+            fprintf(stderr, " %s = %.17g, %s' = %.17g", lag_coordinate_names[i], (double)report->y_fail[i],
+                    lag_coordinate_names[i], (double)report->y_fail[LAG_NQ + i]);
+        fputc('\n', stderr);
+        return 1;
     }
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    lag_system sys;
+    lag_member given;
+    lag_options options = LAG_SCENE_OPTIONS;
+    lag_report report;
+    real y0[LAG_NY], grid[3] = { LAG_SCENE_T_START, LAG_SCENE_T_STOP, LAG_SCENE_T_INTERVAL };
+    int batch = 0;
+    clock_t clock_start;
+    memset(&given, 0, sizeof given);
+    lag_default_parameters(given.par);
+    if (!lag_parse_arguments(argc, argv, &given, grid, &options, &batch))
+        return 2;
     if (batch)
-        return lag_batch_main(argv[0], &given, t0, t1, dt, &options);
+        return lag_batch_main(argv[0], &given, grid[0], grid[1], grid[2], &options);
     if (!lag_member_state(argv[0], &given, y0))
         return 2;
     memcpy(sys.par, given.par, sizeof sys.par);
     lag_print_header(0);
     lag_catch_interrupt();    /* stop between two steps, keeping the rows written so far */
     clock_start = clock();
-    status = lag_integrate(&sys, y0, t0, t1, dt, &options, lag_print_row, NULL, &report);
-    fprintf(stderr, "integrator %s(", LAG_INTEGRATOR_NAME);    /* the options as used, as in a scene */
-    fprintf(stderr, "rtol = %g", (double)options.rtol);
-    fprintf(stderr, ", atol = %g", (double)options.atol);
-    if (options.max_step > 0)
-        fprintf(stderr, ", max_step = %g", (double)options.max_step);
-    fprintf(stderr, "): %ld steps accepted, %ld rejected, %ld right-hand sides", report.stats.accepted, report.stats.rejected, report.stats.rhs_evals);
-    fprintf(stderr, ", %.3g s CPU\n", (double)(clock() - clock_start) / CLOCKS_PER_SEC);
-    for (i = 0; i < LAG_NINV; ++i)
-        fprintf(stderr, "drift of %s: %.3g (from %.17g)\n", lag_invariant_names[i],
-                (double)report.invariant_drift[i], (double)report.invariant_start[i]);
-    if (status == LAG_ERR_INTERRUPTED) {
-        fprintf(stderr, "interrupted at t = %.17g after %ld rows\n", (double)report.t_fail, report.rows);
-        return 130;    /* 128 + SIGINT, as a shell reports a run stopped by Ctrl-C */
-    }
-    if (status != LAG_OK) {
-        fprintf(stderr, "the run is incomplete: %ld rows written\n", report.rows);
-        fprintf(stderr, "simulation failed at t = %.17g: %s", (double)report.t_fail, lag_status_message(status));
-        if (status == LAG_ERR_SINGULAR)
-            fprintf(stderr, " (reciprocal condition estimate %.3g, below %.3g)", (double)report.rcond_fail,
-                    (double)LAG_RCOND_MIN);
-        fputs("\n  state:", stderr);
-        for (i = 0; i < LAG_NQ; ++i)
-            fprintf(stderr, " %s = %.17g, %s' = %.17g", lag_coordinate_names[i], (double)report.y_fail[i],
-                    lag_coordinate_names[i], (double)report.y_fail[LAG_NQ + i]);
-        fputc('\n', stderr);
-        return 1;
-    }
-    return 0;
+    lag_integrate(&sys, y0, grid[0], grid[1], grid[2], &options, lag_print_row, NULL, &report);
+    return lag_print_summary(&report, &options, lag_step_limit(options.max_steps, lag_last_row(grid[0], grid[1], grid[2])),
+                             (double)(clock() - clock_start) / CLOCKS_PER_SEC);
 }
 

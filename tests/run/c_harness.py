@@ -2,8 +2,8 @@
 
 The integrator tests write a test model (LAG_NQ, LAG_NY, struct lag_system, lag_rhs, ...) and a
 `main` that drives the stepper, in C, and use this helper to assemble the single translation unit
-as the code generator does: runtime.h, the linear algebra used (cholesky.c, lu.c), model,
-integrator, main.
+as the code generator does: runtime.h and the contract with Python that follows it (the status
+codes and shared constants), the linear algebra used (cholesky.c, lu.c), model, integrator, main.
 """
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ import shutil
 import subprocess
 from pathlib import Path
 
+from lagdsl.codegen.c_abi import runtime_contract
 from lagdsl.integrators import integrator_source
 
 C_SOURCES = Path(__file__).resolve().parents[2] / "lagdsl" / "integrators" / "c"
@@ -33,7 +34,8 @@ def assemble(model_c: str, integrator: str, main_c: str) -> str:
     # only the linear algebra someone calls, as the generator does: unused static functions are warnings
     shared = [(C_SOURCES / name).read_text() for name, prefix in (("cholesky.c", "lag_cholesky"), ("lu.c", "lag_lu_"))
               if prefix in users]
-    return "\n".join([SYSTEM_HEADERS, (C_SOURCES / "runtime.h").read_text(), *shared, model_c, integrator_c, main_c])
+    return "\n".join([SYSTEM_HEADERS, (C_SOURCES / "runtime.h").read_text(), runtime_contract(), *shared, model_c,
+                      integrator_c, main_c])
 
 
 def build_and_run(tmp_path: Path, model_c: str, integrator: str, main_c: str,

@@ -102,3 +102,16 @@ def test_failure_keeps_partial_results():
     with pytest.raises(lagdsl.SimulationError) as failure:
         model.simulate(integrator="dopri5", set={"M": -1.0, "m": 0.0})
     assert failure.value.partial is not None
+
+
+def test_repeated_runs_planned_without_sympy_equal_fresh_ones():
+    """A repeated simulate() plans from the scene's stored settings (as a warm `lagc run` does);
+    whatever the overrides, its run equals that of a model that never ran, bit for bit."""
+    path = MODELS / "double_pendulum.lag"
+    model = lagdsl.load(path)
+    model.simulate(stop=0.5)
+    for overrides in (dict(stop=0.7), dict(m2=2.5, stop=0.5), dict(set={"theta2.start": 0.3}, stop=0.5),
+                      dict(interval=0.05, rtol=1e-6, stop=0.5), dict(integrator="rk4", step=0.01, stop=0.5)):
+        again, fresh = model.simulate(**overrides), lagdsl.load(path).simulate(**overrides)
+        assert np.array_equal(again.values, fresh.values) and np.array_equal(again.t, fresh.t), overrides
+        assert again.summary.counters == fresh.summary.counters

@@ -5,8 +5,11 @@ mapping would break), so the C cases run `lagc` in fresh processes.
 """
 from __future__ import annotations
 
+import hashlib
+import json
 import os
 import shutil
+import stat
 import subprocess
 import sys
 import threading
@@ -145,3 +148,83 @@ def test_a_compiler_that_refuses_the_tuned_flags_gets_the_portable_ones(cache_di
     model.write_text(OSCILLATOR)
     result = lagdsl.load(model).simulate(stop=1.0)
     assert result.summary.count("accepted") > 0
+
+
+PLANTED = """#include <stdio.h>
+#include <stdlib.h>
+__attribute__((constructor)) static void planted(void) { FILE *f = fopen(getenv("PLANTED_MARK"), "w"); if (f) fclose(f); }
+int lag_run(void) { return 0; }
+"""
+
+
+def plant(library, tmp_path):
+    """Replace `library` by one whose constructor leaves a mark, with a manifest that vouches for it."""
+    source = tmp_path / "planted.c"
+    source.write_text(PLANTED)
+    subprocess.run(["cc", "-shared", "-fPIC", "-o", str(library), str(source)], check=True)
+    manifest = library.with_name(library.name + ".manifest")
+    record = json.loads(manifest.read_text())
+    record["sha256"] = hashlib.sha256(library.read_bytes()).hexdigest()
+    manifest.write_text(json.dumps(record) + "\n")
+
+
+@pytest.mark.parametrize("how", ["directory writable by others", "entry writable by others",
+                                 "directory of another user"])
+def test_code_planted_in_an_untrusted_cache_is_never_loaded(cache_dir, tmp_path, how):
+    if how == "directory of another user" and os.getuid() != 0:
+        pytest.skip("only root can give the cache to another user")
+    model = tmp_path / "oscillator.lag"
+    model.write_text(OSCILLATOR)
+    expected = lagc_run(model, cache_dir)
+    assert stat.S_IMODE(cache_dir.stat().st_mode) == 0o700          # created private
+    (library,) = cache_dir.glob("Oscillator_*.so")
+    plant(library, tmp_path)
+    if how == "directory writable by others":
+        cache_dir.chmod(0o777)
+    elif how == "entry writable by others":
+        library.chmod(0o666)
+    else:
+        os.chown(cache_dir, 4321, 4321)
+    mark = tmp_path / "planted-code-ran"
+    done = subprocess.run([sys.executable, "-m", "lagdsl", "run", str(model)], capture_output=True, text=True,
+                          env={**os.environ, "LAGDSL_CACHE": str(cache_dir), "PLANTED_MARK": str(mark)})
+    assert done.returncode == 0 and done.stdout == expected, done.stderr
+    assert not mark.exists()
+    if how != "entry writable by others":
+        assert done.stderr.count("cannot use the build cache") == 1
+        assert ("writable by others" if how.startswith("directory writable") else "owned by another user") \
+            in done.stderr
+
+
+def test_a_library_without_the_entry_point_is_rebuilt(cache_dir, tmp_path):
+    model = tmp_path / "oscillator.lag"
+    model.write_text(OSCILLATOR)
+    expected = lagc_run(model, cache_dir)
+    (library,) = cache_dir.glob("Oscillator_*.so")
+    plant(library, tmp_path)
+    source = tmp_path / "empty.c"
+    source.write_text("int lag_something_else(void) { return 0; }\n")
+    subprocess.run(["cc", "-shared", "-fPIC", "-o", str(library), str(source)], check=True)
+    manifest = library.with_name(library.name + ".manifest")
+    record = json.loads(manifest.read_text())
+    record["sha256"] = hashlib.sha256(library.read_bytes()).hexdigest()
+    manifest.write_text(json.dumps(record) + "\n")
+    assert lagc_run(model, cache_dir) == expected
+    result = lagdsl.load(model).simulate()
+    assert result.values.shape[0] == 3
+
+
+def test_a_model_with_a_name_of_250_characters_runs(cache_dir, tmp_path):
+    name = "Oscillator" + "x" * 240
+    model = tmp_path / "long.lag"
+    model.write_text(OSCILLATOR.replace("Oscillator", name))
+    first = lagc_run(model, cache_dir)
+    assert first.startswith("t,x\n") and lagc_run(model, cache_dir) == first
+    assert all(len(path.name) < 255 for path in cache_dir.iterdir())
+
+
+def test_a_dangling_build_link_does_not_stop_cache_clear(cache_dir, capsys):
+    cache.cached_entry("a-" + "1" * 20 + ".py", "1" * 64, counting_builder([]))
+    (cache_dir / ".build-dangling").symlink_to(cache_dir / "nowhere")
+    assert cache.clear() == 1
+    assert not os.path.lexists(cache_dir / ".build-dangling")

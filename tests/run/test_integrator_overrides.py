@@ -34,7 +34,7 @@ def test_option_errors_point_at_the_option():
              (dict(options=(("stages", 3.0),)), "lagc: error: --stages: dop853 has no option 'stages' "
               "(options: rtol, atol, max_step, max_steps)"),
              (dict(integrator="rk5"), "lagc: error: --integrator rk5: unknown integrator 'rk5'; did you "
-              "mean 'rk4'? (available: rk4, dopri5, dop853, rkn8, radau5, gauss, auto)")]
+              "mean 'rk4'? (available: rk4, dopri5, dop853, rkn8, radau5, gauss, taylor, auto)")]
     for overrides, message in cases:
         with pytest.raises(LagError) as caught:
             plan("cartesian_pendulum", **overrides)
@@ -74,7 +74,7 @@ def test_the_c_program_prints_the_settings_it_used(tmp_path):
     program = tmp_path / "pendulum"
     (tmp_path / "pendulum.c").write_text(source.text, encoding="utf-8")
     subprocess.run(["cc", "-std=c99", "-O2", "-o", program, tmp_path / "pendulum.c", "-lm"], check=True)
-    done = subprocess.run([program, "t.stop=0.1", "rtol=1e-9", "max_step=0.01"], capture_output=True, text=True)
+    done = subprocess.run([program, "t.stop=0.1", "--rtol=1e-9", "--max_step=0.01"], capture_output=True, text=True)
     assert done.returncode == 0
     assert done.stderr.startswith("integrator dop853(rtol = 1e-09, atol = 1e-12, max_step = 0.01): ")
 

@@ -15,7 +15,7 @@ import pytest
 
 import lagdsl
 from lagdsl.cli import main
-from lagdsl.run.status import RCOND_MIN
+from lagdsl.settings import RCOND_MIN
 from tests.conftest import MODELS
 
 THROUGH_THE_POLE = """model Straight "a free particle on a line through the origin, in polar coordinates"

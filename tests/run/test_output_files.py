@@ -11,7 +11,7 @@ import threading
 import pytest
 
 from lagdsl.cli import main
-from lagdsl.run.output import CannotWrite, write_output
+from lagdsl.run.files import CannotWrite, write_output
 
 OSCILLATOR = """model Oscillator
   coordinate x(start = 1);
@@ -119,3 +119,53 @@ def test_emit_to_a_symlink_writes_the_target(model, tmp_path):
     link.symlink_to(target)
     assert main([str(model), "--emit", "c", "-o", str(link)]) == 0
     assert link.is_symlink() and "Oscillator" in target.read_text()
+
+
+@pytest.mark.parametrize("arguments, limit", [
+    (["run", "MODEL", "--stop", "20000", "--interval", "0.01"], 1 << 22),      # 4 MiB: room to build the code, not for the table
+    (["MODEL", "--emit", "c"], 4096),
+])
+def test_a_file_size_limit_on_standard_output_is_an_error_not_a_short_table(model, tmp_path, arguments, limit):
+    """Under `ulimit -f` (a full disk does the same) the write stops part way: lagc says so, exit 1."""
+    import resource
+    import subprocess
+    import sys
+
+    command = [sys.executable, "-m", "lagdsl", *(str(model) if a == "MODEL" else a for a in arguments)]
+    with open(tmp_path / "out", "wb") as out:
+        done = subprocess.run(command, stdout=out, stderr=subprocess.PIPE, text=True,
+                              preexec_fn=lambda: resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit)),
+                              env={**os.environ, "LAGDSL_CACHE": str(tmp_path / "cache")})
+    assert done.returncode == 1, done.stderr
+    assert "lagc: error: cannot write standard output: file too large" in done.stderr
+    assert "Traceback" not in done.stderr
+
+
+@pytest.mark.parametrize("where, reason", [
+    ("", "the file name is empty"),
+    ("sub/", "the name ends in '/', a directory"),
+    ("MODEL", "it is the model file itself"),
+])
+def test_outputs_that_cannot_be_right_are_refused_before_the_run(model, tmp_path, capsys, where, reason):
+    target = str(model) if where == "MODEL" else (f"{tmp_path}/{where}" if where else "")
+    before = model.read_text()
+    assert main(["run", str(model), "-o", target]) == 1
+    assert f"cannot write '{target}': {reason}" in capsys.readouterr().err
+    assert model.read_text() == before
+
+
+def test_a_directory_where_no_file_can_be_made_is_refused_before_the_run(model, tmp_path, capsys, monkeypatch):
+    """check_writable creates (and removes) the temporary file write_output will need."""
+    original = os.open
+
+    def refuse_in_locked(path, flags, mode=0o777, **kwargs):
+        if "locked" in os.fspath(path) and flags & os.O_CREAT:
+            raise PermissionError(13, "Permission denied")
+        return original(path, flags, mode, **kwargs)
+
+    (tmp_path / "locked").mkdir()
+    monkeypatch.setattr(os, "open", refuse_in_locked)
+    simulated = []
+    monkeypatch.setattr("lagdsl.cli.common.load_model", lambda source: simulated.append(source))
+    assert main(["run", str(model), "-o", str(tmp_path / "locked" / "out.csv")]) == 1
+    assert "permission denied" in capsys.readouterr().err and simulated == []

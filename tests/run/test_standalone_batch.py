@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from lagdsl.abi import parse_number
 from lagdsl.run.toolchain import supports_openmp
 from tests.run.c_harness import STRICT_FLAGS
 from tests.run.test_failures import SINGULAR_LATER
@@ -56,6 +57,25 @@ def test_a_bad_line_of_batch_input_stops_the_batch_before_it_runs(tmp_path):
     program = _strict_programs(model_path, tmp_path)[0]
     for text, words in [("x.start=1\nx.start=one\n", "line 2: expected NAME=VALUE, got 'x.start=one'"),
                         ("\nx.start=1 t.stop=3\n", "line 2: 't.stop' is not a parameter or a coordinate's"),
-                        ("x.start=inf\n", "line 1: the initial value of x is inf")]:
+                        ("x.start=inf\n", "line 1: the initial value of x is inf"),
+                        ("x.start=0x10\n", "line 1: expected NAME=VALUE, got 'x.start=0x10'"),
+                        ("x.start=1\nx.start=2\0y.start=1\n", "line 2: holds a NUL byte"),
+                        ("x.start=1\n" + "y.start=1 " * 410 + "\n", "line 2: longer than 4095 characters")]:
         done = subprocess.run([program, "--batch"], input=text, capture_output=True, text=True, timeout=30)
         assert done.returncode == 2 and words in done.stderr and done.stdout == "", (text, done.stderr)
+
+
+NUMBER_SAMPLES = ["1", "-0.5", "+2.", ".25", "1e-3", "1E+3", "inf", "-Infinity", "NaN", "0x10", "1_000", " 1",
+                  "1 ", "", ".", "e5", "1e", "1.5.2", "infinit", "--1"]
+
+
+def test_the_program_and_lagc_take_the_same_numbers(tmp_path):
+    """A value the standalone program refuses, `lagc run --set` refuses too (abi.NUMBER): both read
+    plain decimal numbers, inf and nan; neither hexadecimal nor Python's underscores."""
+    model_path = tmp_path / "singular.lag"
+    model_path.write_text(SINGULAR_LATER, encoding="utf-8")
+    program = _strict_programs(model_path, tmp_path)[0]
+    for text in NUMBER_SAMPLES:
+        done = subprocess.run([program, f"t.interval={text}", "--help"], capture_output=True, text=True, timeout=30)
+        c_takes = "expected NAME=VALUE" not in done.stderr
+        assert c_takes == (parse_number(text) is not None), (text, done.stderr)

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import lagdsl
+from lagdsl.abi import INTERRUPTED
 from lagdsl.errors import LagError
 from lagdsl.run import sweep as batch
 from lagdsl.run.loading import load_library
@@ -129,7 +130,8 @@ def test_members_not_begun_after_an_interrupt_are_marked(pendulum):
     members = batch.member_inputs(lambda o: pendulum.plan("chaos", o), _overrides(stop=0.5), {"m2": [1.0, 2.0]})
     layout = batch.batch_layout(members.plan)
     values = np.zeros((2, layout.rows, layout.columns))
-    summaries = np.zeros((2, layout.stride))
+    summaries = layout.summary.empty(2)
+    summaries.view(np.float64)[:] = np.nan      # what a C caller's buffer may hold
     double_p = ctypes.POINTER(ctypes.c_double)
     pointer = lambda a: np.ascontiguousarray(a).ctypes.data_as(double_p)   # noqa: E731
     settings = np.array(layout.settings)
@@ -137,10 +139,11 @@ def test_members_not_begun_after_an_interrupt_are_marked(pendulum):
     try:
         library.lag_run_batch(ctypes.c_long(2), pointer(members.parameters), pointer(members.initial),
                               pointer(settings), pointer(values), ctypes.c_long(layout.rows), pointer(summaries),
-                              ctypes.c_long(layout.stride), ctypes.c_int(1))
+                              ctypes.c_long(layout.summary.size), ctypes.c_int(1))
     finally:
         flag.value = 0
-    assert list(summaries[:, 0]) == [7, 7] and list(summaries[:, 1]) == [0, 0]
+    assert list(summaries["status"]) == [INTERRUPTED] * 2 and list(summaries["rows"]) == [0, 0]
+    assert list(summaries["accepted"]) == [0, 0] and list(summaries["t_fail"]) == [0, 0]
     assert sweep.status[0] == "ok"
 
 

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import lagdsl
+from lagdsl.run import dask_sweep
 from lagdsl.run import sweep as batch
 from lagdsl.scene import Overrides
 from tests.conftest import MODELS
@@ -43,9 +44,38 @@ def test_a_sweep_on_dask_equals_the_local_one_even_when_a_worker_dies(client):
             os.kill(victim, signal.SIGKILL)
             killed.append(victim)
 
-    values_dask, summaries, chunks = batch.run_dask(client, program.library_bytes(), program.source.text,
+    values_dask, summaries, chunks = dask_sweep.run_dask(client, program.library_bytes(), program.source.text,
                                                     program.source.suggested_name, batch.batch_layout(members.plan),
                                                     members.parameters, members.initial, kill_one_worker)
     assert killed and chunks > 2
     assert values_dask.shape == local.values.shape and np.array_equal(values_dask, local.values)
-    assert list(summaries[:, 0]) == [0] * count
+    assert list(summaries["status"]) == [0] * count
+
+
+def test_every_member_arrives_when_both_workers_die_together(client):
+    """The library is the result of a task that holds its bytes: when both workers die, the
+    scheduler computes it again, the lost chunks run again, and the finished ones are kept."""
+    model = lagdsl.load(MODELS / "double_pendulum.lag")
+    count = 120
+    rng = np.random.default_rng(12)
+    values = {"theta1.start": rng.uniform(-3, 3, count), "theta2.start": rng.uniform(-3, 3, count)}
+    grid = dict(stop=3.0, interval=0.5)
+    local = model.sweep("chaos", set=values, **grid)
+    members = batch.member_inputs(lambda o: model.plan("chaos", o), Overrides(**grid), values)
+    program = model._program("chaos", members.plan, "c", Overrides())
+    client.wait_for_workers(2)          # the test before may have killed one
+    pids = client.run(os.getpid)
+    killed = []
+
+    def kill_every_worker(finished: int) -> None:
+        if not killed and finished < count:
+            for victim in pids.values():
+                os.kill(victim, signal.SIGKILL)
+                killed.append(victim)
+
+    values_dask, summaries, _ = dask_sweep.run_dask(client, program.library_bytes(), program.source.text,
+                                                    program.source.suggested_name, batch.batch_layout(members.plan),
+                                                    members.parameters, members.initial, kill_every_worker)
+    assert len(killed) == 2
+    assert np.array_equal(values_dask, local.values) and list(summaries["status"]) == [0] * count
+    client.wait_for_workers(2)

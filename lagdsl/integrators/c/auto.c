@@ -46,11 +46,7 @@ typedef struct lag_switches {
 } lag_switches;
 
 typedef struct lag_stepper {
-    real t;
-    real t_old;
-    real y[LAG_NY];
-    real h;
-    lag_stats stats;
+    LAG_STEPPER_PUBLIC(lag_stats)  /* t, t_old, y, h and stats, which the driver reads (runtime.h) */
     lag_switches switches;
     const lag_system *sys;
     real t_end;

@@ -19,10 +19,17 @@
  * theta1 = 1 - theta, which matches y and f at both ends of the step.
  * Step-size control (exponent 1/8, safety 0.9, factor within [0.2, 10]), the starting step and
  * the stiffness test (stability boundary 6.1): explicit_control.c, which must be pasted before
- * this file.
+ * this file; the start, the accepted step and the restart: dormand_prince.c and explicit_step.c,
+ * pasted after it.
  */
 
 #define LAG_INTEGRATOR_NAME "dop853"
+/* For the step protocol (dormand_prince.c, explicit_step.c): the power of h in the error
+ * estimate, the trial, the stage that is f(t_new, y_new), the stiffness test's stability boundary. */
+#define LAG_PAIR_ORDER 8
+#define LAG_PAIR_TRIAL dop853_trial
+#define LAG_PAIR_LAST_STAGE k13
+#define LAG_PAIR_STIFFNESS_BOUNDARY LAG_LIT(6.1)
 
 static const real dp8_c2 = LAG_LIT(0.526001519587677318785587544488e-01),
                   dp8_c3 = LAG_LIT(0.789002279381515978178381316732e-01),
@@ -182,25 +189,14 @@ static const real dp8_d7_1 = -LAG_LIT(0.25693933462703749003312586129e+02),
                   dp8_d7_16 = -LAG_LIT(0.14972683625798562581422125276e+03);
 
 typedef struct lag_stepper {
-    real t;            /* time reached by the last accepted step */
-    real t_old;        /* start of the last accepted step */
-    real y[LAG_NY];    /* state at t */
-    real h;            /* step size proposed for the next step */
-    lag_stats stats;
-    const lag_system *sys;
-    lag_control control;
-    lag_stiffness_test stiffness;
-    real h_done;                  /* size of the last accepted step */
-    real k1[LAG_NY];              /* f(t, y), the first stage of the next step */
-    real k1_done[LAG_NY];         /* the first stage of the last accepted step */
+    LAG_STEPPER_PUBLIC(lag_stats)  /* t, t_old, y, h and stats, which the driver reads (runtime.h) */
+    LAG_DORMAND_PRINCE_STATE(8)  /* sys, control, stiffness, h_done, k1, k1_done, dense, dense_built */
     real k2[LAG_NY], k3[LAG_NY], k4[LAG_NY], k5[LAG_NY], k6[LAG_NY], k7[LAG_NY], k8[LAG_NY];
     real k9[LAG_NY], k10[LAG_NY], k11[LAG_NY], k12[LAG_NY], k13[LAG_NY];
     real k14[LAG_NY], k15[LAG_NY], k16[LAG_NY];  /* the dense output's stages */
     real y_stage[LAG_NY];         /* argument of the stage being evaluated */
     real y_new[LAG_NY];           /* the order-8 solution of the current trial */
     real error5[LAG_NY], error3[LAG_NY];   /* its scaled error estimates, component by component */
-    real dense[8][LAG_NY];        /* r1..r8 of the continuous extension on [t_old, t] */
-    int dense_built;              /* r3..r8 are those of the last accepted step */
 } lag_stepper;
 
 /* k = f(t, y_stage). */
@@ -291,7 +287,7 @@ static real dop853_solution(lag_stepper *s, real h)
     return denominator == 0 ? 0 : h * sum5 / r_sqrt(LAG_NY * denominator);
 }
 
-/* For a trial that passed: f at the new point (stage 13, the next step's first stage). */
+/* For a trial that passed the error test: f at the new point (stage 13, the next step's first stage). */
 static int dop853_finish(lag_stepper *s, real h, real t_new)
 {
     int status;
@@ -331,6 +327,17 @@ static int dop853_dense_stages(lag_stepper *s)
     return dop853_stage(s, t + dp8_c16 * h, s->k16);
 }
 
+/* A trial of size h from (t, y) to t_new: the stages, y_new and its scaled error; f at the new
+ * point is spent only on a trial that passes the error test. */
+static int dop853_trial(lag_stepper *s, real h, real t_new, real *err)
+{
+    int status = dop853_stages(s, h, t_new);
+    if (status != LAG_OK)
+        return status;
+    *err = dop853_solution(s, h);
+    return *err <= 1 ? dop853_finish(s, h, t_new) : LAG_OK;
+}
+
 /* r3..r8 of the continuous extension of the last accepted step (r1 = y_old and r2 = y_new - y_old
  * are set when it is accepted, r2 again when the driver moves y). */
 static int dop853_build_dense(lag_stepper *s)
@@ -364,68 +371,6 @@ static int dop853_build_dense(lag_stepper *s)
     return LAG_OK;
 }
 
-/* Accept the trial: keep what the continuous extension on [t, t_new] needs, move to t_new. */
-static void dop853_accept(lag_stepper *s, real h, real t_new)
-{
-    int i;
-    for (i = 0; i < LAG_NY; ++i) {
-        s->dense[0][i] = s->y[i];
-        s->dense[1][i] = s->y_new[i] - s->y[i];
-    }
-    s->dense_built = 0;
-    memcpy(s->k1_done, s->k1, sizeof s->k1);
-    memcpy(s->y, s->y_new, sizeof s->y);
-    memcpy(s->k1, s->k13, sizeof s->k1);
-    s->t_old = s->t;
-    s->t = t_new;
-    s->h_done = h;
-    lag_stiffness_record(&s->stiffness, &s->stats, t_new);
-}
-
-static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, const real *y0,
-                            real t_end, const lag_options *opt)
-{
-    int i, status;
-    memset(&s->stats, 0, sizeof s->stats);
-    s->sys = sys;
-    s->t = s->t_old = t0;
-    s->h_done = 0;
-    memcpy(s->y, y0, sizeof s->y);
-    /* until the first step, the dense output is the constant y0 */
-    memset(s->dense, 0, sizeof s->dense);
-    for (i = 0; i < LAG_NY; ++i)
-        s->dense[0][i] = y0[i];
-    s->dense_built = 1;
-    lag_control_init(&s->control, opt, t0, t_end, 8);
-    lag_stiffness_start(&s->stiffness, LAG_LIT(6.1));
-    if ((status = lag_control_rhs(sys, &s->stats, t0, s->y, s->k1)) != LAG_OK)
-        return status;
-    s->h = lag_control_first_step(&s->control, opt, sys, &s->stats, t0, s->y, s->k1);
-    return LAG_OK;
-}
-
-static int lag_stepper_step(lag_stepper *s)
-{
-    real h, t_new, err = 0;
-    int status;
-    while (s->t < s->control.t_end) {
-        if ((status = lag_control_trial(&s->control, &s->stats, s->t, s->h, &h, &t_new)) != LAG_OK)
-            return status;
-        status = dop853_stages(s, h, t_new);
-        if (status == LAG_OK) {
-            err = dop853_solution(s, h);
-            /* f at the new point is spent only on a step that passes the error test */
-            if (err <= 1)
-                status = dop853_finish(s, h, t_new);
-        }
-        if (lag_control_update(&s->control, &s->stats, status, h, err, &s->h)) {
-            dop853_accept(s, h, t_new);
-            break;
-        }
-    }
-    return LAG_OK;
-}
-
 /* Valid on [t_old, t] once a step has been taken; the first call on a step evaluates the three
  * extra stages (and returns the status of a right-hand side that fails there). */
 static int lag_stepper_dense(lag_stepper *s, real t, real *yout)
@@ -439,14 +384,4 @@ static int lag_stepper_dense(lag_stepper *s, real t, real *yout)
                   + theta * (s->dense[3][i] + theta1 * (s->dense[4][i] + theta * (s->dense[5][i]
                   + theta1 * (s->dense[6][i] + theta * s->dense[7][i]))))));
     return LAG_OK;
-}
-
-/* The driver moved y (projection): refresh the FSAL derivative, and add theta (y - y_end) to the
- * dense output so that it still ends at the state the next step starts from. */
-static int lag_stepper_restart(lag_stepper *s)
-{
-    int i;
-    for (i = 0; i < LAG_NY; ++i)
-        s->dense[1][i] = s->y[i] - s->dense[0][i];
-    return lag_control_rhs(s->sys, &s->stats, s->t, s->y, s->k1);
 }

@@ -10,10 +10,17 @@
  * (a step that contains an output time), from the stages the step keeps until the next starts.
  * Step-size control (exponent 1/5, safety 0.9, factor within [0.2, 10]), error norm, starting
  * step and the stiffness test (stability boundary 3.25): explicit_control.c, which must be
- * pasted before this file.
+ * pasted before this file; the start, the accepted step and the restart: dormand_prince.c and
+ * explicit_step.c, pasted after it.
  */
 
 #define LAG_INTEGRATOR_NAME "dopri5"
+/* For the step protocol (dormand_prince.c, explicit_step.c): the power of h in the error
+ * estimate, the trial, the stage that is f(t_new, y_new), the stiffness test's stability boundary. */
+#define LAG_PAIR_ORDER 5
+#define LAG_PAIR_TRIAL dopri5_trial
+#define LAG_PAIR_LAST_STAGE k7
+#define LAG_PAIR_STIFFNESS_BOUNDARY LAG_LIT(3.25)
 
 static const real dp5_c2 = (real)1 / 5, dp5_c3 = (real)3 / 10, dp5_c4 = (real)4 / 5, dp5_c5 = (real)8 / 9;
 
@@ -36,23 +43,12 @@ static const real dp5_d1 = -(real)12715105075 / 11282082432, dp5_d3 = (real)8748
                   dp5_d6 = -(real)1453857185 / 822651844, dp5_d7 = (real)69997945 / 29380423;
 
 typedef struct lag_stepper {
-    real t;            /* time reached by the last accepted step */
-    real t_old;        /* start of the last accepted step */
-    real y[LAG_NY];    /* state at t */
-    real h;            /* step size proposed for the next step */
-    lag_stats stats;
-    const lag_system *sys;
-    lag_control control;
-    lag_stiffness_test stiffness;
-    real h_done;                  /* size of the last accepted step */
-    real k1[LAG_NY];              /* f(t, y), the first stage of the next step */
-    real k1_done[LAG_NY];         /* the first stage of the last accepted step */
+    LAG_STEPPER_PUBLIC(lag_stats)  /* t, t_old, y, h and stats, which the driver reads (runtime.h) */
+    LAG_DORMAND_PRINCE_STATE(5)  /* sys, control, stiffness, h_done, k1, k1_done, dense, dense_built */
     real k2[LAG_NY], k3[LAG_NY], k4[LAG_NY], k5[LAG_NY], k6[LAG_NY], k7[LAG_NY];
     real y_stage[LAG_NY];         /* argument of the stage being evaluated */
     real y_new[LAG_NY];           /* the order-5 solution of the current trial */
     real error[LAG_NY];           /* its scaled local error estimate, component by component */
-    real dense[5][LAG_NY];        /* r1..r5 of the continuous extension on [t_old, t] */
-    int dense_built;              /* r3..r5 are those of the last accepted step */
 } lag_stepper;
 
 /* k = f(t, y_stage). */
@@ -97,6 +93,8 @@ static int dopri5_trial(lag_stepper *s, real h, real t_new, real *err)
                            + dp5_e6 * s->k6[i] + dp5_e7 * s->k7[i])
                       / lag_control_scale(&s->control, s->y[i], s->y_new[i]);
     *err = r_sqrt(lag_sum_of_squares(LAG_NY, s->error) / LAG_NY);
+    if (*err <= 1)      /* a step that passes: stages 6 and 7 (FSAL) both evaluate f at t_new */
+        lag_stiffness_measure(&s->stiffness, h, s->y_new, s->y_stage, s->k7, s->k6);
     return LAG_OK;
 }
 
@@ -116,64 +114,6 @@ static void dopri5_build_dense(lag_stepper *s)
     s->dense_built = 1;
 }
 
-/* Accept the trial: keep what the continuous extension on [t, t_new] needs, move to t_new. */
-static void dopri5_accept(lag_stepper *s, real h, real t_new)
-{
-    int i;
-    for (i = 0; i < LAG_NY; ++i) {
-        s->dense[0][i] = s->y[i];
-        s->dense[1][i] = s->y_new[i] - s->y[i];
-    }
-    s->dense_built = 0;
-    /* stage 6 and stage 7 (FSAL) both evaluate f at t_new */
-    lag_stiffness_measure(&s->stiffness, h, s->y_new, s->y_stage, s->k7, s->k6);
-    memcpy(s->k1_done, s->k1, sizeof s->k1);
-    memcpy(s->y, s->y_new, sizeof s->y);
-    memcpy(s->k1, s->k7, sizeof s->k1);
-    s->t_old = s->t;
-    s->t = t_new;
-    s->h_done = h;
-    lag_stiffness_record(&s->stiffness, &s->stats, t_new);
-}
-
-static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, const real *y0,
-                            real t_end, const lag_options *opt)
-{
-    int i, status;
-    memset(&s->stats, 0, sizeof s->stats);
-    s->sys = sys;
-    s->t = s->t_old = t0;
-    s->h_done = 0;
-    memcpy(s->y, y0, sizeof s->y);
-    /* until the first step, the dense output is the constant y0 */
-    memset(s->dense, 0, sizeof s->dense);
-    for (i = 0; i < LAG_NY; ++i)
-        s->dense[0][i] = y0[i];
-    s->dense_built = 1;
-    lag_control_init(&s->control, opt, t0, t_end, 5);
-    lag_stiffness_start(&s->stiffness, LAG_LIT(3.25));
-    if ((status = lag_control_rhs(sys, &s->stats, t0, s->y, s->k1)) != LAG_OK)
-        return status;
-    s->h = lag_control_first_step(&s->control, opt, sys, &s->stats, t0, s->y, s->k1);
-    return LAG_OK;
-}
-
-static int lag_stepper_step(lag_stepper *s)
-{
-    real h, t_new, err = 0;
-    int status;
-    while (s->t < s->control.t_end) {
-        if ((status = lag_control_trial(&s->control, &s->stats, s->t, s->h, &h, &t_new)) != LAG_OK)
-            return status;
-        status = dopri5_trial(s, h, t_new, &err);
-        if (lag_control_update(&s->control, &s->stats, status, h, err, &s->h)) {
-            dopri5_accept(s, h, t_new);
-            break;
-        }
-    }
-    return LAG_OK;
-}
-
 /* Valid on [t_old, t] once a step has been taken; needs no right-hand side (always LAG_OK). */
 static int lag_stepper_dense(lag_stepper *s, real t, real *yout)
 {
@@ -185,14 +125,4 @@ static int lag_stepper_dense(lag_stepper *s, real t, real *yout)
         yout[i] = s->dense[0][i] + theta * (s->dense[1][i] + theta1 * (s->dense[2][i]
                   + theta * (s->dense[3][i] + theta1 * s->dense[4][i])));
     return LAG_OK;
-}
-
-/* The driver moved y (projection): refresh the FSAL derivative, and add theta (y - y_end) to the
- * dense output so that it still ends at the state the next step starts from. */
-static int lag_stepper_restart(lag_stepper *s)
-{
-    int i;
-    for (i = 0; i < LAG_NY; ++i)
-        s->dense[1][i] = s->y[i] - s->dense[0][i];
-    return lag_control_rhs(s->sys, &s->stats, s->t, s->y, s->k1);
 }

@@ -37,6 +37,19 @@ typedef struct lag_control {
     int rejected;    /* the last trial was rejected */
 } lag_control;
 
+/* The members of a Dormand-Prince pair's lag_stepper (dopri5.c, dop853.c) after
+ * LAG_STEPPER_PUBLIC that the code they share reads (dormand_prince.c, with the stiffness test of
+ * stiffness_test.c); `terms` is the number of terms r1, r2, ... of its continuous extension. */
+#define LAG_DORMAND_PRINCE_STATE(terms)                                                          \
+    const lag_system *sys;                                                                       \
+    lag_control control;                                                                         \
+    lag_stiffness_test stiffness;                                                                \
+    real h_done;                  /* size of the last accepted step */                           \
+    real k1[LAG_NY];              /* f(t, y), the first stage of the next step */                \
+    real k1_done[LAG_NY];         /* the first stage of the last accepted step */                \
+    real dense[terms][LAG_NY];    /* r1, r2, ... of the continuous extension on [t_old, t] */    \
+    int dense_built;              /* its terms past r2 are those of the last accepted step */
+
 static const real lag_control_safety = LAG_LIT(0.9),
                   lag_control_facmin = LAG_LIT(0.2),   /* the largest decrease of h, 5x */
                   lag_control_facmax = 10;             /* the largest increase */

@@ -47,11 +47,7 @@ typedef struct lag_stats {
 } lag_stats;
 
 typedef struct lag_stepper {
-    real t;            /* time reached by the last accepted step */
-    real t_old;        /* start of the last accepted step */
-    real y[LAG_NY];    /* state at t, (q, q') */
-    real h;            /* length of the next step */
-    lag_stats stats;
+    LAG_STEPPER_PUBLIC(lag_stats)  /* t, t_old, y, h and stats, which the driver reads (runtime.h) */
     const lag_system *sys;
     int stages;
     real c[LAG_GAUSS_MAX_STAGES], b[LAG_GAUSS_MAX_STAGES];
@@ -266,7 +262,7 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
     s->h = s->step = opt->step;
     s->stages = opt->stages;
     memcpy(s->y, y0, sizeof s->y);
-    if (!(opt->step >= 10 * REAL_EPSILON * r_fmax(r_fabs(t0), r_fabs(t_end))) || !(opt->step > 0))
+    if (!(opt->step >= LAG_MIN_STEP_EPS * REAL_EPSILON * r_fmax(r_fabs(t0), r_fabs(t_end))) || !(opt->step > 0))
         return LAG_ERR_STEP_TOO_SMALL;     /* below the resolution of t, steps would not advance it */
     if (s->stages < 1 || s->stages > LAG_GAUSS_MAX_STAGES)
         return LAG_ERR_NO_CONVERGENCE;   /* no status fits better; the front end checks 1..6 */

@@ -95,12 +95,7 @@ typedef struct lag_stats {
 } lag_stats;
 
 typedef struct lag_stepper {
-    /* public, read by the driver */
-    real t;
-    real t_old;
-    real y[LAG_NY];
-    real h;
-    lag_stats stats;
+    LAG_STEPPER_PUBLIC(lag_stats)  /* t, t_old, y, h and stats, which the driver reads (runtime.h) */
     /* the problem */
     const lag_system *sys;
     real t_end, span, h_max, rtol, atol, fnewt;
@@ -685,7 +680,7 @@ static void radau_accept(lag_stepper *s, real err, real quot)
 static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, const real *y0,
                             real t_end, const lag_options *opt)
 {
-    real rtol = r_fmax(opt->rtol, 10 * REAL_EPSILON);
+    real rtol = r_fmax(opt->rtol, LAG_RTOL_FLOOR);
     int i, status;
     memset(&s->stats, 0, sizeof s->stats);
     s->sys = sys;

@@ -16,11 +16,7 @@ typedef struct lag_stats {
 } lag_stats;
 
 typedef struct lag_stepper {
-    real t;            /* time reached by the last accepted step */
-    real t_old;        /* start of the last accepted step */
-    real y[LAG_NY];    /* state at t */
-    real h;            /* the step */
-    lag_stats stats;
+    LAG_STEPPER_PUBLIC(lag_stats)  /* t, t_old, y, h and stats, which the driver reads (runtime.h) */
     const lag_system *sys;
     real t0, t_end;
     long steps;        /* number of steps from t0 to t_end, the last one possibly shorter */

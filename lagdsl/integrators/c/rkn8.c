@@ -26,10 +26,16 @@
  * When the output interval is shorter than the steps, dop853 (whose dense output is nearly free)
  * is the cheaper choice.
  * Step-size control (safety 0.9, factor within [0.2, 10]) and the starting step (from f = (v, a)):
- * explicit_control.c, which must be pasted before this file.
+ * explicit_control.c, which must be pasted before this file; the start and the accepted step:
+ * explicit_step.c, pasted after it.
  */
 
 #define LAG_INTEGRATOR_NAME "rkn8"
+/* For the step protocol (explicit_step.c): the power of h in the error estimate, and its parts. */
+#define LAG_PAIR_ORDER 7
+#define LAG_PAIR_START rkn8_start
+#define LAG_PAIR_TRIAL rkn8_trial
+#define LAG_PAIR_ACCEPT rkn8_accept
 
 static const real rkn8_c2 = (real)1 / 20, rkn8_c3 = (real)1 / 10, rkn8_c4 = (real)3 / 10,
                   rkn8_c5 = (real)1 / 2, rkn8_c6 = (real)7 / 10, rkn8_c7 = (real)9 / 10;
@@ -73,11 +79,7 @@ static const real rkn8_ev1 = (real)223 / 7938 - (real)7987313 / 109941300,
                   rkn8_ev9 = -(real)3 / 20;
 
 typedef struct lag_stepper {
-    real t;            /* time reached by the last accepted step */
-    real t_old;        /* start of the last accepted step */
-    real y[LAG_NY];    /* state at t: (q, v) */
-    real h;            /* step size proposed for the next step */
-    lag_stats stats;
+    LAG_STEPPER_PUBLIC(lag_stats)  /* t, t_old, y, h and stats, which the driver reads (runtime.h) */
     const lag_system *sys;
     lag_control control;
     real g[9][LAG_NQ];            /* g_1 .. g_9 of the current trial; g[0] = a(t, q) */
@@ -177,51 +179,23 @@ static int rkn8_trial(lag_stepper *s, real h, real t_new, real *err)
     return LAG_OK;
 }
 
-/* Accept the trial: keep the start of the step for the dense output, move to t_new. */
-static void rkn8_accept(lag_stepper *s, real t_new)
+/* The start at (t0, y0 = s->y) with f = (v, a(t0, q)). */
+static void rkn8_start(lag_stepper *s, const real *f)
 {
-    memcpy(s->y_old, s->y, sizeof s->y);
-    memcpy(s->g_old, s->g[0], sizeof s->g_old);
-    memcpy(s->y, s->y_new, sizeof s->y);
-    memcpy(s->g[0], s->g[8], sizeof s->g[0]);
-    s->t_old = s->t;
-    s->t = t_new;
-}
-
-static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, const real *y0,
-                            real t_end, const lag_options *opt)
-{
-    real f[LAG_NY];
-    int status;
-    memset(&s->stats, 0, sizeof s->stats);
-    s->sys = sys;
-    s->t = s->t_old = t0;
-    memcpy(s->y, y0, sizeof s->y);
-    memcpy(s->y_old, y0, sizeof s->y_old);
+    memcpy(s->y_old, s->y, sizeof s->y_old);
     memset(s->stage, 0, sizeof s->stage);
-    lag_control_init(&s->control, opt, t0, t_end, 7);
-    if ((status = lag_control_rhs(sys, &s->stats, t0, s->y, f)) != LAG_OK)
-        return status;
     memcpy(s->g[0], f + LAG_NQ, sizeof s->g[0]);
     memcpy(s->g_old, s->g[0], sizeof s->g_old);
-    s->h = lag_control_first_step(&s->control, opt, sys, &s->stats, t0, s->y, f);
-    return LAG_OK;
 }
 
-static int lag_stepper_step(lag_stepper *s)
+/* Accept the trial: keep the start of the step for the dense output; g_9 is the next g_1. */
+static void rkn8_accept(lag_stepper *s, real h, real t_new)
 {
-    real h, t_new, err = 0;
-    int status;
-    while (s->t < s->control.t_end) {
-        if ((status = lag_control_trial(&s->control, &s->stats, s->t, s->h, &h, &t_new)) != LAG_OK)
-            return status;
-        status = rkn8_trial(s, h, t_new, &err);
-        if (lag_control_update(&s->control, &s->stats, status, h, err, &s->h)) {
-            rkn8_accept(s, t_new);
-            break;
-        }
-    }
-    return LAG_OK;
+    (void)h;
+    (void)t_new;
+    memcpy(s->y_old, s->y, sizeof s->y);
+    memcpy(s->g_old, s->g[0], sizeof s->g_old);
+    memcpy(s->g[0], s->g[8], sizeof s->g[0]);
 }
 
 /* y at t_old <= t <= t: the end of the step itself, or a step of size t - t_old from its start

@@ -1,4 +1,4 @@
-/* lagdsl C runtime: precision, libm function table, status codes, run options.
+/* lagdsl C runtime: precision, libm function table, run options.
  *
  * This fragment is pasted at the top of every generated C file (after the system #includes
  * <math.h>, <float.h>, <stdio.h>, <stdlib.h>, <string.h>), so it has no #include of its own
@@ -56,23 +56,13 @@ typedef double real;
 
 static int r_isfinite(real x) { return x - x == x - x; } /* false for inf and nan in every precision */
 
-/* Status codes shared by the model functions, the integrators and the driver. */
-enum lag_status {
-    LAG_OK = 0,
-    LAG_ERR_SINGULAR = 1,      /* mass matrix (or augmented matrix) not invertible at this state */
-    LAG_ERR_NONFINITE = 2,     /* a NaN or infinity appeared in the state or a derivative */
-    LAG_ERR_STEP_TOO_SMALL = 3,/* the adaptive step size fell below the resolution of t */
-    LAG_ERR_MAX_STEPS = 4,     /* more steps than lag_options.max_steps */
-    LAG_ERR_NO_CONVERGENCE = 5,/* Newton or fixed-point iteration failed even after step reductions */
-    LAG_ERR_PROJECTION = 6,    /* projection onto the constraint manifold did not converge */
-    LAG_ERR_INTERRUPTED = 7    /* the driver was asked to stop (Ctrl-C), between two steps */
-};
+/* The status codes (enum lag_status), the constants shared with the Python side and the smallest
+ * step's factor LAG_MIN_STEP_EPS follow this fragment, generated from lagdsl/abi.py and
+ * lagdsl/settings.py (lagdsl/codegen/c_abi.py). */
 
-/* The smallest step an adaptive method may take from t on a run of length `span`: 10 eps |t|
- * (below it t + h == t, HNW I, II.4), and at least 10 eps times the length of the run, so that
- * the test also fires near t = 0, where eps |t| is no bound at all (it would take more than
- * 10^14 such steps to cross the run). */
-#define LAG_MIN_STEP(t, span) (10 * REAL_EPSILON * r_fmax(r_fabs(t), (span)))
+/* The smallest step an adaptive method may take from t on a run of length `span`:
+ * LAG_MIN_STEP_EPS eps max(|t|, span) (why: settings.MIN_STEP_EPS). */
+#define LAG_MIN_STEP(t, span) (LAG_MIN_STEP_EPS * REAL_EPSILON * r_fmax(r_fabs(t), (span)))
 
 /* What the driver asks of an integrator; unused fields are ignored by each method. */
 typedef struct lag_options {
@@ -83,6 +73,17 @@ typedef struct lag_options {
     long max_steps;    /* give up after this many attempted steps (every try counts), 0 = no limit;
                         * the driver always sets a limit */
 } lag_options;
+
+/* The members every integrator's lag_stepper begins with, which the driver reads (README.md): the
+ * time reached by the last accepted step, the start of that step (the dense output is valid on
+ * [t_old, t]), the state at t in (q, q') form, the step size proposed for the next step, and the
+ * integrator's work counters (its own `stats_type`, lag_stats). */
+#define LAG_STEPPER_PUBLIC(stats_type) \
+    real t;                 \
+    real t_old;             \
+    real y[LAG_NY];         \
+    real h;                 \
+    stats_type stats;
 
 /* Reading and writing numbers in the working precision (the CSV and the command line). */
 #if defined(LAG_FLOAT128)

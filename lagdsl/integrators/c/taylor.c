@@ -33,11 +33,7 @@ typedef struct lag_stats {
 } lag_stats;
 
 typedef struct lag_stepper {
-    real t;            /* time reached by the last step */
-    real t_old;        /* start of the last step: the series below is about t_old */
-    real y[LAG_NY];    /* state at t */
-    real h;            /* the last step */
-    lag_stats stats;
+    LAG_STEPPER_PUBLIC(lag_stats)     /* t, t_old (the series below is about t_old), y, h, stats (runtime.h) */
     const lag_system *sys;
     real t_end, span, hmax, rtol, atol;
     long max_steps;

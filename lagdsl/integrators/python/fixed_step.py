@@ -30,6 +30,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ...abi import INTERRUPTED, NO_CONVERGENCE, NONFINITE, PROJECTION_FAILED, SINGULAR, STEP_TOO_SMALL, status_of
+from ...settings import MIN_STEP_EPS
 from .gauss_coefficients import gauss_legendre_tableau, integrated_basis, symplectic_mu
 
 if TYPE_CHECKING:
@@ -40,8 +42,6 @@ MAX_ITERATIONS = 100
 # A sweep that no longer decreases the increment, below this many ulp, has reached round-off
 # (as in gauss.c); above it a stagnating iteration keeps iterating.
 NOISE = 65536
-# The C status codes (runtime.h) a failure corresponds to.
-SINGULAR, NONFINITE, STEP_TOO_SMALL, NO_CONVERGENCE, PROJECTION_FAILED, INTERRUPTED = 1, 2, 3, 5, 6, 7
 
 # What a step of the Python integrators may raise that ends the run (_Output.failure_of).
 STEP_ERRORS = (np.linalg.LinAlgError, ArithmeticError, KeyboardInterrupt)
@@ -101,25 +101,27 @@ class _Output:
             self.completed += 1
             self.stopped = True
 
-    def failure(self, message, t, y, status=NONFINITE):
+    def failure(self, method: str, t, y, status: int = NONFINITE, detail: str = "", max_steps: int = 0):
+        """`method` failed with `status` in the step from (t, y): the status table's words, then `detail`."""
+        message = f"{method}: {status_of(status).describe(max_steps)} (in the step from t = {t}){detail}"
         return IntegrationFailure(message, t, y, self.Y[:self.completed].copy(), self.completed, status)
 
     def failure_of(self, error: BaseException, method: str, t, y):
         """The failure of an exception raised in `method`'s step from t (one of STEP_ERRORS):
         a singular mass matrix, an overflow (numpy set to raise), or Ctrl-C."""
         if isinstance(error, np.linalg.LinAlgError):
-            return self.failure(f"{method}: the mass matrix is singular in the step from t = {t}", t, y, SINGULAR)
+            return self.failure(method, t, y, SINGULAR)
         if isinstance(error, KeyboardInterrupt):
-            return self.failure(f"{method}: interrupted", t, y, INTERRUPTED)
-        return self.failure(f"{method}: the state became infinite or NaN in the step from t = {t}", t, y)
+            return self.failure(method, t, y, INTERRUPTED)
+        return self.failure(method, t, y)
 
 
 def _steps(output, step):
     """(last, t_new) of each step to the last output time, the times from t0 rather than by
     accumulation (no drift).  A step below the resolution of t (or not positive) is refused."""
     t0, t_end = output.t_grid[0], output.t_grid[-1]
-    if not (step >= 10 * EPSILON * max(abs(t0), abs(t_end)) and step > 0):
-        raise output.failure(f"the step {step} is below the resolution of t", t0, output.Y[0], STEP_TOO_SMALL)
+    if not (step >= MIN_STEP_EPS * EPSILON * max(abs(t0), abs(t_end)) and step > 0):
+        raise output.failure(f"a step of {step}", t0, output.Y[0], STEP_TOO_SMALL)
     steps = _step_count(t0, t_end, step)
     for n in range(1, steps + 1):
         if output.stopped:
@@ -142,7 +144,7 @@ def integrate_rk4(rhs, t_grid, y0, step, stop=None):
             y_new, f_new = _rk4_step(rhs, t, y, f, t_new)
             stats["rhs_evals"] += 4
             if not (np.all(np.isfinite(y_new)) and np.all(np.isfinite(f_new))):
-                raise output.failure(f"rk4: the state became infinite or NaN in the step from t = {t}", t, y)
+                raise output.failure("rk4", t, y)
             output.deliver(t_new, y_new, lambda s: _hermite(t, y, f, t_new, y_new, f_new, s))
             t, y, f = t_new, y_new, f_new
             stats["accepted"] += 1
@@ -208,10 +210,10 @@ def _gauss_step(method, output, from_canonical, as_given, t, z, error, y, t_new,
     rounding error and y at t_new."""
     status = method.solve_stages(t, z, h)
     if status is not None:
-        raise output.failure(f"gauss: {status} in the step from t = {t}; reduce the step", t, y, NO_CONVERGENCE)
+        raise output.failure("gauss", t, y, NO_CONVERGENCE, f": {status}; reduce the step")
     z_new, error = method.update(z, error)
     if not np.all(np.isfinite(z_new)):
-        raise output.failure(f"gauss: the state became infinite or NaN in the step from t = {t}", t, y)
+        raise output.failure("gauss", t, y)
     y_new = from_canonical(t_new, as_given(z_new))
     output.deliver(t_new, y_new, lambda s: from_canonical(s, as_given(method.dense(z, t, s))))
     return z_new, error, y_new

@@ -31,7 +31,7 @@ rounded once from its exact quotient), so that the NumPy and C backends agree to
 - the first step: HNW I, II.4 ("Starting Step Size") on f = rhs(t, y) = (v, a), one extra
   evaluation (lag_control_first_step);
 - the trials: at most max_step, stretched by up to 1% to land on t_end; a step below
-  10 eps max(|t|, t_end - t0) fails with STEP_TOO_SMALL, and accepted + rejected >= max_steps > 0
+  MIN_STEP_EPS eps max(|t|, t_end - t0) fails with STEP_TOO_SMALL, and accepted + rejected >= max_steps > 0
   with MAX_STEPS (lag_control_trial);
 - the step size: h err^(-1/7) with safety 0.9, the factor within [0.2, 10], no growth right
   after a rejection, h/10 after a trial whose accelerations failed (singular, non-finite) or
@@ -53,8 +53,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .fixed_step import (NONFINITE, SINGULAR, STATS_KEYS, STEP_ERRORS, STEP_TOO_SMALL, IntegrationFailure,
-                         _Output)
+from ...abi import MAX_STEPS, NONFINITE, OK, SINGULAR, STEP_TOO_SMALL
+from ...settings import MIN_STEP_EPS
+from .fixed_step import STATS_KEYS, STEP_ERRORS, IntegrationFailure, _Output
 
 if TYPE_CHECKING:
     from . import PythonRun
@@ -62,8 +63,6 @@ if TYPE_CHECKING:
 __all__ = ["MAX_STEPS", "RKN8", "IntegrationFailure", "integrate_rkn8"]
 
 EPSILON = np.finfo(float).eps
-# lag_status of runtime.h (the others are imported from fixed_step.py).
-OK, MAX_STEPS = 0, 4
 # explicit_control.c: safety factor, largest decrease and increase of h.
 SAFETY, FACMIN, FACMAX = 0.9, 0.2, 10.0
 
@@ -220,7 +219,7 @@ class _Control:
         hh = _fmin(h_proposed, self.hmax)
         if self.max_steps > 0 and self.stats["accepted"] + self.stats["rejected"] >= self.max_steps:
             return MAX_STEPS, None, None
-        if not hh >= 10 * EPSILON * _fmax(abs(t), self.span):
+        if not hh >= MIN_STEP_EPS * EPSILON * _fmax(abs(t), self.span):
             return STEP_TOO_SMALL, None, None
         if t + 1.01 * hh >= self.t_end:
             return OK, self.t_end - t, self.t_end
@@ -332,49 +331,54 @@ def integrate_rkn8(accelerations, rhs, t_grid, y0, rtol, atol, max_step=0, max_s
     control = _Control(rtol, atol, t0, t_end, max_step, max_steps, stats)
     stepper = _Stepper(accelerations, n, stats)
     try:
-        # lag_stepper_init: f = (v, a) at the start gives g_1 and the first step
-        stats["rhs_evals"] += 1
-        try:
-            f = np.array(rhs(t, y), dtype=float)
-        except np.linalg.LinAlgError:
-            raise _StageFailure(SINGULAR) from None
-        except ArithmeticError:
-            raise _StageFailure(NONFINITE) from None
-        if not np.all(np.isfinite(f[n:])):
-            raise _StageFailure(NONFINITE)
+        f = _first_derivative(rhs, t, y, n, stats)
         stepper.g[0] = f[n:].copy()
         h = control.first_step(t, y, f, rhs, n)
         while t < t_end and not output.stopped:
-            while True:         # lag_stepper_step: trials until one is accepted
-                status, h_trial, t_new = control.trial(t, h)
-                if status == MAX_STEPS:
-                    raise output.failure(f"rkn8: the step limit of {max_steps} steps was reached at t = {t}",
-                                         t, y, MAX_STEPS)
-                if status == STEP_TOO_SMALL:
-                    raise output.failure(f"rkn8: the step size collapsed below the resolution of t at t = {t}",
-                                         t, y, STEP_TOO_SMALL)
-                err = 0.0
-                try:
-                    y_new, err = stepper.trial(control, t, y, h_trial, t_new)
-                    status = OK
-                except _StageFailure as failure:
-                    status = failure.status
-                except ArithmeticError:     # numpy set to raise: where C would get an inf or NaN
-                    status = NONFINITE
-                accepted, h = control.update(status, h_trial, err)
-                if accepted:
-                    break
+            t_new, y_new, h = _accepted_step(control, stepper, output, t, y, h, max_steps)
             # rkn8_accept: the start of the step is kept for the dense output
             t_old, y_old, g_old = t, y, stepper.g[0]
             t, y, stepper.g[0] = t_new, y_new, stepper.g[8]
             output.deliver(t, y, lambda s, t_old=t_old, y_old=y_old, g_old=g_old, t_now=t, y_now=y:
                            stepper.dense(s, t_old, y_old, g_old, t_now, y_now))
     except _StageFailure as failure:
-        what = "the mass matrix is singular" if failure.status == SINGULAR else "the state became infinite or NaN"
-        raise output.failure(f"rkn8: {what} at t = {t}", t, y, failure.status) from None
+        raise output.failure("rkn8", t, y, failure.status) from None
     except STEP_ERRORS as error:
         raise output.failure_of(error, "rkn8", t, y) from None
     return output.Y[:output.completed], stats
+
+
+def _first_derivative(rhs, t, y, n, stats):
+    """lag_stepper_init: f = (v, a) at the start, which gives g_1 and the first step."""
+    stats["rhs_evals"] += 1
+    try:
+        f = np.array(rhs(t, y), dtype=float)
+    except np.linalg.LinAlgError:
+        raise _StageFailure(SINGULAR) from None
+    except ArithmeticError:
+        raise _StageFailure(NONFINITE) from None
+    if not np.all(np.isfinite(f[n:])):
+        raise _StageFailure(NONFINITE)
+    return f
+
+
+def _accepted_step(control, stepper, output, t, y, h, max_steps):
+    """lag_stepper_step: trials from (t, y) until one is accepted; (t_new, y_new, the next step)."""
+    while True:
+        status, h_trial, t_new = control.trial(t, h)
+        if status in (MAX_STEPS, STEP_TOO_SMALL):
+            raise output.failure("rkn8", t, y, status, max_steps=max_steps)
+        err, y_new = 0.0, None
+        try:
+            y_new, err = stepper.trial(control, t, y, h_trial, t_new)
+            status = OK
+        except _StageFailure as failure:
+            status = failure.status
+        except ArithmeticError:     # numpy set to raise: where C would get an inf or NaN
+            status = NONFINITE
+        accepted, h = control.update(status, h_trial, err)
+        if accepted:
+            return t_new, y_new, h
 
 
 def run_rkn8(run: PythonRun):

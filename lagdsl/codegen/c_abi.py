@@ -1,0 +1,106 @@
+"""The C side of lagdsl/abi.py and of the constants in settings.py, generated from them.
+
+`runtime_contract()` follows runtime.h in every C file (the integrators' tests paste it too): the
+status codes, the shared constants and the indices of the settings vector. `status_printer()`
+and `summary_packer(layout)` go between the driver and the programs that use them.
+"""
+from __future__ import annotations
+
+from ..abi import SETTINGS, STATUSES, UNKNOWN_STATUS, Status, SummaryLayout, format_fields
+from ..escape import c_comment, c_string
+from ..integrators import COUNTER_LABELS
+from ..settings import (DEFAULT_MAX_STEPS, GRID_SLACK, MAX_ROWS, MIN_STEP_EPS, RCOND_MIN_EPS, RTOL_FLOOR_EPS,
+                        STEPS_PER_ROW)
+
+# (name, value, what it is): settings.py's numbers as the C driver and integrators read them
+# (those counted in eps: of the working precision).
+SHARED_CONSTANTS = (
+    ("LAG_MAX_ROWS", f"{MAX_ROWS}L", "the largest output grid, in rows"),
+    ("LAG_DEFAULT_MAX_STEPS", f"{DEFAULT_MAX_STEPS}L", "the default step limit, or ..."),
+    ("LAG_STEPS_PER_ROW", f"{STEPS_PER_ROW}L", "... this many steps per output row"),
+    ("LAG_GRID_SLACK", f"LAG_LIT({GRID_SLACK!r})", "a grid time within this many intervals of t1 is t1"),
+    ("LAG_RTOL_FLOOR_EPS", f"{RTOL_FLOOR_EPS}", "the smallest rtol, in eps ..."),
+    ("LAG_RTOL_FLOOR", "(LAG_RTOL_FLOOR_EPS * REAL_EPSILON)", "... and as a number"),
+    ("LAG_MIN_STEP_EPS", f"{MIN_STEP_EPS}", "the smallest step, in eps of max(|t|, span)"),
+    ("LAG_RCOND_MIN", f"({RCOND_MIN_EPS} * REAL_EPSILON)", "below this reciprocal condition, K is singular"),
+)
+# The C argument of each value a status message may name, and its printf conversion where the
+# message gives no format of its own ({rcond:.3g} is printed with %.3g).
+MESSAGE_ARGUMENTS = {"max_steps": ("max_steps", "%ld"), "rcond": ("rcond", "%g"),
+                     "rcond_min": ("(double)LAG_RCOND_MIN", "%g")}
+
+
+def runtime_contract() -> str:
+    """enum lag_status, the constants shared with Python, and the settings vector's indices."""
+    width = max(len(status.c_name) for status in STATUSES.values()) + len(" = 0,")
+    enumerators = [f"{status.c_name} = {code}{',' if code != max(STATUSES) else ''}".ljust(width)
+                   + f" /* {c_comment(status.message.format(max_steps='max_steps'))} */"
+                   for code, status in STATUSES.items()]
+    constants = [f"#define {name} {value}".ljust(48) + f" /* {c_comment(what)} */"
+                 for name, value, what in SHARED_CONSTANTS]
+    settings = ", ".join(f"LAG_SET_{name.upper()}" for name in SETTINGS)
+    return "\n".join([
+        "/* ---- the contract with lagdsl's Python side: lagdsl/abi.py and lagdsl/settings.py ---- */",
+        "/* How a run ends: the status codes of the model functions, the integrators and the driver. */",
+        "enum lag_status {", *(f"    {line}" for line in enumerators), "};", "",
+        *constants, "",
+        "/* The positions in the settings vector of lag_run and lag_run_batch (lagdsl.abi.SETTINGS). */",
+        f"enum lag_setting {{ {settings}, LAG_SETTINGS }};", ""])
+
+
+def status_printer() -> str:
+    """lag_print_status: a status's message as SimulationError words it, with its detail."""
+    cases = []
+    for status in [*STATUSES.values(), UNKNOWN_STATUS]:
+        label = f"case {status.c_name}:" if status.c_name else "default:"
+        cases += [f"    {label}", f"        {_printf(status)}", "        break;"]
+    return "\n".join([
+        "/* How a run with `status` failed, in the words of lagdsl.abi.STATUSES: the step limit was",
+        " * max_steps, the reciprocal condition estimate at the failure rcond. */",
+        "static void lag_print_status(FILE *file, int status, long max_steps, double rcond)",
+        "{",
+        "    switch (status) {",
+        *cases,
+        "    }",
+        "}", ""])
+
+
+def _printf(status: Status) -> str:
+    """The fprintf of the status's message and detail: Python's format fields as printf's."""
+    text, arguments = "", []
+    for literal, name, spec in format_fields(status.message + status.detail):
+        text += literal.replace("%", "%%")
+        if name is not None:
+            argument, conversion = MESSAGE_ARGUMENTS[name]
+            text += f"%{spec}" if spec else conversion
+            arguments.append(argument)
+    return f"fprintf(file, {', '.join([c_string(text), *arguments])});"
+
+
+def summary_packer(layout: SummaryLayout) -> str:
+    """lag_pack_summary: the lag_report of a run as the doubles of `layout`; the offsets and the
+    counters' labels the standalone program reads back."""
+    lines, offset = [], 0
+    for field in layout.fields:
+        if field.array:
+            lines += [f"    for (i = 0; i < {field.size}; ++i)",
+                      f"        summary[{offset} + i] = (double)report->{field.source}[i];"]
+        else:
+            lines.append(f"    summary[{offset}] = (double)report->{field.source};")
+        offset += field.size
+    offsets = [f"#define LAG_SUMMARY_{name.upper()} {layout.offset(name)}"
+               for name in ("status", "rows", "t_fail", "rcond_fail")]
+    return "\n".join([
+        "/* The run summary as lagdsl.abi.SummaryLayout lays it out for this scene: doubles, field by field. */",
+        f"#define LAG_SUMMARY_SIZE {layout.size}",
+        *offsets,
+        f"#define LAG_SUMMARY_COUNTERS {layout.offset(layout.counters[0])}     /* the work counters, labelled: */",
+        f"#define LAG_NCOUNTERS {len(layout.counters)}",
+        "static const char *const lag_counter_labels[LAG_NCOUNTERS] = { "
+        + ", ".join(c_string(COUNTER_LABELS[counter]) for counter in layout.counters) + " };",
+        "",
+        "static void lag_pack_summary(const lag_report *report, double *summary)",
+        "{",
+        "    int i;",
+        *lines,
+        "}", ""])
