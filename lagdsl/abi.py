@@ -63,7 +63,8 @@ STATUSES = {status.code: status for status in (
     Status(SINGULAR, "LAG_ERR_SINGULAR", "the mass matrix is singular at this state",
            "the coordinates are singular here (e.g. Euler angles at theta = 0, spherical coordinates at a "
            "pole, a link of zero length) or the constraints are dependent; use coordinates that do not pass "
-           "through this configuration, or start away from it",
+           "through this configuration, or start away from it. A mass, inertia or length set to zero or a "
+           "negative value does the same (the kinetic energy must be positive for every motion)",
            " (reciprocal condition estimate {rcond:.3g}, below {rcond_min:.3g})"),
     Status(NONFINITE, "LAG_ERR_NONFINITE", "the state or its derivative became infinite or NaN",
            "check the parameters and initial values; a stiff model may need --integrator radau5"),

@@ -9,7 +9,7 @@ from pathlib import Path
 from . import ir, reference
 from .codegen import GeneratedSource
 from .codegen.kernel import Kernel
-from .errors import LagError
+from .errors import LagError, Setting
 from .mechanics import Equations
 from .pipeline import compile_model, execute, generate, plan
 from .progress import bar as progress_bar
@@ -38,6 +38,7 @@ class Model:
         self.ir, self.equations = compile_model(source)
         self._programs: dict[tuple[str, str, str], Program] = {}
         self._quick_plans: dict[str | None, plans.StoredPlan] = {}     # by the scene asked for
+        self._sensitivity_programs: dict[str, object] = {}             # sensitivity.run.Program by scene
 
     @property
     def name(self) -> str:
@@ -66,7 +67,8 @@ class Model:
                  start: float | None = None, stop: float | None = None, interval: float | None = None,
                  integrator: str | None = None, rtol: float | None = None, atol: float | None = None,
                  step: float | None = None, stages: int | None = None, max_step: float | None = None,
-                 max_steps: int | None = None, estimate_error: bool = False, **parameters: float) -> Result:
+                 max_steps: int | None = None, estimate_error: bool = False, sensitivities=None,
+                 sensitivity_error_control: bool = True, **parameters: float) -> Result:
         """Run a scene and return its outputs.
 
         `set` maps parameter names, "q.start" and "q.velocity" to values; parameters may also be
@@ -76,6 +78,12 @@ class Model:
         `result.summary.error` (an ErrorEstimate: `.value`, the largest absolute error over rows and columns, against a 100x tighter rerun or the
         extended-precision reference; `float(...)` gives the value). Raises SimulationError (with `.partial`, the rows computed so far) when the
         integration fails, SimulationInterrupted (a SimulationError) when Ctrl-C stops it.
+
+        `sensitivities` names parameters and start values ("q.start", "q.velocity"): the run then
+        integrates the variational equations with the state (sensitivity/run.py; backend
+        "numpy", an adaptive integrator) and returns a SensitivityResult, whose
+        `.sensitivity("x", "k")` is ∂x(t)/∂k on the grid; `sensitivity_error_control` says whether
+        they enter the step-size control (default: they do).
         """
         _check_backend(backend)
         values = dict(set or {})
@@ -84,7 +92,24 @@ class Model:
                                      max_steps=max_steps))
         overrides = Overrides(tuple((k, float(v)) for k, v in values.items()), start, stop, interval,
                               integrator, options)
+        if sensitivities is not None:
+            return self.sensitivities(scene, backend, overrides, sensitivities, error_control=sensitivity_error_control)
         return self.simulate_plan(scene, backend, overrides, estimate_error=estimate_error)
+
+    def sensitivities(self, scene: str | None, backend: str, overrides: Overrides, names, times=None,
+                      error_control: bool = True):
+        """A run with its sensitivities by `names` (see simulate), on `times` (default: the grid)."""
+        from .sensitivity import run as sensitivity
+        _check_backend(backend)
+        if backend != "numpy":
+            raise LagError("sensitivities are integrated on the NumPy backend only; use backend='numpy'",
+                           Setting("--backend"))
+        scene_plan = self.plan(scene, overrides)
+        chosen = sensitivity.directions(self.ir, list(names))
+        if scene_plan.scene_name not in self._sensitivity_programs:
+            self._sensitivity_programs[scene_plan.scene_name] = sensitivity.build(self, scene)
+        return sensitivity.integrate(self._sensitivity_programs[scene_plan.scene_name], scene_plan, chosen, times,
+                                     error_control)
 
     def simulate_plan(self, scene: str | None, backend: str, overrides: Overrides,
                       progress: Callable[[float, float, float], None] | None = None,
@@ -108,6 +133,19 @@ class Model:
 
         error = reference.estimate_error(result, self.equations, scene_plan, self.source.name, rerun)
         return replace(result, summary=replace(result.summary, error=error))
+
+    def fit(self, data, params: dict, *, outputs=None, sigma=None, scene: str | None = None,
+            bounds: dict | None = None, set: dict | None = None, integrator: str | None = None, **options):
+        """Fit `params` ({name: start value}) to `data` (a CSV path or a DataFrame with a `t` column
+        and columns named as the scene's outputs) by least squares, the sensitivities as the
+        Jacobian; returns a sensitivity.fit.Fit (.values, .stderr, .correlation, .residuals, .cost,
+        .nfev). `integrator` and `options` (rtol, atol, max_step, ...) override the scene's. See
+        sensitivity/fit.py for the statistics."""
+        from .sensitivity.fit import fit
+        unknown = [name for name in options if name not in RUN_OPTIONS]
+        if unknown:
+            raise LagError(f"fit: unknown option '{unknown[0]}' (options: {', '.join(RUN_OPTIONS)})")
+        return fit(self, data, params, outputs, sigma, scene, bounds, set, integrator, options)
 
     def bench(self, scene: str | None = None, *, integrators: tuple[str, ...] | None = None, backend: str = "c",
               peers: bool = False, repeat: int = 3, set: dict | None = None, start: float | None = None,

@@ -18,7 +18,6 @@ from .settings import IntegratorChoice, TimeGrid  # noqa: F401  (part of the IR)
 from .source import Span
 
 TIME = sympy.Symbol("t", real=True)
-BUILTIN_OBSERVABLES = ("energy", "momentum", "multiplier", "residual")
 
 
 def multiplier_symbol(constraint: str) -> sympy.Symbol:
@@ -177,7 +176,7 @@ class Scene:
 
 @dataclass(frozen=True)
 class UnitReport:
-    """What the dimensional analysis found (dimensions.py): the unit each quantity is computed in.
+    """What the dimensional analysis found (model_dimensions.py): the unit each quantity is computed in.
 
     `quantities` are (name, unit, inferred) of parameters, coordinates and outputs; `columns` are
     (scene, column, unit) of the scenes' output lists. A unit is SI ("kg*m/s^2", "N", "rad"), or

@@ -1,14 +1,13 @@
 """The whole chain on one screen.
 
-    text ──parse──▶ lark Tree ──build_model──▶ ir.Model ──check_dimensions──▶ ir.Model (+ units)
+    text ──parse──▶ lark Tree ──build_model──▶ ir.Model (+ units: dimensions checked on the same walk)
          ──derive_equations──▶ Equations (or LocalEquations: per shape, for large local models)
          ──plan_scene──▶ ScenePlan ──lower──▶ codegen.Kernel ──render──▶ C or NumPy source
          ──build/run──▶ results
 
 stage            input -> output                       module
-parse            SourceFile -> lark.Tree               parser.py (grammar.lark)
-build_model      Tree -> ir.Model                      semantics.py, expressions.py, units.py
-check_dimensions Tree + Model -> Model (+ UnitReport)  dimensions.py, units.py
+parse            SourceFile -> lark.Tree               frontend/parser.py (grammar.lark)
+build_model      Tree -> ir.Model (+ UnitReport)       frontend/ (semantics.py and the modules it walks with)
 derive_equations Model -> Equations (M, f, A, ...)     mechanics/ (families.py: the local form)
 plan_scene       Model + scene + overrides -> plan     scene.py
 lower            Equations + plan -> Kernel (CSE)      codegen/kernel.py (loops.py: the local form)
@@ -27,14 +26,13 @@ from .codegen import GeneratedSource
 from .codegen.c import render_c
 from .codegen.kernel import Kernel, lower_to_kernel
 from .codegen.numpy import render_numpy
-from .dimensions import check_dimensions
 from .mechanics import Equations, derive_equations
 from .mechanics.families import LocalEquations, derive_local_equations
-from .parser import parse
+from .frontend.parser import parse
 from .run.output import Result
 from .run.runner import run
 from .scene import Overrides, ScenePlan, plan_scene
-from .semantics import build_model
+from .frontend.semantics import build_model
 from .source import SourceFile
 
 
@@ -45,8 +43,7 @@ def load_model(path: str | Path) -> ir.Model:
 
 def model_from_source(source: SourceFile) -> ir.Model:
     tree = parse(source)                      # text -> lark Tree
-    model = build_model(tree, source)         # Tree -> ir.Model
-    return check_dimensions(tree, model, source)      # + units checked, UnitReport
+    return build_model(tree, source)          # Tree -> ir.Model, units checked (UnitReport)
 
 
 def compile_model(source: SourceFile) -> tuple[ir.Model, Equations | LocalEquations]:

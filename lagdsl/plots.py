@@ -7,7 +7,19 @@ import math
 
 import numpy as np
 
+from .errors import LagError, Setting
 from .integrators import registry
+
+EXTRA = "plots"         # the optional dependencies in pyproject.toml that bring matplotlib
+
+
+def require_matplotlib() -> None:
+    """matplotlib is optional: `--plot` without it is refused before any work, naming the extra."""
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        raise LagError(f"drawing a plot needs matplotlib, which is not installed: pip install 'lagdsl[{EXTRA}]'",
+                       Setting("--plot")) from None
 
 
 def _pyplot():
@@ -128,5 +140,28 @@ def mode_shapes_png(modes, title: str, count: int = 10) -> bytes:
         else:
             axis.set_xlabel("coordinate (in the model's order)")
     figure.suptitle(title, fontsize=10)
+    figure.tight_layout()
+    return _png(figure)
+
+
+def fit_png(fit) -> bytes:
+    """`lagc fit --plot`: per fitted column, the data (points) and the fitted model (line) above,
+    the residuals (model - data) below."""
+    pyplot = _pyplot()
+    columns = [c for c in fit.fitted if c != "t"]
+    figure, axes = pyplot.subplots(2, len(columns), figsize=(6 * len(columns), 6), squeeze=False, sharex="col",
+                                   gridspec_kw={"height_ratios": (3, 1)})
+    t = fit.fitted["t"]
+    for k, column in enumerate(columns):
+        top, bottom = axes[0][k], axes[1][k]
+        top.plot(t, fit.fitted[column] - fit.residuals[column], ".", markersize=3, label="data")
+        top.plot(t, fit.fitted[column], "-", label="fitted model")
+        top.set_ylabel(column)
+        top.legend()
+        bottom.plot(t, fit.residuals[column], ".", markersize=3)
+        bottom.axhline(0.0, color="black", linewidth=0.5)
+        bottom.set_xlabel("t")
+        bottom.set_ylabel("model - data")
+    figure.suptitle(", ".join(f"{n} = {fit.values[n]:.6g} ± {fit.stderr[n]:.2g}" for n in fit.names))
     figure.tight_layout()
     return _png(figure)

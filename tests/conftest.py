@@ -1,13 +1,29 @@
-"""Shared fixtures and helpers: model paths, loading, the --update-golden option."""
+"""Shared fixtures and helpers: model paths, loading, the --update-golden and --slow options, a
+build cache of the session's own, and `lagc` run in this process.
+
+The default run leaves out the tests marked `slow` (the exhaustive matrices: every model with
+every integrator on both backends, every scene compiled strictly four ways, the fuzz slice, Dask,
+the test set); `--slow` runs them too, `-m slow` only them, and a test named by its node id
+(`tests/x.py::test_y`) runs whatever its marker.
+"""
 from __future__ import annotations
 
+import contextlib
+import functools
+import io
+import os
 import re
+import shutil
+import tempfile
+import traceback
+from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "models"
+_OWN_CACHE: list[str] = []       # the build cache this process made for the session, removed at its end
 
 
 def without_units(text: str) -> str:
@@ -16,9 +32,94 @@ def without_units(text: str) -> str:
     return re.sub(r"(?<=[ \t])\[[^\]\n]*\]", "", text)
 
 
+@functools.cache
+def library_model(name: str):
+    """The library model `models/<name>.lag`, loaded (parsed and derived) once per session.
+
+    Shared by every test that only plans, emits or simulates it: a Model keeps the code it has
+    built, so a test that counts builds or needs a cold model calls lagdsl.load itself."""
+    import lagdsl
+    return lagdsl.load(MODELS / f"{name}.lag")
+
+
+@functools.cache
+def library_scenes() -> tuple[tuple[str, str | None], ...]:
+    """(model, scene) for every scene of every library model (None for a model without scenes),
+    read from the checked models without deriving them: cheap enough for collection."""
+    from lagdsl.pipeline import load_model
+    return tuple((path.stem, scene) for path in sorted(MODELS.glob("*.lag"))
+                 for scene in (tuple(s.name for s in load_model(path).scenes) or (None,)))
+
+
+@dataclass(frozen=True)
+class Ran:
+    """What `lagc` gave: its exit code and its two streams (as subprocess.CompletedProcess names them)."""
+    returncode: int
+    stdout: str
+    stderr: str
+
+
+def lagc_in_process(*arguments) -> Ran:
+    """`lagc ARGUMENTS` run by this interpreter, with the exit code the console script would give:
+    no new interpreter to start, and lagdsl's caches are warm. An exception escaping `main` is
+    printed as a traceback on stderr and exits 1, as Python does for the script."""
+    from lagdsl.cli import main
+    stdout, stderr = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
+        try:
+            code = main([str(argument) for argument in arguments])
+        except SystemExit as exit_:
+            code = exit_.code if isinstance(exit_.code, int) else int(exit_.code is not None)
+        except Exception:       # noqa: BLE001 - reported as the script would report it
+            traceback.print_exc()
+            code = 1
+    return Ran(code, stdout.getvalue(), stderr.getvalue())
+
+
 def pytest_addoption(parser):
     parser.addoption("--update-golden", action="store_true", default=False,
                      help="rewrite tests/golden/ from the current code generator")
+    parser.addoption("--slow", action="store_true", default=False,
+                     help="run the tests marked slow too (the whole suite)")
+
+
+def pytest_configure(config):
+    """Builds go to a temporary cache of the session's, never to the user's ~/.cache/lagdsl,
+    unless LAGDSL_CACHE names one (.ci/run does, to keep builds between its steps). xdist's
+    workers inherit it from the controller, so they share it (the cache takes concurrent builds)."""
+    if not os.environ.get("LAGDSL_CACHE"):
+        path = tempfile.mkdtemp(prefix="lagdsl-test-cache-")
+        os.environ["LAGDSL_CACHE"] = path
+        _OWN_CACHE.append(path)
+
+
+def pytest_unconfigure(config):
+    for path in _OWN_CACHE:
+        shutil.rmtree(path, ignore_errors=True)
+        if os.environ.get("LAGDSL_CACHE") == path:
+            del os.environ["LAGDSL_CACHE"]
+    _OWN_CACHE.clear()
+
+
+def pytest_collection_modifyitems(config, items):
+    """Leave the slow tests out, unless --slow, a marker expression (-m) or a node id asks for them."""
+    if config.getoption("--slow") or config.getoption("markexpr"):
+        return
+    named = [_node_id(config, argument) for argument in config.args if "::" in argument]
+    kept, left_out = [], []
+    for item in items:
+        asked = any(item.nodeid == name or item.nodeid.startswith((f"{name}[", f"{name}::")) for name in named)
+        (kept if asked or item.get_closest_marker("slow") is None else left_out).append(item)
+    if left_out:
+        config.hook.pytest_deselected(items=left_out)
+        items[:] = kept
+
+
+def _node_id(config, argument: str) -> str:
+    """A command-line node id (`tests/x.py::test_y`, from any directory) as pytest's items spell it."""
+    path, rest = argument.split("::", 1)
+    relative = (config.invocation_params.dir / path).resolve().relative_to(config.rootpath)
+    return f"{relative.as_posix()}::{rest}"
 
 
 @pytest.fixture

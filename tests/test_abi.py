@@ -11,8 +11,8 @@ import pytest
 
 from lagdsl import settings
 from lagdsl.abi import SETTINGS, STATUSES, UNKNOWN_STATUS, summary_layout
-from lagdsl.codegen.c_abi import runtime_contract, status_printer
-from lagdsl.integrators import c_file, registry
+from lagdsl.codegen.c_abi import runtime_contract, runtime_header, status_printer
+from lagdsl.integrators import registry
 from tests.run.c_harness import STRICT_FLAGS, SYSTEM_HEADERS, find_cc
 
 MAIN = r"""
@@ -41,7 +41,7 @@ def printed(tmp_path_factory) -> list[str]:
         pytest.skip("no C compiler")
     work = tmp_path_factory.mktemp("abi")
     source, program = work / "abi.c", work / "abi"
-    source.write_text("\n".join([SYSTEM_HEADERS, c_file("runtime.h"), runtime_contract(), status_printer(),
+    source.write_text("\n".join([SYSTEM_HEADERS, runtime_header(), runtime_contract(), status_printer(),
                                  MAIN % {"last": max(STATUSES) + 1}]))
     subprocess.run([cc, *STRICT_FLAGS, str(source), "-o", str(program), "-lm"], check=True, capture_output=True,
                    text=True)

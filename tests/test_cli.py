@@ -9,6 +9,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -34,6 +35,7 @@ def test_check_reports_the_double_pendulum():
     assert "chaos" in done.stdout
 
 
+@pytest.mark.slow
 def test_check_says_where_the_nystrom_integrator_applies():
     """rkn8 needs q'' = a(t, q): the Pleiades (Cartesian bodies) qualify, the double pendulum
     (M depends on the angles, so f holds the velocities squared) does not."""
@@ -42,6 +44,7 @@ def test_check_says_where_the_nystrom_integrator_applies():
     assert "accelerations:" not in lagc("check", MODELS / "double_pendulum.lag").stdout
 
 
+@pytest.mark.slow
 def test_eom_prints_text_and_latex():
     text = lagc("eom", MODELS / "double_pendulum.lag")
     assert text.returncode == 0
@@ -61,6 +64,7 @@ def test_run_writes_csv_with_the_exact_header(tmp_path):
     assert "steps accepted" in done.stderr and "largest constraint residual" in done.stderr
 
 
+@pytest.mark.slow
 def test_run_overrides(tmp_path):
     done = lagc("run", MODELS / "wedge.lag", "--set", "m=2", "--set", "s.velocity=1", "--stop", "0.1")
     assert done.returncode == 0, done.stderr
@@ -94,7 +98,7 @@ def test_numerical_failure_names_time_state_and_remedy_and_keeps_the_rows(tmp_pa
         "the run is incomplete: it stopped at t = 0.5" in done.stderr
 
 
-@pytest.mark.parametrize("language", ["c", "numpy"])
+@pytest.mark.parametrize("language", ["c", pytest.param("numpy", marks=pytest.mark.slow)])
 def test_emit_writes_source(tmp_path, language):
     out = tmp_path / ("model.c" if language == "c" else "model.py")
     done = lagc(MODELS / "kepler.lag", "--emit", language, "-o", out)
@@ -141,9 +145,27 @@ def _wait_for_the_library(process, cache) -> bool:
     """True once the process has loaded a compiled model from `cache` (Linux: /proc/PID/maps):
     then the integration runs, and Ctrl-C reaches it rather than the compiler."""
     maps = Path(f"/proc/{process.pid}/maps")
+    return _poll(process, lambda: str(cache) in maps.read_text())
+
+
+def _cpu_seconds(process) -> float:
+    """The CPU time the process has used (Linux: utime + stime in /proc/PID/stat)."""
+    fields = Path(f"/proc/{process.pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _wait_for_cpu(process, seconds: float) -> bool:
+    """True once the process has computed for `seconds` more of CPU time: a run that has made
+    progress, however loaded the machine (a wall-clock delay is not)."""
+    start = _cpu_seconds(process)
+    return _poll(process, lambda: _cpu_seconds(process) >= start + seconds)
+
+
+def _poll(process, condition) -> bool:
+    """Wait for `condition` while the process runs (two minutes at most)."""
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and process.poll() is None:
-        if str(cache) in maps.read_text():
+        if condition():
             return True
         time.sleep(0.05)
     return False
@@ -166,8 +188,7 @@ def test_ctrl_c_stops_lagc_run_with_the_rows_so_far(oscillator, tmp_path):
     process = subprocess.Popen([sys.executable, "-m", "lagdsl", "run", str(oscillator), "--stop", "1e7",
                                 "--interval", "10", "--rtol", "1e-13", "--max-steps", "1000000000000", "-o", str(out)],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=environment)
-    assert _wait_for_the_library(process, cache)
-    time.sleep(0.5)
+    assert _wait_for_the_library(process, cache) and _wait_for_cpu(process, 0.3)
     process.send_signal(signal.SIGINT)
     _, stderr = process.communicate(timeout=30)
     assert process.returncode == 130, stderr
@@ -234,9 +255,22 @@ def test_ctrl_c_stops_the_standalone_program_with_a_valid_csv(oscillator, tmp_pa
     program = _standalone(oscillator, tmp_path)
     process = subprocess.Popen([program, "t.stop=5e7", "t.interval=10", "--rtol=1e-13", "--max-steps=1e15"],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(1.0)
+    lines, enough = [], threading.Event()
+
+    def read_rows():            # the header and 100 rows, then Ctrl-C; the rest until the end
+        for line in process.stdout:
+            lines.append(line)
+            if len(lines) > 100:
+                enough.set()
+        enough.set()
+
+    reader = threading.Thread(target=read_rows, daemon=True)
+    reader.start()
+    assert enough.wait(120)
     process.send_signal(signal.SIGINT)
-    stdout, stderr = process.communicate(timeout=30)
+    process.wait(timeout=30)
+    reader.join(30)
+    stdout, stderr = "".join(lines), process.stderr.read()
     assert process.returncode == 130, stderr
     assert re.search(r"interrupted at t = [0-9.e+]+ after \d+ rows", stderr)
     rows = _assert_valid_partial_csv(stdout, "t,x,energy")

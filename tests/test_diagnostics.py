@@ -5,20 +5,19 @@ Each file states what it expects, one comment line per diagnostic, in the order 
 
     // error: LINE:COLUMN: message
 
-The check runs the real command line (`python -m lagdsl check FILE`) and requires exit status 1,
+The check runs the command line's `main` (`lagc check FILE`, in this process: one interpreter
+for the whole corpus) and requires exit status 1,
 no Python traceback, the `file:line:column: error: message` lines equal to the expected ones,
 and under each of them the offending source line and a caret at the column.
 """
 from __future__ import annotations
 
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
-from tests.conftest import ROOT
+from tests.conftest import ROOT, lagc_in_process
 
 CORPUS = sorted((ROOT / "tests" / "diagnostics").glob("*.lag"))
 EXPECTED = re.compile(r"^\s*//\s*error:\s*(\d+):(\d+):\s*(.*?)\s*$")
@@ -41,8 +40,7 @@ def test_the_corpus_is_there():
 
 @pytest.mark.parametrize("path", CORPUS, ids=[p.stem for p in CORPUS])
 def test_diagnostics(path: Path):
-    done = subprocess.run([sys.executable, "-m", "lagdsl", "check", str(path)], capture_output=True,
-                          text=True, cwd=ROOT)
+    done = lagc_in_process("check", path)
     assert "Traceback" not in done.stderr, done.stderr
     assert done.returncode == 1, done.stdout + done.stderr
 

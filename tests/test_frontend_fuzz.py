@@ -8,12 +8,13 @@ random energies, constraints and forces, for the derivation's checks. Each is ru
 rendered LagError that mentions a Python traceback.
 
 The runs are derandomized (the same examples every time) and bounded to keep the file well under
-a minute.
+a minute; the campaigns over whole models are marked slow (`pytest --slow`).
 """
 from __future__ import annotations
 
 import re
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -97,6 +98,7 @@ def mutated_models(draw) -> str:
     return text
 
 
+@pytest.mark.slow
 @CHEAP
 @given(mutated_models())
 def test_mutated_models_raise_only_lag_errors(text):
@@ -171,6 +173,7 @@ def grammar_models(draw) -> str:
     return "\n".join(lines) + "\n"
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(grammar_models())
 def test_grammar_models_raise_only_lag_errors(text):
@@ -213,6 +216,7 @@ def mechanics_models(draw) -> str:
     return "\n".join(lines) + "\n"
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(mechanics_models())
 def test_mechanics_models_raise_only_lag_errors(text):

@@ -13,7 +13,7 @@ import sympy
 
 import lagdsl
 from lagdsl.errors import LagError
-from lagdsl.expressions import MAX_NESTING, MAX_NUMBER_LENGTH
+from lagdsl.frontend.expressions import MAX_NESTING, MAX_NUMBER_LENGTH
 from lagdsl.mechanics import derive_equations
 from lagdsl.pipeline import generate, model_from_source, plan
 from lagdsl.scene import Overrides
@@ -152,6 +152,7 @@ end LongSums;
 """
 
 
+@pytest.mark.slow
 def test_330_term_sums_run_on_both_backends(tmp_path):
     path = tmp_path / "long.lag"
     path.write_text(long_sums_model(), encoding="utf-8")

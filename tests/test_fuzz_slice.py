@@ -9,21 +9,35 @@ from __future__ import annotations
 import itertools
 import random
 
+import pytest
+
 from benchmarks.fuzz.mutations import library, mutants
 from benchmarks.fuzz.outcomes import COMMANDS, OFFENDING, arguments, classify, run_isolated
-from tests.conftest import MODELS
+from tests.conftest import MODELS, lagc_in_process
 
-# Seed 4 of 30 mutants: 8 reach every command. Seeds 5 and 7 found failures of the NumPy backend
-# (a singular mass matrix escaping as LinAlgError) and a hang in `lagc eom`, not yet fixed here.
-SEED, COUNT = 4, 30
+# Seeds of 30 mutants each. Seeds 5 and 7 once found a singular mass matrix escaping the NumPy
+# backend as LinAlgError, and a hang in `lagc eom` (SymPy tidying the exact rationals of 1e-320):
+# both are fixed, with tests of their own (run/test_failures.py, the singular mass matrix at the
+# start; test_present.py, the extreme exponents), and the eleven-model library of those runs gives
+# no offence under either seed now. The library has grown since, so the seeds draw other mutants.
+SEEDS, COUNT = (4, 5, 7), 30
 CPU_LIMIT = 30.0     # seconds per command; the slowest mutant here takes a few
 
 
-def test_mutants_get_answers_not_tracebacks_or_hangs(tmp_path, monkeypatch):
+@pytest.fixture(scope="module")
+def warm_front_end():
+    """One command in this process first: the children forked for the mutants inherit the parser,
+    the unit registry and the imports it built, instead of each building them again."""
+    assert lagc_in_process("check", MODELS / "pendulum.lag").returncode == 0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", SEEDS)
+def test_mutants_get_answers_not_tracebacks_or_hangs(seed, tmp_path, monkeypatch, warm_front_end):
     monkeypatch.setenv("LAGDSL_CACHE", str(tmp_path / "cache"))
     seeds = {name: text.replace("n = 12", "n = 3") for name, text in library(MODELS).items()}
     offences = []
-    for mutant in itertools.islice(mutants(seeds, random.Random(SEED)), COUNT):
+    for mutant in itertools.islice(mutants(seeds, random.Random(seed)), COUNT):
         path = tmp_path / mutant.model
         path.write_text(mutant.text, encoding="utf-8")
         for command in COMMANDS:

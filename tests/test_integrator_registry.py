@@ -53,6 +53,7 @@ def test_a_run_reports_the_counters_of_a_new_record(toy, backend):
     assert "toy4" in summary.render()
 
 
+@pytest.mark.slow      # every integrator's ladder on both backends
 def test_the_bench_runs_a_new_record(toy):
     model = lagdsl.load(MODEL)
     report = run_bench(model, None, Overrides(stop=1.0), repeat=1)

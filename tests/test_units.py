@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 
 from lagdsl.api import Model
-from lagdsl.dimensions import Form, Solver
+from lagdsl.frontend.dimensions import Form, Solver
 from lagdsl.errors import LagError
 from lagdsl.pipeline import load_model, model_from_source
 from lagdsl.scene import Overrides
 from lagdsl.source import SourceFile, Span
-from lagdsl.units import Dimension, dimension, parse_unit
+from lagdsl.frontend.units import Dimension, dimension, parse_unit
 from tests.conftest import MODELS
 
 
@@ -180,6 +180,7 @@ def test_every_library_model_carries_units_and_passes_the_check():
         assert "?" not in {unit for _, unit, _ in model.units.quantities}, path.name
 
 
+@pytest.mark.slow
 def test_run_units_names_the_units_in_the_csv_header(tmp_path):
     path = tmp_path / "pendulum.lag"
     path.write_text(PENDULUM_PREFIXED)

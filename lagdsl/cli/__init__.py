@@ -22,9 +22,9 @@ from .. import __version__
 from ..errors import LagError, LagWarning, SimulationError
 from ..escape import visible
 from ..run.interrupt import terminate_as_interrupt
-from . import bench, common, describe, modes, simulate, sweep
+from . import bench, common, describe, fit, modes, simulate, sweep
 
-COMMANDS = (describe, simulate, sweep, bench, modes)      # each adds its subcommands to the parser
+COMMANDS = (describe, simulate, sweep, bench, modes, fit)    # each adds its subcommands to the parser
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -2,7 +2,7 @@
 extended-precision reference."""
 from __future__ import annotations
 
-from ..run.files import check_writable, write_output
+from ..run.files import write_output
 from ..settings import Overrides
 from ..source import SourceFile
 from . import common
@@ -33,9 +33,7 @@ def run(arguments) -> int:
         common.refuse("--backend", f"expected c, numpy or both, got '{arguments.backend}'")
     repeat = common.positive_integer("--repeat", arguments.repeat)
     integrators = common.integrator_list(arguments.integrators)
-    for path in (arguments.output, arguments.plot):
-        if path is not None:
-            check_writable(path, arguments.model)
+    common.check_destinations(arguments.model, arguments.output, arguments.plot)
     model = common.load_model(SourceFile.read(arguments.model))
     overrides = Overrides(common.set_values(arguments.set), arguments.start, arguments.stop, arguments.interval)
     progress = bench.progress_bar()

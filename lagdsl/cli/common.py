@@ -9,7 +9,7 @@ from ..abi import parse_number
 from ..errors import LagError, Setting
 from ..integrators import registry
 from ..integrators.registry import OPTION_ORDER, OPTIONS
-from ..run.files import write_output, write_stdout
+from ..run.files import check_writable, write_output, write_stdout
 from ..progress import slow_stage
 from ..run.interrupt import terminated
 from ..settings import Overrides, check_integrator_name, given_options
@@ -20,6 +20,16 @@ def interrupted_exit() -> int:
     """The exit status after an interrupt, as shells report a death by the signal: 128 + SIGINT
     (Ctrl-C) or 128 + SIGTERM (`kill`)."""
     return 128 + (signal.SIGTERM if terminated() else signal.SIGINT)
+
+
+def check_destinations(model: str, output: str | None, plot: str | None) -> None:
+    """Refuse before the work, not after it: a path that cannot be written, a plot without matplotlib."""
+    for path in (output, plot):
+        if path:
+            check_writable(path, model)
+    if plot:
+        from .. import plots     # numpy and matplotlib: only a --plot needs them
+        plots.require_matplotlib()
 
 
 def load_model(source: SourceFile):
@@ -33,6 +43,11 @@ def run_options(parser: argparse.ArgumentParser) -> None:
     """What `lagc run` and `lagc sweep` take: the backend, the inputs and the integrator's options."""
     parser.add_argument("--backend", choices=("c", "numpy"), default="c", help="generated code to run (default: c)")
     input_options(parser)
+    integrator_options(parser)
+
+
+def integrator_options(parser: argparse.ArgumentParser) -> None:
+    """--integrator and its options (--rtol, --atol, ...)."""
     methods = "; ".join(f"{record.name}: {record.description}" for record in map(registry.get, registry.names()))
     parser.add_argument("--integrator", metavar="NAME", help=f"the integration method ({methods})")
     for name in OPTION_ORDER:

@@ -86,9 +86,7 @@ def _linear(arguments, inputs=(), outputs=None):
 def modes(arguments) -> int:
     from ..linear import analyse
     from ..linear.export import modes_csv, modes_text
-    for path in (arguments.output, arguments.plot):
-        if path:
-            check_writable(path, arguments.model)
+    common.check_destinations(arguments.model, arguments.output, arguments.plot)
     model, linear = _linear(arguments, outputs=())           # the modes need neither B nor C
     result = analyse(linear)
     title = f"{model.name} ({SourceFile.read(arguments.model).name})"

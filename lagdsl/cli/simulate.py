@@ -7,7 +7,7 @@ import sys
 from ..errors import SimulationError, SimulationInterrupted
 from ..progress import TimeProgress
 from ..run import cache
-from ..run.files import check_writable, write_output
+from ..run.files import write_output
 from ..source import SourceFile
 from . import common
 
@@ -47,9 +47,7 @@ def _simulate(arguments) -> int:
     stored = None if arguments.units or arguments.error else plans.find(source, arguments.scene, arguments.backend,
                                                                         arguments.integrator)
     model = None if stored else common.load_model(source)      # the model's errors first, as always
-    for path in (arguments.output, arguments.plot):
-        if path is not None:
-            check_writable(path, arguments.model)      # refuse before the run, not after it
+    common.check_destinations(arguments.model, arguments.output, arguments.plot)
     overrides = common.overrides(arguments)
     progress = TimeProgress()
     units = model.column_units(arguments.scene) if arguments.units else None

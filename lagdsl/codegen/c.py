@@ -7,7 +7,7 @@ from ..abi import summary_layout
 from ..integrators import c_file, integrator_source, registry
 from ..integrators.registry import OPTION_ORDER, OPTIONS
 from . import GeneratedSource, template_environment
-from .c_abi import runtime_contract, status_printer, summary_packer
+from .c_abi import runtime_contract, runtime_header, status_printer, summary_packer
 from .c_factor import factorisation_text
 from .c_taylor import series_text
 from .kernel import Block, Kernel, Loop, Store
@@ -25,6 +25,9 @@ FUNCTION_PARAMETERS = {
     "constraint_rows": ("par", "t", "y", "g", "c", "A"),
     "outputs": ("par", "t", "y", "out", "inv"),
     "stop": ("par", "t", "y", "ev"),
+    "parameter_jacobian": ("par", "t", "y", "acc", "lam", "Dp"),
+    "output_jacobian": ("par", "t", "y", "lam", "Cy", "Cl", "Cp"),
+    "initial_sensitivity": ("par", "S0"),
 }
 
 
@@ -40,7 +43,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSource:
         "stem": stem(kernel), "model": kernel.model_name, "integrator": kernel.integrator.name,
         "parameter_list": ", ".join(name for name, _ in kernel.parameters) or "none",
         "option_list": ", ".join(OPTIONS[k].flag for k in OPTION_ORDER if k in method.options),
-        "runtime": c_file("runtime.h"), "linalg": _linear_algebra(kernel),
+        "runtime": runtime_header(), "linalg": _linear_algebra(kernel),
         "n": kernel.n, "size": kernel.size, "parameters": kernel.parameters,
         "columns": kernel.columns, "constraints": kernel.constraints, "holonomic": kernel.holonomic,
         "invariants": bool(kernel.invariant_names), "invariant_names": kernel.invariant_names,

@@ -1,6 +1,7 @@
 """The C side of lagdsl/abi.py and of the constants in settings.py, generated from them.
 
-`runtime_contract()` follows runtime.h in every C file (the integrators' tests paste it too): the
+`runtime_header()` is runtime.h with its libm table (generated from lagdsl/frontend/functions.py);
+`runtime_contract()` follows it in every C file (the integrators' tests paste it too): the
 status codes, the shared constants and the indices of the settings vector. `status_printer()`
 and `summary_packer(layout)` go between the driver and the programs that use them.
 """
@@ -8,7 +9,8 @@ from __future__ import annotations
 
 from ..abi import SETTINGS, STATUSES, UNKNOWN_STATUS, Status, SummaryLayout, format_fields
 from ..escape import c_comment, c_string
-from ..integrators import COUNTER_LABELS
+from ..frontend.functions import LIBM_TABLE_MARKER, libm_table
+from ..integrators import COUNTER_LABELS, SWITCH_TIMES, c_file
 from ..settings import (DEFAULT_MAX_STEPS, GRID_SLACK, MAX_ROWS, MIN_STEP_EPS, RCOND_MIN_EPS, RTOL_FLOOR_EPS,
                         STEPS_PER_ROW)
 
@@ -23,11 +25,17 @@ SHARED_CONSTANTS = (
     ("LAG_RTOL_FLOOR", "(LAG_RTOL_FLOOR_EPS * REAL_EPSILON)", "... and as a number"),
     ("LAG_MIN_STEP_EPS", f"{MIN_STEP_EPS}", "the smallest step, in eps of max(|t|, span)"),
     ("LAG_RCOND_MIN", f"({RCOND_MIN_EPS} * REAL_EPSILON)", "below this reciprocal condition, K is singular"),
+    ("LAG_AUTO_LOGGED", f"{SWITCH_TIMES}", "the switches of auto whose times the summary keeps"),
 )
 # The C argument of each value a status message may name, and its printf conversion where the
 # message gives no format of its own ({rcond:.3g} is printed with %.3g).
 MESSAGE_ARGUMENTS = {"max_steps": ("max_steps", "%ld"), "rcond": ("rcond", "%g"),
                      "rcond_min": ("(double)LAG_RCOND_MIN", "%g")}
+
+
+def runtime_header() -> str:
+    """runtime.h with its libm table, generated from the built-in functions (functions.py)."""
+    return c_file("runtime.h").replace(LIBM_TABLE_MARKER, libm_table())
 
 
 def runtime_contract() -> str:

@@ -28,6 +28,9 @@ The blocks are exactly what the scene needs:
   initial      the initial state y0 from the start values (expressions of parameters)
   stop         a scene with `stop when ...` only: the function e(t, y) whose sign change to
                negative ends the run
+  parameter_jacobian, output_jacobian, initial_sensitivity
+               a program for forward sensitivities only (lagdsl/sensitivity/lowering.py):
+               Dp = ∂R/∂p, the outputs' ∂h/∂y and ∂h/∂p, and ∂y0/∂p
 
 All symbols are renamed to target-safe names (p_m1, q_theta1, v_theta1, let_x1, c12, ...;
 naming.py) that cannot collide with C or Python keywords, libm or POSIX names.
@@ -107,6 +110,9 @@ class Kernel:
     stop_text: str = ""                          # the condition as written
     constant_mass: Block | None = None           # M from the parameters alone (system then gives b)
     jacobian_layout: JacobianLayout | None = None     # how the jacobian block stores Dq, Dv, Dz
+    parameter_jacobian: Block | None = None           # Dp = ∂R/∂p (sensitivities only)
+    output_jacobian: Block | None = None              # Cy = ∂h/∂y, Cp = ∂h/∂p of the columns
+    initial_sensitivity: Block | None = None          # S0 = ∂y0/∂p
 
     @property
     def n(self) -> int:
@@ -142,7 +148,7 @@ class _Lowering:
     def __init__(self, equations: Equations, plan: ScenePlan):
         self.eq, self.plan = equations, plan
         self.model = equations.model
-        self.calculus: Differentiator = equations.calculus()
+        self.calculus: Differentiator = self.differentiator()
         self.active = [c for c in equations.constraints if not c.dropped]
         self.active.sort(key=lambda c: c.kind != "holonomic")      # holonomic rows first
         self.n = equations.size
@@ -150,6 +156,10 @@ class _Lowering:
         self.accelerations = [sympy.Symbol(f"{c.name}''", real=True) for c in self.model.coordinates]
         self.multipliers = [ir.multiplier_symbol(c.name) for c in self.active]
         self.table = NameTable(self.model, self.calculus, self.accelerations, self.active, self.multipliers)
+
+    def differentiator(self) -> Differentiator:
+        """The chain rule through the equations' intermediates, by the state and time."""
+        return self.eq.calculus()
 
     def linear_system(self) -> tuple[str, MassLayout | None]:
         """How K is factored, and its layout: Cholesky or LDLᵀ for a positive definite M
@@ -221,15 +231,18 @@ class _Lowering:
                      if p.expression.free_symbols and p.name not in self.plan.fixed_parameters)
 
     def initial_block(self) -> Block:
+        # y0 starts as zeros: a chain of many masses at rest needs no statement per member.
+        block = self.block([store for store in self.initial_stores() if store[2] != 0])
+        return Block(block.inputs, block.assignments, block.stores, cleared=("y0",))
+
+    def initial_stores(self) -> list[tuple[str, tuple[int, ...], sympy.Expr]]:
         overrides = {name: (start, velocity) for name, start, velocity in self.plan.initial}
         stores = []
         for k, c in enumerate(self.model.coordinates):
             start, velocity = overrides.get(c.name, (None, None))
             stores.append(("y0", (k,), sympy.Float(start) if start is not None else c.start))
             stores.append(("y0", (self.n + k,), sympy.Float(velocity) if velocity is not None else c.velocity))
-        # y0 starts as zeros: a chain of many masses at rest needs no statement per member.
-        block = self.block([store for store in stores if store[2] != 0])
-        return Block(block.inputs, block.assignments, block.stores, cleared=("y0",))
+        return stores
 
     def mass_stores(self, array: str) -> list[tuple[str, tuple[int, ...], sympy.Expr]]:
         """M into `array`: every entry (the dense layout), or each structurally nonzero entry
@@ -321,8 +334,8 @@ class _Lowering:
                                  {index for _, index, _ in stores} | {(r, r) for r in range(self.n)})
         return self.block(stores), layout
 
-    def residual_derivatives(self) -> list[tuple[str, tuple[int, int], sympy.Expr]]:
-        """Dq = ∂R/∂q, Dv = ∂R/∂q' of R = [f - M q'' + Aᵀλ; γ - A q''], and Dz = ∂R/∂(q'', λ) = -K."""
+    def residuals(self) -> list[sympy.Expr]:
+        """R = [f - M q'' + Aᵀλ; γ - A q''] in the symbols of q'' and λ."""
         eq, n = self.eq, self.n
         residuals = []
         for k in range(n):
@@ -331,8 +344,13 @@ class _Lowering:
             residuals.append(r)
         for c in self.active:
             residuals.append(c.gamma - sum((a * x for a, x in zip(c.jacobian, self.accelerations)), sympy.S.Zero))
+        return residuals
+
+    def residual_derivatives(self) -> list[tuple[str, tuple[int, int], sympy.Expr]]:
+        """Dq = ∂R/∂q, Dv = ∂R/∂q' of R = [f - M q'' + Aᵀλ; γ - A q''], and Dz = ∂R/∂(q'', λ) = -K."""
+        eq, n = self.eq, self.n
         stores = [(array, (r, j), self.calculus.partial(residual, x))
-                  for r, residual in enumerate(residuals)
+                  for r, residual in enumerate(self.residuals())
                   for array, variables in (("Dq", eq.coordinates), ("Dv", eq.velocities))
                   for j, x in enumerate(variables)]
         for k in range(n):

@@ -27,7 +27,7 @@ def render_numpy(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSou
         "derived": [(i, printer.doprint(expr)) for i, expr in kernel.derived_parameters],
         "jacobian": kernel.jacobian is not None, "canonical": kernel.momenta is not None,
         "outputs_need_multipliers": kernel.outputs_need_multipliers,
-        "stop_text": kernel.stop_text, "stop": None, "constant_mass": None,      # blocks a scene may not have (below)
+        "stop_text": kernel.stop_text, "stop": None, "constant_mass": None, "parameter_jacobian": None,      # blocks a scene may not have (below)
         "totals": any(block["accumulators"] for block in blocks.values()), "rcond_min_eps": RCOND_MIN_EPS,
         **blocks,
     }
@@ -36,7 +36,7 @@ def render_numpy(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSou
 
 
 # Matrices that the generated functions create as zeros: their zero entries need no statement.
-ZEROED = ("K", "M", "Dq", "Dv", "Dz")
+ZEROED = ("K", "M", "Dq", "Dv", "Dz", "Dp", "Cy", "Cl", "Cp", "S0")
 
 
 def _print_block(block: Block, layout: str, printer: PythonPrinter, coordinates: int) -> dict:

@@ -12,7 +12,7 @@ from sympy.printing.c import C99CodePrinter
 from sympy.printing.numpy import NumPyPrinter
 from sympy.printing.precedence import PRECEDENCE
 
-ELEMENTARY = ("sin", "cos", "tan", "asin", "acos", "atan", "sinh", "cosh", "tanh", "exp", "log")
+from ..frontend.functions import PRINTED
 PI_DIGITS = "3.14159265358979323846264338327950288"
 E_DIGITS = "2.71828182845904523536028747135266250"
 LARGEST_PLAIN_INTEGER = 2**31 - 1
@@ -62,7 +62,8 @@ class CPrinter(C99CodePrinter):
     integers, else (a sum of 330 fractions has 140-digit ones) as LAG_LIT with 36 significant
     digits. pi and e print as LAG_LIT with 36 digits, enough for __float128.
 
-    Functions go through the runtime's table (r_sin, r_sqrt, ...), never libm names directly.
+    Functions go through the runtime's table (r_sin, r_sqrt, ...), never libm names directly: the
+    built-in functions print as the `c` names of their records (functions.py).
 
     Powers: integer powers 2 to 4 of a symbol print as parenthesized products ((x*x)), since kernels are
     built without -ffast-math; negative ones as 1/(x*x); square roots as r_sqrt; other powers
@@ -115,9 +116,6 @@ class CPrinter(C99CodePrinter):
             return f"(1.0/{self.parenthesize(base, PRECEDENCE['Mul'] + 1)})"
         return f"r_pow({self._print(base)}, {self._print(exponent)})"
 
-    def _print_Abs(self, expr):
-        return f"r_fabs({self._print(expr.args[0])})"
-
     def _print_sign(self, expr):
         x = self._print(expr.args[0])
         return f"((real)(({x} > 0) - ({x} < 0)))"
@@ -128,47 +126,29 @@ class CPrinter(C99CodePrinter):
     def _print_DiracDelta(self, expr):
         return "0"
 
-    def _print_atan2(self, expr):
-        return f"r_atan2({self._print(expr.args[0])}, {self._print(expr.args[1])})"
 
-    def _print_Max(self, expr):
-        return self._nested("r_fmax", expr.args)
-
-    def _print_Min(self, expr):
-        return self._nested("r_fmin", expr.args)
-
-    def _nested(self, function, args):
-        text = self._print(args[0])
-        for arg in args[1:]:
+def _call(function: str):
+    """f(x), f(x, y); a min or max of more arguments (sympy flattens them) as nested pairs."""
+    def printer(self, expr):
+        text = self._print(expr.args[0])
+        if len(expr.args) == 1:
+            return f"{function}({text})"
+        for arg in expr.args[1:]:
             text = f"{function}({text}, {self._print(arg)})"
         return text
-
-
-def _elementary(name):
-    def printer(self, expr):
-        return f"r_{name}({self._print(expr.args[0])})"
     return printer
-
-
-for _name in ELEMENTARY:
-    setattr(CPrinter, f"_print_{_name}", _elementary(_name))
 
 
 class PythonPrinter(NumPyPrinter):
     """NumPy printer: the same kernels as Python over arrays (a batch of states broadcasts).
 
     Numbers print as Python floats or exact fractions (981/100 is correctly rounded by
-    Python's division); functions are numpy's; min and max are elementwise.
+    Python's division); functions are numpy's (the `numpy` names of their records in
+    functions.py); min and max are elementwise.
     """
 
     def __init__(self, settings=None):
         super().__init__({"fully_qualified_modules": True, **(settings or {})})
-
-    def _print_Max(self, expr):
-        return self._nested("numpy.maximum", expr.args)
-
-    def _print_Min(self, expr):
-        return self._nested("numpy.minimum", expr.args)
 
     def _print_Heaviside(self, expr):
         return f"numpy.heaviside({self._print(expr.args[0])}, 0.0)"
@@ -179,8 +159,8 @@ class PythonPrinter(NumPyPrinter):
     def _print_Integer(self, expr):
         return f"{int(expr)}.0" if abs(int(expr)) > LARGEST_PLAIN_INTEGER else str(int(expr))
 
-    def _nested(self, function, args):
-        text = self._print(args[0])
-        for arg in args[1:]:
-            text = f"{function}({text}, {self._print(arg)})"
-        return text
+
+for _function in PRINTED:
+    if _function.c is not None:
+        setattr(CPrinter, f"_print_{_function.value.__name__}", _call(f"r_{_function.c}"))
+    setattr(PythonPrinter, f"_print_{_function.value.__name__}", _call(_function.numpy))

@@ -11,7 +11,7 @@ COUNTER_LABELS = {"accepted": "steps accepted", "rejected": "rejected", "rhs_eva
                   "jac_evals": "Jacobians", "lu_decomps": "LU", "newton_iters": "iterations",
                   "orders": "Taylor orders"}
 # The times of a composite's first switches that its run summary reports (abi.summary_layout).
-SWITCH_TIMES = 8                  # LAG_AUTO_LOGGED in auto.c
+SWITCH_TIMES = 8                  # auto's switch times in a summary (LAG_AUTO_LOGGED in C)
 
 
 def integrator_files(name: str) -> tuple[str, ...]:

@@ -76,6 +76,21 @@ def rate_jacobian(model, plan, state) -> np.ndarray:
     return _evaluate(calculus, exprs, model.ir, equations, plan, state).reshape(len(active), equations.size)
 
 
+def constraint_parameter_jacobian(model, plan, state) -> tuple[np.ndarray, np.ndarray]:
+    """∂g/∂p of the holonomic rows and ∂c/∂p of every active row (kernel order) at `state`, for
+    every parameter of the model (sensitivity/variational.py)."""
+    equations = expanded(model.equations)
+    symbols = [p.symbol for p in model.ir.parameters]
+    calculus = Differentiator(equations.intermediates,
+                              (*equations.coordinates, *equations.velocities, ir.TIME, *symbols))
+    active = sorted(equations.active_constraints, key=lambda c: c.kind != "holonomic")
+    rows = [c.residual for c in active if c.kind == "holonomic"] + [c.velocity_residual for c in active]
+    exprs = [_partial(calculus, row, p) for row in rows for p in symbols]
+    values = _evaluate(calculus, exprs, model.ir, equations, plan, state).reshape(len(rows), len(symbols))
+    holonomic = len(rows) - len(active)
+    return values[:holonomic], values[holonomic:]
+
+
 def outputs_given(names) -> int | None:
     """How many outputs were named; None: the scene's columns, the default."""
     return None if names is None else len(names)

@@ -8,6 +8,7 @@ from .. import ir
 from ..calculus import Differentiator
 from ..errors import LagError
 from .constraints import constraint_equations
+from .definiteness import require_positive_diagonal
 from .equations import ConservedQuantity, ConstraintEquation, Equations, lagrange_terms
 from .invariants import conserved_quantities
 from .probe import Probe
@@ -19,8 +20,8 @@ def derive_equations(model: ir.Model) -> Equations:
     """Euler-Lagrange equations in mass-matrix form (see `equations` for the formulas).
 
     Raises a LagError when the constraints are not holonomic or Pfaffian or are dependent,
-    and when the mass matrix (or the saddle-point matrix with the constraints) is singular
-    at every state.
+    when the mass matrix (or the saddle-point matrix with the constraints) is singular at every
+    state, and when a diagonal entry of M is negative at every state (`definiteness`).
     """
     q = [c.symbol for c in model.coordinates]
     v = [c.velocity_symbol for c in model.coordinates]
@@ -33,8 +34,9 @@ def derive_equations(model: ir.Model) -> Equations:
                           *(e for c in constraints for e in (*c.jacobian, c.gamma))])
     # M's entries may be intermediates of the carriers' table: probe over both tables.
     bases = (*q, *v, ir.TIME)
-    _require_regular(model, mass, constraints,
-                     Probe(Differentiator(merged_definitions(calculus, held), bases), probe.symbols))
+    mass_probe = Probe(Differentiator(merged_definitions(calculus, held), bases), probe.symbols)
+    _require_regular(model, mass, constraints, mass_probe)
+    require_positive_diagonal(model, mass, mass_probe)
     energy = sum((vk * pk for vk, pk in zip(v, momenta)), sympy.S.Zero) - lagrangian
     conserved = conserved_quantities(model, calculus, probe, lagrangian, momenta, gradient,
                                      constraints, energy)

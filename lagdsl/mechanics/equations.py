@@ -116,16 +116,7 @@ def lagrange_terms(model: ir.Model, calculus: Differentiator):
     curvature = {c: {d: held.partial(slope[c], d) for d in slope if d in held.dependencies(slope[c])}
                  for c in slope}                                               # ∂̃π_c/∂c'
     rows = {c: carrier_row(calculus, c, v) for c in slope}                     # J_c·
-    mass = [[sympy.S.Zero] * n for _ in range(n)]
-    for c, row in rows.items():
-        for d, weight in curvature[c].items():
-            for k, a in row.items():
-                for l, b in rows[d].items():
-                    if l <= k:
-                        mass[k][l] += a * weight * b
-    for k in range(n):
-        for l in range(k):
-            mass[l][k] = mass[k][l]
+    mass = _mass_matrix(n, rows, curvature)
     rate = {c: sum((w * calculus.directional(d, TIME_DIRECTION, rates) for d, w in curvature[c].items()),
                    sympy.S.Zero) + held.directional(slope[c], ("der̃",), rates) for c in slope}
     forces = generalized_forces(model, calculus, v)
@@ -135,6 +126,22 @@ def lagrange_terms(model: ir.Model, calculus: Differentiator):
     momenta = [sum((slope[c] * row[k] for c, row in rows.items() if k in row), sympy.S.Zero) for k in range(n)]
     gradient = [calculus.partial(lagrangian, qk) for qk in q]
     return lagrangian, momenta, mass, gradient, forces, forcing, held
+
+
+def _mass_matrix(n: int, rows, curvature) -> list[list[sympy.Expr]]:
+    """M_kl = Σ_c Σ_d J_ck (∂̃π_c/∂d') J_dl, symmetric: each entry's terms gathered and added once
+    (adding them one by one re-sorts a growing sum each time: O(n⁴) for a chain of n links)."""
+    terms: dict[tuple[int, int], list[sympy.Expr]] = {}
+    for c, row in rows.items():
+        for d, weight in curvature[c].items():
+            for k, a in row.items():
+                for l, b in rows[d].items():
+                    if l <= k:
+                        terms.setdefault((k, l), []).append(a * weight * b)
+    mass = [[sympy.S.Zero] * n for _ in range(n)]
+    for (k, l), entry in terms.items():
+        mass[k][l] = mass[l][k] = sympy.Add(*entry)
+    return mass
 
 
 def velocity_carriers(model: ir.Model) -> list[sympy.Symbol]:

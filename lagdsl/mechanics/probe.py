@@ -77,9 +77,14 @@ class Probe:
         generator = random.Random(seed)
         self.points = [[mpmath.mpf(0.3 + generator.random()) for _ in self.symbols] for _ in range(POINTS)]
 
-    def evaluate(self, exprs: Sequence[sympy.Expr]) -> list[list]:
-        """Values of `exprs` at each probe point: a list (one per point) of mpmath numbers."""
-        return evaluate_at(self.calculus, exprs, self.symbols, self.points, fill=mpmath.mpf(0.5))
+    def evaluate(self, exprs: Sequence[sympy.Expr], fixed: dict[sympy.Symbol, float] | None = None) -> list[list]:
+        """Values of `exprs` at each probe point: a list (one per point) of mpmath numbers. The
+        symbols in `fixed` take the values given there instead of the point's."""
+        points = self.points
+        if fixed:
+            points = [[mpmath.mpf(fixed[s]) if s in fixed else x for s, x in zip(self.symbols, point)]
+                      for point in points]
+        return evaluate_at(self.calculus, exprs, self.symbols, points, fill=mpmath.mpf(0.5))
 
     def zeros(self, exprs: Sequence[sympy.Expr]) -> list[bool]:
         """For each expression: does it vanish identically (at every probe point)?"""

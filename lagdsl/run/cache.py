@@ -83,6 +83,23 @@ def cache_directory() -> Path:
         return _fall_back(root, error)
 
 
+def helper_directory(name: str) -> Path | None:
+    """A subdirectory of the cache for what the front end keeps between processes (the parser's
+    tables, pint's definitions), created if needed; None, silently, where the cache cannot be
+    used or trusted: those are only slower to rebuild, and a command that builds nothing should
+    not warn about the build cache."""
+    root = _fallbacks.get(PRIVATE) or _fallbacks.get(cache_root()) or Path(cache_root())
+    try:
+        root.mkdir(mode=0o700, parents=True, exist_ok=True)
+        _check_trusted(root)
+        path = root / name
+        path.mkdir(mode=0o700, exist_ok=True)
+        _check_trusted(path)
+        return path
+    except OSError:
+        return None
+
+
 def _fall_back(root: str, error: OSError) -> Path:
     """A private temporary cache standing in for `root` from now on, with one warning."""
     _fallbacks[root] = _private_cache()

@@ -12,10 +12,9 @@ import subprocess
 
 import pytest
 
-import lagdsl
 from lagdsl.integrators import COUNTER_LABELS, registry
 from lagdsl.scene import Overrides
-from tests.conftest import MODELS
+from tests.conftest import library_model
 from tests.run.c_harness import find_cc
 
 ALL_COUNTERS = set(COUNTER_LABELS)
@@ -25,7 +24,7 @@ OPTIONS = {"rk4": (("step", 0.01),), "gauss": (("step", 0.01),)}
 @pytest.mark.parametrize("integrator", registry.names())
 def test_the_c_file_names_exactly_the_counters_of_its_integrator(integrator):
     # Kepler in polar coordinates; the Nystrom pair needs accelerations free of the velocities
-    model = lagdsl.load(MODELS / ("pleiades.lag" if integrator == "rkn8" else "kepler.lag"))
+    model = library_model("pleiades" if integrator == "rkn8" else "kepler")
     text = preprocessed(model.emit("c", None, Overrides(integrator=integrator,
                                                         options=OPTIONS.get(integrator, ()))).text)
     named = {counter for counter in ALL_COUNTERS if re.search(rf"\b{counter}\b", text)}
@@ -48,7 +47,7 @@ def preprocessed(text: str) -> str:
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])
 def test_an_rk4_summary_reports_steps_and_right_hand_sides_only(backend):
-    wedge = lagdsl.load(MODELS / "wedge.lag")
+    wedge = library_model("wedge")
     summary = wedge.simulate(backend=backend, integrator="rk4", step=0.01, stop=0.1).summary
     assert [name for name, _ in summary.counters] == ["accepted", "rhs_evals"]
     assert summary.count("accepted") == 10 and summary.count("jac_evals") is None

@@ -113,7 +113,7 @@ def rendered(backend: str, text: str) -> str:
     return render(kernel, text).text
 
 
-@pytest.mark.parametrize("backend", ["c", "numpy"])
+@pytest.mark.parametrize("backend", ["c", pytest.param("numpy", marks=pytest.mark.slow)])
 @settings(max_examples=60, deadline=None)
 @given(text=hostile_text)
 @example(text='x + /* """+str(__import__(\'os\').system(\'touch PWNED\'))+""" */ 0')

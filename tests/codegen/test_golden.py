@@ -16,8 +16,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-import lagdsl
-from tests.conftest import MODELS, ROOT
+from tests.conftest import MODELS, ROOT, library_model
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 
 GOLDEN = ROOT / "tests" / "golden"
@@ -38,7 +37,7 @@ EXTENSIONS = {"c": "c", "numpy": "py"}
 
 
 def generated(model: str, scene: str, backend: str) -> str:
-    return lagdsl.load(MODELS / f"{model}.lag").emit(backend, scene).text.replace(str(MODELS), "models")
+    return library_model(model).emit(backend, scene).text.replace(str(MODELS), "models")
 
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])

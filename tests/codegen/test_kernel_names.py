@@ -130,6 +130,7 @@ def features(draw) -> Features:
     return Features(coordinates, **flags)
 
 
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None, derandomize=True, database=None,
           suppress_health_check=list(HealthCheck))
 @given(features())

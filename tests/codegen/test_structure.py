@@ -9,7 +9,7 @@ import lagdsl
 from lagdsl.codegen.c_factor import factorisation_text
 from lagdsl.codegen.structure import JacobianLayout, MassLayout, jacobian_layout, kkt_layout, mass_layout
 from lagdsl.settings import Overrides
-from tests.conftest import MODELS
+from tests.conftest import library_model
 
 a, b, c = sympy.symbols("a b c", positive=True)
 
@@ -66,15 +66,15 @@ def test_a_large_saddle_point_system_is_factored_sparse_with_the_multipliers_las
 
 
 def test_the_library_solves_a_chain_in_cartesian_coordinates_by_the_sparse_ldlt():
-    text = lagdsl.load(MODELS / "cartesian_chain.lag").emit("c").text
+    text = library_model("cartesian_chain").emit("c").text
     assert "static const int lag_pivots[LAG_NK]" in text and "lag_lu_rcond" not in text
-    assert "lag_lu_rcond" in lagdsl.load(MODELS / "andrews.lag").emit("c").text     # 13 unknowns: LU
+    assert "lag_lu_rcond" in library_model("andrews").emit("c").text     # 13 unknowns: LU
 
 
 def test_the_projection_forms_only_the_nonzero_entries_of_its_gram_matrix():
     """G = A Aᵀ of the projection onto the constraints: link i of a chain involves bobs i - 1 and
     i, so A has 2 or 4 columns a row and G is tridiagonal: 8 + 7 of its 64 entries are formed."""
-    text = lagdsl.load(MODELS / "cartesian_chain.lag").emit("c").text
+    text = library_model("cartesian_chain").emit("c").text
     assert "static const int lag_a_start[LAG_NC + 1] = { 0, 2, 6, 10, 14, 18, 22, 26, 30 };" in text
     assert "#define LAG_GRAM_PAIRS 15" in text
     assert "{ 0, 0 }, { 1, 0 }, { 1, 1 }, { 2, 1 }" in text
@@ -132,8 +132,8 @@ def test_the_straight_line_ldlt_solves_the_system(picture):
 
 
 def test_fem_string_mass_matrix_is_banded_and_fpu_chain_is_diagonal():
-    assert lagdsl.load(MODELS / "fem_string.lag").emit("c").text.count("lag_order[LAG_NK]") == 1
-    fpu = lagdsl.load(MODELS / "fermi_pasta_ulam.lag")
+    assert library_model("fem_string").emit("c").text.count("lag_order[LAG_NK]") == 1
+    fpu = library_model("fermi_pasta_ulam")
     text = fpu.emit("c").text
     assert "b[i] *= K[i];" in text and "lag_cholesky_factor" not in text
     assert "K = numpy.zeros((NK,) + shape)" in fpu.emit("numpy").text
@@ -158,7 +158,7 @@ def test_a_constant_mass_matrix_is_factored_once_per_run_with_the_runs_parameter
 
 
 def test_a_mass_matrix_that_varies_is_factored_at_every_evaluation():
-    text = lagdsl.load(MODELS / "double_pendulum.lag").emit("c").text
+    text = library_model("double_pendulum").emit("c").text
     assert "lag_assemble_mass" not in text and "lag_solve(LAG_NK, K, b, &rcond)" in text
 
 
@@ -172,6 +172,7 @@ def test_a_diagonal_mass_matrix_that_is_not_positive_is_singular(tmp_path):
             lagdsl.load(model).simulate(backend=backend, m=-1.0)
 
 
+@pytest.mark.slow
 def test_the_newton_matrices_of_radau5_are_banded_for_a_chain_and_dense_otherwise():
     """E(g) = [g Dz + Dv + Dq/g | Dz_λ] has the pattern of M and of the forces' reach (radau5.c)."""
     assert jacobian_layout(200, False, {(1, 0), (0, 1)}) == JacobianLayout("banded", 200, 1, 1)
@@ -180,10 +181,10 @@ def test_the_newton_matrices_of_radau5_are_banded_for_a_chain_and_dense_otherwis
     band = JacobianLayout("banded", 10, 2, 1)
     assert [band.slot(4, c) for c in (2, 3, 4, 5)] == [16, 17, 18, 19] and band.size == 40
     implicit = Overrides(integrator="radau5")
-    fpu = lagdsl.load(MODELS / "fpu_chain.lag").emit("c", scene="implicit").text
+    fpu = library_model("fpu_chain").emit("c", scene="implicit").text
     assert "#define LAG_JAC_LOWER 1\n#define LAG_JAC_UPPER 1\n#define LAG_JAC_SIZE 600" in fpu
     assert "for (int i = 0; i < 100; ++i)" in fpu                # Dq from the stiff springs' loop
-    chain = lagdsl.load(MODELS / "pendulum_chain.lag").emit("c", overrides=implicit).text
+    chain = library_model("pendulum_chain").emit("c", overrides=implicit).text
     assert "#define LAG_JAC_AT(r, c) ((r) * LAG_NK + (c))" in chain and "#define LAG_JAC_LOWER 11" in chain
-    penny = lagdsl.load(MODELS / "rolling_penny.lag").emit("c", overrides=implicit).text
+    penny = library_model("rolling_penny").emit("c", overrides=implicit).text
     assert "#define LAG_NK 6" in penny and "#define LAG_JAC_SIZE 36" in penny     # 4 coordinates, 2 constraints

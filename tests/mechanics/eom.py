@@ -4,9 +4,9 @@ from __future__ import annotations
 import sympy
 
 from lagdsl.mechanics import derive_equations
-from lagdsl.parser import parse
+from lagdsl.frontend.parser import parse
 from lagdsl.pipeline import load_model
-from lagdsl.semantics import build_model
+from lagdsl.frontend.semantics import build_model
 from lagdsl.source import SourceFile
 from tests.conftest import MODELS
 

@@ -117,7 +117,7 @@ end Free;
         derive_equations(model)
 
 
-@pytest.mark.parametrize("integrator, loops", [("radau5", True), ("gauss", False)])
+@pytest.mark.parametrize("integrator, loops", [pytest.param("radau5", True, marks=pytest.mark.slow), ("gauss", False)])
 def test_implicit_scenes_loop_when_m_is_constant_and_gauss_uses_the_expanded_equations(integrator, loops):
     """radau5 needs ∂f/∂(q, q') and M, which the stencils give (M is constant here); gauss needs
     the canonical form, which only the expanded equations give. Both agree with dop853."""

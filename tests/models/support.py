@@ -2,18 +2,13 @@
 for the whole session), the time of a periodic signal, and the check of a normal mode."""
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 
-import lagdsl
 from lagdsl.run.output import Result
-from tests.conftest import MODELS
+from tests.conftest import library_model
 
 
-@functools.cache
-def model(name: str) -> lagdsl.Model:
-    return lagdsl.load(MODELS / f"{name}.lag")
+model = library_model
 
 
 def run(name: str, scene: str | None = None, **options) -> Result:

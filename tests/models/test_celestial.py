@@ -73,6 +73,7 @@ def test_pleiades_with_the_nystrom_pair(backend):
     assert drift(result, "energy") < 1e-8
 
 
+@pytest.mark.slow
 def test_outer_solar_system_after_500000_days():
     """Every body within 1e-6 AU of the independent reference after 500,000 days (measured
     1.1e-7 AU at rtol 1e-12); the energy and the angular momentum kept to 1e-9 of their size

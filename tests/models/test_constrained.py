@@ -105,6 +105,7 @@ def test_two_bodies_on_the_equator_breathe_at_sqrt_2k_over_m_cos():
     assert np.max(np.abs(result["theta1"] - np.pi / 2)) < 1e-12
 
 
+@pytest.mark.slow
 def test_two_bodies_on_a_sphere_agree_in_angles_and_in_cartesian_coordinates():
     """The same start in both models gives the same motion (measured 3e-10 m over 10 s);
     in Cartesian coordinates every component of the angular momentum is conserved and the
@@ -132,6 +133,7 @@ def test_wedge_accelerations():
     assert np.max(np.abs(result["momentum(x)"])) < 1e-12
 
 
+@pytest.mark.slow
 def test_the_chain_in_cartesian_coordinates_moves_as_the_chain_in_angles(tmp_path):
     """8 bobs on light links released straight at 0.5 rad: in Cartesian coordinates with one
     constraint per link (24 unknowns, the saddle-point system factored by the sparse LDLᵀ), and

@@ -11,7 +11,7 @@ import shutil
 import subprocess
 from pathlib import Path
 
-from lagdsl.codegen.c_abi import runtime_contract
+from lagdsl.codegen.c_abi import runtime_contract, runtime_header
 from lagdsl.integrators import integrator_source
 
 C_SOURCES = Path(__file__).resolve().parents[2] / "lagdsl" / "integrators" / "c"
@@ -34,8 +34,7 @@ def assemble(model_c: str, integrator: str, main_c: str) -> str:
     # only the linear algebra someone calls, as the generator does: unused static functions are warnings
     shared = [(C_SOURCES / name).read_text() for name, prefix in (("cholesky.c", "lag_cholesky"), ("lu.c", "lag_lu_"))
               if prefix in users]
-    return "\n".join([SYSTEM_HEADERS, (C_SOURCES / "runtime.h").read_text(), runtime_contract(), *shared, model_c,
-                      integrator_c, main_c])
+    return "\n".join([SYSTEM_HEADERS, runtime_header(), runtime_contract(), *shared, model_c, integrator_c, main_c])
 
 
 def build_and_run(tmp_path: Path, model_c: str, integrator: str, main_c: str,

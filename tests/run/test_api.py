@@ -7,7 +7,7 @@ import pytest
 import lagdsl
 from lagdsl import api, pipeline
 from lagdsl.run import loading, toolchain
-from tests.conftest import MODELS
+from tests.conftest import MODELS, library_model
 
 COLLIDING = """
 model Collide "names that are C keywords, libm or POSIX functions"
@@ -31,7 +31,7 @@ end Collide;
 
 
 def test_simulate_returns_named_columns_and_summary(tmp_path):
-    result = lagdsl.load(MODELS / "kepler.lag").simulate("ellipse", stop=1.0)
+    result = library_model("kepler").simulate("ellipse", stop=1.0)
     assert result.t[0] == 0.0 and result.t[-1] == pytest.approx(1.0)
     assert result["r"].shape == result.t.shape
     assert result.columns == ("r", "theta", "energy", "momentum(theta)")
@@ -41,7 +41,7 @@ def test_simulate_returns_named_columns_and_summary(tmp_path):
 
 
 def test_parameter_and_initial_overrides():
-    model = lagdsl.load(MODELS / "wedge.lag")
+    model = library_model("wedge")
     heavy = model.simulate(M=100.0, stop=0.1)
     light = model.simulate(set={"M": 0.5, "s.velocity": 1.0}, stop=0.1)
     assert abs(heavy["x"][-1]) < abs(light["x"][-1])
@@ -98,7 +98,7 @@ def test_a_model_keeps_its_loaded_code(backend, monkeypatch):
 
 
 def test_failure_keeps_partial_results():
-    model = lagdsl.load(MODELS / "wedge.lag")
+    model = library_model("wedge")
     with pytest.raises(lagdsl.SimulationError) as failure:
         model.simulate(integrator="dopri5", set={"M": -1.0, "m": 0.0})
     assert failure.value.partial is not None

@@ -3,6 +3,7 @@ checked against the closed-form solution of the Kepler problem at whole periods.
 from __future__ import annotations
 
 import math
+import sys
 
 import numpy as np
 import pytest
@@ -69,6 +70,7 @@ def test_the_reference_is_cached_and_not_rebuilt(kepler, monkeypatch):
     assert np.max(np.abs(first.values - exact)) < 1e-12
 
 
+@pytest.mark.slow
 def test_each_reported_error_is_within_2x_of_the_true_error(kepler):
     """The true error of each setting, rerun as `lagc run` would, against the closed form."""
     model = lagdsl.load(kepler)
@@ -88,6 +90,7 @@ def test_each_reported_error_is_within_2x_of_the_true_error(kepler):
     assert checked >= 12
 
 
+@pytest.mark.slow
 def test_csv_has_exactly_the_documented_header(kepler, tmp_path, capsys):
     table = tmp_path / "table.csv"
     assert main(["bench", str(kepler), "--integrators", "gauss", "--repeat", "1", "-o", str(table)]) == 0
@@ -121,9 +124,21 @@ def test_simulate_estimates_its_global_error(kepler):
 
 
 def test_run_error_and_plot(kepler, tmp_path, capsys):
+    pytest.importorskip("matplotlib")
     picture = tmp_path / "outputs.png"
     assert main(["run", str(kepler), "--error", "--rtol", "1e-14", "--plot", str(picture), "-o",
                  str(tmp_path / "out.csv")]) == 0
     assert "against the __float128 reference" in capsys.readouterr().err or \
         toolchain.extended_precision(toolchain.find_compiler()) != "float128"
     assert picture.read_bytes().startswith(b"\x89PNG")
+
+
+@pytest.mark.parametrize("command, status", [("run", 1), ("bench", 1), ("modes", 2)])     # modes: 2 for bad input
+def test_a_plot_without_matplotlib_is_refused_before_the_work_naming_the_extra(kepler, tmp_path, capsys, monkeypatch,
+                                                                                command, status):
+    monkeypatch.setitem(sys.modules, "matplotlib", None)      # `import matplotlib` fails as when it is not installed
+    picture, table = tmp_path / "figure.png", tmp_path / "table.csv"
+    assert main([command, str(kepler), "--plot", str(picture), "-o", str(table)]) == status
+    assert capsys.readouterr().err.startswith("lagc: error: --plot: drawing a plot needs matplotlib, which is not "
+                                              "installed: pip install 'lagdsl[plots]'")
+    assert not picture.exists() and not table.exists()

@@ -13,7 +13,6 @@ import stat
 import subprocess
 import sys
 import threading
-import time
 
 import numpy as np
 import pytest
@@ -25,9 +24,10 @@ from tests.run.test_output_files import OSCILLATOR
 ANHARMONIC = OSCILLATOR.replace("U = x^2/2;", "U = x^4/4;").replace("Oscillator", "Anharmonic")
 
 
-def counting_builder(built: list, text: str = "entry\n", delay: float = 0.0):
+def counting_builder(built: list, text: str = "entry\n", together: threading.Barrier | None = None):
     def build(path):
-        time.sleep(delay)
+        if together is not None:
+            together.wait(timeout=120)      # every builder is inside build before any writes its entry
         built.append(path)
         path.write_text(text)
     return build
@@ -69,14 +69,14 @@ def test_a_damaged_or_foreign_entry_is_rebuilt(cache_dir, damage):
 
 
 def test_concurrent_builders_in_threads_do_not_collide(cache_dir):
-    built, results = [], []
+    built, results, together = [], [], threading.Barrier(6)
     threads = [threading.Thread(target=lambda: results.append(
-        cache.cached_entry("a-1.txt", "1" * 64, counting_builder(built, delay=0.05)))) for _ in range(6)]
+        cache.cached_entry("a-1.txt", "1" * 64, counting_builder(built, together=together)))) for _ in range(6)]
     for thread in threads:
         thread.start()
     for thread in threads:
         thread.join()
-    assert len(results) == 6 and (cache_dir / "a-1.txt").read_text() == "entry\n"
+    assert len(built) == 6 and len(results) == 6 and (cache_dir / "a-1.txt").read_text() == "entry\n"
     assert not [name for name in os.listdir(cache_dir) if name.startswith(".")]
 
 
@@ -111,6 +111,7 @@ def lagc_run(model, cache_dir):
     return done.stdout
 
 
+@pytest.mark.slow
 def test_damaged_or_foreign_libraries_are_rebuilt_and_run_correctly(cache_dir, tmp_path):
     model, other = tmp_path / "oscillator.lag", tmp_path / "anharmonic.lag"
     model.write_text(OSCILLATOR)
@@ -125,6 +126,7 @@ def test_damaged_or_foreign_libraries_are_rebuilt_and_run_correctly(cache_dir, t
     assert lagc_run(model, cache_dir) == expected
 
 
+@pytest.mark.slow
 def test_two_processes_building_the_same_model_both_succeed(cache_dir, tmp_path):
     model = tmp_path / "oscillator.lag"
     model.write_text(OSCILLATOR)

@@ -11,15 +11,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import lagdsl
-from tests.conftest import MODELS
+from tests.conftest import library_model
 
 CASES = [("double_pendulum.lag", "chaos", 5.0), ("cartesian_pendulum.lag", "swing", 2.0)]   # the second projects
 
 
 def run(path, scene, stop, integrator, interval):
-    return lagdsl.load(MODELS / path).simulate(scene, integrator=integrator, stop=stop, interval=interval,
-                                               rtol=1e-9, atol=1e-11)
+    return library_model(path.removesuffix(".lag")).simulate(scene, integrator=integrator, stop=stop,
+                                                             interval=interval, rtol=1e-9, atol=1e-11)
 
 
 def common_rows(fine, coarse):

@@ -14,7 +14,7 @@ import subprocess
 import pytest
 
 from lagdsl.abi import MAX_STEPS, STATUSES, summary_layout
-from lagdsl.codegen.c_abi import runtime_contract, status_printer, summary_packer
+from lagdsl.codegen.c_abi import runtime_contract, runtime_header, status_printer, summary_packer
 from lagdsl.integrators import c_file
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 
@@ -215,7 +215,7 @@ def program(constraints, holonomic, invariants, stop, integrator, tolerances) ->
     defines = "".join(f"#define {name} {int(value)}\n" for name, value in flags.items())
     layout = summary_layout(integrator, int(invariants), 4, constraints, stop)
     linear_algebra = c_file("lu.c") if constraints else ""      # the projection's; unused, it is a warning
-    return "\n".join([HEADERS, c_file("runtime.h"), runtime_contract(), linear_algebra, defines,
+    return "\n".join([HEADERS, runtime_header(), runtime_contract(), linear_algebra, defines,
                       MODEL % {"holonomic": "#define LAG_NH 1" if holonomic else ""}, STEPPER, c_file("driver.c"),
                       summary_packer(layout), c_file("library.c"), SCENE, status_printer(), c_file("standalone.c")])
 
@@ -232,7 +232,14 @@ def build(tmp_path, name: str, combination: tuple) -> str:
     return str(executable)
 
 
-@pytest.mark.parametrize("combination", COMBINATIONS.values(), ids=COMBINATIONS)
+# The default run compiles the driver with no guard and with every guard (either way of
+# switching integrators); each guard alone is slow.
+DEFAULT_COMBINATIONS = {"nothing", "everything", "everything with switches"}
+
+
+@pytest.mark.parametrize("combination", [
+    pytest.param(value, id=name, marks=() if name in DEFAULT_COMBINATIONS else pytest.mark.slow)
+    for name, value in COMBINATIONS.items()])
 def test_the_driver_compiles_alone_with_each_guard_a_scene_can_set(tmp_path, combination):
     build(tmp_path, "driver", combination)
 

@@ -9,8 +9,7 @@ import numpy as np
 import pytest
 from scipy.special import ellipk
 
-import lagdsl
-from tests.conftest import MODELS
+from tests.conftest import library_model
 from tests.run.test_ivp_test_set import rigid_pendulum_angle
 
 G = 9.81
@@ -20,7 +19,7 @@ def kepler_energy_errors(orbits: int, eccentricity: float, scene: str, **options
     """Relative energy error |E(t) - E(0)| / |E(0)| of models/kepler.lag (G M = 1) started at
     perihelion r = 1, every tenth of a period for `orbits` periods."""
     period = 2 * math.pi * (1 / (1 - eccentricity)) ** 1.5          # a = r_p / (1 - e)
-    result = lagdsl.load(MODELS / "kepler.lag").simulate(
+    result = library_model("kepler").simulate(
         scene, set={"theta.velocity": math.sqrt(1 + eccentricity)}, stop=orbits * period,
         interval=period / 10, **options)
     energy = result["energy"]
@@ -46,7 +45,7 @@ def test_gauss_keeps_the_kepler_energy_error_bounded():
 def test_block_on_wedge_at_extreme_mass_ratios(M, m):
     """From rest both move with constant accelerations (models/wedge.lag):
     x'' = -m g sin a cos a / (M + m sin^2 a), s'' = (M + m) g sin a / (M + m sin^2 a)."""
-    result = lagdsl.load(MODELS / "wedge.lag").simulate("slide", M=M, m=m)
+    result = library_model("wedge").simulate("slide", M=M, m=m)
     a = 0.5
     denominator = M + m * math.sin(a) ** 2
     for name, acceleration in (("x", -m * G * math.sin(a) * math.cos(a) / denominator),
@@ -56,7 +55,7 @@ def test_block_on_wedge_at_extreme_mass_ratios(M, m):
 
 
 def test_double_pendulum_with_a_light_lower_bob_swings_like_a_simple_pendulum():
-    result = lagdsl.load(MODELS / "double_pendulum.lag").simulate("chaos", m2=1e-8, stop=5.0)
+    result = library_model("double_pendulum").simulate("chaos", m2=1e-8, stop=5.0)
     # measured 5e-8: the lower bob pulls on the upper one with a force of order m2 g
     assert np.max(np.abs(result["theta1"] - rigid_pendulum_angle(result.t))) < 1e-6
 
@@ -64,7 +63,7 @@ def test_double_pendulum_with_a_light_lower_bob_swings_like_a_simple_pendulum():
 def test_double_pendulum_with_a_light_upper_bob_stays_finite():
     """m1/m2 = 1e-8: the upper joint has almost no inertia and moves fast; the run completes
     and keeps the energy (measured: relative drift 4e-7 over 5 s in 2773 steps)."""
-    result = lagdsl.load(MODELS / "double_pendulum.lag").simulate("chaos", m1=1e-8, stop=5.0)
+    result = library_model("double_pendulum").simulate("chaos", m1=1e-8, stop=5.0)
     assert np.all(np.isfinite(result.values))
     (_, start, drift), = result.summary.invariants
     assert drift < 1e-5 * abs(start)
@@ -77,7 +76,7 @@ def test_cartesian_pendulum_at_every_scale(length, mass):
     is back where it started, and the rod keeps its length to round-off relative to l^2."""
     theta0 = 0.5
     period = 4 * math.sqrt(length / G) * ellipk(math.sin(theta0 / 2) ** 2)
-    result = lagdsl.load(MODELS / "cartesian_pendulum.lag").simulate(
+    result = library_model("cartesian_pendulum").simulate(
         "swing", l=length, m=mass, stop=period, interval=period / 100, atol=1e-12 * length)
     x, y = result["x"], result["y"]
     assert abs(x[-1] - x[0]) < 1e-9 * length and abs(y[-1] - y[0]) < 1e-9 * length
@@ -91,7 +90,7 @@ def test_stiff_fpu_chain_keeps_its_oscillatory_energy():
     the total oscillatory energy stays within O(1/omega) of 1 (measured: max |I - 1| = 3.1/omega;
     3.6/omega at omega = 25, 3.3/omega at 100, 3.4/omega at 200) and the energy is conserved."""
     omega = 50.0
-    result = lagdsl.load(MODELS / "fermi_pasta_ulam.lag").simulate("exchange")
+    result = library_model("fermi_pasta_ulam").simulate("exchange")
     assert result["I"][0] == pytest.approx(1.0, rel=1e-14)
     assert np.max(np.abs(result["I"] - 1)) < 4 / omega
     assert result["I1"][-1] < 0.05 and result["I3"][-1] > 0.5

@@ -11,7 +11,7 @@ import pytest
 import lagdsl
 from lagdsl.errors import SimulationError
 from lagdsl.pipeline import execute, generate
-from tests.conftest import MODELS
+from tests.conftest import MODELS, library_model
 from tests.test_cli import lagc
 
 SINGULAR_START = """model SingularStart
@@ -65,6 +65,29 @@ def test_singular_mass_matrix_at_the_start(tmp_path, backend):
     assert list(error.partial.t) == [0] and list(error.partial.values[0]) == [0, 0]
 
 
+NEGATIVE_MASS = """model Spring
+  parameter m = 1 [kg];  parameter k = 4 [N/m];
+  coordinate x(start = 1) [m];
+  T = m/2*der(x)^2;
+  U = k/2*x^2;
+end Spring;
+"""
+
+
+def test_a_negative_mass_is_refused_at_check_and_named(tmp_path):
+    path = tmp_path / "spring.lag"
+    path.write_text(NEGATIVE_MASS.replace("m = 1 [kg]", "m = -1 [kg]"), encoding="utf-8")
+    done = lagc("check", path)
+    assert done.returncode == 1 and ":2:13: error: the mass matrix is not positive definite: with m = -1" in done.stderr
+
+
+@pytest.mark.parametrize("backend", ["c", "numpy"])
+def test_a_negative_mass_set_for_a_run_names_the_sign_in_the_remedy(tmp_path, backend):
+    error = failure(load(tmp_path, NEGATIVE_MASS), backend, set={"m": -1.0}, stop=1.0)
+    assert error.message.startswith("the mass matrix is singular at this state") and error.time == 0
+    assert "a negative value does the same (the kinetic energy must be positive" in error.remedy
+
+
 @pytest.mark.parametrize("backend", ["c", "numpy"])
 @pytest.mark.parametrize("integrator", ["rk4", "gauss"])
 def test_singular_mass_matrix_later_keeps_the_rows_before(tmp_path, backend, integrator):
@@ -80,7 +103,8 @@ def test_singular_mass_matrix_later_keeps_the_rows_before(tmp_path, backend, int
 
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])
-@pytest.mark.parametrize("integrator", ["dop853", "radau5", "rk4"])
+@pytest.mark.parametrize("integrator", ["dop853", pytest.param("radau5", marks=pytest.mark.slow),
+                                        pytest.param("rk4", marks=pytest.mark.slow)])
 def test_blow_up(tmp_path, backend, integrator):
     settings = {"integrator": integrator, **({"step": 0.001} if integrator == "rk4" else {})}
     error = failure(load(tmp_path, BLOW_UP), backend, **settings)
@@ -156,7 +180,7 @@ def test_non_finite_tolerances_are_option_errors(tmp_path, option):
 @pytest.mark.parametrize("backend", ["c", "numpy"])
 def test_initial_state_off_a_singular_constraint(backend):
     """The state reported is the initial one (the C driver reported zeros before its stepper began)."""
-    model = lagdsl.load(MODELS / "cartesian_pendulum.lag")
+    model = library_model("cartesian_pendulum")
     error = failure(model, backend, set={"x.start": 0.0, "y.start": 0.0, "x.velocity": 0.5}, start=0.25)
     assert error.message == "projection onto the constraints did not converge"
     assert error.time == 0.25 and len(error.partial.t) == 0
@@ -169,7 +193,7 @@ def test_initial_state_off_a_singular_constraint(backend):
 def test_a_non_finite_jacobian_in_scipys_radau_is_a_simulation_error():
     """m = 1e-300 overflows e B / m in the Jacobian: scipy's LU refuses it with a ValueError,
     which must become the non-finite failure with the start row kept, not a traceback."""
-    particle = lagdsl.load(MODELS / "charged_particle.lag")
+    particle = library_model("charged_particle")
     with pytest.raises(SimulationError) as failure:
         particle.simulate(backend="numpy", integrator="radau5", stop=0.1, m=1e-300)
     assert "infinite or NaN" in str(failure.value)
@@ -182,7 +206,7 @@ def test_outputs_with_multipliers_at_a_singular_start_leave_no_row_on_either_bac
     there with no row, as the C driver delivers no row it cannot evaluate (the NumPy one raised
     LinAlgError). (A model whose mass matrix underflows at every value of its parameters, as
     with a^exp(1000), is refused by lagc check.)"""
-    penny = lagdsl.load(MODELS / "rolling_penny.lag")
+    penny = library_model("rolling_penny")
     for backend in ("c", "numpy"):
         with pytest.raises(SimulationError) as failure:
             penny.simulate(backend=backend, stop=0.1, a=1e-200)

@@ -101,6 +101,7 @@ def test_gauss_order_2s(stages):
     assert abs(observed_orders(errors)[-1] - 2 * stages) < 0.3, errors
 
 
+@pytest.mark.slow
 def test_gauss_energy_bounded_while_rk4_drifts():
     """2000 steps of h = 0.1: the energy error of gauss (s = 2) oscillates with a constant
     amplitude; that of rk4, not symplectic, grows linearly."""

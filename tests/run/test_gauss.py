@@ -268,6 +268,7 @@ def relative_energy_error(rows):
     return np.abs(energy(rows[:, 1], rows[:, 2]) - h0) / abs(h0)
 
 
+@pytest.mark.slow
 def test_energy_bounded_without_drift(tmp_path):
     """10^5 steps of h = 0.1 (h omega = 0.37), s = 2: the O(h^4) energy error oscillates with the
     same amplitude at the end as at the start; s = 3 at h = 0.005: round-off level, 10^5 steps;

@@ -9,12 +9,12 @@ import pytest
 import lagdsl
 from lagdsl.errors import LagError
 from lagdsl.scene import Overrides
-from tests.conftest import MODELS
+from tests.conftest import MODELS, library_model
 from tests.test_cli import lagc
 
 
 def plan(model: str, **overrides):
-    return lagdsl.load(MODELS / f"{model}.lag").plan(None, Overrides(**overrides))
+    return library_model(model).plan(None, Overrides(**overrides))
 
 
 def test_another_method_keeps_the_scenes_tolerances():
@@ -57,7 +57,7 @@ end Bad;
     assert (diagnostic.span.line, diagnostic.span.column) == (5, 43)
 
 
-@pytest.mark.parametrize("backend", ["c", "numpy"])
+@pytest.mark.parametrize("backend", ["c", pytest.param("numpy", marks=pytest.mark.slow)])
 def test_the_summary_shows_the_settings_used(tmp_path, backend):
     done = lagc("run", MODELS / "cartesian_pendulum.lag", "--backend", backend, "--integrator", "radau5",
                 "--stop", "0.1", "-o", tmp_path / "out.csv")
@@ -70,7 +70,7 @@ def test_the_summary_shows_the_settings_used(tmp_path, backend):
 
 
 def test_the_c_program_prints_the_settings_it_used(tmp_path):
-    source = lagdsl.load(MODELS / "cartesian_pendulum.lag").emit("c")
+    source = library_model("cartesian_pendulum").emit("c")
     program = tmp_path / "pendulum"
     (tmp_path / "pendulum.c").write_text(source.text, encoding="utf-8")
     subprocess.run(["cc", "-std=c99", "-O2", "-o", program, tmp_path / "pendulum.c", "-lm"], check=True)

@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-import lagdsl
-from tests.conftest import MODELS
+from tests.conftest import library_model
+
+pytestmark = pytest.mark.slow      # long reference runs; the default run has closed forms of each kind
 
 # The test set's reference solutions (computed there with PSIDE / RADAU at tolerance 1e-14)
 ANDREWS_AT_0_03 = {
@@ -36,7 +37,7 @@ REFERENCE_RUNS = [
 @pytest.mark.parametrize("model, scene, reference, t_end, integrator, rtol, atol, accepted",
                          REFERENCE_RUNS, ids=[f"{r[0]}-{r[4]}" for r in REFERENCE_RUNS])
 def test_reference_solution(model, scene, reference, t_end, integrator, rtol, atol, accepted):
-    result = lagdsl.load(MODELS / f"{model}.lag").simulate(scene, integrator=integrator,
+    result = library_model(model).simulate(scene, integrator=integrator,
                                                            rtol=rtol, atol=atol)
     assert result.t[-1] == pytest.approx(t_end)
     worst = max(abs(result[name][-1] - value) / abs(value) for name, value in reference.items())
@@ -51,7 +52,7 @@ def rigid_pendulum_angle(t: np.ndarray, phi0: float = 1.0, g_over_l: float = 9.8
 
 
 def elastic_pendulum(k: float, **options):
-    return lagdsl.load(MODELS / "elastic_pendulum.lag").simulate("stiff", k=k, **options)
+    return library_model("elastic_pendulum").simulate("stiff", k=k, **options)
 
 
 def test_radau5_steps_stay_flat_as_the_spring_stiffens():
@@ -81,7 +82,7 @@ def test_stiff_spring_swings_like_the_rigid_pendulum(k, rtol, tolerance):
 
 
 def test_dop853_on_the_soft_spring_matches_radau5():
-    model = lagdsl.load(MODELS / "elastic_pendulum.lag")
+    model = library_model("elastic_pendulum")
     explicit = model.simulate("soft")
     implicit = model.simulate("soft", integrator="radau5", rtol=1e-10, atol=1e-12)
     assert np.max(np.abs(explicit.values - implicit.values)) < 1e-6

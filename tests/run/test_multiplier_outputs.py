@@ -13,7 +13,7 @@ import lagdsl
 from lagdsl.errors import LagError
 from lagdsl.pipeline import model_from_source
 from lagdsl.source import SourceFile
-from tests.conftest import MODELS
+from tests.conftest import library_model
 
 ANGLE_PENDULUM = """model Pendulum
   parameter m = 1.0;  parameter l = 1.0;  parameter g = 9.81;  parameter theta0 = 0.5;
@@ -33,7 +33,7 @@ end Pendulum;
 @pytest.mark.parametrize("backend", ["c", "numpy"])
 def test_rod_tension_matches_the_angle_solution(backend, tmp_path):
     settings = dict(stop=3.0, interval=0.25, rtol=1e-11, atol=1e-13, m=1.5, l=2.0, theta0=0.9)
-    cartesian = lagdsl.load(MODELS / "cartesian_pendulum.lag").simulate("swing", backend, **settings)
+    cartesian = library_model("cartesian_pendulum").simulate("swing", backend, **settings)
     path = tmp_path / "pendulum.lag"
     path.write_text(ANGLE_PENDULUM, encoding="utf-8")
     angle = lagdsl.load(path).simulate("swing", backend, **settings)

@@ -16,7 +16,7 @@ import pytest
 import lagdsl
 from lagdsl.cli import main
 from lagdsl.settings import RCOND_MIN
-from tests.conftest import MODELS
+from tests.conftest import library_model
 
 THROUGH_THE_POLE = """model Straight "a free particle on a line through the origin, in polar coordinates"
   coordinate r(start = -1, velocity = 1);
@@ -29,7 +29,7 @@ HINT = "use coordinates that do not pass through this configuration"
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])
 def test_heavy_top_near_theta_zero_stops_with_the_condition_estimate(backend):
-    top = lagdsl.load(MODELS / "heavy_top.lag")
+    top = library_model("heavy_top")
     with pytest.raises(lagdsl.SimulationError) as failure:
         top.simulate(backend=backend, stop=0.1, set={"theta.start": 1e-7})
     error = failure.value
@@ -42,7 +42,7 @@ def test_heavy_top_near_theta_zero_stops_with_the_condition_estimate(backend):
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])
 def test_heavy_top_a_little_further_from_the_pole_runs(backend):
-    top = lagdsl.load(MODELS / "heavy_top.lag")
+    top = library_model("heavy_top")
     result = top.simulate(backend=backend, stop=0.05, set={"theta.start": 1e-4})
     assert np.all(np.isfinite(result.values))
 

@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 from scipy.integrate import solve_ivp
 
 from tests.run.c_harness import build_and_run
@@ -269,6 +270,7 @@ def run(tmp_path, model: str, rtol: float, atol: float, t_end: float, max_step: 
     return result
 
 
+@pytest.mark.slow
 def test_van_der_pol_stiff(tmp_path):
     mu = 1e3
 
@@ -341,6 +343,7 @@ def test_dense_output_inside_steps(tmp_path):
     assert np.all(steps[1:, 0] == steps[:-1, 1])
 
 
+@pytest.mark.slow
 def test_dense_output_between_stiff_steps(tmp_path):
     """On the stiff Van der Pol run, through the fast jump too, the dense output stays within the
     (transformed) tolerance of the exact solution through the step's starting point."""

@@ -51,6 +51,7 @@ def test_the_standalone_batch_equals_single_runs_row_for_row(tmp_path):
         assert "3 members, 1 failed" in done.stderr
 
 
+@pytest.mark.slow
 def test_a_bad_line_of_batch_input_stops_the_batch_before_it_runs(tmp_path):
     model_path = tmp_path / "singular.lag"
     model_path.write_text(SINGULAR_LATER, encoding="utf-8")

@@ -10,8 +10,7 @@ from __future__ import annotations
 
 import pytest
 
-import lagdsl
-from tests.conftest import MODELS
+from tests.conftest import library_model
 
 STOP = 20.0
 METHODS = [("dop853", "DOP853", 12), ("dopri5", "RK45", 6)]
@@ -34,7 +33,7 @@ def scipy_trials(method: str, rhs_per_trial: int, rtol: float, atol: float) -> i
 
 @pytest.fixture(scope="module")
 def model():
-    return lagdsl.load(MODELS / "kepler.lag")
+    return library_model("kepler")
 
 
 @pytest.mark.parametrize("integrator, method, rhs_per_trial", METHODS)

@@ -17,7 +17,7 @@ import pytest
 import lagdsl
 from lagdsl.errors import LagError
 from lagdsl.scene import Overrides
-from tests.conftest import MODELS
+from tests.conftest import library_model
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 
 STIFF_SPRING = Path(__file__).parent / "models" / "stiff_spring.lag"
@@ -31,7 +31,7 @@ def spring():
 
 @pytest.fixture(scope="module")
 def pendulum():
-    return lagdsl.load(MODELS / "double_pendulum.lag")
+    return library_model("double_pendulum")
 
 
 def slow_mode(t: np.ndarray) -> np.ndarray:
@@ -45,7 +45,7 @@ def position_error(result) -> float:
     return float(np.max(np.abs(result.values[:, :2] - slow_mode(result.t))))
 
 
-@pytest.mark.parametrize("integrator", ["dopri5", "dop853"])
+@pytest.mark.parametrize("integrator", [pytest.param("dopri5", marks=pytest.mark.slow), "dop853"])
 def test_explicit_pairs_report_stiffness_once_with_the_remedy(spring, integrator):
     result = spring.simulate(integrator=integrator, stop=2)
     stiffness = result.summary.stiffness
@@ -64,7 +64,7 @@ def test_numpy_backend_detects_stiffness_too(spring):
     assert result.summary.render().count("stiffness detected") == 1
 
 
-@pytest.mark.parametrize("backend, stop", [("c", None), ("numpy", 3.0)])
+@pytest.mark.parametrize("backend, stop", [("c", None), pytest.param("numpy", 3.0, marks=pytest.mark.slow)])
 def test_the_chaotic_double_pendulum_is_not_stiff(pendulum, backend, stop):
     for integrator in ("dopri5", "dop853"):
         summary = pendulum.simulate(backend=backend, integrator=integrator, stop=stop).summary
@@ -107,6 +107,7 @@ def test_auto_returns_to_dop853_when_the_stiffness_fades(spring):
     assert np.max(np.abs(auto.values[:, :2] - dop853.values[:, :2])) < 1e-6
 
 
+@pytest.mark.slow
 def test_auto_stays_with_dop853_on_the_double_pendulum(pendulum):
     auto = pendulum.simulate(integrator="auto", stop=5, rtol=1e-10, atol=1e-12)
     dop853 = pendulum.simulate(integrator="dop853", stop=5, rtol=1e-10, atol=1e-12)
@@ -124,7 +125,7 @@ def test_numpy_auto_is_lsoda_and_reports_its_switch(spring):
 
 
 def test_auto_handles_constraints_in_c_and_is_refused_by_numpy():
-    model = lagdsl.load(MODELS / "cartesian_pendulum.lag")
+    model = library_model("cartesian_pendulum")
     auto = model.simulate(integrator="auto", stop=1, rtol=1e-10, atol=1e-12)
     dop853 = model.simulate(integrator="dop853", stop=1, rtol=1e-10, atol=1e-12)
     assert auto.summary.switches.count == 0 and np.max(np.abs(auto.values - dop853.values)) < 1e-12
@@ -132,6 +133,7 @@ def test_auto_handles_constraints_in_c_and_is_refused_by_numpy():
         model.simulate(backend="numpy", integrator="auto", stop=1)
 
 
+@pytest.mark.slow
 def test_the_auto_program_compiles_strictly(spring, tmp_path):
     cc = find_cc()
     if cc is None:

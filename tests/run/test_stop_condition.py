@@ -117,6 +117,7 @@ def test_a_constrained_model_stops_on_its_constraint(tmp_path, backend, integrat
     assert result.summary.residual_max < 1e-9
 
 
+@pytest.mark.slow
 def test_the_standalone_program_stops_and_says_where(tmp_path):
     cc = find_cc()
     if cc is None:

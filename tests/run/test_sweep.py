@@ -7,13 +7,12 @@ import ctypes
 import numpy as np
 import pytest
 
-import lagdsl
 from lagdsl.abi import INTERRUPTED
 from lagdsl.errors import LagError
 from lagdsl.run import sweep as batch
 from lagdsl.run.loading import load_library
 from lagdsl.run.toolchain import shared_library
-from tests.conftest import MODELS
+from tests.conftest import MODELS, library_model
 from tests.run.test_failures import SINGULAR_LATER, load
 
 DERIVED = """model Spring
@@ -34,7 +33,7 @@ end Spring;
 
 @pytest.fixture(scope="module")
 def pendulum():
-    return lagdsl.load(MODELS / "double_pendulum.lag")
+    return library_model("double_pendulum")
 
 
 def starts(count, seed=3):
@@ -159,6 +158,7 @@ def test_lagc_sweep_writes_the_grid_as_a_tidy_table(tmp_path):
     assert lines[1].startswith("0,1,0,0,0,2,") and lines[-1].startswith("5,2,1,0.5,")
 
 
+@pytest.mark.slow
 def test_lagc_sweep_writes_parquet_and_random_samples(tmp_path):
     pandas = pytest.importorskip("pandas")
     pytest.importorskip("pyarrow")
@@ -171,14 +171,14 @@ def test_lagc_sweep_writes_parquet_and_random_samples(tmp_path):
     assert len(table) == 6 and np.array_equal(table["m2"].to_numpy()[::2], np.random.default_rng(7).uniform(1, 2, 3))
 
 
-@pytest.mark.parametrize("options, message", [
+@pytest.mark.parametrize("options, message", [     # each a new interpreter: two in the default run
     (["--vary", "m2=1:2"], "lagc: error: --vary m2=1:2: expected NAME=START:STOP:COUNT"),
-    (["--vary", "m2=1:2:0"], "COUNT must be a whole number >= 1"),
-    (["--random", "m2=1:2"], "lagc: error: --random: needs -n"),
-    (["--random", "m2=2:1", "-n", "3"], "need LOW < HIGH"),
-    (["--vary", "m2=1:2:2", "--random", "m1=1:2", "-n", "2"], "not both"),
+    pytest.param(["--vary", "m2=1:2:0"], "COUNT must be a whole number >= 1", marks=pytest.mark.slow),
+    pytest.param(["--random", "m2=1:2"], "lagc: error: --random: needs -n", marks=pytest.mark.slow),
+    pytest.param(["--random", "m2=2:1", "-n", "3"], "need LOW < HIGH", marks=pytest.mark.slow),
+    pytest.param(["--vary", "m2=1:2:2", "--random", "m1=1:2", "-n", "2"], "not both", marks=pytest.mark.slow),
     (["--vary", "m2=1:2:2", "--vary", "m2=0:1:2"], "'m2' is varied twice"),
-    ([], "nothing varies"),
+    pytest.param([], "nothing varies", marks=pytest.mark.slow),
 ])
 def test_lagc_sweep_refuses_bad_options_with_a_located_error(tmp_path, options, message):
     from tests.test_cli import lagc

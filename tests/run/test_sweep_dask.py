@@ -8,13 +8,13 @@ import signal
 import numpy as np
 import pytest
 
-import lagdsl
 from lagdsl.run import dask_sweep
 from lagdsl.run import sweep as batch
 from lagdsl.scene import Overrides
-from tests.conftest import MODELS
+from tests.conftest import library_model
 
 distributed = pytest.importorskip("dask.distributed")
+pytestmark = pytest.mark.slow      # a local cluster of two processes, workers killed and restarted
 
 
 @pytest.fixture(scope="module")
@@ -25,7 +25,7 @@ def client():
 
 
 def test_a_sweep_on_dask_equals_the_local_one_even_when_a_worker_dies(client):
-    model = lagdsl.load(MODELS / "double_pendulum.lag")
+    model = library_model("double_pendulum")
     count = 160
     rng = np.random.default_rng(11)
     values = {"theta1.start": rng.uniform(-3, 3, count), "theta2.start": rng.uniform(-3, 3, count)}
@@ -45,8 +45,8 @@ def test_a_sweep_on_dask_equals_the_local_one_even_when_a_worker_dies(client):
             killed.append(victim)
 
     values_dask, summaries, chunks = dask_sweep.run_dask(client, program.library_bytes(), program.source.text,
-                                                    program.source.suggested_name, batch.batch_layout(members.plan),
-                                                    members.parameters, members.initial, kill_one_worker)
+                                                         program.source.suggested_name, batch.batch_layout(members.plan),
+                                                         members.parameters, members.initial, kill_one_worker)
     assert killed and chunks > 2
     assert values_dask.shape == local.values.shape and np.array_equal(values_dask, local.values)
     assert list(summaries["status"]) == [0] * count
@@ -55,7 +55,7 @@ def test_a_sweep_on_dask_equals_the_local_one_even_when_a_worker_dies(client):
 def test_every_member_arrives_when_both_workers_die_together(client):
     """The library is the result of a task that holds its bytes: when both workers die, the
     scheduler computes it again, the lost chunks run again, and the finished ones are kept."""
-    model = lagdsl.load(MODELS / "double_pendulum.lag")
+    model = library_model("double_pendulum")
     count = 120
     rng = np.random.default_rng(12)
     values = {"theta1.start": rng.uniform(-3, 3, count), "theta2.start": rng.uniform(-3, 3, count)}

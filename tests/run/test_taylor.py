@@ -20,7 +20,7 @@ import pytest
 import lagdsl
 from lagdsl.errors import LagWarning
 from lagdsl.scene import Overrides
-from tests.conftest import MODELS
+from tests.conftest import library_model
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 from tests.run.test_stop_condition import PENDULUM, QUARTER
 
@@ -130,7 +130,7 @@ def test_the_generated_file_compiles_warning_free(tmp_path, precision):
     if cc is None:
         pytest.skip("no C compiler")
     source = tmp_path / "double_pendulum.c"
-    model = lagdsl.load(MODELS / "double_pendulum.lag")
+    model = library_model("double_pendulum")
     source.write_text(model.emit("c", "chaos", Overrides(integrator="taylor")).text)
     built = subprocess.run([cc, *STRICT_FLAGS, *precision, str(source), "-o", str(tmp_path / "program"), "-lm"],
                            capture_output=True, text=True)

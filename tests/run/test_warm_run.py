@@ -97,7 +97,7 @@ def replace_bytes(path, data: bytes) -> None:
     path.write_bytes(data)
 
 
-@pytest.mark.parametrize("backend", ["c", "numpy"])
+@pytest.mark.parametrize("backend", ["c", pytest.param("numpy", marks=pytest.mark.slow)])
 def test_a_warm_run_imports_neither_sympy_nor_lark_and_writes_the_same_bytes(model, backend, capsys):
     cold = lagc_here(capsys, "run", model, "--backend", backend)
     assert cold[0] == 0 and cold[1].startswith("t,theta,energy\n0,0.5,")
@@ -162,7 +162,7 @@ def test_the_located_error_of_a_warm_run_points_into_the_model(model, capsys, pi
     assert "    time(stop = 1, interval = 0.25);\n    ^~~~" in error
 
 
-@pytest.mark.parametrize("name", ["g", "a"])
+@pytest.mark.parametrize("name", [pytest.param("g", marks=pytest.mark.slow), "a"])
 def test_setting_a_value_others_are_computed_from_takes_the_full_pipeline(model, name, capsys, pipeline_calls):
     lagc_here(capsys, "run", model)
     again = lagc_here(capsys, "run", model, "--set", f"{name}=0.3")
@@ -170,6 +170,7 @@ def test_setting_a_value_others_are_computed_from_takes_the_full_pipeline(model,
     assert again == lagc_here(capsys, "run", model, "--no-cache", "--set", f"{name}=0.3")
 
 
+@pytest.mark.slow
 def test_another_scene_integrator_backend_or_text_is_not_warm(model, capsys, pipeline_calls):
     lagc_here(capsys, "run", model)
     lagc_here(capsys, "run", model, "--scene", "swing")          # asked for by name: another key
@@ -180,7 +181,7 @@ def test_another_scene_integrator_backend_or_text_is_not_warm(model, capsys, pip
     assert len(pipeline_calls) == 5 and len(plan_entries(model)) == 5
 
 
-@pytest.mark.parametrize("damage", ["plan", "library"])
+@pytest.mark.parametrize("damage", ["plan", pytest.param("library", marks=pytest.mark.slow)])
 def test_a_truncated_plan_or_library_is_rebuilt(model, damage, capsys):
     expected = lagc_here(capsys, "run", model)
     (plan,) = plan_entries(model)
@@ -196,6 +197,7 @@ def test_a_truncated_plan_or_library_is_rebuilt(model, damage, capsys):
     assert_same_run(rebuilt, warm)
 
 
+@pytest.mark.slow
 def test_no_cache_uses_and_leaves_nothing(model, capsys):
     stored = lagc_here(capsys, "run", model)
     cache = sorted(os.listdir(model.parent / "cache"))

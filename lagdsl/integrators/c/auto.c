@@ -29,7 +29,6 @@
 
 #define LAG_INTEGRATOR_NAME "auto"
 
-#define LAG_AUTO_LOGGED 8          /* switch times kept for the summary */
 #define LAG_AUTO_CALM LAG_LIT(3.0)  /* h rho below this: dop853 would be stable with this h */
 
 enum lag_auto_method { LAG_AUTO_EXPLICIT, LAG_AUTO_IMPLICIT };

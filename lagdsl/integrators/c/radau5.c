@@ -140,28 +140,47 @@ static int radau_min(int a, int b)
     return a < b ? a : b;
 }
 
+/* The row p >= k of the largest |ar_pk| + |ai_pk| in column k, rows k..last (ai NULL: a real
+ * matrix), or -1 when the column is zero there. */
+static int radau_pivot_row(const real *ar, const real *ai, int k, int last)
+{
+    int i, p = -1;
+    real big = 0;
+    for (i = k; i <= last; ++i) {
+        real size = r_fabs(RADAU_LU(ar, i, k)) + (ai != NULL ? r_fabs(RADAU_LU(ai, i, k)) : 0);
+        if (size > big) {
+            big = size;
+            p = i;
+        }
+    }
+    return p;
+}
+
+/* Rows k and p of a exchanged in columns k..right. */
+static void radau_swap_rows(real *a, int k, int p, int right)
+{
+    int j;
+    for (j = k; j <= right; ++j) {
+        real t = RADAU_LU(a, k, j);
+        RADAU_LU(a, k, j) = RADAU_LU(a, p, j);
+        RADAU_LU(a, p, j) = t;
+    }
+}
+
 /* P a = L U in place.  Returns 0, or k+1 when column k has no nonzero pivot. */
 static int radau_band_factor(real *a, int *piv)
 {
     int i, j, k;
     for (k = 0; k < LAG_NK; ++k) {
-        int p = k, last = radau_min(LAG_NK - 1, k + LAG_JAC_LOWER);
+        int last = radau_min(LAG_NK - 1, k + LAG_JAC_LOWER);
         int right = radau_min(LAG_NK - 1, k + LAG_JAC_LOWER + LAG_JAC_UPPER);
-        real big = r_fabs(RADAU_LU(a, k, k)), d;
-        for (i = k + 1; i <= last; ++i)
-            if (r_fabs(RADAU_LU(a, i, k)) > big) {
-                big = r_fabs(RADAU_LU(a, i, k));
-                p = i;
-            }
-        piv[k] = p;
-        if (!(big > 0))
+        int p = radau_pivot_row(a, NULL, k, last);
+        real d;
+        if (p < 0)
             return k + 1;
+        piv[k] = p;
         if (p != k)
-            for (j = k; j <= right; ++j) {
-                real t = RADAU_LU(a, k, j);
-                RADAU_LU(a, k, j) = RADAU_LU(a, p, j);
-                RADAU_LU(a, p, j) = t;
-            }
+            radau_swap_rows(a, k, p, right);
         d = 1 / RADAU_LU(a, k, k);
         RADAU_LU(a, k, k) = d;
         for (i = k + 1; i <= last; ++i) {
@@ -219,28 +238,17 @@ static int radau_complex_band_factor(real *ar, real *ai, int *piv)
 {
     int i, j, k;
     for (k = 0; k < LAG_NK; ++k) {
-        int p = k, last = radau_min(LAG_NK - 1, k + LAG_JAC_LOWER);
+        int last = radau_min(LAG_NK - 1, k + LAG_JAC_LOWER);
         int right = radau_min(LAG_NK - 1, k + LAG_JAC_LOWER + LAG_JAC_UPPER);
-        real big = r_fabs(RADAU_LU(ar, k, k)) + r_fabs(RADAU_LU(ai, k, k)), dr, di;
-        for (i = k + 1; i <= last; ++i) {
-            real size = r_fabs(RADAU_LU(ar, i, k)) + r_fabs(RADAU_LU(ai, i, k));
-            if (size > big) {
-                big = size;
-                p = i;
-            }
-        }
-        piv[k] = p;
-        if (!(big > 0))
+        int p = radau_pivot_row(ar, ai, k, last);
+        real dr, di;
+        if (p < 0)
             return k + 1;
-        if (p != k)
-            for (j = k; j <= right; ++j) {
-                real t = RADAU_LU(ar, k, j);
-                RADAU_LU(ar, k, j) = RADAU_LU(ar, p, j);
-                RADAU_LU(ar, p, j) = t;
-                t = RADAU_LU(ai, k, j);
-                RADAU_LU(ai, k, j) = RADAU_LU(ai, p, j);
-                RADAU_LU(ai, p, j) = t;
-            }
+        piv[k] = p;
+        if (p != k) {
+            radau_swap_rows(ar, k, p, right);
+            radau_swap_rows(ai, k, p, right);
+        }
         radau_reciprocal(RADAU_LU(ar, k, k), RADAU_LU(ai, k, k), &dr, &di);
         RADAU_LU(ar, k, k) = dr;
         RADAU_LU(ai, k, k) = di;

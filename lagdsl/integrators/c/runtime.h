@@ -35,24 +35,7 @@ typedef double real;
 #endif
 
 /* The libm function table: r_sqrt is sqrt, sqrtl or sqrtq. */
-#define r_sqrt LAG_FN(sqrt)
-#define r_fabs LAG_FN(fabs)
-#define r_pow LAG_FN(pow)
-#define r_exp LAG_FN(exp)
-#define r_log LAG_FN(log)
-#define r_sin LAG_FN(sin)
-#define r_cos LAG_FN(cos)
-#define r_tan LAG_FN(tan)
-#define r_asin LAG_FN(asin)
-#define r_acos LAG_FN(acos)
-#define r_atan LAG_FN(atan)
-#define r_atan2 LAG_FN(atan2)
-#define r_sinh LAG_FN(sinh)
-#define r_cosh LAG_FN(cosh)
-#define r_tanh LAG_FN(tanh)
-#define r_fmin LAG_FN(fmin)
-#define r_fmax LAG_FN(fmax)
-#define r_floor LAG_FN(floor)
+/* LIBM_TABLE: generated from lagdsl/frontend/functions.py, pasted here by codegen/c.py */
 
 static int r_isfinite(real x) { return x - x == x - x; } /* false for inf and nan in every precision */
 

@@ -8,8 +8,8 @@ from importlib import resources
 import lark
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
 
-from .errors import LagError
-from .source import SourceFile, Span
+from ..errors import LagError
+from ..source import SourceFile, Span
 
 KEYWORDS = {
     "MODEL": "model", "END": "end", "PARAMETER": "parameter", "COORDINATE": "coordinate",
@@ -37,9 +37,18 @@ STATEMENT_LEVEL = DECLARATION_STARTS | {"SEMI", "END", "TIME", "INTEGRATOR", "SE
 
 @lru_cache(maxsize=1)
 def _lark() -> lark.Lark:
-    grammar = resources.files("lagdsl").joinpath("grammar.lark").read_text(encoding="utf-8")
-    return lark.Lark(grammar, parser="lalr", lexer="contextual", propagate_positions=True,
-                     maybe_placeholders=False)
+    """The parser, its LALR tables kept in the build cache (lark checks the grammar's hash on
+    loading them): building them costs about 0.15 s a process."""
+    from ..run.cache import helper_directory
+    grammar = resources.files(__package__).joinpath("grammar.lark").read_text(encoding="utf-8")
+    options = {"parser": "lalr", "lexer": "contextual", "propagate_positions": True, "maybe_placeholders": False}
+    directory = helper_directory("lark")
+    if directory is not None:
+        options["cache"] = str(directory / f"grammar-{lark.__version__}.cache")
+    try:
+        return lark.Lark(grammar, **options)
+    except OSError:         # a cache file that cannot be written
+        return lark.Lark(grammar, **{**options, "cache": False})
 
 
 def parse(source: SourceFile) -> lark.Tree:

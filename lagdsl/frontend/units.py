@@ -15,9 +15,9 @@ from fractions import Fraction
 
 import sympy
 
-from .errors import LagError
-from .ir import Unit
-from .source import Span
+from ..errors import LagError
+from ..ir import Unit
+from ..source import Span
 
 BASE_DIMENSIONS = ("mass", "length", "time", "current", "temperature", "substance", "luminosity")
 SI_SYMBOLS = {"mass": "kg", "length": "m", "time": "s", "current": "A", "temperature": "K",
@@ -82,8 +82,16 @@ def _power(name: str, power: Fraction) -> str:
 
 @functools.cache
 def _registry():
+    """pint's registry, its parsed definitions kept in the build cache (trusted as the builds
+    are: private to the user): reading pint's definition files costs about 0.4 s a process."""
     import pint            # loaded when a model has units: it takes a moment
-    return pint.UnitRegistry()
+
+    from ..run.cache import helper_directory
+    directory = helper_directory("pint")
+    try:
+        return pint.UnitRegistry(cache_folder=directory)
+    except (OSError, ImportError):      # a cache that cannot be written, or pint without its cache's packages
+        return pint.UnitRegistry()
 
 
 @functools.cache

@@ -1,0 +1,159 @@
+"""The scenes of a model: time grid, integrator, parameter and initial-value overrides, the
+output list and a stop condition, read with every name of the model in scope.
+"""
+from __future__ import annotations
+
+from .. import ir
+from ..errors import ErrorCollector, LagError, suggest
+from .functions import OBSERVABLES
+from ..integrators import registry
+from ..settings import DEFAULT_INTEGRATOR, DEFAULT_TIME, check_integrator_name, validate_integrator
+from ..source import Span
+from .tree import call_arguments, expressions_of, subtree, subtrees, through, tokens, written
+from .values import PoisonedName
+
+# The statements a scene gives at most once, and their names in messages.
+ONCE = {"scene_time": "time(...)", "scene_integrator": "integrator(...)", "scene_stop": "a stop condition"}
+
+
+class SceneStatements:
+    """Scenes: a part of semantics._ModelBuilder, whose state it reads (scope, expr, numbers, dims,
+    parameters, coordinates, constraints, outputs) and extends (scenes, scene_spans), and whose
+    helpers it calls (modifiers, coordinate_member, target_name, output_scope, span, description)."""
+
+    def scene(self, node):
+        names = tokens(node, "NAME")
+        name, end_name = names[0], names[-1]
+        errors = ErrorCollector()
+        if str(end_name) != str(name):
+            errors.errors.append(LagError(f"'end {end_name}' does not match scene '{name}'; expected 'end {name};'",
+                                          self.span(end_name)))
+        if str(name) in self.scene_spans:
+            errors.errors.append(LagError(f"scene '{name}' is declared twice (first at line "
+                                          f"{self.scene_spans[str(name)].line})", self.span(name)))
+        else:
+            self.scene_spans[str(name)] = self.span(name)
+        parts = self._scene_statements(node, str(name), errors)
+        errors.raise_if_any()
+        self.scenes.append(ir.Scene(str(name), self.description(node), parts["scene_time"] or DEFAULT_TIME,
+                                    parts["scene_integrator"] or DEFAULT_INTEGRATOR, tuple(parts["parameters"]),
+                                    tuple(parts["initial"]), tuple(parts["outputs"]), self.span(name),
+                                    parts["scene_stop"]))
+
+    def _scene_statements(self, node, name: str, errors: ErrorCollector) -> dict:
+        """What the statements of a scene give, each statement's errors collected in `errors`."""
+        parts = {"scene_time": None, "scene_integrator": None, "scene_stop": None,
+                 "parameters": [], "initial": [], "outputs": []}
+        given: dict[str, Span] = {}
+        for statement in subtrees(node):
+            if statement.data in ONCE:
+                word = ONCE[statement.data]
+                if word in given:
+                    errors.errors.append(LagError(f"the scene gives {word} twice (first at line "
+                                                  f"{given[word].line})", self.span(statement)))
+                    continue
+                given[word] = self.span(statement)
+                parts[statement.data] = errors.attempt(getattr(self, statement.data), statement)
+            elif statement.data == "scene_set":
+                override = errors.attempt(self.scene_set, statement)
+                if override is not None:
+                    parts["parameters" if isinstance(override, ir.ParameterOverride) else "initial"].append(override)
+            elif statement.data == "scene_output":
+                for item in subtrees(statement):
+                    request = errors.attempt(self.output_request, item, name)
+                    twice = next((o for o in parts["outputs"] if request and o.column == request.column), None)
+                    if twice is not None:
+                        errors.errors.append(LagError(f"'{request.column}' is already in the output list",
+                                                      request.span))
+                    elif request is not None:
+                        parts["outputs"].append(request)
+        return parts
+
+    def scene_time(self, node) -> ir.TimeGrid:
+        options = self.modifiers(node, ("start", "stop", "interval"), "time(...)")
+        values = {k: self.numbers.number(v, f"time({k})", self.scope) for k, v in options.items()}
+        start, stop = values.get("start", 0.0), values.get("stop", DEFAULT_TIME.stop)
+        interval = values.get("interval", (stop - start) / 1000 if "stop" in values else DEFAULT_TIME.interval)
+        if not stop > start:
+            raise LagError(f"the stop time {stop:g} is not after the start time {start:g}", self.span(node))
+        if not interval > 0:
+            raise LagError("the output interval must be positive", self.span(options.get("interval", node)))
+        self.dims.scene_time(node)
+        return ir.TimeGrid(start, stop, interval, self.span(node))
+
+    def scene_stop(self, node) -> ir.StopCondition:
+        """`stop when a < b;`: e = a - b (for `>`, b - a), a function of q, q', t and parameters."""
+        left, right = expressions_of(node)
+        sides = [self.expr.scalar(side, self.output_scope(), "a scalar in the stop condition")
+                 for side in (left, right)]
+        self.dims.scene_stop(left, right)
+        function = sides[0] - sides[1] if tokens(node, "LESS") else sides[1] - sides[0]
+        multipliers = {ir.multiplier_symbol(c.name) for c in self.constraints}
+        if function.free_symbols & multipliers:
+            raise LagError("a stop condition cannot use multiplier(...): it is evaluated after every step, "
+                           "where the multipliers are not solved for", self.span(node))
+        span = self.span(node)
+        return ir.StopCondition(written(through(self.span(left), self.span(right))), function, span)
+
+    def scene_integrator(self, node) -> ir.IntegratorChoice:
+        token = tokens(node, "NAME")[0]
+        name = str(token)
+        check_integrator_name(name, self.span(token))
+        options = self.modifiers(node, registry.get(name).options, f"integrator {name}")
+        values = {k: self.numbers.number(v, k, self.scope) for k, v in options.items()}
+        return validate_integrator(name, values, self.span(node), {k: self.span(v) for k, v in options.items()})
+
+    def scene_set(self, node):
+        token = tokens(node, "NAME")[0]
+        binding = self.scope.bindings.get(str(token))
+        parts = [c for c in subtrees(node) if c.data != "modifiers"]
+        if binding is not None and binding.kind == "invalid":
+            raise PoisonedName()
+        if subtree(node, "modifiers") is None:        # set p = value
+            if binding is not None and binding.kind == "coordinate":
+                raise LagError(f"'{token}' is a coordinate; set its initial values with "
+                               f"set {token}(start = ..., velocity = ...)", self.span(token))
+            if binding is None or binding.kind != "parameter":
+                parameters = [p.name for p in self.parameters]
+                raise LagError(f"'{token}' is not a parameter{suggest(str(token), parameters)}", self.span(token))
+            name = self.coordinate_member(token, binding, parts[0] if len(parts) == 2 else None,
+                                          f"set {token}[i] = ...")
+            parameter = next(p for p in self.parameters if p.name == name)
+            if parameter.symbol in self.numbers.structural:
+                raise LagError(f"'{name}' fixes the size of the model and cannot be changed by a scene",
+                               self.span(token))
+            value = self.numbers.number(parts[-1], "the value", self.scope, parameter.unit)
+            self.dims.scene_set(node, token, binding.dimension)
+            return ir.ParameterOverride(name, value, self.span(node))
+        if binding is not None and binding.kind == "parameter":
+            raise LagError(f"'{token}' is a parameter; set it with set {token} = ...", self.span(token))
+        if binding is None or binding.kind != "coordinate":
+            coordinates = [c.name for c in self.coordinates]
+            raise LagError(f"'{token}' is not a coordinate{suggest(str(token), coordinates)}", self.span(token))
+        name = self.coordinate_member(token, binding, parts[0] if parts else None,
+                                      f"set {token}[i](start = ...)")
+        options = self.modifiers(node, ("start", "velocity"), f"set {name}")
+        unit = next(c.unit for c in self.coordinates if c.name == name)
+        values = {k: self.numbers.number(v, f"the {k} value", self.scope, unit) for k, v in options.items()}
+        self.dims.scene_set(node, token, binding.dimension)
+        return ir.InitialOverride(name, values.get("start"), values.get("velocity"), self.span(node))
+
+    def output_request(self, node, scene: str) -> ir.OutputRequest:
+        span = self.span(node)
+        column = written(span)
+        outputs = {o.name for o in self.outputs}
+        if node.data == "name" and str(node.children[0]) == "energy":
+            self.dims.column(scene, node, None, outputs)
+            return ir.OutputRequest(column, "energy", None, None, span)
+        if node.data == "call" and str(node.children[0]) in OBSERVABLES:
+            kind = str(node.children[0])
+            items = call_arguments(node)
+            if len(items) != 1 or items[0].data not in ("name", "index"):
+                raise LagError(f"{kind}() takes one {'coordinate' if kind == 'momentum' else 'constraint'} name", span)
+            target = self.target_name(kind, items[0])
+            coordinate = self.scope.bindings[str(items[0].children[0])].dimension if kind == "momentum" else None
+            self.dims.column(scene, node, coordinate, outputs)
+            return ir.OutputRequest(column, kind, None, target, span)
+        value = self.expr.scalar(node, self.output_scope(), "a scalar output")
+        self.dims.column(scene, node, None, outputs)
+        return ir.OutputRequest(column, "expression", value, None, span)
