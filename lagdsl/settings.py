@@ -123,6 +123,10 @@ class IntegratorTraits:
     def canonical(self) -> bool:
         return registry.get(self.integrator.name).canonical
 
+    @property
+    def series(self) -> bool:
+        return registry.get(self.integrator.name).series
+
 
 @dataclass(frozen=True)
 class RunPlan(IntegratorTraits):

@@ -117,7 +117,7 @@ def test_csv_has_exactly_the_documented_header(kepler, tmp_path, capsys):
     assert lines[0] == "integrator,backend,rtol,atol,step,seconds,rhs_evals,steps,rejected,error,reference_error"
     fields = lines[1].split(",")
     assert fields[:2] == ["gauss", "c"] and fields[2] == fields[3] == fields[8] == ""
-    assert "reference: dop853" in capsys.readouterr().out
+    assert "reference: taylor" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize("options, message", [
