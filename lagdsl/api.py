@@ -6,11 +6,15 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+import numpy as np
+
 from . import ir, reference
+from .frontend import units
 from .codegen import GeneratedSource
 from .codegen.kernel import Kernel
 from .animation import DEFAULT_FPS, Animation, check_playback, drawing_of
 from .errors import LagError, Setting, SimulationError
+from .escape import visible
 from .mechanics import Equations
 from .pipeline import compile_model, execute, generate, plan
 from .progress import bar as progress_bar
@@ -72,13 +76,16 @@ class Model:
                  sensitivities=None, sensitivity_error_control: bool = True, **parameters: float) -> Result:
         """Run a scene and return its outputs.
 
-        `set` maps parameter names, "q.start" and "q.velocity" to values; parameters may also be
-        given as keyword arguments (`simulate(m2=3)`). The other arguments override the scene's
-        time grid and integrator; `max_steps` bounds the steps (default: settings.step_limit,
+        `set` maps parameter names, "q.start" and "q.velocity" to values (numbers in SI, or texts
+        with a unit: "30 deg"); parameters may also be given as keyword arguments
+        (`simulate(m2=3)`). The other arguments override the scene's time grid (seconds, or
+        "0.8 ns") and integrator; `max_steps` bounds the steps (default: settings.step_limit,
         DEFAULT_MAX_STEPS or STEPS_PER_ROW per output row). `estimate_error` fills
-        `result.summary.error` (an ErrorEstimate: `.value`, the largest absolute error over rows and columns, against a 100x tighter rerun or the
-        extended-precision reference; `float(...)` gives the value). Raises SimulationError (with `.partial`, the rows computed so far) when the
-        integration fails, SimulationInterrupted (a SimulationError) when Ctrl-C stops it.
+        `result.summary.error` (an ErrorEstimate: `.value`, the largest absolute error over rows
+        and columns, in `.column`; `.columns`, each column's largest, in its unit; against a 100x
+        tighter rerun or the extended-precision reference; `float(...)` gives the value). Raises
+        SimulationError (with `.partial`, the rows computed so far) when the integration fails,
+        SimulationInterrupted (a SimulationError) when Ctrl-C stops it.
         `draw` also computes what the draw statements show (`result.drawing`, `result.animate()`).
 
         `sensitivities` names parameters and start values ("q.start", "q.velocity"): the run then
@@ -92,8 +99,8 @@ class Model:
         values.update(parameters)
         options = given_options(dict(rtol=rtol, atol=atol, step=step, stages=stages, max_step=max_step,
                                      max_steps=max_steps))
-        overrides = Overrides(tuple((k, float(v)) for k, v in values.items()), start, stop, interval,
-                              integrator, options)
+        overrides = Overrides(tuple((k, single_number(k, v)) for k, v in values.items()),
+                              *_times(start, stop, interval), integrator, options)
         if sensitivities is not None:
             if draw:
                 raise LagError("a run with sensitivities is not drawn; run simulate(..., draw=True) without them")
@@ -112,8 +119,9 @@ class Model:
         chosen = sensitivity.directions(self.ir, list(names))
         if scene_plan.scene_name not in self._sensitivity_programs:
             self._sensitivity_programs[scene_plan.scene_name] = sensitivity.build(self, scene)
-        return sensitivity.integrate(self._sensitivity_programs[scene_plan.scene_name], scene_plan, chosen, times,
-                                     error_control)
+        result = sensitivity.integrate(self._sensitivity_programs[scene_plan.scene_name], scene_plan, chosen, times,
+                                       error_control)
+        return _described(self.ir, result, scene_plan.scene_name)
 
     def simulate_plan(self, scene: str | None, backend: str, overrides: Overrides,
                       progress: Callable[[float, float, float], None] | None = None,
@@ -123,12 +131,11 @@ class Model:
         _check_backend(backend)
         quick = None if estimate_error or draw else self._quick_run(scene, backend, overrides)
         if quick is not None:
-            return run(quick[0], backend, quick[1].loaded, progress)
+            return _described(self.ir, run(quick[0], backend, quick[1].loaded, progress), quick[0].scene_name)
         scene_plan = self.plan(scene, overrides, draw)
         program = self._program(scene, scene_plan, backend, overrides)
-        result = _execute(program, scene_plan, progress, f"{self.name}, scene {scene_plan.scene_name}")
-        if not draw:        # a quick plan computes the scene's columns alone
-            self._keep_quick_plan(scene, scene_plan)
+        result = _execute(self.ir, program, scene_plan, progress)
+        self._keep_quick_plan(scene, scene_plan)
         if not estimate_error:
             return result
 
@@ -160,7 +167,8 @@ class Model:
         unknown = [name for name in options if name not in RUN_OPTIONS]
         if unknown:
             raise LagError(f"fit: unknown option '{unknown[0]}' (options: {', '.join(RUN_OPTIONS)})")
-        return fit(self, data, params, outputs, sigma, scene, bounds, set, integrator, options)
+        held = {name: single_number(name, value) for name, value in (set or {}).items()}
+        return fit(self, data, params, outputs, sigma, scene, bounds, held, integrator, options)
 
     def bench(self, scene: str | None = None, *, integrators: tuple[str, ...] | None = None, backend: str = "c",
               peers: bool = False, repeat: int = 3, set: dict | None = None, start: float | None = None,
@@ -174,7 +182,8 @@ class Model:
         rejected, error, reference_error.
         """
         from . import bench
-        overrides = Overrides(tuple((k, float(v)) for k, v in (set or {}).items()), start, stop, interval)
+        overrides = Overrides(tuple((k, single_number(k, v)) for k, v in (set or {}).items()),
+                              *_times(start, stop, interval))
         report = bench.run_bench(self, scene, overrides, integrators, bench.backends(backend), peers, repeat,
                                  progress=bench.progress_bar() if progress else None)
         return bench.table(report)
@@ -264,8 +273,7 @@ class Model:
                                   drawn)
             kernel, source = generate(self.equations, code_plan, backend, self.source.name)
             self._programs[key] = Program(kernel, source, load_program(source))
-            if not drawn:       # a warm `lagc run` computes the scene's columns alone
-                self._store_plan(scene, backend, overrides.integrator, code_plan, source)
+            self._store_plan(scene, backend, overrides.integrator, code_plan, source)
         return self._programs[key]
 
     def _store_plan(self, scene: str | None, backend: str, integrator: str | None, code_plan: ScenePlan,
@@ -292,7 +300,10 @@ class Program:
 
 def _stored_plan(model: Model, scene: str | None, scene_plan: ScenePlan, entry) -> plans.StoredPlan | None:
     """What a repeated run of the scene plans from without sympy (run/plans.py), its program at
-    `entry` (None: kept in the Model); None where the scene's values cannot be fixed beforehand."""
+    `entry` (None: kept in the Model); None where the scene's values cannot be fixed beforehand,
+    or the plan draws (a repeated run computes the scene's columns alone)."""
+    if scene_plan.draws:
+        return None
     try:
         settings, parameters, initial_state = scene_defaults(model.ir, model.equations, scene)
     except LagError:        # a value computed from the others is not finite unless overridden
@@ -302,20 +313,23 @@ def _stored_plan(model: Model, scene: str | None, scene_plan: ScenePlan, entry) 
                             scene_plan.stop.text if scene_plan.stop else None, entry)
 
 
-def _execute(program: Program, scene_plan: ScenePlan, progress, title: str) -> Result:
-    """The run of `scene_plan`, the draw statements' columns taken out of the result (and out of
-    the rows a failed run kept) into its `drawing`, titled `title`."""
+def _execute(model: ir.Model, program: Program, scene_plan: ScenePlan, progress) -> Result:
+    """The run of `scene_plan`, described (_described), the draw statements' columns taken out of
+    the result (and out of the rows a failed run kept) into its `drawing`."""
     def split(result: Result) -> Result:
+        if not scene_plan.draws:
+            return result
         shown = scene_plan.shown_columns
         return replace(result, columns=result.columns[:shown], values=result.values[:, :shown],
-                       drawing=drawing_of(title, scene_plan.draws, result.values[:, shown:]))
+                       drawing=drawing_of(f"{model.name}, scene {scene_plan.scene_name}", scene_plan.draws,
+                                          result.values[:, shown:]))
     try:
         result = execute(program.kernel, program.source, scene_plan, progress, program.loaded)
     except SimulationError as error:
-        if scene_plan.draws and error.partial is not None:
+        if error.partial is not None:
             error.partial = split(error.partial)
         raise
-    return split(result) if scene_plan.draws else result
+    return _described(model, split(result), scene_plan.scene_name)
 
 
 def load(path: str | Path) -> Model:
@@ -331,6 +345,32 @@ def _progress_bar(show: bool, members: int):
         return
     with progress_bar(members, "member") as bar:
         yield lambda finished: bar.update(max(0, finished - bar.n))
+
+
+def _described(model: ir.Model, result: Result, scene_name: str) -> Result:
+    """`result` with its columns' units and what ran (the model and scene), for its plots."""
+    units = None if model.units is None else model.units.column_units(scene_name, result.columns)
+    return replace(result, units=units, origin=f"{model.name}, scene {scene_name}")
+
+
+def _times(start, stop, interval) -> tuple[float | None, ...]:
+    """The time grid's overrides in seconds: numbers, or texts with a unit of time ("0.8 ns")."""
+    return tuple(units.time_in_seconds(value, name) for name, value in
+                 (("start", start), ("stop", stop), ("interval", interval)))
+
+
+def single_number(name: str, value) -> float | str:
+    """`value` as the one number simulate() and bench() take for input `name`; a list or an array
+    (several values) is refused with a pointer to sweep(), which runs one member per value."""
+    if np.ndim(value) > 0:
+        raise LagError(f"a run takes one value of each input, got {np.size(value)} values; to run a member "
+                       f"for each, use model.sweep(set={{'{name}': [...]}})", Setting(name))
+    if isinstance(value, str):
+        return value        # a number and its unit, "30 deg": scene.plan_scene converts it to SI
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise LagError(f"expected a number, got {visible(repr(value))}", Setting(name)) from None
 
 
 def _check_backend(backend: str) -> None:

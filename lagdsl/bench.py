@@ -11,10 +11,10 @@ and CyRK (when installed) on the NumPy backend's right-hand side.
 """
 from __future__ import annotations
 
-import math
 import time as clock
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from decimal import Decimal
 
 import numpy as np
 
@@ -30,13 +30,16 @@ from .run.tables import csv_text
 from .scene import ScenePlan
 from .settings import Overrides, check_integrator_name
 
-ADAPTIVE_RTOLS = tuple(10.0 ** -k for k in range(3, 14))
-STEP_FACTORS = tuple(2.0 ** j for j in range(2, -7, -1))     # steps of 4 .. 1/64 output intervals
+# The ladders' values are exact decimals (1e-06, not 1e-4 * 0.01 = 1.0000000000000002e-06): built
+# as decimal products, then rounded once to double.
+ADAPTIVE_RTOLS = tuple(Decimal(f"1e-{k}") for k in range(3, 14))
+STEP_FACTORS = tuple(Decimal(2) ** j for j in range(2, -7, -1))     # steps of 4 .. 1/64 output intervals
 MIN_TIMED = 0.05            # seconds: runs shorter than this are repeated (up to MAX_RUNS) for a stable best time
 MAX_RUNS = 50
 LADDER_TIME_LIMIT = 20.0     # seconds: a setting slower than this ends its ladder (tighter ones are slower still)
 CSV_HEADER = ("integrator", "backend", "rtol", "atol", "step", "seconds", "rhs_evals", "steps", "rejected", "error",
               "reference_error")
+SETTING_COLUMNS = ("rtol", "atol", "step")
 SCIPY_PEERS = ("RK45", "DOP853", "Radau", "LSODA")
 CYRK_PEERS = ("RK45", "DOP853")
 BACKEND_CHOICES = {"c": ("c",), "numpy": ("numpy",), "both": ("c", "numpy")}
@@ -55,6 +58,11 @@ class Setting:
     @property
     def method(self) -> str:
         return f"{self.integrator} ({self.backend})"
+
+    @property
+    def coarseness(self) -> float:
+        """The rung's place on its ladder: rtol, or the step of a fixed-step method."""
+        return self.rtol if self.rtol is not None else self.step
 
     def describe(self) -> str:
         values = (("rtol", self.rtol), ("atol", self.atol), ("step", self.step))
@@ -108,19 +116,24 @@ class BenchReport:
     rows: tuple[BenchRow, ...]
     notes: tuple[str, ...] = ()              # integrators not admitted, ladders cut short
     drifts: tuple[Drift, ...] = field(default=())
+    invariant_units: tuple[tuple[str, str], ...] = ()     # (conserved quantity, its unit) for the drifts
 
     def sorted_rows(self) -> list[BenchRow]:
-        """By method (lagdsl's integrators first, then the peers), then by time."""
+        """By method (lagdsl's integrators first, then the peers), then along its ladder, loosest
+        first (by time, noise would scramble the tolerances)."""
         return sorted(self.rows, key=lambda r: (not registry.known(r.setting.integrator), r.setting.integrator,
-                                                r.setting.backend, math.inf if r.seconds is None else r.seconds))
+                                                r.setting.backend, -r.setting.coarseness))
 
     def records(self) -> list[dict]:
         """The successful settings, one dict per row with the CSV's columns."""
         return [row.record() for row in self.sorted_rows() if row.failure is None]
 
     def csv(self) -> str:
+        """The records as CSV; a setting as its shortest decimal (1e-06, which %.17g writes as
+        9.9999999999999995e-07), the measurements as every table of lagdsl writes numbers."""
         records = self.records()
-        return csv_text(CSV_HEADER, [[record[name] for record in records] for name in CSV_HEADER])
+        return csv_text(CSV_HEADER, [[repr(record[name]) if name in SETTING_COLUMNS and record[name] is not None
+                                      else record[name] for record in records] for name in CSV_HEADER])
 
     def render(self) -> str:
         """The table for the terminal: the reference, then one line per setting."""
@@ -148,15 +161,21 @@ def _short(value: float | None) -> str:
 # ---- ladders ---------------------------------------------------------------------------------
 def adaptive_ladder(integrator: str, backend: str, ratio: float) -> list[Setting]:
     """rtol = 1e-3 .. 1e-13, atol = ratio * rtol."""
-    return [Setting(integrator, backend, rtol=rtol, atol=rtol * ratio) for rtol in ADAPTIVE_RTOLS]
+    return [Setting(integrator, backend, rtol=float(rtol), atol=float(rtol * _decimal(ratio)))
+            for rtol in ADAPTIVE_RTOLS]
 
 
 def step_ladder(integrator: str, backend: str, plan: ScenePlan) -> list[Setting]:
     """Steps of 4 down to 1/64 output intervals (the interval resolves the motion the user wants
     to see), none longer than the run, none needing more steps than the plan's step limit."""
     span = plan.time.stop - plan.time.start
-    steps = [plan.time.interval * factor for factor in STEP_FACTORS]
+    steps = [float(_decimal(plan.time.interval) * factor) for factor in STEP_FACTORS]
     return [Setting(integrator, backend, step=h) for h in steps if h <= span and span / h <= plan.max_steps]
+
+
+def _decimal(value: float) -> Decimal:
+    """The shortest decimal that reads back as `value` (0.01, not 0.01000000000000000020816...)."""
+    return Decimal(repr(value))
 
 
 def ladder(integrator: str, backend: str, plan: ScenePlan) -> list[Setting]:
@@ -222,7 +241,9 @@ def run_bench(model, scene: str | None = None, overrides: Overrides = Overrides(
             rows += done
             if drift:
                 drifts += _peer_drift(plan, done, watched)
-    return BenchReport(model.name, plan.scene_name, reference, tuple(rows), tuple(notes), tuple(drifts))
+    from .present import invariant_unit
+    units = tuple((name, invariant_unit(model.ir, name)) for name in plan.invariants)
+    return BenchReport(model.name, plan.scene_name, reference, tuple(rows), tuple(notes), tuple(drifts), units)
 
 
 def _admitted(model, scene, base: Overrides, interval: float, integrators, backends) -> tuple[list[tuple[str, str]], list[str]]:

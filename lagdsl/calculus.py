@@ -29,13 +29,15 @@ INLINE_SIZE = 6   # derivatives with at most this many tree nodes are inlined, n
 SPLIT_SYMBOLS = 8
 
 
-def tree_size(expr: sympy.Basic, limit: int = 1 << 30) -> int:
-    """Number of nodes of the expression tree, counting no further than `limit`."""
+def tree_size(expr: sympy.Basic, limit: int = 1 << 30, weights: dict | None = None) -> int:
+    """Number of nodes of the expression tree, counting no further than `limit`; a symbol in
+    `weights` counts as that many (the size of what it stands for, as if inlined)."""
     count = 0
     stack = [expr]
+    weights = weights or {}
     while stack and count <= limit:
         node = stack.pop()
-        count += 1
+        count += weights.get(node, 1)
         stack.extend(node.args)
     return count
 
@@ -184,26 +186,6 @@ class Differentiator:
         return sympy.Symbol(f"{kind}({symbol.name})", real=True)
 
     # -- evaluation helpers ------------------------------------------------------------------
-    def inlined_size(self, expr: sympy.Expr, limit: int) -> int:
-        """The tree size `inline(expr)` would have, counted no further than `limit` and without
-        building it: a chain of lets that each use the one before twice doubles in size at
-        every link, and building (or sorting) the inlined tree would take exponential time."""
-        sizes: dict[sympy.Symbol, int] = {}
-
-        def size(node, budget: int) -> int:
-            if node in self._definitions:
-                if node not in sizes:
-                    sizes[node] = size(self._definitions[node], limit)
-                return sizes[node]
-            count = 1
-            for argument in node.args:
-                count += size(argument, budget - count)
-                if count > budget:
-                    return count
-            return count
-
-        return size(expr, limit)
-
     def inline(self, expr: sympy.Expr) -> sympy.Expr:
         """`expr` with every intermediate replaced by its definition (for display and tests)."""
         cache: dict[sympy.Symbol, sympy.Expr] = {}

@@ -2,7 +2,9 @@
 
 - `LagError`: the model is wrong. It carries one or more located diagnostics and is rendered
   as `file:line:column: error: message`, the source line and a caret. The command line prints
-  it and exits 1, never with a traceback.
+  it and exits 1, never with a traceback. A diagnostic with no place in a file (a command-line
+  option, a value given to simulate()) begins as every other message of lagc does, `lagc: error:`
+  (`lagc: note:`), as a compiler's driver names itself (`gcc: error: ...`).
 - `SimulationError`: the numbers failed (singular mass matrix, step-size collapse, NaN, the
   step limit). It names the time, the state and a remedy, and keeps the results computed so
   far. `SimulationInterrupted` is the same for a run stopped by Ctrl-C.
@@ -18,6 +20,8 @@ from typing import Any
 
 from .escape import visible
 from .source import Span
+
+PREFIX = "lagc: "        # how a message that is not about a place in a model file begins
 
 
 @dataclass(frozen=True)
@@ -39,9 +43,9 @@ class Diagnostic:
         and the source line are shown as escapes (`\\x1b`), the caret under them."""
         message = "\n".join(visible(line) for line in self.message.split("\n"))
         if self.span is None:
-            return f"{self.severity}: {message}"
+            return f"{PREFIX}{self.severity}: {message}"
         if isinstance(self.span, Setting):
-            return f"lagc: error: {visible(self.span.option)}: {message}"
+            return f"{PREFIX}{self.severity}: {visible(self.span.option)}: {message}"
         span = self.span
         line = span.source.line(span.line)
         before = line[:span.column - 1]

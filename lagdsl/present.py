@@ -1,31 +1,30 @@
 """Human-readable output of `lagc check` and `lagc eom` (plain text and LaTeX).
 
 Display is the one place where expressions are expanded: intermediates are inlined and small
-results are tidied, so that a textbook system reads like the textbook (m2*l1*l2*cos(theta1 -
-theta2), not a sum of products of sines and cosines). The tidying is a fixed sequence of cheap
-rewrites (expand, sin² + cos² = 1, the sum and difference formulas read backwards, common
-factors pulled out), not trigsimp: trigsimp factors polynomials, which costs seconds per
-expression on a 12-link chain. An expression too large to inline readably is shown as derived,
-in terms of its named intermediates, which are listed after the equations (`where`), each after
-the ones it uses, as the generated code computes them.
+results are tidied (tidying.py), so that a textbook system reads like the textbook
+(m2*l1*l2*cos(theta1 - theta2), not a sum of products of sines and cosines). Each intermediate
+is inlined and reduced once, in dependency order (`Display`), so a rotation matrix's entries,
+reduced, make its angular velocity small, and that makes T small. An entry too large to write
+out is shown in terms of the model's own names (its lets, der(x) of them, L), which are listed
+after the equations (`where`), each after the ones it uses; the derivation's bookkeeping
+(∂x/∂q, δ..., der̃) is never shown.
 """
 from __future__ import annotations
 
 import re
-from collections import Counter
-
 import sympy
-from sympy.simplify.fu import TR10i
 
 from . import ir
-from .calculus import Differentiator
+from .frontend import units
+from .calculus import Differentiator, tree_size
 from .escape import visible
 from .mechanics import Equations
+from .tidying import reduced, written
+from .typeset import typeset
 
-TIDY_LIMIT = 400          # tree nodes once inlined; larger expressions are shown as derived
-EXPANSION_LIMIT = 2000    # terms of the expanded form; more and an expression is shown untidied
-NUMBER_LIMIT = 10**100    # numerators and denominators of the numbers tidied (physical constants fit)
-EXPONENT_LIMIT = 100      # numerators and denominators of the numeric exponents tidied
+SHOW_LIMIT = 400          # tree nodes of a row's entry, tidied; larger ones are shown through named intermediates
+INLINE_LIMIT = 40         # tree nodes of a tidied definition that is written out where it is used
+TIDY_LIMIT = 20000        # tree nodes of an expression tidied (tidying bounds the terms of its expansion too)
 
 
 def format_number(value: float) -> str:
@@ -39,8 +38,7 @@ def describe_model(model: ir.Model, equations: Equations) -> str:
     for c in model.coordinates:
         lines.append(f"  {c.name}{shown_unit(model, c.name)}" + (f"  {c.description}" if c.description else ""))
     if model.parameters:
-        lines.append("parameters: " + ", ".join(
-            f"{p.name} = {format_number(p.value)}{shown_unit(model, p.name)}" for p in model.parameters))
+        lines.append("parameters: " + ", ".join(shown_parameter(model, p) for p in model.parameters))
     if model.outputs:
         lines.append("outputs: " + ", ".join(f"{o.name}{shown_unit(model, o.name)}" for o in model.outputs))
     lines.append("energy: " + ("T and U (natural system)" if model.lagrangian.is_natural else "general Lagrangian L"))
@@ -71,14 +69,54 @@ def describe_model(model: ir.Model, equations: Equations) -> str:
 
 
 def shown_unit(model: ir.Model, name: str) -> str:
-    """` [kg*m/s^2]`: the unit a quantity is computed in (SI; an output's own), `, inferred` when
+    """` [N/m] (= kg/s^2)`: the unit as declared, with the SI unit it is computed in beside it where
+    that reads differently (` [cm] (= 0.01 m)` where it is a multiple); ` [kg*m/s^2, inferred]` when
     the dimensional analysis found it, `[?]` when it could not; without units, the unit as written."""
-    if model.units is None:
-        unit = next((q.unit for q in (*model.parameters, *model.coordinates, *model.outputs)
-                     if q.name == name), None)
-        return f" [{unit.text}]" if unit else ""
+    declared = declared_unit(model, name)
+    if model.units is None or declared is not None:
+        return f" [{declared.text}]{_si_beside(declared)}" if declared else ""
     unit, inferred = next((u, i) for q, u, i in model.units.quantities if q == name)
     return f" [{unit}{', inferred' if inferred and unit != '?' else ''}]"
+
+
+def shown_parameter(model: ir.Model, parameter: ir.Parameter) -> str:
+    """`k = 40 [N/m] (= kg/s^2)`, `m = 50 [g] (= 0.05 kg)`: the value in the declared unit."""
+    unit = parameter.unit
+    if unit is None or model.units is None:
+        return f"{parameter.name} = {format_number(parameter.value)}{shown_unit(model, parameter.name)}"
+    factor = float(units.si_factor(unit))
+    si = f" (= {format_number(parameter.value)} {_si_text(unit)})" if factor != 1 else _si_beside(unit)
+    return f"{parameter.name} = {format_number(parameter.value / factor)} [{unit.text}]{si}"
+
+
+def invariant_unit(model: ir.Model, name: str) -> str:
+    """The SI unit of a conserved quantity: the energy's, `J`, or an energy times a time over q's
+    for `momentum(q)`; "?" where the model has no units or q's unit was inferred, not declared."""
+    if model.units is None:
+        return "?"
+    action = units.unit_dimension("J") * units.unit_dimension("s")
+    if name == "energy":
+        return "J"
+    coordinate = declared_unit(model, name[len("momentum("):-1])
+    return (action / units.dimension(coordinate)).si() if coordinate is not None else "?"
+
+
+def declared_unit(model: ir.Model, name: str) -> ir.Unit | None:
+    """The unit written on a parameter, coordinate (any member of a family) or output, or None."""
+    return next((q.unit for q in (*model.parameters, *model.coordinates, *model.outputs) if q.name == name), None)
+
+
+def _si_beside(unit: ir.Unit) -> str:
+    """` (= 0.01 m)` for a multiple of the SI unit, ` (= kg/s^2)` for a product written otherwise,
+    ` (= 0.01)` for a multiple of a pure number (`%`)."""
+    factor, si = float(units.si_factor(unit)), _si_text(unit)
+    if factor != 1:
+        return f" (= {format_number(factor)}{'' if si == '1' else ' ' + si})"
+    return f" (= {si})" if si != unit.text else ""
+
+
+def _si_text(unit: ir.Unit) -> str:
+    return "rad" if units.is_angle(unit) else units.dimension(unit).si()
 
 
 def degrees_of_freedom(equations: Equations) -> str:
@@ -97,69 +135,75 @@ def degrees_of_freedom(equations: Equations) -> str:
     return f"{n - holonomic} ({', '.join(parts)})"
 
 
-def shown(expr: sympy.Expr, calculus: Differentiator) -> sympy.Expr:
-    """`expr` inlined and tidied when that is small, else as derived (through intermediates)."""
-    if calculus.inlined_size(expr, TIDY_LIMIT) > TIDY_LIMIT:
-        return expr
-    return tidy(calculus.inline(expr))
+class Display:
+    """What `lagc eom` writes for each intermediate of `calculus`, computed once, in dependency order.
 
-
-def tidy(expr: sympy.Expr) -> sympy.Expr:
-    """Cheap trigonometric tidying: every step is polynomial in the size of the expanded form.
-
-    expand → sin(x)² + cos(x)² = 1 → cos a cos b + sin a sin b = cos(a - b) and its kin (fu's
-    TR10i) → common factors out. Skipped when expanding would multiply out too many terms, and
-    for numbers out of the ordinary (1e-320 or x^(4e9) read exactly), which sympy's expansion and
-    factoring would spend minutes or all memory on.
+    `full` maps every intermediate to its definition with all intermediates inlined and reduced
+    (multiplied out, sin² + cos² = 1): an entry of a row that is small so is shown so. `partial`
+    keeps the model's own names (its lets, their der(...), L) for definitions that are not small
+    once reduced; `named` holds those definitions, for the `where` list. The derivation's own
+    intermediates (partial derivatives, derivatives with the der(x) held fixed) are always
+    inlined: their names are its bookkeeping.
     """
-    if not ordinary_numbers(expr) or expanded_terms(expr) > EXPANSION_LIMIT:
-        return expr
-    return sympy.factor_terms(TR10i(pythagoras(sympy.expand(expr))))
+
+    def __init__(self, calculus: Differentiator):
+        self.full: dict[sympy.Symbol, sympy.Expr | None] = {}
+        self.sizes: dict[sympy.Symbol, int] = {}
+        self.partial: dict[sympy.Symbol, sympy.Expr] = {}
+        self.named: dict[sympy.Symbol, sympy.Expr] = {}
+        self.state = frozenset(calculus.base)
+        for symbol, definition in calculus.definitions():
+            uses = [s for s in definition.free_symbols if s in self.full]
+            self.full[symbol] = self._inlined(symbol, definition, uses)
+            if all(self.partial[s] is self.full[s] for s in uses):
+                value = self.full[symbol]
+            else:
+                value = _reduced(definition.xreplace({s: self.partial[s] for s in uses}))
+            if _bookkeeping(symbol) or tree_size(value, INLINE_LIMIT) <= INLINE_LIMIT:
+                self.partial[symbol] = value
+            else:
+                self.partial[symbol] = symbol
+                self.named[symbol] = value
+
+    def _inlined(self, symbol: sympy.Symbol, definition: sympy.Expr, uses) -> sympy.Expr | None:
+        """The definition with every intermediate inlined, reduced; None when it would exceed
+        TIDY_LIMIT nodes, sized before it is built (lets that each use the one before twice double
+        at every link, and sympy's constructors walk what they are given)."""
+        if tree_size(definition, TIDY_LIMIT, self.sizes) > TIDY_LIMIT:
+            self.sizes[symbol] = TIDY_LIMIT + 1
+            return None
+        inlined = _reduced(definition.xreplace({s: self.full[s] for s in uses}))
+        self.sizes[symbol] = tree_size(inlined, TIDY_LIMIT)
+        return inlined
+
+    def show(self, expr: sympy.Expr) -> sympy.Expr:
+        """`expr` fully inlined and tidied when that is small, else through the named intermediates."""
+        uses = [s for s in expr.free_symbols if s in self.full]
+        if tree_size(expr, TIDY_LIMIT, self.sizes) <= TIDY_LIMIT:      # else too large to build
+            inlined = _reduced(expr.xreplace({s: self.full[s] for s in uses}))
+            if tree_size(inlined, SHOW_LIMIT) <= SHOW_LIMIT:
+                return written(inlined, self.state)
+        return written(_reduced(expr.xreplace({s: self.partial[s] for s in uses})), self.state)
+
+    def where(self, exprs) -> list[tuple[sympy.Symbol, sympy.Expr]]:
+        """The named intermediates that `exprs` use, directly or through others, each after the
+        ones it uses."""
+        named = Differentiator(self.named.items(), self.state)
+        return [(s, written(e, self.state)) for s, e in named.needed(exprs)]
 
 
-def ordinary_numbers(expr: sympy.Expr) -> bool:
-    """Every rational in `expr` has a numerator and denominator below NUMBER_LIMIT, every numeric
-    exponent below EXPONENT_LIMIT (model numbers are exact rationals: 1e-320 is 1/10^320)."""
-    for number in expr.atoms(sympy.Rational):
-        if abs(number.p) >= NUMBER_LIMIT or number.q >= NUMBER_LIMIT:
-            return False
-    for power in expr.atoms(sympy.Pow):
-        if power.exp.is_Rational and (abs(power.exp.p) > EXPONENT_LIMIT or power.exp.q > EXPONENT_LIMIT):
-            return False
-    return True
+def _reduced(expr: sympy.Expr) -> sympy.Expr:
+    return reduced(expr) if tree_size(expr, TIDY_LIMIT) <= TIDY_LIMIT else expr
 
 
-def expanded_terms(expr: sympy.Expr) -> int:
-    """An upper bound on the number of terms of sympy.expand(expr) (at its top level), counted up
-    to just past EXPANSION_LIMIT (the count of (a + b)^(10^9) is not worth computing)."""
-    if expr.is_Add:
-        count = sum(expanded_terms(a) for a in expr.args)
-    elif expr.is_Mul:
-        count = 1
-        for factor in expr.args:
-            count = min(count * expanded_terms(factor), EXPANSION_LIMIT + 1)
-    elif expr.is_Pow and expr.exp.is_Integer:     # expand multiplies out 1/(a + b)^n too
-        base, count = expanded_terms(expr.base), 1
-        for _ in range(min(abs(int(expr.exp)), EXPANSION_LIMIT + 1) if base > 1 else 0):
-            count = min(count * base, EXPANSION_LIMIT + 1)
-    else:
-        count = 1
-    return min(count, EXPANSION_LIMIT + 1)
+# The names calculus.Differentiator and mechanics.equations give the intermediates they create:
+# ∂x/∂q, δx/δq (a partial derivative with the der(...) held fixed), der̃(x) (a time derivative
+# with them held). A model's own names are ASCII identifiers, so these marks set them apart.
+_BOOKKEEPING = re.compile("[∂δ]|der̃")
 
 
-def pythagoras(expr: sympy.Expr) -> sympy.Expr:
-    """In an expanded sum, each pair c·sin(x)² + c·cos(x)² replaced by c."""
-    terms = Counter(sympy.Add.make_args(expr))
-    for term in list(terms):
-        for factor in sympy.Mul.make_args(term):
-            if factor.is_Pow and factor.exp == 2 and isinstance(factor.base, sympy.sin):
-                rest = term / factor
-                partner = rest * sympy.cos(factor.base.args[0]) ** 2
-                pairs = min(terms[term], terms[partner])
-                terms[term] -= pairs
-                terms[partner] -= pairs
-                terms[rest] += pairs
-    return sympy.Add(*(term * count for term, count in terms.items() if count))
+def _bookkeeping(symbol: sympy.Symbol) -> bool:
+    return _BOOKKEEPING.search(symbol.name) is not None
 
 
 def accelerations(equations: Equations) -> list[sympy.Symbol]:
@@ -170,7 +214,7 @@ def multipliers(equations: Equations) -> list[sympy.Symbol]:
     return [ir.multiplier_symbol(c.name) for c in equations.active_constraints]
 
 
-def equation_rows(equations: Equations, calculus: Differentiator) -> list[tuple[str, sympy.Expr, sympy.Expr]]:
+def equation_rows(equations: Equations, display: Display) -> list[tuple[str, sympy.Expr, sympy.Expr]]:
     """(label, lhs, rhs) per coordinate, M q'' = f + Aᵀλ, then A q'' = gamma per constraint."""
     a = accelerations(equations)
     lam = multipliers(equations)
@@ -179,7 +223,7 @@ def equation_rows(equations: Equations, calculus: Differentiator) -> list[tuple[
 
     def show(expr: sympy.Expr) -> sympy.Expr:       # M is symmetric: each entry tidied once
         if expr not in tidied:
-            tidied[expr] = shown(expr, calculus)
+            tidied[expr] = display.show(expr)
         return tidied[expr]
 
     rows = []
@@ -195,17 +239,12 @@ def equation_rows(equations: Equations, calculus: Differentiator) -> list[tuple[
 
 def format_equations(equations: Equations, latex: bool = False) -> str:
     """The report of `lagc eom`: the equations, then the intermediates they are shown with."""
-    calculus = equations.calculus()
-    rows = equation_rows(equations, calculus)
-    where = calculus.needed(side for _, lhs, rhs in rows for side in (lhs, rhs))
+    display = Display(equations.calculus())
+    rows = equation_rows(equations, display)
+    where = display.where(side for _, lhs, rhs in rows for side in (lhs, rhs))
     n = equations.size
     if latex:
-        names = latex_names(equations, (s for s, _ in where))
-        body = [rf"{_latex(lhs, names)} &= {_latex(rhs, names)} \\" for _, lhs, rhs in rows]
-        if where:
-            body.append(r"&\text{where} \\")
-            body.extend(rf"{names[s]} &= {_latex(e, names)} \\" for s, e in where)
-        return "\\begin{aligned}\n" + "\n".join(body) + "\n\\end{aligned}"
+        return typeset(rows, where)
     lines = [f"equations of motion of {equations.model.name}"
              + (" (M q'' = f + A^T λ, then the constraint rows A q'' = γ)" if len(rows) > n else "")]
     width = max(len(label) for label, _, _ in rows) if rows else 0
@@ -220,37 +259,3 @@ def format_equations(equations: Equations, latex: bool = False) -> str:
 
 def _text(expr: sympy.Expr) -> str:
     return sympy.sstr(expr).replace("**", "^")
-
-
-def _latex(expr: sympy.Expr, names: dict) -> str:
-    return sympy.latex(expr, symbol_names=names)
-
-
-def latex_names(equations: Equations, intermediates=()) -> dict[sympy.Symbol, str]:
-    """theta1 -> \\theta_{1}, theta1' -> \\dot{\\theta}_{1}, theta[2]'' -> \\ddot{\\theta}_{2};
-    an intermediate der(x[2]) -> \\operatorname{der}(x_{2}), δL/δtheta[1] -> \\delta L/\\delta \\theta_{1}."""
-    names = {}
-    for q, a in zip(equations.coordinates, accelerations(equations)):
-        base = _latex_identifier(q.name)
-        names[q] = base
-        names[sympy.Symbol(q.name + "'", real=True)] = rf"\dot{{{base}}}"
-        names[a] = rf"\ddot{{{base}}}"
-    for lam in multipliers(equations):
-        names[lam] = rf"\lambda_{{\mathrm{{{lam.name[2:-1]}}}}}".replace("_", r"\_").replace(r"\lambda\_", r"\lambda_")
-    for symbol in intermediates:
-        names[symbol] = _LATEX_NAME_PART.sub(_latex_name_part, symbol.name)
-    return names
-
-
-_LATEX_NAME_PART = re.compile(r"der\(|[δ∂]|[A-Za-z_][A-Za-z0-9_]*(?:\[[0-9, ]*\])?")
-_LATEX_MARKS = {"der(": r"\operatorname{der}(", "δ": r"\delta ", "∂": r"\partial "}
-
-
-def _latex_name_part(match: re.Match) -> str:
-    part = match.group()
-    return _LATEX_MARKS.get(part) or _latex_identifier(part)
-
-
-def _latex_identifier(name: str) -> str:
-    """x -> x, theta[2] -> \\theta_{2}, theta1 -> \\theta_{1} (sympy's reading of a trailing number)."""
-    return sympy.latex(sympy.Symbol(name.replace("[", "_").replace("]", "")))

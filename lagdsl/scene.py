@@ -10,13 +10,13 @@ for the symplectic `gauss`.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import sympy
 
 from . import ir
-from .frontend import draws as drawing
-from .errors import LagError, suggest
+from .frontend import draws as drawing, units
+from .errors import LagError, Setting, suggest
 from .integrators import registry
 from .mechanics import Equations
 # Re-exported: the run settings were defined here before they moved to settings.py.
@@ -69,6 +69,7 @@ def plan_scene(model: ir.Model, equations: Equations, scene_name: str | None = N
     the same generated code (for the animation)."""
     scene = _find_scene(model, scene_name)
     settings = _settings(model, equations, scene)
+    overrides = replace(overrides, values=tuple((name, _in_si(model, name, value)) for name, value in overrides.values))
     time, integrator, set_values, initial = settings.resolve(overrides)
     parameters = _parameter_values(model, set_values)
     outputs = scene.outputs if scene and scene.outputs else tuple(
@@ -139,6 +140,19 @@ def parameters_in_expressions(model: ir.Model) -> frozenset[str]:
             e for c in model.coordinates for e in (c.start, c.velocity)]:
         used |= expression.free_symbols
     return frozenset(p.name for p in model.parameters if p.symbol in used)
+
+
+def _in_si(model: ir.Model, name: str, value: float | str) -> float:
+    """A value set from outside the model file: a number as it is (SI), a text with its unit
+    (`"30 deg"`) converted to SI after its dimension is checked against the declared unit."""
+    if not isinstance(value, str):
+        return value
+    coordinate, _, part = name.rpartition(".")
+    declared = next((p.unit for p in model.parameters if p.name == name), None)
+    for q in model.coordinates:
+        if q.name == coordinate and part in ("start", "velocity"):
+            declared = q.unit if part == "start" else units.per_second(q.unit)
+    return units.value_in_si(value, declared, Setting(name))
 
 
 def _find_scene(model: ir.Model, name: str | None) -> ir.Scene | None:

@@ -69,10 +69,11 @@ def given_options(values) -> tuple[tuple[str, float], ...]:
 class Overrides:
     """Settings given outside the model file (`lagc run` options, `simulate()` arguments).
 
-    `values` maps a parameter name, "q.start" or "q.velocity" to a number.
+    `values` maps a parameter name, "q.start" or "q.velocity" to a number (in SI), or to a text of
+    a number and its unit ("30 deg"), which scene.plan_scene converts to SI.
     """
 
-    values: tuple[tuple[str, float], ...] = ()
+    values: tuple[tuple[str, float | str], ...] = ()
     start: float | None = None
     stop: float | None = None
     interval: float | None = None
@@ -121,6 +122,10 @@ class IntegratorTraits:
     @property
     def canonical(self) -> bool:
         return registry.get(self.integrator.name).canonical
+
+    @property
+    def series(self) -> bool:
+        return registry.get(self.integrator.name).series
 
 
 @dataclass(frozen=True)
@@ -171,7 +176,7 @@ class SceneSettings:
             raise LagError(refusal, choice.span)
 
     def _apply_override(self, name: str, value: float, set_values: dict, initial: dict) -> None:
-        if not math.isfinite(value):
+        if not isinstance(value, str) and not math.isfinite(value):     # a text is of a name not known
             raise LagError(f"cannot set '{name}' to {value}: values must be finite numbers")
         coordinate, _, part = name.rpartition(".")
         if part in ("start", "velocity") and coordinate:

@@ -90,7 +90,8 @@ def test_numerical_failure_names_time_state_and_remedy_and_keeps_the_rows(tmp_pa
     out = tmp_path / "out.csv"
     done = lagc("run", model, "--stop", "1", "-o", out)
     assert done.returncode == 1
-    assert "simulation failed at t = 0.4" in done.stderr or "simulation failed at t = 0.5" in done.stderr
+    assert "lagc: error: simulation failed at t = 0.4" in done.stderr or \
+        "lagc: error: simulation failed at t = 0.5" in done.stderr
     assert "state: r = " in done.stderr and "remedy:" in done.stderr
     assert "Traceback" not in done.stderr
     lines = out.read_text().splitlines()                 # the rows before the failure, a valid CSV
@@ -141,8 +142,8 @@ def oscillator(tmp_path):
 
 
 @pytest.mark.parametrize("arguments, words", [
-    (["--stop", "inf"], "error: the stop time must be a finite number, not inf"),
-    (["--set", "k=nan"], "error: cannot set 'k' to nan: values must be finite numbers"),
+    (["--stop", "inf"], "lagc: error: the stop time must be a finite number, not inf"),
+    (["--set", "k=nan"], "lagc: error: cannot set 'k' to nan: values must be finite numbers"),
     (["--interval", "1e-300"], "would have 1e+300 rows, more than the limit of 1e+07; choose a larger --interval"),
     (["--max-step", "-1"], "lagc: error: --max-step: dop853(max_step = ...) must be a finite number > 0"),
     (["--atol", "nan"], "lagc: error: --atol: dop853(atol = ...) must be a finite number >= 0"),
@@ -150,6 +151,28 @@ def oscillator(tmp_path):
 def test_run_refuses_bad_inputs(oscillator, arguments, words):
     done = lagc("run", oscillator, *arguments)
     assert done.returncode == 1 and words in done.stderr and "Traceback" not in done.stderr
+
+
+@pytest.mark.parametrize("arguments, words", [
+    (["sweep", "{model}", "--vary", "k=1:2:3"], "lagc: error: the following arguments are required: -o/--output"),
+    (["run", "{model}", "--rtol", "abc"], "lagc: error: argument --rtol: invalid float value: 'abc'"),
+    (["frobnicate"], "lagc: error: argument COMMAND: invalid choice: 'frobnicate'"),
+])
+def test_usage_errors_begin_as_every_error_and_exit_1(oscillator, arguments, words):
+    """docs/language.md: an error in the settings exits 1; every message not about a place in a
+    model file begins `lagc: error:`, argparse's usage errors too (they were `lagc sweep: error:`
+    and exit 2)."""
+    done = lagc(*(str(oscillator) if a == "{model}" else a for a in arguments))
+    assert done.returncode == 1 and done.stderr.startswith("usage: lagc")
+    assert done.stderr.splitlines()[-1].startswith(words), done.stderr
+
+
+def test_every_error_line_begins_the_same_way(oscillator):
+    for arguments in (["--stop", "inf"], ["--set", "nosuch=1"], ["--max-step", "-1"], ["-o", "/nonexistent/x.csv"]):
+        done = lagc("run", oscillator, *arguments)
+        errors = [line for line in done.stderr.splitlines() if "error" in line]
+        assert done.returncode == 1 and errors and all(line.startswith("lagc: error: ") for line in errors), \
+            done.stderr
 
 
 def test_run_raises_a_tiny_rtol_with_one_warning(oscillator):

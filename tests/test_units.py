@@ -196,9 +196,10 @@ def test_check_shows_each_quantity_with_its_unit(tmp_path):
     path = tmp_path / "pendulum.lag"
     path.write_text(PENDULUM_PREFIXED)
     done = subprocess.run([sys.executable, "-m", "lagdsl", "check", str(path)], capture_output=True, text=True)
-    assert "  theta [rad]" in done.stdout
-    assert "parameters: m = 0.5 [kg], l = 0.4 [m], g = 9.81 [m/s^2], b = 0.002 [kg*m^2/s]" in done.stdout
-    assert "outputs: x [cm]" in done.stdout
+    assert "  theta [deg] (= 0.0174532925199 rad)" in done.stdout        # as declared, SI beside
+    assert ("parameters: m = 500 [g] (= 0.5 kg), l = 40 [cm] (= 0.4 m), g = 9.81 [m/s^2], "
+            "b = 2 [mN*m*s] (= 0.002 kg*m^2/s)") in done.stdout
+    assert "outputs: x [cm] (= 0.01 m)" in done.stdout
 
 
 @pytest.mark.parametrize("unit, words, si", [
@@ -312,3 +313,76 @@ def test_dimensional_mistakes_with_matrices_arrays_and_stop_conditions_are_locat
     diagnostic = raised.value.diagnostics[0]          # (a wrong k makes U wrong too)
     assert diagnostic.message == message
     assert (diagnostic.span.line, diagnostic.span.column) == (line, column)
+
+
+def test_a_value_with_its_unit_is_converted_as_the_declared_one_is():
+    """`--set "theta.start=30 deg"` and simulate(set={"theta.start": "30 deg"}) run as the scene's
+    own 30 [deg] does (bit for bit); "500g", "0.5 [kg]" and 0.5 set the same mass; a velocity
+    takes the coordinate's unit per second."""
+    model = loaded(PENDULUM_PREFIXED)
+    scene = model.simulate(backend="numpy")
+    for value in ("30 deg", "30deg", "30 [deg]"):
+        run = model.simulate(backend="numpy", set={"theta.start": value})
+        assert np.array_equal(run["theta"], scene["theta"]), value
+    in_radians = model.simulate(backend="numpy", set={"theta.start": f"{math.pi / 6!r} rad"})
+    assert in_radians["theta"] == pytest.approx(scene["theta"], rel=1e-12)
+    masses = [model.simulate(backend="numpy", set={"m": value})["x"] for value in ("500g", "0.5 [kg]", 0.5)]
+    assert np.array_equal(masses[0], masses[1]) and np.array_equal(masses[1], masses[2])
+    turning = model.simulate(backend="numpy", set={"theta.velocity": "180 deg/s"}, stop=0.1)
+    assert turning["theta"][0] == scene["theta"][0] and turning["theta"][1] > scene["theta"][1]
+    assert model.plan(overrides=Overrides(values=(("theta.velocity", "1 rad/min"),))).initial_state[1] == \
+        pytest.approx(1 / 60, rel=1e-15)
+
+
+@pytest.mark.parametrize("name, value, words", [
+    ("m", "500 m", "m: '500 m' is a length, but this value is declared in [g] (mass)"),
+    ("theta.start", "30 m", "theta.start: '30 m' is a length, but this value is declared in [deg] (1)"),
+    ("m", "500 blorp", "m: in '500 blorp': unknown unit 'blorp'"),
+    ("m", "heavy", "m: expected a number, or a number and a unit such as '30 deg', got 'heavy'"),
+    ("g", "9.81 m/s^2", None),
+])
+def test_a_value_with_a_unit_of_another_dimension_is_refused(name, value, words):
+    model = loaded(PENDULUM_PREFIXED)
+    if words is None:
+        model.plan(overrides=Overrides(values=((name, value),)))
+        return
+    with pytest.raises(LagError) as refused:
+        model.plan(overrides=Overrides(values=((name, value),)))
+    assert words in str(refused.value)
+
+
+def test_run_set_takes_a_unit(tmp_path):
+    path = tmp_path / "pendulum.lag"
+    path.write_text(PENDULUM_PREFIXED)
+    command = [sys.executable, "-m", "lagdsl", "run", str(path), "--backend", "numpy", "--stop", "0.2"]
+    plain = subprocess.run(command, capture_output=True, text=True)
+    given = subprocess.run([*command, "--set", "theta.start=30 deg", "--set", "m=500g"], capture_output=True, text=True)
+    assert given.returncode == 0 and given.stdout == plain.stdout
+    wrong = subprocess.run([*command, "--set", "m=2 s"], capture_output=True, text=True)
+    assert wrong.returncode == 1 and "lagc: error: m: '2 s' is a time, but this value is declared in [g]" in wrong.stderr
+
+
+def test_a_sweep_refuses_a_value_with_a_unit_clearly(tmp_path):
+    path = tmp_path / "pendulum.lag"
+    path.write_text(PENDULUM_PREFIXED)
+    done = subprocess.run([sys.executable, "-m", "lagdsl", "sweep", str(path), "--backend", "numpy", "--set", "m=500g",
+                           "--vary", "l=0.3:0.5:2", "-o", str(tmp_path / "out.csv")], capture_output=True, text=True)
+    assert done.returncode == 1 and "Traceback" not in done.stderr
+    assert "lagc: error: sweep: the values of 'm' are numbers, in SI; '500g'" in done.stderr
+
+
+def test_times_take_a_unit_of_time(tmp_path):
+    """--stop "200 ms" is --stop 0.2; simulate(stop="0.2 s", interval="50 ms") likewise; a length is refused."""
+    path = tmp_path / "pendulum.lag"
+    path.write_text(PENDULUM_PREFIXED)
+    command = [sys.executable, "-m", "lagdsl", "run", str(path), "--backend", "numpy", "--interval", "0.05"]
+    seconds = subprocess.run([*command, "--stop", "0.2"], capture_output=True, text=True)
+    milliseconds = subprocess.run([*command, "--stop", "200 ms"], capture_output=True, text=True)
+    assert milliseconds.returncode == 0 and milliseconds.stdout == seconds.stdout
+    wrong = subprocess.run([*command, "--stop", "2 m"], capture_output=True, text=True)
+    assert wrong.returncode == 1 and "lagc: error: --stop: '2 m' is a length, but this value is declared in [s]" \
+        in wrong.stderr
+    model = loaded(PENDULUM_PREFIXED)
+    given = model.simulate(backend="numpy", stop="0.2 s", interval="50 ms")
+    plain = model.simulate(backend="numpy", stop=0.2, interval=0.05)
+    assert np.array_equal(given.t, plain.t) and np.array_equal(given["theta"], plain["theta"])

@@ -2,7 +2,9 @@
 
 This is the only place that catches LagError: it prints `file:line:column: error: ...`
 with the source line and a caret, and exits 1 (`lagc modes` and `lagc linearize` exit 2 for bad
-input and 1 for a numerical failure: cli/modes.py). Anything else escaping is a bug in lagdsl.
+input and 1 for a numerical failure: cli/modes.py). Every message not about a place in a model
+file begins `lagc: error:` (`lagc: warning:`, `lagc: interrupted`), usage errors included (exit 1,
+as docs/language.md says). Anything else escaping is a bug in lagdsl.
 Ctrl-C exits 130 (128 + SIGINT, as shells report it) without a traceback; during `lagc run`
 the rows computed so far are written and the summary says where the run stopped.
 
@@ -19,7 +21,7 @@ import threading
 import warnings
 
 from .. import __version__
-from ..errors import LagError, LagWarning, SimulationError
+from ..errors import PREFIX, LagError, LagWarning, SimulationError
 from ..escape import visible
 from ..run.interrupt import terminate_as_interrupt
 from . import animate, bench, common, describe, emit, fit, modes, simulate, sweep
@@ -37,13 +39,13 @@ def main(argv: list[str] | None = None) -> int:
             warnings.showwarning = _show_warning
             return _dispatch(argv)
     except KeyboardInterrupt:
-        print("lagc: interrupted", file=sys.stderr)
+        print(f"{PREFIX}interrupted", file=sys.stderr)
         return common.interrupted_exit()
     except LagError as error:
         print(error.render(), file=sys.stderr)
         return 1
     except SimulationError as error:
-        print(error.render(), file=sys.stderr)
+        print(f"{PREFIX}error: {error.render()}", file=sys.stderr)
         return 1
     except BrokenPipeError:
         # The reader went away (`lagc eom model.lag | head`): stop quietly, as Unix tools do.
@@ -51,7 +53,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     except OSError as error:
         where = f": {visible(str(error.filename))}" if error.filename else ""
-        print(f"lagc: error: {error.strerror}{where}", file=sys.stderr)
+        print(f"{PREFIX}error: {error.strerror}{where}", file=sys.stderr)
         return 1
     finally:
         if threading.current_thread() is threading.main_thread():
@@ -59,19 +61,34 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
-    print(f"lagc: warning: {message}", file=sys.stderr)
+    print(f"{PREFIX}warning: {message}", file=sys.stderr)
 
 
 def _dispatch(argv: list[str]) -> int:
     parser, commands = _parser()
     if argv and argv[0] not in (*commands.choices, "-h", "--help", "--version") and "--emit" in argv:
         argv = ["emit", *argv]          # `lagc MODEL.lag --emit c` is `lagc emit MODEL.lag --emit c`
-    arguments = parser.parse_args(argv)
+    arguments, unknown = parser.parse_known_args(argv)
+    if unknown:     # said by the command's own parser: its usage line, its exit status
+        commands.choices[arguments.command].error(f"unrecognized arguments: {' '.join(unknown)}")
     return arguments.handler(arguments)
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with lagc's way of saying a usage error: the usage, then `lagc: error: ...`, exit
+    status `usage_exit`: 1, as for every other bad option (argparse's own is `lagc run: error: ...`,
+    exit 2); a command whose bad input exits otherwise sets it on its parser (cli/modes.py)."""
+
+    usage_exit = 1
+
+    def error(self, message: str):
+        self.print_usage(sys.stderr)
+        print(f"{PREFIX}error: {message}", file=sys.stderr)
+        raise SystemExit(self.usage_exit)
+
+
 def _parser() -> tuple[argparse.ArgumentParser, argparse._SubParsersAction]:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="lagc", description="Compile Lagrangian models (.lag) to equations of motion, code and simulations.",
         epilog="Write `lagc MODEL.lag --emit c|numpy [-o FILE] [--scene S]` to emit source code, "
                "`lagc MODEL.lag --emit fmu -o Model.fmu [--fmi 2|3] [--kind cs|me|both]` for an FMU.")

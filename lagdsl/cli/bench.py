@@ -35,7 +35,8 @@ def run(arguments) -> int:
     integrators = common.integrator_list(arguments.integrators)
     common.check_destinations(arguments.model, arguments.output, arguments.plot)
     model = common.load_model(SourceFile.read(arguments.model))
-    overrides = Overrides(common.set_values(arguments.set), arguments.start, arguments.stop, arguments.interval)
+    overrides = Overrides(common.set_values(arguments.set, with_units=True), arguments.start, arguments.stop,
+                          arguments.interval)
     progress = bench.progress_bar()
     try:
         report = bench.run_bench(model, arguments.scene, overrides, integrators, bench.backends(arguments.backend),

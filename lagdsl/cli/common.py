@@ -75,28 +75,44 @@ def scene_options(parser: argparse.ArgumentParser) -> None:
 def input_options(parser: argparse.ArgumentParser) -> None:
     """Parameters, initial values and the time grid: the inputs of a run."""
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                        help="override a parameter, or an initial value as COORDINATE.start / COORDINATE.velocity")
-    parser.add_argument("--start", type=float, help="start time of the output grid")
-    parser.add_argument("--stop", type=float, help="stop time")
-    parser.add_argument("--interval", type=float, help="output interval")
+                        help="override a parameter, or an initial value as COORDINATE.start / COORDINATE.velocity; "
+                             "a plain number is in SI, a number with a unit ('30 deg', '500g') is converted")
+    for option, meaning in (("start", "start time of the output grid"), ("stop", "stop time"),
+                            ("interval", "output interval")):
+        parser.add_argument(f"--{option}", type=lambda text, option=option: time_value(f"--{option}", text),
+                            help=f"{meaning}: seconds, or a number and a unit of time ('0.8 ns', '2 min')")
 
 
 def overrides(arguments) -> Overrides:
     options = given_options(vars(arguments))
-    return Overrides(set_values(arguments.set), arguments.start, arguments.stop, arguments.interval,
+    return Overrides(set_values(arguments.set, with_units=True), arguments.start, arguments.stop, arguments.interval,
                      arguments.integrator, options)
 
 
-def set_values(items: list[str], option: str = "--set") -> tuple[tuple[str, float], ...]:
-    """NAME=VALUE items of `option` (--set, or --at of `lagc modes`) as (name, number) pairs."""
+def set_values(items: list[str], option: str = "--set",
+               with_units: bool = False) -> tuple[tuple[str, float | str], ...]:
+    """NAME=VALUE items of `option` (--set, or --at of `lagc modes`) as (name, number) pairs; with
+    `with_units`, a VALUE that is a number and a unit (`theta.start=30 deg`) is kept as its text,
+    which the plan converts to SI (scene.plan_scene)."""
     values = []
     for item in items:
         name, equals, text = item.partition("=")
         value = parse_number(text)
+        if with_units and equals and value is None and text.strip():
+            value = text.strip()
         if not equals or value is None:
-            raise LagError(f"{option} takes NAME=VALUE with a number, got '{item}'")
+            raise LagError(f"{option} takes NAME=VALUE with a number{' (and a unit)' if with_units else ''}, "
+                           f"got '{item}'")
         values.append((name.strip(), value))
     return tuple(values)
+
+
+def time_value(option: str, text: str) -> float:
+    value = parse_number(text.strip())
+    if value is not None:
+        return value
+    from ..frontend.units import time_in_seconds     # with sympy, which a warm run does without
+    return time_in_seconds(text.strip(), option)
 
 
 def refuse(option: str, message: str):

@@ -22,7 +22,7 @@ def add(commands) -> None:
     parser.add_argument("--bound", action="append", default=[], metavar="NAME=LOW:HIGH",
                         help="keep a fitted value in [LOW, HIGH]; repeatable")
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                        help="hold a parameter or start value at VALUE")
+                        help="hold a parameter or start value at VALUE (a number in SI, or with a unit: '30 deg')")
     parser.add_argument("--output", action="append", default=None, metavar="COLUMN", dest="outputs",
                         help="a data column to fit (default: every column but t); repeatable")
     parser.add_argument("--sigma", type=float, help="the standard deviation of the data (default 1; the "
@@ -42,7 +42,7 @@ def run(arguments) -> int:
         raise LagError("name the parameters to fit: --fit NAME=START (repeatable)", Setting("--fit"))
     result = model.fit(arguments.data, fitted, outputs=arguments.outputs, sigma=arguments.sigma,
                        scene=arguments.scene, bounds=_bounds(arguments.bound),
-                       set=dict(common.set_values(arguments.set)), integrator=arguments.integrator,
+                       set=dict(common.set_values(arguments.set, with_units=True)), integrator=arguments.integrator,
                        **dict(given_options(vars(arguments))))
     print(result.render())
     if arguments.file is not None:

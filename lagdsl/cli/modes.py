@@ -28,8 +28,8 @@ def add(commands) -> None:
                               help="write the modes as CSV (mode, real, imag, omega, frequency_hz, damping_ratio, "
                                    "verdict, one column per coordinate)")
     modes_parser.add_argument("--plot", metavar="FILE.png", help="plot the mode shapes")
-    modes_parser.add_argument("--count", type=lambda text: common.positive_integer("--count", text),
-                              default=PLOTTED_MODES, help=f"modes to plot (default: the lowest {PLOTTED_MODES})")
+    modes_parser.add_argument("--count", default=str(PLOTTED_MODES),
+                              help=f"modes to plot (default: the lowest {PLOTTED_MODES})")
     modes_parser.set_defaults(handler=_exit_statuses(modes))
 
     linearize_parser = commands.add_parser("linearize", help="the linear state-space model about a state: "
@@ -46,6 +46,7 @@ def add(commands) -> None:
 
 
 def _point_options(parser) -> None:
+    parser.usage_exit = BAD_INPUT_EXIT      # a usage error is bad input too
     parser.add_argument("model")
     common.scene_options(parser)
     parser.add_argument("--at", action="append", default=[], metavar="Q=VALUE",
@@ -86,6 +87,7 @@ def _linear(arguments, inputs=(), outputs=None):
 def modes(arguments) -> int:
     from ..linear import analyse
     from ..linear.export import modes_csv, modes_text
+    count = common.positive_integer("--count", arguments.count)     # bad input: exits 2 here, not 1 in parsing
     common.check_destinations(arguments.model, arguments.output, arguments.plot)
     model, linear = _linear(arguments, outputs=())           # the modes need neither B nor C
     result = analyse(linear)
@@ -95,7 +97,7 @@ def modes(arguments) -> int:
         write_output(arguments.output, modes_csv(result))
     if arguments.plot:
         from ..plots import mode_shapes_png
-        write_output(arguments.plot, mode_shapes_png(result, f"mode shapes of {title}", arguments.count))
+        write_output(arguments.plot, mode_shapes_png(result, f"mode shapes of {title}", count))
     return 0
 
 

@@ -7,7 +7,6 @@ import sys
 from ..errors import SimulationError, SimulationInterrupted
 from ..progress import TimeProgress
 from ..run import cache
-from ..run.files import write_output
 from ..source import SourceFile
 from . import common
 
@@ -20,7 +19,10 @@ def add(commands) -> None:
                      help="build in a private temporary directory; use nothing from the build cache")
     run_parser.add_argument("--error", action="store_true",
                      help="estimate the run's global error (a 100x tighter rerun, or the extended-precision reference)")
-    run_parser.add_argument("--plot", metavar="FILE.png", help="plot the output columns against time")
+    run_parser.add_argument("--plot", metavar="FILE.png",
+                            help="plot the output columns against time (each axis with its unit)")
+    run_parser.add_argument("--plot-xy", metavar="X,Y",
+                            help="with --plot: plot column Y against column X instead (a trajectory: x,y)")
     run_parser.set_defaults(handler=run)
 
 
@@ -40,12 +42,13 @@ def _simulate(arguments) -> int:
     """`lagc run` in the cache in use: warm from a stored plan if it serves, else the full pipeline."""
     from ..run import plans      # numpy and the runner: only `lagc run` needs them
     source = SourceFile.read(arguments.model)
-    # --units names the columns' units and --error needs the model: the full pipeline
-    stored = None if arguments.units or arguments.error else plans.find(source, arguments.scene, arguments.backend,
-                                                                        arguments.integrator)
+    # --units and --plot name the columns' units and --error needs the model: the full pipeline
+    full = arguments.units or arguments.error or arguments.plot is not None
+    stored = None if full else plans.find(source, arguments.scene, arguments.backend, arguments.integrator)
     model = None if stored else common.load_model(source)      # the model's errors first, as always
     common.check_destinations(arguments.model, arguments.output, arguments.plot)
     overrides = common.overrides(arguments)
+    xy = _trajectory(arguments, model)
     progress = TimeProgress()
     units = model.column_units(arguments.scene) if arguments.units else None
     try:
@@ -71,14 +74,23 @@ def _simulate(arguments) -> int:
     progress.close()
     common.deliver(result.csv(units), arguments.output)
     if arguments.plot is not None:
-        from .. import plots
-        write_output(arguments.plot, plots.outputs_png(result, _title(source, arguments.scene)))
+        result.plot(arguments.plot, xy)
     print(result.summary.render(), file=sys.stderr)
     return 0
 
 
-def _title(source: SourceFile, scene: str | None) -> str:
-    return f"{source.name}, scene {scene}" if scene else source.name
+def _trajectory(arguments, model) -> tuple[str, str] | None:
+    """--plot-xy X,Y as (X, Y), checked against the scene's columns before the run."""
+    if arguments.plot_xy is None:
+        return None
+    if arguments.plot is None:
+        common.refuse("--plot-xy", "needs --plot FILE.png, the figure to draw the trajectory in")
+    names = tuple(name.strip() for name in arguments.plot_xy.split(","))
+    if len(names) != 2 or not all(names):
+        common.refuse("--plot-xy", f"expected two columns X,Y, got '{arguments.plot_xy}'")
+    from ..plots import check_columns
+    check_columns(model.plan(arguments.scene).columns, names)
+    return names
 
 
 def _incomplete(partial, time: float, output: str | None) -> str:

@@ -9,6 +9,7 @@ from ..integrators.registry import OPTION_ORDER, OPTIONS
 from . import GeneratedSource, template_environment
 from .c_abi import runtime_contract, runtime_header, status_printer, summary_packer
 from .c_factor import factorisation_text
+from .c_taylor import series_text
 from .kernel import Block, Kernel, Loop, Store
 from .printers import CPrinter
 
@@ -60,6 +61,8 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
         "canonical": kernel.momenta is not None,
         "outputs_need_multipliers": kernel.outputs_need_multipliers,
         "integrator_source": integrator_source(kernel.integrator.name),
+        "taylor_series": series_text(kernel, printer, [_position(s, kernel) for s in kernel.system.stores
+                                                       if s.array == "K"]) if method.series else "",
         "contract": runtime_contract(), "flags": _driver_flags(kernel, method),
         "driver": c_file("driver.c"), "library": c_file("library.c"), "standalone": c_file("standalone.c"),
         "summary_packer": summary_packer(summary_layout(method.name, len(kernel.invariant_names), 2 * kernel.n,

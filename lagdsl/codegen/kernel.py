@@ -138,8 +138,9 @@ def lower_to_kernel(equations: Equations | LocalEquations, plan: ScenePlan) -> K
 def local_form_serves(plan: ScenePlan, constant_mass: bool) -> bool:
     """The local form gives M, f, their derivatives and the energy: enough for an integrator
     whose outputs need no momenta, multipliers or residuals, other than gauss (the canonical
-    form), and for an implicit one when M is constant (∂(M q'')/∂q = 0)."""
-    return (not plan.canonical and (constant_mass or not plan.implicit)
+    form) and taylor (its series are built from straight-line blocks), and for an implicit one
+    when M is constant (∂(M q'')/∂q = 0)."""
+    return (not plan.canonical and not plan.series and (constant_mass or not plan.implicit)
             and all(o.kind in ("expression", "energy") for o in plan.outputs))
 
 

@@ -15,9 +15,9 @@ from fractions import Fraction
 
 import sympy
 
-from ..errors import LagError
+from ..errors import LagError, Setting
 from ..ir import Unit
-from ..source import Span
+from ..source import SourceFile, Span
 
 BASE_DIMENSIONS = ("mass", "length", "time", "current", "temperature", "substance", "luminosity")
 SI_SYMBOLS = {"mass": "kg", "length": "m", "time": "s", "current": "A", "temperature": "K",
@@ -139,6 +139,54 @@ def in_si(value: sympy.Expr, unit: Unit | None) -> sympy.Expr:
 def is_angle(unit: Unit) -> bool:
     """`[rad]`, `[deg]`: dimensionless, but an angle (shown as rad)."""
     return dimension(unit).dimensionless and any(_named_unit(name)[2] for name, _ in unit.factors)
+
+# A value given with its unit outside the model file: `30 deg`, `500g`, `0.785 [rad]`.
+_VALUE_WITH_UNIT = re.compile(r"\s*(?P<number>[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*"
+                              r"(?:\[(?P<bracketed>[^\]]*)\]|(?P<bare>[A-Za-z_][^\[\]]*))\s*")
+
+
+def time_in_seconds(value: float | str | None, option: str) -> float | None:
+    """A time given outside the model file (`--stop`, simulate(stop=...)): a number in seconds,
+    or a number and a unit of time (`0.8 ns`, `2 min`)."""
+    if not isinstance(value, str):
+        return value
+    return value_in_si(value, _written_unit("s"), Setting(option))
+
+
+def _written_unit(text: str) -> Unit:
+    """A unit written outside a model file (no brackets), parsed as a model's `[text]` is."""
+    return parse_unit(Span(SourceFile("<value>", f"[{text}]"), 1, 1, 0, len(text) + 2))
+
+
+def per_second(unit: Unit | None) -> Unit | None:
+    """The unit of the rate of a quantity in `unit` (a coordinate's velocity)."""
+    if unit is None:
+        return None
+    factors = dict(unit.factors)
+    factors["s"] = factors.get("s", Fraction(0)) - 1
+    return Unit(f"({unit.text})/s", tuple(sorted((n, p) for n, p in factors.items() if p != 0)), unit.span)
+
+
+def value_in_si(text: str, declared: Unit | None, where) -> float:
+    """A value written with a unit (`30 deg`, `500g`, `0.785 [rad]`) in SI, where the quantity it
+    sets is declared in `declared`; its dimension must be that unit's. Raises LagError at `where`
+    (an errors.Setting) for text that is no number and unit, an unknown unit, a quantity declared
+    without a unit, or another dimension."""
+    match = _VALUE_WITH_UNIT.fullmatch(text)
+    if match is None:
+        raise LagError(f"expected a number, or a number and a unit such as '30 deg', got '{text}'", where)
+    written = match.group("bracketed") if match.group("bracketed") is not None else match.group("bare")
+    try:
+        unit = _written_unit(written.strip())
+    except LagError as error:
+        raise LagError(f"in '{text}': {error.diagnostics[0].message}", where) from None
+    if declared is None:
+        raise LagError(f"'{text}' has a unit, but the model declares none for this value: give a plain number", where)
+    if dimension(unit) != dimension(declared):
+        raise LagError(f"'{text}' is a {dimension(unit).words()}, but this value is declared in [{declared.text}] "
+                       f"({dimension(declared).words()})", where)
+    return float(sympy.Rational(match.group("number")) * si_factor(unit))
+
 
 _TOKEN = re.compile(r"\s*(?:(?P<name>[A-Za-z_][A-Za-z_0-9]*)|(?P<number>\d+(?:\.\d+)?)|(?P<op>\*\*|[*/^()\-+.]))")
 

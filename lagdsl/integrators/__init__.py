@@ -8,7 +8,8 @@ from importlib import resources
 from . import registry
 
 COUNTER_LABELS = {"accepted": "steps accepted", "rejected": "rejected", "rhs_evals": "right-hand sides",
-                  "jac_evals": "Jacobians", "lu_decomps": "LU", "newton_iters": "iterations"}
+                  "jac_evals": "Jacobians", "lu_decomps": "LU", "newton_iters": "iterations",
+                  "orders": "Taylor orders"}
 # The times of a composite's first switches that its run summary reports (abi.summary_layout).
 SWITCH_TIMES = 8                  # auto's switch times in a summary (LAG_AUTO_LOGGED in C)
 

@@ -83,6 +83,8 @@ class Integrator:
     scipy: str | None = None                    # NumPy backend: the scipy.integrate solver
     python: str | None = None                   # NumPy backend: our own stepper
     numpy_constraints: str | None = None        # why the NumPy backend refuses it with constraints
+    numpy: str | None = None                    # why the NumPy backend refuses it at all
+    series: bool = False                        # steps by the Taylor series of the equations (codegen/c_taylor.py)
     stacks_in_sweeps: bool = False              # NumPy sweeps integrate chunks of members as one system
     source: str = ""                            # its C file, if not NAME.c
     order: int = 0                              # the order of the method (per stage if stage_order)
@@ -104,6 +106,8 @@ class Integrator:
         """Why a scene with (or without) constraints cannot run this method on `backend`, or None."""
         if constrained and self.constraints is not None:
             return f"{self.title} does not handle constraints; {self.constraints}"
+        if backend == "numpy" and self.numpy is not None:
+            return self.numpy
         if constrained and backend == "numpy" and self.numpy_constraints is not None:
             return self.numpy_constraints
         return None
@@ -168,6 +172,11 @@ for _record in (
                counters=("accepted", "rhs_evals", "newton_iters"), fixed_step=True, canonical=True,
                constraints="use radau5 or dop853", c_fragments=("fixed_step.c",), python="fixed_step:run_gauss",
                order=2, stage_order=True),
+    Integrator("taylor", "the Taylor integrator taylor",
+               "Taylor series of variable order and step (Jorba-Zou), from the equations' recurrences; C backend",
+               counters=("accepted", "orders"), series=True,
+               numpy="the Taylor integrator taylor runs on the C backend only (its series are generated C); "
+                     "use --backend c, or dop853 on the NumPy backend"),
     Integrator("auto", "auto", "dop853, switching to radau5 where the model is stiff, and back",
                counters=("accepted", "rejected", "rhs_evals", "jac_evals", "lu_decomps", "newton_iters"),
                implicit=True, parts=("dop853", "radau5"), scipy="LSODA", order=5,

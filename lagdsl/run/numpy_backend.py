@@ -167,9 +167,12 @@ def _numpy_result(module, par, times, states, plan, counts, elapsed, projection,
     if plan.constraints and len(times):
         g, c, _ = module.constraint_rows(par, times, Y)
         residual = float(max(np.max(np.abs(g), initial=0.0), np.max(np.abs(c), initial=0.0)))
-    kept = tuple((name, int(counts[name])) for name in registry.get(plan.integrator.name).counters
-                 if counts.get(name) is not None)
+    record = registry.get(plan.integrator.name)
+    kept = tuple((name, int(counts[name])) for name in record.counters if counts.get(name) is not None)
+    uncounted = tuple((name, f"not counted by scipy's {record.scipy}") for name in record.counters
+                      if counts.get(name) is None and record.scipy and counts)
     summary = RunSummary("numpy", plan.integrator.name, kept, elapsed, invariants, plan.constraints, residual,
                          projection if plan.constraints else None, plan.integrator.options,
-                         stiffness=counts.get("stiffness"), switches=counts.get("switches"), stopped=stopped)
+                         stiffness=counts.get("stiffness"), switches=counts.get("switches"), stopped=stopped,
+                         uncounted=uncounted)
     return Result(np.asarray(times, dtype=float), plan.columns, np.asarray(values, dtype=float), summary)

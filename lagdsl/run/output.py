@@ -59,18 +59,38 @@ class Switches:
 @dataclass(frozen=True)
 class ErrorEstimate:
     """The estimated global error of a run: the largest absolute difference, over the output rows
-    and columns, from a more accurate solution (`against` says which), and the seconds it took."""
+    and columns, from a more accurate solution (`against` says which), and the seconds it took.
+    `columns` gives the largest over the rows of each column, in the column's unit (`units`): the
+    columns of a run are in different units, so the one largest number says little without them."""
 
     value: float
     against: str
     seconds: float
+    columns: tuple[tuple[str, float], ...] = ()      # (column, its largest error over the rows)
+    units: tuple[str, ...] | None = None              # each column's unit, as Result.units
 
     def __float__(self) -> float:
         return self.value
 
+    @property
+    def column(self) -> str | None:
+        """The column where the largest error is."""
+        return max(self.columns, key=lambda entry: entry[1])[0] if self.columns else None
+
+    def _unit(self, column: str) -> str:
+        if self.units is None:
+            return ""
+        unit = self.units[[name for name, _ in self.columns].index(column)]
+        return "" if unit == "?" else f" {unit}"
+
     def render(self) -> str:
-        return (f"estimated global error: {self.value:.2g} (max abs over rows and columns, against {self.against}; "
-                f"{self.seconds:.3g} s)")
+        where = f"{self._unit(self.column)} in {self.column}" if self.column is not None else ""
+        text = (f"estimated global error: {self.value:.2g}{where} (the largest over the rows and columns, "
+                f"against {self.against}; {self.seconds:.3g} s)")
+        if len(self.columns) > 1:
+            text += "\n  per column: " + ", ".join(f"{name} {error:.2g}{self._unit(name)}"
+                                                  for name, error in self.columns)
+        return text
 
 
 @dataclass(frozen=True)
@@ -101,13 +121,16 @@ class RunSummary:
     switches: Switches | None = None                    # auto: its changes of method
     stopped: Stop | None = None                         # the scene's stop condition ended the run
     error: ErrorEstimate | None = None                  # lagc run --error, simulate(estimate_error=True)
+    uncounted: tuple[tuple[str, str], ...] = ()         # counters this run could not keep, and why
 
     def count(self, counter: str) -> int | None:
         """A work counter ("accepted", "rhs_evals", ...), None when the integrator does not keep it."""
         return dict(self.counters).get(counter)
 
     def render(self) -> str:
-        counts = [f"{value} {COUNTER_LABELS[name]}" for name, value in self.counters]
+        entries = [(name, f"{value} {COUNTER_LABELS[name]}") for name, value in self.counters]
+        entries += [(name, f"{COUNTER_LABELS[name]}: {why}") for name, why in self.uncounted]
+        counts = [text for _, text in sorted(entries, key=lambda entry: list(COUNTER_LABELS).index(entry[0]))]
         lines = [f"integrator {self.integrator}({self.settings_text()}) ({self.backend}): "
                  + ", ".join([*counts, f"{self.wall_time:.3g} s"])]
         lines += [part.render() for part in (self.stiffness, self.switches, self.stopped, self.error)
@@ -137,6 +160,8 @@ class Result:
     columns: tuple[str, ...]
     values: np.ndarray            # shape (len(t), len(columns))
     summary: RunSummary
+    units: tuple[str, ...] | None = None    # each column's unit ("?" unknown; None: a model without units)
+    origin: str = ""                        # what ran, for titles: "Kepler, scene ellipse"
     drawing: object | None = field(default=None, kw_only=True)     # keyword-only: subclasses add fields
 
     def animate(self, speed: float = 1.0):
@@ -173,3 +198,11 @@ class Result:
     def to_csv(self, path: str | os.PathLike) -> None:
         from .files import write_output
         write_output(path, self.csv())
+
+    def plot(self, path: str | os.PathLike, xy: tuple[str, str] | None = None) -> None:
+        """Write a PNG figure (atomically, as to_csv): the columns against t, or with `xy` =
+        ("x", "y") the trajectory of column y against column x; titled with the model and scene,
+        each axis with its unit (plots.py)."""
+        from .. import plots
+        from .files import write_output
+        write_output(path, plots.outputs_png(self) if xy is None else plots.trajectory_png(self, *xy))

@@ -80,9 +80,9 @@ class StoredPlan:
 
     def resolve(self, overrides: Overrides) -> RunPlan | None:
         """The run plan with `overrides` applied, as scene.plan_scene makes it (the same errors, in
-        the same order); None when a value to set needs the model's expressions."""
-        if any(name in self.computed_from for name, _ in overrides.values):
-            return None
+        the same order); None when a value to set needs the model's expressions or its units."""
+        if any(name in self.computed_from or isinstance(value, str) for name, value in overrides.values):
+            return None         # a value with a unit is converted by the full plan
         settings = self.settings
         time, integrator, set_values, initial = settings.resolve(overrides)
         settings.check_integrator(integrator)

@@ -21,6 +21,10 @@ from .output import Stiffness, Switches
 from .stop import StopCondition
 
 SCIPY_RTOL_FLOOR = 100 * float(np.finfo(float).eps)    # scipy raises a smaller rtol itself, with a warning
+# scipy's explicit Runge-Kutta pairs evaluate the right-hand side n_stages times per attempted step
+# (the stages and the end point; dense output is extra, after the step), so the evaluations a
+# step() call made tell how many attempts it rejected. Radau and LSODA report no such count.
+EXPLICIT_PAIRS = ("RK45", "DOP853")
 Progress = Callable[[float, float, float], None]     # (t reached, start, stop)
 Failure = tuple[int, float, np.ndarray]              # (status, last time reached, the state there)
 
@@ -48,7 +52,8 @@ def _no_progress(t: float, start: float, stop: float) -> None:
 def integrate_scipy(problem: ScipyProblem, times: np.ndarray, y0: np.ndarray,
                     progress: Progress = _no_progress) -> tuple[list[np.ndarray], dict, Failure | None]:
     """(the states at the output times reached, the work counters, the failure or None)."""
-    counts = {"accepted": 0, "rejected": None, "rhs_evals": 0, "jac_evals": 0, "lu_decomps": 0}
+    counts = {"accepted": 0, "rejected": 0 if problem.method in EXPLICIT_PAIRS else None, "rhs_evals": 0,
+              "jac_evals": 0, "lu_decomps": 0}
     watch = _StepWatch(problem.method if problem.watch else None, counts)
     forecast = WorkForecast(times[0], times[-1], problem.max_steps)
     states, solver = [y0], None
@@ -96,8 +101,10 @@ def _step(problem: ScipyProblem, solver, times, counts: dict, watch: _StepWatch,
     """One step of `solver`; the failure it ran into, or None."""
     if counts["accepted"] >= problem.max_steps:
         return MAX_STEPS, solver.t, solver.y
-    t_before, y_before = solver.t, solver.y
+    t_before, y_before, evaluated = solver.t, solver.y, solver.nfev
     solver.step()
+    if counts["rejected"] is not None:      # every attempt of an explicit pair costs n_stages evaluations
+        counts["rejected"] += (solver.nfev - evaluated) // solver.n_stages - (solver.status != "failed")
     progress(solver.t, times[0], times[-1])
     collapsed = solver.status == "running" and solver.t - t_before < min_step(solver.t, times[-1] - times[0])
     if solver.status == "failed" or collapsed:
@@ -181,14 +188,16 @@ class _StepWatch:
 
     def record(self, solver) -> None:
         if self.stiffness is not None and self.stiffness.record(solver):
-            self.at_detection = (self.counts["accepted"], self.counts["rhs_evals"] + solver.nfev)
+            counts = self.counts
+            self.at_detection = (counts["accepted"], counts["rejected"], counts["rhs_evals"] + solver.nfev)
         if self.switches is not None:
             self.switches.record(solver)
 
     def finish(self, counts: dict) -> dict:
         if self.at_detection is not None:
-            accepted, rhs_evals = self.at_detection
-            counts["stiffness"] = Stiffness(self.stiffness.time, counts["accepted"] - accepted, None,
+            accepted, rejected, rhs_evals = self.at_detection
+            counts["stiffness"] = Stiffness(self.stiffness.time, counts["accepted"] - accepted,
+                                            None if rejected is None else counts["rejected"] - rejected,
                                             counts["rhs_evals"] - rhs_evals, counts["rhs_evals"])
         if self.switches is not None:
             log = self.switches

@@ -170,6 +170,10 @@ def member_inputs(plan: Callable[[Overrides], ScenePlan], base: Overrides, varie
 
 
 def broadcast(varied: dict) -> dict[str, np.ndarray]:
+    for name, value in varied.items():
+        if isinstance(value, str):
+            raise LagError(f"sweep: the values of '{name}' are numbers, in SI; '{value}' (a value with its unit) "
+                           "is taken by run and bench only")
     arrays = {name: np.asarray(value, dtype=float) for name, value in varied.items()}
     for name, array in arrays.items():
         if array.ndim > 1:

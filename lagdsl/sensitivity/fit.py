@@ -66,12 +66,12 @@ def fit(model, data, params: dict, outputs=None, sigma=None, scene: str | None =
         options: dict | None = None) -> Fit:
     """Fit `params` ({name: start value}: parameters or "q.start", "q.velocity") of `model` (an
     api.Model) so that its `outputs` (default: the data's columns) match `data` (see data.py);
-    `set` holds other parameters fixed, `bounds` maps a name to (low, high), `sigma` is one
-    number or {column: number} (default 1); `integrator` and `options` (rtol, atol, ...)
-    override the scene's."""
+    `set` holds other parameters fixed (numbers, or texts with a unit that scene.plan_scene
+    converts: "30 deg"), `bounds` maps a name to (low, high), `sigma` is one number or
+    {column: number} (default 1); `integrator` and `options` (rtol, atol, ...) override the
+    scene's."""
     names = directions(model.ir, tuple(params), "--fit").names
-    base = Overrides(tuple((k, float(v)) for k, v in (set or {}).items()), integrator=integrator,
-                     options=given_options(options or {}))
+    base = Overrides(tuple((set or {}).items()), integrator=integrator, options=given_options(options or {}))
     plan = model.plan(scene, base)
     measured = read_data(data, plan.columns, model.name)
     columns = _chosen_columns(measured.columns, outputs)
@@ -109,8 +109,8 @@ class _Runs:
 
     def at(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if self.last is None or not np.array_equal(self.last[0], x):
-            values = {**dict(self.base.values), **dict(zip(self.names, x))}
-            overrides = replace(self.base, values=tuple((k, float(v)) for k, v in values.items()),
+            values = {**dict(self.base.values), **{name: float(value) for name, value in zip(self.names, x)}}
+            overrides = replace(self.base, values=tuple(values.items()),
                                 stop=float(self.times[-1]))
             try:
                 result = self.model.sensitivities(self.scene, "numpy", overrides, self.names, self.times)

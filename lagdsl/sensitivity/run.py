@@ -224,4 +224,4 @@ def _result(program, plan, chosen, system, solution, seconds, options: dict) -> 
                          program.kernel.constraints, residual, None,
                          tuple((name, float(value)) for name, value in options.items()))
     return SensitivityResult(solution.t, plan.columns, np.asarray(out, dtype=float).T, summary,
-                             chosen.names, derivatives)
+                             directions=chosen.names, derivatives=derivatives)

@@ -81,6 +81,8 @@ BAD_INPUT = [
     (["modes", "cart_pole.lag", "--at", "thetta=0"],
      "--at: 'thetta' names no coordinate of model CartPole; did you mean 'theta'?"),
     (["modes", "cart_pole.lag", "--at", "theta"], "--at takes NAME=VALUE"),
+    (["modes", "pendulum.lag", "--count", "0"], "--count: expected a whole number >= 1, got '0'"),
+    (["modes", "pendulum.lag", "--count", "x"], "--count: expected a whole number >= 1, got 'x'"),
     (["modes", "cartesian_pendulum.lag", "--at", "x=0", "--at", "y=-1", "--at", "y.velocity=1"],
      "--at: the state is not on constraint 'rod' (residual 0, velocity residual -2)"),
     (["linearize", "cartesian_pendulum.lag", "--input", "l", "-o", "lin.json"],
@@ -94,6 +96,16 @@ def test_bad_input_exits_2_with_a_located_message(capsys, tmp_path, arguments, m
     status, out, err = lagc(capsys, *arguments)
     assert status == 2 and message in err and "Traceback" not in err
     assert not list(tmp_path.iterdir())                  # nothing written
+
+
+@pytest.mark.parametrize("arguments", [["--frobnicate"], ["--count"], ["--at"]])
+def test_a_usage_error_is_bad_input_too(capsys, arguments):
+    """lagc modes says a usage error as every lagc command does (the usage, then `lagc: error:`),
+    with the exit status of its bad input."""
+    with pytest.raises(SystemExit) as stopped:
+        lagc(capsys, "modes", MODELS / "pendulum.lag", *arguments)
+    err = capsys.readouterr().err
+    assert stopped.value.code == 2 and err.startswith("usage: lagc modes") and "lagc: error: " in err
 
 
 def test_a_model_error_exits_2(capsys, tmp_path):

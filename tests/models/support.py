@@ -3,6 +3,7 @@ for the whole session), the time of a periodic signal, and the check of a normal
 from __future__ import annotations
 
 import numpy as np
+import sympy
 
 from lagdsl.run.output import Result
 from tests.conftest import library_model
@@ -61,3 +62,17 @@ def chain_modes(n: int) -> tuple[np.ndarray, np.ndarray]:
     order = np.argsort(squares.real)
     shapes = shapes.real[:, order]
     return squares.real[order], shapes / shapes[0]
+
+
+def gimbal_rows(s: dict) -> list:
+    """The closed-form rows M q'' - f of models/gimbal_gyroscope.lag (its header), in the symbols
+    `s` of tests.mechanics.eom.symbols_of."""
+    Jo, Ai, Bi, Ci, A, C, m, l, g = (s[n] for n in ("Jo", "Ai", "Bi", "Ci", "A", "C", "m", "l", "g"))
+    sin, cos = sympy.sin(s["theta"]), sympy.cos(s["theta"])
+    wphi, wtheta, wpsi = s["phi'"], s["theta'"], s["psi'"]
+    aphi, atheta, apsi = s["phi''"], s["theta''"], s["psi''"]
+    unbalance = A + Bi - C - Ci
+    return [(Jo + (A + Bi) * sin**2 + (C + Ci) * cos**2) * aphi + C * cos * apsi
+            - wtheta * sin * (C * wpsi - 2 * unbalance * wphi * cos),
+            (A + Ai) * atheta - wphi * sin * (unbalance * wphi * cos - C * wpsi) - m * g * l * sin,
+            C * cos * aphi + C * apsi - C * wphi * wtheta * sin]

@@ -48,6 +48,20 @@ def test_parameter_and_initial_overrides():
     assert light["der(s)"][0] == 1.0
 
 
+@pytest.mark.parametrize("values, words", [
+    (dict(m2=[1, 2]), "lagc: error: m2: a run takes one value of each input, got 2 values; to run a member for "
+                      "each, use model.sweep(set={'m2': [...]})"),
+    (dict(set={"theta1.start": np.linspace(0, 1, 5)}), "theta1.start: a run takes one value of each input, got 5"),
+    (dict(m2="heavy"), "lagc: error: m2: expected a number, or a number and a unit such as '30 deg', got 'heavy'"),
+])
+def test_several_values_where_one_is_expected_point_to_sweep(values, words):
+    """simulate(m2=[1, 2]) raised a bare TypeError from float()."""
+    model = lagdsl.load(MODELS / "double_pendulum.lag")
+    with pytest.raises(lagdsl.errors.LagError) as refused:
+        model.simulate(stop=0.1, **values)
+    assert words in str(refused.value)
+
+
 def test_names_that_collide_in_c(tmp_path):
     path = tmp_path / "collide.lag"
     path.write_text(COLLIDING)

@@ -13,6 +13,7 @@ from lagdsl import bench, reference
 from lagdsl.cli import main
 from lagdsl.run import toolchain
 from lagdsl.scene import Overrides
+from tests.conftest import MODELS
 
 # The Kepler ellipse of models/kepler.lag (r0 = 1, r0' = 0, theta0' = 1.2, GM = 1): energy
 # E = 1.44/2 - 1 = -0.28, semi-major axis a = -1/(2E), period T = 2 pi a^(3/2). At t = kT the
@@ -44,14 +45,32 @@ def kepler(tmp_path, monkeypatch):
 
 def test_adaptive_ladder_spans_1e_3_to_1e_13_with_atol_scaled():
     settings = bench.adaptive_ladder("dop853", "c", 0.01)
-    assert [s.rtol for s in settings] == [10.0 ** -k for k in range(3, 14)]
-    assert all(s.atol == pytest.approx(s.rtol * 0.01) and s.step is None for s in settings)
+    assert [s.rtol for s in settings] == [float(f"1e-{k}") for k in range(3, 14)]
+    # exact decimals: 1e-4 * 0.01 would be 1.0000000000000002e-06
+    assert [s.atol for s in settings] == [float(f"1e-{k}") for k in range(5, 16)]
+    assert all(s.step is None for s in settings)
+
+
+def test_the_table_follows_each_ladder_and_writes_its_settings_as_decimals():
+    """Within a method the rows go along the ladder, loosest first, whatever the times (noise in
+    them scrambled the order); the CSV writes 1e-06, not 9.9999999999999995e-07."""
+    settings = bench.adaptive_ladder("dop853", "c", 0.01)[:4]
+    times = (3e-5, 1e-5, 4e-5, 2e-5)
+    rows = tuple(bench.BenchRow(s, seconds, 10, 10, 0, 1e-6, 1e-15) for s, seconds in zip(reversed(settings), times))
+    accurate = reference.Reference(np.zeros(1), ("x",), np.zeros((1, 1)), 1e-15, "dop853", "float128", 1e-20,
+                                   1e-22, 1.0, True)
+    report = bench.BenchReport("Kepler", "ellipse", accurate, rows)
+    assert [row.setting.rtol for row in report.sorted_rows()] == [1e-3, 1e-4, 1e-5, 1e-6]
+    table = report.render().splitlines()[4:]
+    assert [line.split()[2:4] for line in table] == [["0.001", "1e-05"], ["0.0001", "1e-06"], ["1e-05", "1e-07"],
+                                                     ["1e-06", "1e-08"]]
+    assert report.csv().splitlines()[2].startswith("dop853,c,0.0001,1e-06,,")
 
 
 def test_step_ladder_halves_from_four_intervals_within_the_run_and_the_step_limit(kepler):
     plan = lagdsl.load(kepler).plan(None, Overrides(stop=1.0, interval=0.1))
     steps = [s.step for s in bench.step_ladder("rk4", "c", plan)]
-    assert steps == pytest.approx([0.4 / 2 ** j for j in range(9)])
+    assert steps == [0.4, 0.2, 0.1, 0.05, 0.025, 0.0125, 0.00625, 0.003125, 0.0015625]     # exact decimals
     short = lagdsl.load(kepler).plan(None, Overrides(stop=0.3, interval=0.1))
     assert max(s.step for s in bench.step_ladder("gauss", "c", short)) == pytest.approx(0.2)
 
@@ -98,7 +117,7 @@ def test_csv_has_exactly_the_documented_header(kepler, tmp_path, capsys):
     assert lines[0] == "integrator,backend,rtol,atol,step,seconds,rhs_evals,steps,rejected,error,reference_error"
     fields = lines[1].split(",")
     assert fields[:2] == ["gauss", "c"] and fields[2] == fields[3] == fields[8] == ""
-    assert "reference: dop853" in capsys.readouterr().out
+    assert "reference: taylor" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize("options, message", [
@@ -121,6 +140,24 @@ def test_simulate_estimates_its_global_error(kepler):
     assert "rerun at rtol = 1e-12" in estimate.against
     assert "estimated global error" in result.summary.render()
     assert model.simulate().summary.error is None
+    errors = dict(estimate.columns)                          # per column: here r and theta
+    assert list(errors) == ["r", "theta"] and max(errors.values()) == estimate.value
+    assert estimate.column == max(errors, key=errors.get)
+
+
+def test_the_error_names_its_column_and_unit(tmp_path, monkeypatch):
+    """Columns of different units: the largest error is named with its column and unit, and each
+    column's largest error is listed in its unit."""
+    monkeypatch.setenv("LAGDSL_CACHE", str(tmp_path / "cache"))
+    estimate = lagdsl.load(MODELS / "kepler.lag").simulate(stop=5.0, estimate_error=True).summary.error
+    errors = dict(estimate.columns)
+    units = dict(zip(errors, estimate.units))
+    assert units == {"r": "m", "theta": "rad", "energy": "J", "momentum(theta)": "kg*m^2/s"}
+    shown = estimate.render()
+    assert shown.startswith(f"estimated global error: {estimate.value:.2g} {units[estimate.column]} in "
+                            f"{estimate.column} (")
+    assert shown.splitlines()[1] == "  per column: " + ", ".join(
+        f"{name} {error:.2g} {units[name]}" for name, error in errors.items())
 
 
 def test_run_error_and_plot(kepler, tmp_path, capsys):

@@ -34,7 +34,7 @@ def test_option_errors_point_at_the_option():
              (dict(options=(("stages", 3.0),)), "lagc: error: --stages: dop853 has no option 'stages' "
               "(options: rtol, atol, max_step, max_steps)"),
              (dict(integrator="rk5"), "lagc: error: --integrator rk5: unknown integrator 'rk5'; did you "
-              "mean 'rk4'? (available: rk4, dopri5, dop853, rkn8, radau5, gauss, auto)")]
+              "mean 'rk4'? (available: rk4, dopri5, dop853, rkn8, radau5, gauss, taylor, auto)")]
     for overrides, message in cases:
         with pytest.raises(LagError) as caught:
             plan("cartesian_pendulum", **overrides)

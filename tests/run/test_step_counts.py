@@ -1,4 +1,5 @@
-"""dopri5 and dop853 take no more steps than scipy's RK45 and DOP853 on a smooth problem.
+"""dopri5 and dop853 take no more steps than scipy's RK45 and DOP853 on a smooth problem; the NumPy
+backend's summary counts the steps scipy rejects.
 
 Same pairs, same error norm, same starting-step algorithm and same controller constants: on the
 Kepler ellipse (eccentricity 0.44, a little over three orbits) both codes take the very same
@@ -43,3 +44,21 @@ def test_no_more_steps_than_scipy(model, integrator, method, rhs_per_trial, rtol
                              interval=STOP).summary
     ours = summary.count("accepted") + summary.count("rejected")
     assert ours <= scipy_trials(method, rhs_per_trial, rtol, rtol / 100)
+
+
+@pytest.mark.parametrize("integrator", ["dop853", "dopri5"])
+def test_the_numpy_summary_counts_scipys_rejected_steps(model, integrator):
+    """The NumPy backend steps scipy's pairs itself and counts each step's trials from the
+    right-hand sides it took, so its summary reports the rejected steps: the very same as the C
+    code's here (module docstring)."""
+    numpy_run, c_run = (model.simulate("ellipse", backend, integrator=integrator, rtol=1e-6, atol=1e-12, stop=STOP,
+                                       interval=STOP).summary for backend in ("numpy", "c"))
+    assert numpy_run.count("rejected") == c_run.count("rejected") > 0
+    assert numpy_run.count("accepted") == c_run.count("accepted")
+    assert f"{numpy_run.count('rejected')} rejected" in numpy_run.render()
+
+
+def test_the_numpy_summary_says_what_scipy_does_not_count(model):
+    summary = model.simulate("ellipse", "numpy", integrator="radau5", stop=2.0).summary
+    assert summary.count("rejected") is None
+    assert ", rejected: not counted by scipy's Radau, " in summary.render()

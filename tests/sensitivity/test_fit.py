@@ -144,6 +144,8 @@ def test_lagc_fit_refuses_a_bad_bound_and_an_unfitted_one(swing, capsys):
     assert status == 1 and "bounds given for 'b', which is not fitted" in err
     status, _, err = lagc(capsys, "fit", source, path)
     assert status == 1 and "--fit NAME=START" in err
+    status, _, err = lagc(capsys, "fit", source, path, "--fit", "l=1", "--set", "b=0.3 kg")
+    assert status == 1 and "kg" in err and "Traceback" not in err        # a held value's unit is checked
 
 
 def test_a_run_that_fails_during_the_fit_names_the_values_tried():
@@ -164,3 +166,12 @@ def test_the_documented_example_recovers_its_swing(capsys):
     fit = model("damped_driven_pendulum").fit(swing, {"l": 1.0, "b": 0.5}, sigma=NOISE)
     for name, value in TRUE.items():
         assert abs(fit.values[name] - value) < 3 * fit.stderr[name], name
+
+
+def test_a_value_held_in_the_fit_may_carry_its_unit(swing):
+    t, theta, _ = swing
+    fits = [model("damped_driven_pendulum").fit({"t": t, "theta": theta}, {"l": 1.0}, sigma=NOISE, set={"b": held})
+            for held in (0.3, "300 mN*m*s")]
+    assert fits[0].values["l"] == pytest.approx(fits[1].values["l"], rel=1e-12)
+    with pytest.raises(LagError, match="kg"):
+        model("damped_driven_pendulum").fit({"t": t, "theta": theta}, {"l": 1.0}, set={"b": "0.3 kg"})

@@ -43,6 +43,7 @@ def test_the_harmonic_oscillator_sensitivities_are_the_closed_forms(oscillator):
     np.testing.assert_allclose(run.sensitivity("x", "A"), np.cos(w * t), atol=1e-11)
     np.testing.assert_allclose(run.sensitivity("x", "x.velocity"), np.sin(w * t) / w, atol=1e-11)
     np.testing.assert_allclose(run.sensitivity("der(x)", "A"), -w * np.sin(w * t), atol=1e-11)
+    assert run.units == ("m", "m/s") and run.origin == "Oscillator, scene free"       # for its plots, as any run
 
 
 def test_a_start_written_in_a_parameter_moves_with_it_unless_set(oscillator):

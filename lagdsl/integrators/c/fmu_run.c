@@ -58,7 +58,7 @@ static int lag_fmu_begin(lag_fmu *fmu)
     memset(fmu->stepper, 0, sizeof *fmu->stepper);
     fmu->stepper->t = fmu->t;
     memcpy(fmu->stepper->y, fmu->y, sizeof fmu->stepper->y);
-    limited.max_steps = fmu->step_limit = lag_step_limit(fmu->options.max_steps, last);
+    limited.max_steps = fmu->step_limit = lag_step_limit(&fmu->options, fmu->t, fmu->t_end, last);
     lag_fmu_prepare(fmu);
     fmu->fresh = 0;
     status = lag_start(&fmu->sys, fmu->t, fmu->y, &fmu->e_old, &last, lag_fmu_ignore_row, NULL, &fmu->report);

@@ -1,0 +1,327 @@
+"""lagdsl's taylor, dop853 and rkn8 against heyoka and CyRK at matched accuracy (issue 34).
+
+Four problems, each integrated by both tools in this one process, pinned to one core:
+
+- the chaotic double pendulum, t = 0..20 every 0.5 (models/double_pendulum.lag, scene chaos);
+- the Pleiades, t = 0..3 every 0.01 (models/pleiades.lag, scene stars; the IVP test set's plei);
+- the outer solar system over 10^6 days, every 500 days (models/outer_solar_system.lag);
+- Kepler's problem at eccentricity 0.6 over 1000 orbits, every tenth of an orbit (polar).
+
+Every method runs a ladder of tolerances (rtol = atol = tol for lagdsl, heyoka's tol); the
+error of a run is the largest absolute difference from lagdsl's extended-precision reference
+over the output rows and the position columns (the angles, the coordinates). Times are CPU
+seconds of the integration alone (the machine is shared: CPU time is what the code costs):
+for lagdsl the call of the compiled library (run_c), for heyoka propagate_grid on the same
+output times, for CyRK nbsolve2_ivp (its C++ DOP853, a numba C callback as right-hand side,
+cyrk_systems.py) with t_eval the same times; best of the repeats. heyoka's compile time (building its integrator, which
+JIT-compiles the recurrences for the tolerance's order) is reported apart, as is lagdsl's
+build (generation and the C compiler; both are cached by lagdsl across runs).
+
+At matched accuracy: on each method's work-precision curve (its Pareto front), the time to
+reach an error level, interpolated linearly in log(time) against log(error) between the two
+settings around the level; a level beyond the tightest setting is not reached ("-").
+
+    python benchmarks/heyoka_comparison.py [--repeat N] [--only NAME,...]
+
+Writes benchmarks/heyoka/<problem>.csv and .md (and .png with matplotlib), and the section
+between the markers in benchmarks/README.md.
+"""
+from __future__ import annotations
+
+import benchtools  # noqa: I001  (first: one thread for NumPy)
+
+import argparse
+import math
+import os
+import re
+import sys
+import time
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+import cyrk_systems
+import heyoka_systems
+import lagdsl
+from lagdsl.pipeline import generate
+from lagdsl.reference import reference_solution
+from lagdsl.run.c_backend import run_c
+from lagdsl.run.loading import load as load_library
+from lagdsl.scene import Overrides
+
+OUT = benchtools.BENCHMARKS / "heyoka"
+README = benchtools.BENCHMARKS / "README.md"
+BEGIN, END = "<!-- heyoka_comparison.py: begin -->", "<!-- heyoka_comparison.py: end -->"
+LEVELS = (1e-6, 1e-8, 1e-10, 1e-12)
+LADDER = tuple(10.0 ** -k for k in range(4, 16))
+ECCENTRICITY = 0.6
+PERIOD = 2 * math.pi * (1 / (1 - ECCENTRICITY)) ** 1.5
+KEPLER = f"""model KeplerE06 "Kepler problem, eccentricity 0.6, from periapsis, GM = 1"
+  coordinate r(start = 1.0);
+  coordinate theta(start = 0, velocity = {math.sqrt(1 + ECCENTRICITY)!r});
+  T = (der(r)^2 + r^2*der(theta)^2)/2;
+  U = -1/r;
+  scene orbits
+    time(stop = {1000 * PERIOD!r}, interval = {PERIOD / 10!r});
+    integrator taylor(rtol = 1e-15, atol = 1e-15);
+    output r, theta, energy;
+  end orbits;
+end KeplerE06;
+"""
+
+
+@dataclass(frozen=True)
+class Problem:
+    name: str
+    title: str
+    path: Path
+    scene: str
+    overrides: Overrides
+    columns: tuple[str, ...]        # compared with the reference
+    methods: tuple[str, ...]        # lagdsl's
+    heyoka: object                  # model -> (system, state, column indices)
+    cyrk: object                    # model -> (callback address or None, state); heyoka's columns
+
+
+def problems() -> list[Problem]:
+    models = benchtools.MODELS
+    kepler = OUT / "kepler_e06_1000.lag"
+    kepler.write_text(KEPLER)
+    oss_columns = tuple(f"{axis}[{body}]" for body in range(1, 7) for axis in "xyz")
+    return [
+        Problem("double_pendulum", "chaotic double pendulum, t = 0..20, every 0.5", models / "double_pendulum.lag",
+                "chaos", Overrides(stop=20.0, interval=0.5), ("theta1", "theta2"), ("taylor", "dop853"),
+                lambda model: heyoka_systems.double_pendulum(), lambda model: cyrk_systems.double_pendulum()),
+        Problem("pleiades", "Pleiades, t = 0..3, every 0.01", models / "pleiades.lag", "stars", Overrides(),
+                tuple(f"{axis}[{i}]" for axis in "xy" for i in range(1, 8)), ("taylor", "dop853", "rkn8"),
+                lambda model: heyoka_systems.pleiades(), lambda model: cyrk_systems.pleiades()),
+        Problem("outer_solar_system", "outer solar system, 10^6 days, every 500 days",
+                models / "outer_solar_system.lag", "book", Overrides(stop=1e6), oss_columns,
+                ("taylor", "dop853", "rkn8"), heyoka_systems.outer_solar_system, cyrk_systems.outer_solar_system),
+        Problem("kepler", "Kepler e = 0.6, 1000 orbits, every tenth of an orbit", kepler, "orbits", Overrides(),
+                ("r", "theta"), ("taylor", "dop853"), lambda model: heyoka_systems.kepler_polar(ECCENTRICITY),
+                lambda model: cyrk_systems.kepler_polar(ECCENTRICITY)),
+    ]
+
+
+OTHERS = ("heyoka", "CyRK")          # the other tools, compared with lagdsl's best method
+
+
+class OtherToolFailed(Exception):
+    """Another tool's integration failed at a setting (the ladder goes on without it)."""
+
+
+@dataclass(frozen=True)
+class Point:
+    method: str
+    tol: float
+    seconds: float
+    error: float
+    steps: int
+    build: float            # lagdsl: generation + compiler; heyoka: constructing (JIT-compiling) the integrator
+
+
+def lagdsl_point(model, problem: Problem, method: str, tol: float, reference, repeat: int) -> Point:
+    plan = model.plan(problem.scene, replace(problem.overrides, integrator=method,
+                                             options=(("rtol", tol), ("atol", tol))))
+    started = time.process_time()
+    kernel, source = generate(model.equations, plan, "c", problem.path.name)
+    library = load_library(source)
+    build = time.process_time() - started
+    run_plan = plan.run_plan()
+    best, result = math.inf, None
+    for _ in range(repeat):
+        started = time.process_time()
+        result = run_c(kernel, source, run_plan, None, library)
+        best = min(best, time.process_time() - started)
+    values = result.values[:, [plan.columns.index(c) for c in problem.columns]]
+    return Point(method, tol, best, error(values, problem, reference), result.summary.count("accepted"), build)
+
+
+def heyoka_point(model, problem: Problem, tol: float, reference, repeat: int) -> Point:
+    import heyoka as hy
+    system, state, columns = problem.heyoka(model)
+    started = time.process_time()
+    integrator = hy.taylor_adaptive(system, state, tol=tol)
+    build = time.process_time() - started
+    grid = np.asarray(reference.t, dtype=float)
+    best, outcome = math.inf, None
+    for _ in range(repeat):
+        integrator.time, integrator.state[:] = grid[0], state
+        started = time.process_time()
+        outcome = integrator.propagate_grid(grid)
+        best = min(best, time.process_time() - started)
+    states = outcome[-1]
+    values = np.column_stack([states[:, columns[c]] for c in problem.columns])
+    return Point("heyoka", tol, best, error(values, problem, reference), int(outcome[3]), build)
+
+
+def cyrk_point(model, problem: Problem, tol: float, reference, repeat: int, columns) -> Point:
+    from CyRK import nbsolve2_ivp
+    started = time.process_time()
+    address, state = problem.cyrk(model)
+    build = time.process_time() - started
+    grid = np.asarray(reference.t, dtype=float)
+    y0 = np.asarray(state, dtype=float)
+    best, solution = math.inf, None
+    for _ in range(repeat):
+        started = time.process_time()
+        solution = nbsolve2_ivp(address, (grid[0], grid[-1]), y0, method="DOP853", t_eval=grid,
+                                rtol=tol, atol=tol)
+        best = min(best, time.process_time() - started)
+    if not solution.success:
+        raise OtherToolFailed(f"CyRK: {solution.message}")
+    values = np.column_stack([solution.y[columns[c]] for c in problem.columns])
+    return Point("CyRK", tol, best, error(values, problem, reference), int(solution.steps_taken), build)
+
+
+def error(values: np.ndarray, problem: Problem, reference) -> float:
+    """The largest absolute difference of `values` (the compared columns) from the reference,
+    over the rows; never below the reference's own accuracy."""
+    theirs = reference.values[:, [list(reference.columns).index(c) for c in problem.columns]]
+    return max(float(np.max(np.abs(values - theirs))), reference.accuracy)
+
+
+def time_at(points: list[Point], level: float) -> float | None:
+    """The time to reach `level` on the curve's Pareto front, log-log interpolated."""
+    front, best_error = [], math.inf
+    for point in sorted(points, key=lambda p: p.seconds):
+        if point.error < best_error:
+            front.append(point)
+            best_error = point.error
+    reached = [p for p in front if p.error <= level]
+    if not reached:
+        return None
+    first = reached[0]
+    before = [p for p in front if p.seconds < first.seconds and p.error > level]
+    if not before:
+        return first.seconds
+    last = before[-1]
+    weight = (math.log(last.error) - math.log(level)) / (math.log(last.error) - math.log(first.error))
+    return math.exp(math.log(last.seconds) + weight * (math.log(first.seconds) - math.log(last.seconds)))
+
+
+def ladder(run, tolerances, limit: float) -> list[Point]:
+    """The points of one method, loosest first; stops after a run slower than `limit` seconds."""
+    points = []
+    for tol in tolerances:
+        try:
+            point = run(tol)
+        except (lagdsl.SimulationError, OtherToolFailed) as failure:
+            print(f"    tol {tol:g}: failed: {failure}", file=sys.stderr)
+            continue
+        points.append(point)
+        print(f"    {point.method} tol {tol:g}: {benchtools.seconds(point.seconds)}, error {point.error:.2g}, "
+              f"{point.steps} steps (build {benchtools.seconds(point.build)})", file=sys.stderr, flush=True)
+        if point.seconds > limit:
+            break
+    return points
+
+
+def section(problem: Problem, reference, curves: dict[str, list[Point]]) -> str:
+    methods = list(curves)
+    others = [m for m in OTHERS if m in curves]
+    headers = ["error <=", *methods, *(f"{m} / best lagdsl" for m in others)]
+    rows = []
+    for level in LEVELS:
+        times = {m: time_at(curves[m], level) for m in methods}
+        lagdsl_times = [t for m, t in times.items() if m not in OTHERS and t is not None]
+        best = min(lagdsl_times) if lagdsl_times else None
+        rows.append([f"{level:g}", *(benchtools.seconds(times[m]) if times[m] else "-" for m in methods),
+                     *(benchtools.ratio(times.get(m), best) for m in others)])
+    compile_times = ", ".join(f"{p.tol:g}: {benchtools.seconds(p.build)}" for p in curves.get("heyoka", []))
+    builds = ", ".join(f"{m} {benchtools.seconds(curves[m][0].build)}" for m in methods if m not in OTHERS and curves[m])
+    return "\n".join([
+        f"### {problem.title}", "", f"![{problem.name}](heyoka/{problem.name}.png)", "",
+        f"{reference.describe()}. Compared columns: {', '.join(problem.columns)}.", "",
+        "CPU time of the integration at matched accuracy (interpolated on each curve):", "",
+        benchtools.markdown_table(headers, rows), "",
+        f"heyoka's integrator construction (JIT compilation) per tolerance: {compile_times}.",
+        f"lagdsl's generation and C build, first setting (cached afterwards): {builds}.", ""])
+
+
+def write_outputs(problem: Problem, text: str, curves: dict[str, list[Point]]) -> None:
+    lines = ["method,tol,seconds,error,steps,build"]
+    lines += [f"{p.method},{p.tol!r},{p.seconds!r},{p.error!r},{p.steps},{p.build!r}"
+              for points in curves.values() for p in points]
+    (OUT / f"{problem.name}.csv").write_text("\n".join(lines) + "\n")
+    (OUT / f"{problem.name}.md").write_text(text)
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return
+    figure, axes = plt.subplots(figsize=(6, 4))
+    for method, points in curves.items():
+        axes.loglog([p.error for p in points], [p.seconds for p in points], "o-", label=method)
+    axes.set_xlabel("max abs error")
+    axes.set_ylabel("CPU seconds")
+    axes.set_title(problem.title, fontsize=9)
+    axes.invert_xaxis()
+    axes.legend()
+    figure.tight_layout()
+    figure.savefig(OUT / f"{problem.name}.png", dpi=100)
+    plt.close(figure)
+
+
+def write_readme(names: list[str], load: str) -> None:
+    parts = [(OUT / f"{name}.md").read_text() for name in names if (OUT / f"{name}.md").exists()]
+    intro = ["## Taylor against heyoka and CyRK (`heyoka_comparison.py`)", "",
+             f"Measured {time.strftime('%Y-%m-%d %H:%M')} on {benchtools.machine_description()}; heyoka "
+             f"{_version('heyoka')}, CyRK {_version('CyRK')}; load average {load} when this section was written. "
+             "See the script's docstring for the method. `taylor`, `dop853` and `rkn8` are lagdsl's C backend; "
+             "CyRK is `nbsolve2_ivp` (its C++ DOP853). A ratio below 1 in the last columns: the other tool "
+             "takes less time than lagdsl's best method at that error.", ""]
+    text = "\n".join([BEGIN, *intro, "\n".join(parts).rstrip("\n"), "", END]) + "\n"
+    readme = README.read_text()
+    if BEGIN in readme:
+        readme = re.sub(re.escape(BEGIN) + ".*?" + re.escape(END) + "\n?", lambda _: text, readme, flags=re.S)
+    else:
+        readme = readme.rstrip("\n") + "\n\n" + text
+    README.write_text(readme)
+
+
+def _version(package: str) -> str:
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version(package)
+    except PackageNotFoundError:
+        return "not installed"
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--repeat", type=int, default=5, help="runs per setting, best counts (default 5)")
+    parser.add_argument("--limit", type=float, default=5.0, help="CPU seconds after which a ladder stops")
+    parser.add_argument("--only", help="comma-separated problem names")
+    arguments = parser.parse_args()
+    benchtools.pin_to_one_core()
+    OUT.mkdir(exist_ok=True)
+    chosen = problems()
+    for problem in chosen:
+        if arguments.only and problem.name not in arguments.only.split(","):
+            continue
+        print(f"{problem.title}:", file=sys.stderr, flush=True)
+        model = lagdsl.load(problem.path)
+        reference = reference_solution(model.equations, model.plan(problem.scene, problem.overrides),
+                                       problem.path.name)
+        print(f"  {reference.describe()}", file=sys.stderr, flush=True)
+        curves = {method: ladder(lambda tol, m=method: lagdsl_point(model, problem, m, tol, reference,
+                                                                      arguments.repeat), LADDER, arguments.limit)
+                  for method in problem.methods}
+        curves["heyoka"] = ladder(lambda tol: heyoka_point(model, problem, tol, reference, arguments.repeat),
+                                  LADDER, arguments.limit)
+        columns = problem.heyoka(model)[2]
+        curves["CyRK"] = ladder(lambda tol: cyrk_point(model, problem, tol, reference, arguments.repeat, columns),
+                                LADDER, arguments.limit)
+        text = section(problem, reference, curves)
+        print(text, flush=True)
+        write_outputs(problem, text, curves)
+        write_readme([p.name for p in chosen], ", ".join(f"{v:.1f}" for v in os.getloadavg()))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

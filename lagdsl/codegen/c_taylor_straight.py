@@ -1,0 +1,118 @@
+"""The first orders of the Taylor series straight-line: one C function per order k, every
+convolution written out with its indices and weights as constants.
+
+The loops of lag_taylor_series (c_taylor.py) are short (k + 1 products at order k) and each
+ends at another k: for a small graph their branches, not the products, take the time. Written
+out, order k of the double pendulum is a hundred products and sums with nothing to predict,
+and the whole series costs 0.6 µs a step instead of 1.05 µs (benchmarks/README.md). The code
+grows like the graph times k², and gcc's time with it (the Pleiades to order 21: 20 s), so
+orders are written out while the products so far stay within STRAIGHT_TERMS, and the higher
+orders of a large graph (and the orders beyond double's of an extended-precision build) keep
+the loops. Each order is a function of its own, called through a table, so that the compiler
+optimises each apart: one function with every order took it twice as long.
+
+Sums are added pairwise, (a + b) + (c + d), which the processor overlaps.
+"""
+from __future__ import annotations
+
+import sympy
+
+from .taylor import J, K, OWN, RECURRENCES, Coefficient, zeroth
+from .taylor_graph import Node
+
+# At most so many products over all straight-line orders (the double pendulum's 21 orders take
+# 2,600 and compile in 1.7 s; the Pleiades' first 9 as many).
+STRAIGHT_TERMS = 4000
+ROW = "s[{}][{}]"
+
+
+def order_products(graph, k: int) -> int:
+    """About how many products order k takes: each node's convolutions have k + 1 terms."""
+    return int(round(graph.cost() * (k + 1)))
+
+
+def straight_orders(graph, highest: int) -> int:
+    """The orders 1 .. S written out: the most whose products stay within STRAIGHT_TERMS."""
+    total, orders = 0, 0
+    for k in range(1, highest + 1):
+        total += order_products(graph, k)
+        if total > STRAIGHT_TERMS:
+            break
+        orders = k
+    return orders
+
+
+def pairwise(terms: list[str]) -> str:
+    """The sum of terms as a balanced tree of additions."""
+    if len(terms) == 1:
+        return terms[0]
+    half = len(terms) // 2
+    return f"({pairwise(terms[:half])} + {pairwise(terms[half:])})"
+
+
+class StraightPrinter:
+    """The statements of order k of every node, with k a number."""
+
+    def __init__(self, series):
+        self.series = series                  # the SeriesPrinter: constants, sums, the graph
+        self.graph, self.printer = series.graph, series.printer
+
+    def node(self, index: int, node: Node, k: int) -> str | None:
+        if node.kind in ("state", "solution"):
+            return None
+        if node.kind == "time":
+            return f"{ROW.format(index, k)} = {1 if k == 1 else 0};"
+        if node.kind == "lin":
+            return f"{ROW.format(index, k)} = {self.series.linear(node, str(k))};"
+        return f"{ROW.format(index, k)} = {self.recurrence(index, node, k)};"
+
+    def recurrence(self, index: int, node: Node, k: int) -> str:
+        recurrence = RECURRENCES[node.kind]
+        rows = dict(zip(recurrence.operands, node.operands))
+        rows[OWN] = index
+        known = {zeroth(name): sympy.Symbol(ROW.format(row, 0)) for name, row in rows.items()}
+        known.update({sympy.Symbol(name, real=True): value
+                      for name, value in zip(recurrence.parameters, node.parameters)})
+        known[K] = sympy.Integer(k)
+        power, rest = recurrence.split_divisor()
+        inverse = sympy.Rational(1, k ** power)     # 1/k is folded into the weights, numbers here
+        products = []
+        for sign, term in recurrence.terms:
+            if isinstance(term, Coefficient):
+                products.append((sign * inverse * term.weight.xreplace(known), ROW.format(rows[term.operand], k)))
+                continue
+            for j in range(term.first, k - term.gap + 1):
+                if term.left == term.right and term.weight == 1 and term.first == term.gap and 2 * j > k:
+                    break                    # a square: each pair once, doubled
+                weight = sign * inverse * term.weight.xreplace({**known, J: sympy.Integer(j)})
+                if term.left == term.right and term.weight == 1 and term.first == term.gap and 2 * j < k:
+                    weight *= 2
+                factors = f"{ROW.format(rows[term.left], j)}*{ROW.format(rows[term.right], k - j)}"
+                products.append((weight, factors))
+        terms = [self.weighted(weight, factors) for weight, factors in products if weight != 0]
+        value = pairwise(terms) if terms else "0"
+        return value if rest == 1 else f"{value} * z{index}"
+
+    def weighted(self, weight: sympy.Expr, factors: str) -> str:
+        if weight == 1:
+            return factors
+        if weight == -1:
+            return f"-{factors}"
+        return f"{self.printer.parenthesize(weight, 50)}*{factors}"
+
+    def right_side(self, k: int) -> list[str]:
+        """r = b_k - Σ_{j=1..k} K_j x_{k-j} for the entries of K that vary."""
+        lines = [f"r[{i}] = {self.series.scaled(value, str(k))};" for i, value in enumerate(self.graph.rhs)]
+        for row, column, value in self.graph.matrix:
+            if value.node is None:
+                continue
+            x = self.graph.solution[column]
+            tail = pairwise([f"{ROW.format(value.node, j)}*{ROW.format(x, k - j)}" for j in range(1, k + 1)])
+            scale = "" if value.scale == 1 else f"{self.series.constant(value.scale)} * "
+            lines.append(f"r[{row}] -= {scale}{tail};")
+        return lines
+
+    def order(self, k: int) -> list[str]:
+        """The body of lag_taylor_order_K."""
+        lines = [line for i, node in enumerate(self.graph.nodes) if (line := self.node(i, node, k))]
+        return lines + self.right_side(k)

@@ -1,0 +1,191 @@
+/* TAYLOR: Taylor's method of variable order and step, with the order and step control of
+ * A. Jorba and M. Zou, "A software package for the numerical integration of ODEs by means of
+ * high-order Taylor methods", Experimental Mathematics 14 (2005) 99-117, section 3.3.
+ *
+ * Each step expands the solution at (t, y) in its Taylor series to order p, from the
+ * recurrences of the equations' elementary operations that the model part generated
+ * (lag_taylor_series, codegen/c_taylor.py): no right-hand side is evaluated, and no step is
+ * rejected: the step is chosen from the series itself, a fraction of its radius of convergence.
+ *
+ * Tolerances as for the other adaptive methods: component i is measured against
+ * w_i = atol + rtol |y_i| (HNW I, II.4, (4.11)), so that x̂ = x / w is the series in units of
+ * the tolerance. With M = max(max_i |y_i| / w_i, 1 / (atol + rtol)), the size of the state in
+ * those units (1/rtol for a state that rtol governs, that of a unit state where atol does):
+ *   order  p = ceil(ln(M) / 2 + 1), Jorba and Zou's -ln(eps)/2 + 1 for eps = 1/M;
+ *   radius rho = min over j = p-1, p of (M / max_i |x̂_{j,i}|)^(1/j), the convergence radius
+ *          estimated from the last two coefficients (its absolute and relative forms at once);
+ *   step   h = rho / e^2 * exp(-0.7 / (p - 1)), so that the last terms are about exp(-0.7) w:
+ *          for coefficients that decay like M rho^-j, the truncation error is below the
+ *          tolerance (Jorba and Zou, (3.9)-(3.12)), and the order minimises the work per unit time.
+ * h is at most max_step and lands exactly on t_end, as in lag_control_trial.
+ *
+ * Dense output: the step's own polynomial, evaluated at t - t_old (Horner); the series stays in
+ * the stepper until the next step. When the driver projects the end state onto the constraints,
+ * the output adds (t - t_old)/h times the move, so that it ends where the next step starts.
+ */
+
+#define LAG_INTEGRATOR_NAME "taylor"
+
+/* Work counters: steps (none is rejected) and the orders of their series, summed (the work of a
+ * step is about its order times one evaluation of the equations in Taylor arithmetic). */
+typedef struct lag_stats {
+    long accepted, orders;
+} lag_stats;
+
+typedef struct lag_stepper {
+    LAG_STEPPER_PUBLIC(lag_stats)     /* t, t_old (the series below is about t_old), y, h, stats (runtime.h) */
+    const lag_system *sys;
+    real t_end, span, hmax, rtol, atol;
+    long max_steps;
+    int order;                        /* the last step's order */
+    int safety_order;                 /* the order `safety` was computed for */
+    real safety;                      /* h / rho = e^-2 exp(-0.7 / (p - 1)) */
+    real y_end[LAG_NY];               /* the polynomial at t, before the driver may move y */
+    real shift[LAG_NY];               /* y - y_end: the move, spread over the dense output */
+    real s[LAG_TAYLOR_NODES][LAG_TAYLOR_ORDERS];    /* the last step's series (lag_taylor_series) */
+} lag_stepper;
+
+static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, const real *y0,
+                            real t_end, const lag_options *opt)
+{
+    int i;
+    (void)lag_rhs;                    /* the series take the place of the right-hand side */
+    memset(&s->stats, 0, sizeof s->stats);
+    s->sys = sys;
+    s->t = s->t_old = t0;
+    s->t_end = t_end;
+    s->span = t_end - t0;
+    s->hmax = opt->max_step > 0 ? opt->max_step : t_end - t0;
+    s->rtol = opt->rtol;
+    s->atol = opt->atol;
+    s->max_steps = opt->max_steps;
+    s->h = 0;
+    s->order = 0;                     /* until the first step, the dense output is y0 */
+    s->safety_order = 0;
+    memcpy(s->y, y0, sizeof s->y);
+    memcpy(s->y_end, y0, sizeof s->y_end);
+    memset(s->shift, 0, sizeof s->shift);
+    for (i = 0; i < LAG_NY; ++i)
+        s->s[i][0] = y0[i];
+    return LAG_OK;
+}
+
+/* max_i |x_i| / w_i over the state's coefficients x = s[.][j]; NaN when one of them is. */
+static real taylor_norm(const lag_stepper *s, const real *weight, int j)
+{
+    real largest = 0;
+    int i;
+    for (i = 0; i < LAG_NY; ++i) {
+        real x = r_fabs(s->s[i][j]) * weight[i];
+        if (!(x <= largest))
+            largest = x;
+    }
+    return largest;
+}
+
+/* The order for the state y, from its size in units of the tolerance (1/w = weight). */
+static int taylor_order(const lag_stepper *s, const real *weight, real *size)
+{
+    real largest = 1 / (s->atol + s->rtol), wanted;
+    int i, order;
+    for (i = 0; i < LAG_NY; ++i) {
+        real x = r_fabs(s->y[i]) * weight[i];
+        largest = x > largest ? x : largest;     /* not r_fmax: a libm call in this loop */
+    }
+    *size = largest;
+    wanted = r_log(largest) / 2 + 1;
+    if (!(wanted < LAG_TAYLOR_MAX_ORDER))
+        return LAG_TAYLOR_MAX_ORDER;
+    order = (int)wanted;
+    order += order < wanted;          /* the ceiling */
+    return order < 2 ? 2 : order;
+}
+
+/* The step from the last two coefficients (Jorba and Zou (3.11)), or LAG_ERR_NONFINITE. */
+static int taylor_step_size(lag_stepper *s, const real *weight, real size, real *h)
+{
+    const int p = s->order;
+    real last = taylor_norm(s, weight, p), before = taylor_norm(s, weight, p - 1), rho = REAL_MAX;
+    if (!r_isfinite(last) || !r_isfinite(before))
+        return LAG_ERR_NONFINITE;
+    if (before > 0)
+        rho = r_pow(size / before, (real)1 / (p - 1));
+    if (last > 0) {
+        real other = r_pow(size / last, (real)1 / p);
+        rho = other < rho ? other : rho;
+    }
+    if (p != s->safety_order) {       /* the order rarely changes: exp once per change */
+        s->safety = r_exp(-2 - LAG_LIT(0.7) / (p - 1));
+        s->safety_order = p;
+    }
+    *h = rho * s->safety;
+    return LAG_OK;
+}
+
+/* y at t_old + tau from the series (Horner), without the projection's shift. */
+static void taylor_evaluate(const lag_stepper *s, real tau, real *y)
+{
+    int i, j;
+    for (i = 0; i < LAG_NY; ++i) {
+        real sum = s->s[i][s->order];
+        for (j = s->order - 1; j >= 0; --j)
+            sum = sum * tau + s->s[i][j];
+        y[i] = sum;
+    }
+}
+
+static int lag_stepper_step(lag_stepper *s)
+{
+    real weight[LAG_NY], size, h;
+    int i, status, landing, finite = 1;
+    if (s->t >= s->t_end)
+        return LAG_OK;
+    if (s->max_steps > 0 && s->stats.accepted >= s->max_steps)
+        return LAG_ERR_MAX_STEPS;
+    for (i = 0; i < LAG_NY; ++i)
+        weight[i] = 1 / (s->atol + s->rtol * r_fabs(s->y[i]));
+    s->order = taylor_order(s, weight, &size);
+    if ((status = lag_taylor_series(s->sys, s->t, s->y, s->order, s->s)) != LAG_OK)
+        return status;
+    s->stats.orders += s->order;
+    if ((status = taylor_step_size(s, weight, size, &h)) != LAG_OK)
+        return status;
+    h = h < s->hmax ? h : s->hmax;
+    if (!(h >= LAG_MIN_STEP(s->t, s->span)))
+        return LAG_ERR_STEP_TOO_SMALL;
+    if ((landing = s->t + LAG_LIT(1.01) * h >= s->t_end))
+        h = s->t_end - s->t;
+    taylor_evaluate(s, h, s->y_end);
+    for (i = 0; i < LAG_NY; ++i)      /* no early exit: the loop vectorises */
+        finite &= r_isfinite(s->y_end[i]);
+    if (!finite)
+        return LAG_ERR_NONFINITE;
+    memcpy(s->y, s->y_end, sizeof s->y);
+    memset(s->shift, 0, sizeof s->shift);
+    s->t_old = s->t;
+    s->t = landing ? s->t_end : s->t + h;
+    s->h = h;
+    ++s->stats.accepted;
+    return LAG_OK;
+}
+
+/* Valid on [t_old, t]: the step's polynomial, plus the projection's move in proportion. */
+static int lag_stepper_dense(lag_stepper *s, real t, real *yout)
+{
+    real tau = t - s->t_old, share = s->h > 0 ? tau / s->h : 0;
+    int i;
+    taylor_evaluate(s, tau, yout);
+    for (i = 0; i < LAG_NY; ++i)
+        yout[i] += share * s->shift[i];
+    return LAG_OK;
+}
+
+/* The driver moved y (projection): the next step starts from the moved y; the dense output of
+ * the last one is shifted to end there. */
+static int lag_stepper_restart(lag_stepper *s)
+{
+    int i;
+    for (i = 0; i < LAG_NY; ++i)
+        s->shift[i] = s->y[i] - s->y_end[i];
+    return LAG_OK;
+}

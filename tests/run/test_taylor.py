@@ -1,0 +1,142 @@
+"""The Taylor integrator (integrators/c/taylor.c with the generated series) against closed forms.
+
+- The harmonic oscillator m x'' = -k x: x = x0 cos(w t) + v0/w sin(w t) to 1e-12 at every output
+  row, the rows taken from the step's polynomial (dense output) on a grid much finer than the
+  steps, and the same steps and bit-identical rows whatever the grid.
+- Kepler's problem from periapsis: r(t) and theta(t) from Kepler's equation, to 1e-12 over ten
+  orbits; at e = 0.6 over 1000 orbits at rtol 1e-15, the energy error below 1e-13 (issue 34).
+- A stop condition located on the polynomial: the quarter period of a large pendulum swing.
+- The generated C file compiles warning-free in double and long double.
+- The NumPy backend refuses it, naming --backend c.
+"""
+from __future__ import annotations
+
+import math
+import subprocess
+
+import numpy as np
+import pytest
+
+import lagdsl
+from lagdsl.errors import LagWarning
+from lagdsl.scene import Overrides
+from tests.conftest import library_model
+from tests.run.c_harness import STRICT_FLAGS, find_cc
+from tests.run.test_stop_condition import PENDULUM, QUARTER
+
+OSCILLATOR = """model Oscillator "a mass on a spring"
+  parameter m = 2 [kg];
+  parameter k = 8 [N/m];
+  coordinate x(start = 0.5, velocity = -1.5) [m];
+  T = m/2*der(x)^2;
+  U = k/2*x^2;
+  scene swing
+    time(stop = 20, interval = 0.01);
+    integrator taylor(rtol = 1e-14, atol = 1e-14);
+    output x, der(x), energy;
+  end swing;
+end Oscillator;
+"""
+OMEGA, X0, V0 = 2.0, 0.5, -1.5           # w = sqrt(k/m)
+
+
+def kepler_model(eccentricity: float, orbits: int, per_orbit: int, tol: float) -> str:
+    """Kepler's problem, GM = 1, from periapsis r = 1: theta' = sqrt(1 + e) there."""
+    period = 2 * math.pi * (1 - eccentricity) ** -1.5
+    return f"""model Kepler
+  coordinate r(start = 1);
+  coordinate theta(velocity = {math.sqrt(1 + eccentricity)!r});
+  T = (der(r)^2 + r^2*der(theta)^2)/2;
+  U = -1/r;
+  scene orbits
+    time(stop = {orbits * period!r}, interval = {period / per_orbit!r});
+    integrator taylor(rtol = {tol!r}, atol = {tol!r});
+    output r, theta, energy;
+  end orbits;
+end Kepler;
+"""
+
+
+def load(tmp_path, text: str):
+    path = tmp_path / "model.lag"
+    path.write_text(text)
+    return lagdsl.load(path)
+
+
+def kepler_orbit(t: np.ndarray, e: float) -> tuple[np.ndarray, np.ndarray]:
+    """r and the unwrapped theta at times t: a = 1/(1 - e), mean motion n = a^-3/2, E - e sin E
+    = n t (Newton's method from E = M, to convergence), r = a (1 - e cos E),
+    theta = 2 atan(sqrt((1 + e)/(1 - e)) tan(E/2)), unwrapped by the whole orbits of E."""
+    a = 1 / (1 - e)
+    mean = t * a ** -1.5
+    anomaly = mean.copy()
+    for _ in range(50):
+        anomaly -= (anomaly - e * np.sin(anomaly) - mean) / (1 - e * np.cos(anomaly))
+    turns = np.round(anomaly / (2 * np.pi))
+    half = (anomaly - 2 * np.pi * turns) / 2
+    theta = 2 * np.arctan(math.sqrt((1 + e) / (1 - e)) * np.tan(half)) + 2 * np.pi * turns
+    return a * (1 - e * np.cos(anomaly)), theta
+
+
+def test_the_oscillator_follows_its_closed_form_between_the_steps(tmp_path):
+    result = load(tmp_path, OSCILLATOR).simulate("swing")
+    t = result.t
+    assert np.max(np.abs(result["x"] - (X0 * np.cos(OMEGA * t) + V0 / OMEGA * np.sin(OMEGA * t)))) < 1e-12
+    assert np.max(np.abs(result["der(x)"] - (-X0 * OMEGA * np.sin(OMEGA * t) + V0 * np.cos(OMEGA * t)))) < 1e-12
+    # 2001 rows from far fewer steps: most rows are inside a step, on its polynomial
+    assert result.summary.count("accepted") * 10 < len(t)
+
+
+def test_the_grid_changes_neither_the_steps_nor_the_rows(tmp_path):
+    model = load(tmp_path, OSCILLATOR)
+    fine, coarse = model.simulate("swing"), model.simulate("swing", interval=0.5)
+    assert fine.summary.count("accepted") == coarse.summary.count("accepted")
+    rows = {t: i for i, t in enumerate(fine.t)}
+    common = [rows[t] for t in coarse.t]
+    assert len(common) == len(coarse.t)
+    for column in ("x", "der(x)"):
+        assert np.array_equal(fine[column][common], coarse[column])
+
+
+def test_kepler_orbit_from_keplers_equation(tmp_path):
+    e = 0.44
+    result = load(tmp_path, kepler_model(e, orbits=10, per_orbit=40, tol=3e-15)).simulate("orbits")
+    r, theta = kepler_orbit(result.t, e)
+    assert np.max(np.abs(result["r"] - r)) < 1e-12
+    assert np.max(np.abs(result["theta"] - theta)) < 1e-12
+
+
+def test_kepler_at_eccentricity_06_keeps_its_energy_over_1000_orbits(tmp_path):
+    """Issue 34's criterion: 1000 orbits at rtol 1e-15 (raised to the floor, 10 eps), energy
+    error below 1e-13 (E = -1/(2a) = -0.2)."""
+    model = load(tmp_path, kepler_model(0.6, orbits=1000, per_orbit=10, tol=1e-15))
+    with pytest.warns(LagWarning, match="raised to"):
+        result = model.simulate("orbits")
+    assert result.t[-1] == pytest.approx(1000 * 2 * math.pi * 0.4 ** -1.5)
+    assert np.max(np.abs(result["energy"] + 0.2)) < 1e-13
+
+
+def test_the_stop_condition_is_located_on_the_polynomial(tmp_path):
+    result = load(tmp_path, PENDULUM).simulate("quarter", integrator="taylor", rtol=1e-13, atol=1e-13)
+    assert abs(result.t[-1] - QUARTER) < 1e-11
+    assert abs(result["theta"][-1]) < 1e-10
+
+
+@pytest.mark.parametrize("precision", [[], ["-DLAG_LONG_DOUBLE"]])
+def test_the_generated_file_compiles_warning_free(tmp_path, precision):
+    """(__float128 is a GNU extension, -pedantic refuses its literals: the bench's reference
+    builds it, tests/run/test_bench.py.)"""
+    cc = find_cc()
+    if cc is None:
+        pytest.skip("no C compiler")
+    source = tmp_path / "double_pendulum.c"
+    model = library_model("double_pendulum")
+    source.write_text(model.emit("c", "chaos", Overrides(integrator="taylor")).text)
+    built = subprocess.run([cc, *STRICT_FLAGS, *precision, str(source), "-o", str(tmp_path / "program"), "-lm"],
+                           capture_output=True, text=True)
+    assert built.returncode == 0, built.stderr
+
+
+def test_the_numpy_backend_refuses_it_naming_the_c_backend(tmp_path):
+    with pytest.raises(lagdsl.LagError, match="--backend c"):
+        load(tmp_path, OSCILLATOR).simulate("swing", "numpy")
