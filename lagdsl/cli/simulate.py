@@ -44,9 +44,10 @@ def _simulate(arguments) -> int:
     source = SourceFile.read(arguments.model)
     # --units and --plot name the columns' units and --error needs the model: the full pipeline
     full = arguments.units or arguments.error or arguments.plot is not None
-    stored = None if full else plans.find(source, arguments.scene, arguments.backend, arguments.integrator)
-    model = None if stored else common.load_model(source)      # the model's errors first, as always
+    # -o and --plot refused before the model is derived (which can take long) or run
     common.check_destinations(arguments.model, arguments.output, arguments.plot)
+    stored = None if full else plans.find(source, arguments.scene, arguments.backend, arguments.integrator)
+    model = None if stored else common.load_model(source)
     overrides = common.overrides(arguments)
     xy = _trajectory(arguments, model)
     progress = TimeProgress()
