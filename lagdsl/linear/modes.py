@@ -124,11 +124,18 @@ def _general(linear) -> tuple[np.ndarray, np.ndarray, str]:
     return values[keep], vectors[:, keep], "eig (first-order pencil: damping, gyroscopic or circulatory terms)"
 
 
+TIED = 1e-9      # entries within this relative distance of the largest modulus count as equal
+
+
 def _normalised(shape: np.ndarray) -> np.ndarray:
-    """The shape divided by its entry of largest modulus (which becomes 1)."""
+    """The shape divided by its entry of largest modulus (which becomes 1); among entries as
+    large to TIED, the first: a symmetric shape (sin(3 pi i / (N + 1)) peaks at +1 and -1 alike)
+    then gets the same sign whatever the eigensolver's rounding."""
     shape = np.asarray(shape, dtype=complex)
-    largest = shape[np.argmax(np.abs(shape))] if len(shape) else 1
-    return shape / largest if largest != 0 else shape
+    magnitude = np.abs(shape)
+    if not len(shape) or magnitude.max() == 0:
+        return shape
+    return shape / shape[np.flatnonzero(magnitude >= magnitude.max() * (1 - TIED))[0]]
 
 
 def rows(modes: Modes) -> tuple[list[str], list[list]]:

@@ -44,8 +44,8 @@ def test_chain_of_200_masses_from_the_command_line(capsys, tmp_path):
     assert len(rows) == N and np.max(np.abs(found / expected - 1)) < 1e-10
     assert {"mode", "real", "imag", "omega", "frequency_hz", "damping_ratio"} <= set(rows[0])
     third = np.array([float(rows[2][f"x[{i}]"]) for i in index])
-    shape = np.sin(index * 3 * math.pi / (N + 1))
-    assert np.max(np.abs(third - shape / shape[np.argmax(np.abs(shape))])) < 1e-8
+    shape = np.sin(index * 3 * math.pi / (N + 1))       # +-1 at i = 33, 34, 100, 101, 167, 168: the first is 1
+    assert np.max(np.abs(third - shape / shape[32])) < 1e-8
 
 
 @pytest.mark.parametrize("omega", [3.0, 4.0])
