@@ -62,7 +62,8 @@ class Scaled:
     node: int | None = None
 
     def __post_init__(self):
-        object.__setattr__(self, "scale", sympy.sympify(self.scale))     # 1 ** -1 must stay exact
+        if isinstance(self.scale, int):         # Scaled(1, node): exact, so that 1 ** -1 stays 1
+            object.__setattr__(self, "scale", sympy.Integer(self.scale))
 
 
 @dataclass(frozen=True)
