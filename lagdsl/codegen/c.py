@@ -60,6 +60,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
         "factor": factorisation_text(kernel.layout),
         "canonical": kernel.momenta is not None,
         "outputs_need_multipliers": kernel.outputs_need_multipliers,
+        "stop_needs_multipliers": kernel.stop_needs_multipliers,
         "integrator_source": integrator_source(kernel.integrator.name),
         "taylor_series": series_text(kernel, printer, [_position(s, kernel) for s in kernel.system.stores
                                                        if s.array == "K"]) if method.series else "",
