@@ -175,7 +175,7 @@ enum lag_status {
 #define LAG_CALM_STEPS 6                         /* steps within it, in a row, that clear the count */
 #define LAG_FAST_ITERATIONS 8                    /* power iteration on J^2 for the spectral radius rho */
 #define LAG_FAST_PROBE LAG_LIT(0.001)            /* the probe of y'' spans this fraction of 1/rho */
-#define LAG_EXCITED_AMPLITUDE LAG_LIT(10.0)      /* a fast mode above this many tolerances is excited */
+#define LAG_EXCITED_AMPLITUDE LAG_LIT(100.0)     /* a fast mode above this many tolerances is excited */
 #define LAG_VERDICT_STIFF 1                      /* the stiffness test's verdicts: stiff (damped or unexcited) ... */
 #define LAG_VERDICT_OSCILLATION 2                /* ... or a fast oscillation to be resolved */
 #define LAG_AUTO_CALM LAG_LIT(3.0)               /* auto back to dop853 when radau5 keeps h rho below this ... */
@@ -701,14 +701,17 @@ static int lag_control_update(lag_control *c, lag_stats *stats, int status, real
  *     modulus, so the iteration on J^2 settles where one on J would oscillate);
  *   y'' = (f(t + d, y + d f) - f) / d with d = LAG_FAST_PROBE / rho, the time derivative of f
  *     along the solution: a fast mode of amplitude A contributes rho^2 A to it, the slow motion
- *     about Omega^2 |y| (Omega its frequency), a part (Omega / rho)^2 of that;
- *   amplitude = rms(y''_i / (atol + rtol |y_i|)) / rho^2, the fast mode's amplitude in units of
- *     the tolerance (the norm of the error test).
+ *     about Omega^2 |y| (Omega its frequency), a part (Omega / rho)^2 of that; J y'' (one more
+ *     product) holds the fast mode a quarter period on, so that for a mode q = A cos(phi),
+ *     q' = -omega A sin(phi) the sum below does not depend on its phase phi;
+ *   amplitude = sqrt((|y''|^2 + |J y''|^2 / rho^2) / 2n) / rho^2, with |.| weighting component i
+ *     by 1 / (atol + rtol |y_i|) (as the error test does): the fast mode's amplitude in units of
+ *     the tolerance.
  * Above LAG_EXCITED_AMPLITUDE the mode is excited and must be resolved (LAG_VERDICT_OSCILLATION,
  * period 2 pi / rho): an implicit method would not take larger steps.  Below, it is
  * LAG_VERDICT_STIFF.  (While the pair runs at its stability boundary, an unexcited mode hovers
  * at about the tolerance, amplitude 0.1 .. 4: the step-size control keeps it there.)  The
- * verdict costs 2 LAG_FAST_ITERATIONS + 1 evaluations of f.  A stiff verdict is final; after an
+ * verdict costs 2 LAG_FAST_ITERATIONS + 2 evaluations of f.  A stiff verdict is final; after an
  * oscillation the test goes on, and calls for the next verdict after twice as many stiff steps
  * (the oscillation may be damped slowly).  The statistics keep the first verdict, or the first
  * stiff one after an oscillation: the kind (stats->stiff), when, the counters then, rho and the
@@ -809,11 +812,15 @@ static int lag_fast_mode(lag_stiffness_test *test, const lag_system *sys, const 
     *evals += 1;
     if (lag_rhs(sys, t + d, test->probe, test->jv) != LAG_OK)
         return 0;
+    for (i = 0; i < LAG_NY; ++i)
+        test->v[i] = (test->jv[i] - f[i]) / d;     /* y'' */
+    if (lag_jacobian_product(sys, evals, t, y, f, test->v, test->jv, test->probe) != LAG_OK)
+        return 0;
     for (i = 0; i < LAG_NY; ++i) {
-        w = (test->jv[i] - f[i]) / d / (control->atol + control->rtol * r_fabs(y[i]));
-        sum += w * w;
+        w = lag_control_scale(control, y[i], y[i]);
+        sum += (test->v[i] / w) * (test->v[i] / w) + (test->jv[i] / w) * (test->jv[i] / w) / rho2;
     }
-    *amplitude = r_sqrt(sum / LAG_NY) / rho2;
+    *amplitude = r_sqrt(sum / (2 * LAG_NY)) / rho2;
     if (!r_isfinite(*amplitude))
         return 0;
     return *amplitude > LAG_EXCITED_AMPLITUDE ? LAG_VERDICT_OSCILLATION : LAG_VERDICT_STIFF;

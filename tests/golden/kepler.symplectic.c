@@ -175,7 +175,7 @@ enum lag_status {
 #define LAG_CALM_STEPS 6                         /* steps within it, in a row, that clear the count */
 #define LAG_FAST_ITERATIONS 8                    /* power iteration on J^2 for the spectral radius rho */
 #define LAG_FAST_PROBE LAG_LIT(0.001)            /* the probe of y'' spans this fraction of 1/rho */
-#define LAG_EXCITED_AMPLITUDE LAG_LIT(10.0)      /* a fast mode above this many tolerances is excited */
+#define LAG_EXCITED_AMPLITUDE LAG_LIT(100.0)     /* a fast mode above this many tolerances is excited */
 #define LAG_VERDICT_STIFF 1                      /* the stiffness test's verdicts: stiff (damped or unexcited) ... */
 #define LAG_VERDICT_OSCILLATION 2                /* ... or a fast oscillation to be resolved */
 #define LAG_AUTO_CALM LAG_LIT(3.0)               /* auto back to dop853 when radau5 keeps h rho below this ... */

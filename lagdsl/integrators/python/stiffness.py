@@ -8,8 +8,10 @@ h lambda = h |f(t+h, y_1) - f(t+h, y_s)| / |y_1 - y_s| estimates h times the dom
 of df/dy (scipy keeps the stages of the last step in `solver.K`: no evaluation of f). STIFF_STEPS
 accepted steps beyond the stability boundary, without CALM_STEPS non-stiff ones in a row in
 between, call for a verdict (`fast_mode`): the spectral radius rho of J = df/dy by power
-iteration on J^2, and the fast mode's amplitude in tolerances, rms(y''_i / (atol + rtol |y_i|))
-/ rho^2 with y'' the time derivative of f along the solution. Above EXCITED_AMPLITUDE the mode is
+iteration on J^2, and the fast mode's amplitude in tolerances,
+sqrt((|y''|^2 + |J y''|^2 / rho^2) / 2n) / rho^2 with y'' the time derivative of f along the
+solution and |.| weighting component i by 1 / (atol + rtol |y_i|) (J y'' / rho is the fast mode
+a quarter period on: the sum does not depend on its phase). Above EXCITED_AMPLITUDE the mode is
 an excited fast oscillation that every method must resolve; below, it is damped or not excited,
 and an implicit method steps over it: stiff. A stiff verdict is final; after an oscillation the
 test calls for the next verdict after twice as many stiff steps.
@@ -80,7 +82,7 @@ class StiffnessTest:
 
 def fast_mode(solver) -> FastMode | None:
     """The verdict at the solver's (t, y), f = solver.f (the rule above); None when a probe failed.
-    Costs 2 FAST_ITERATIONS + 1 evaluations of f (counted in solver.nfev)."""
+    Costs 2 FAST_ITERATIONS + 2 evaluations of f (counted in solver.nfev)."""
     t, y, f = solver.t, solver.y, solver.f
     with np.errstate(all="ignore"):
         v, rho2 = f, 0.0
@@ -94,7 +96,9 @@ def fast_mode(solver) -> FastMode | None:
         rho = np.sqrt(rho2)
         d = FAST_PROBE / rho
         second = (solver.fun(t + d, y + d * f) - f) / d
-        amplitude = float(np.sqrt(np.mean((second / (solver.atol + solver.rtol * np.abs(y))) ** 2)) / rho2)
+        scale = solver.atol + solver.rtol * np.abs(y)
+        turned = _jacobian_product(solver, second) / rho      # a quarter period on
+        amplitude = float(np.sqrt(np.mean((second / scale) ** 2 + (turned / scale) ** 2) / 2) / rho2)
     if not np.isfinite(amplitude):
         return None
     kind = VERDICT_OSCILLATION if amplitude > EXCITED_AMPLITUDE else VERDICT_STIFF
