@@ -653,8 +653,8 @@ static int lag_control_update(lag_control *c, lag_stats *stats, int status, real
  *     the tolerance.
  * Above LAG_EXCITED_AMPLITUDE the mode is excited and must be resolved (LAG_VERDICT_OSCILLATION,
  * period 2 pi / rho): an implicit method would not take larger steps.  Below, it is
- * LAG_VERDICT_STIFF.  (While the pair runs at its stability boundary, an unexcited mode hovers
- * at about the tolerance, amplitude 0.1 .. 4: the step-size control keeps it there.)  The
+ * LAG_VERDICT_STIFF.  (While the pair runs at its stability boundary, its step-size control
+ * holds an unexcited mode near the tolerance: amplitude 0.07 .. 8, hence the margin.)  The
  * verdict costs 2 LAG_FAST_ITERATIONS + 2 evaluations of f.  A stiff verdict is final; after an
  * oscillation the test goes on, and calls for the next verdict after twice as many stiff steps
  * (the oscillation may be damped slowly).  The statistics keep the first verdict, or the first
