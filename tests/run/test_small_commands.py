@@ -1,0 +1,86 @@
+"""Small commands do only what they need: a warm `lagc check` prints its stored answer
+(run/answers.py) without the pipeline, the command line imports no heavy package before a command
+asks for it, and `lagc cache clear` empties the front end's helper directories too.
+
+Each import check runs in a fresh process, where nothing is imported yet.
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from lagdsl.run import cache
+from tests.run.test_warm_run import SWING
+
+HEAVY = ("sympy", "lark", "pint", "scipy", "matplotlib")
+# Runs `lagc` (or nothing, without arguments) and prints the heavy packages it imported as JSON on the last line of stderr.
+REPORTING_IMPORTS = f"""import json, sys
+import lagdsl.cli
+status = lagdsl.cli.main(sys.argv[1:]) if sys.argv[1:] else 0
+print(json.dumps(sorted({{name.split(".")[0] for name in sys.modules}} & set({HEAVY!r}))), file=sys.stderr)
+sys.exit(status)
+"""
+
+
+@pytest.fixture
+def cache_dir(tmp_path, monkeypatch):
+    monkeypatch.setenv("LAGDSL_CACHE", str(tmp_path / "cache"))
+    return tmp_path / "cache"
+
+
+def lagc(*arguments) -> tuple[int, str, str, list[str]]:
+    """Exit status, stdout, stderr without the report, and the heavy packages imported."""
+    done = subprocess.run([sys.executable, "-c", REPORTING_IMPORTS, *map(str, arguments)], capture_output=True,
+                          text=True)
+    *said, report = done.stderr.splitlines(keepends=True)
+    return done.returncode, done.stdout, "".join(said), json.loads(report)
+
+
+def test_importing_the_command_line_imports_no_heavy_package():
+    assert lagc()[3] == []
+
+
+def test_a_warm_check_prints_the_stored_answer_without_the_pipeline(cache_dir, tmp_path):
+    model = tmp_path / "swing.lag"
+    model.write_text(SWING.replace("parameter a = 0.5 [rad];",      # c's unit is not known: a note on stderr
+                                   "parameter a = 0.5 [rad];\n  parameter c = 2.0;\n  output z = c*theta;"))
+    status, summary, notes, imported = lagc("check", model)
+    assert status == 0 and "Swing" in summary and "note:" in notes and {"sympy", "lark"} <= set(imported)
+    assert len(list(cache_dir.glob("check-*.json"))) == 1
+    assert lagc("check", model) == (0, summary, notes, [])
+
+
+def test_an_edited_model_is_checked_again(cache_dir, tmp_path):
+    model = tmp_path / "swing.lag"
+    model.write_text(SWING)
+    first = lagc("check", model)[1]
+    model.write_text(SWING.replace("parameter m = 1.0 [kg];", "parameter m = 2.5 [kg];"))
+    status, summary, _, imported = lagc("check", model)
+    assert status == 0 and summary != first and "sympy" in imported
+
+
+def test_a_model_with_an_error_stores_no_answer(cache_dir, tmp_path):
+    model = tmp_path / "bad.lag"
+    model.write_text(SWING.replace("U = m*g*y;", "U = m*g*z;"))
+    for _ in range(2):
+        status, summary, message, _ = lagc("check", model)
+        assert status == 1 and summary == "" and "error:" in message and "Traceback" not in message
+    assert not list(cache_dir.glob("check-*.json"))
+
+
+def test_cache_clear_removes_the_helper_directories(cache_dir, tmp_path):
+    for name in cache.HELPERS:
+        (cache.helper_directory(name) / "tables.cache").write_text("kept between processes")
+    (cache_dir / "notes.txt").write_text("not ours")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    (elsewhere / "keep.txt").write_text("not ours either")
+    cache.clear()
+    assert sorted(os.listdir(cache_dir)) == ["notes.txt"]
+    os.symlink(elsewhere, cache_dir / cache.HELPERS[0])      # a link in a helper's place: removed, not followed
+    cache.clear()
+    assert sorted(os.listdir(cache_dir)) == ["notes.txt"] and os.listdir(elsewhere) == ["keep.txt"]
