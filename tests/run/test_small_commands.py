@@ -84,3 +84,18 @@ def test_cache_clear_removes_the_helper_directories(cache_dir, tmp_path):
     os.symlink(elsewhere, cache_dir / cache.HELPERS[0])      # a link in a helper's place: removed, not followed
     cache.clear()
     assert sorted(os.listdir(cache_dir)) == ["notes.txt"] and os.listdir(elsewhere) == ["keep.txt"]
+
+
+@pytest.mark.parametrize("varied", ["a=0.1:0.5:4", "theta.start=0.1:0.5:4", "g=9:10:3"])
+def test_a_warm_sweep_writes_the_same_table_without_the_pipeline(cache_dir, tmp_path, varied):
+    """`a` gives the start values (a varied value other values are computed from) and `g` enters
+    the parameter w: with those every member is planned by the full pipeline, warm or not."""
+    model = tmp_path / "swing.lag"
+    model.write_text(SWING)
+    sweep = ("sweep", model, "--vary", varied, "--stop", "0.5")
+    status, _, summary, imported = lagc(*sweep, "-o", tmp_path / "cold.csv")
+    assert status == 0 and " ok, 0 failed" in summary and "sympy" in imported
+    status, _, again, imported = lagc(*sweep, "-o", tmp_path / "warm.csv")
+    assert status == 0 and again.split(",")[:3] == summary.split(",")[:3]
+    assert (tmp_path / "warm.csv").read_bytes() == (tmp_path / "cold.csv").read_bytes()
+    assert ("sympy" in imported) == (varied[0] in "ag")
