@@ -99,3 +99,16 @@ def test_a_warm_sweep_writes_the_same_table_without_the_pipeline(cache_dir, tmp_
     assert status == 0 and again.split(",")[:3] == summary.split(",")[:3]
     assert (tmp_path / "warm.csv").read_bytes() == (tmp_path / "cold.csv").read_bytes()
     assert ("sympy" in imported) == (varied[0] in "ag")
+
+
+def test_a_warm_modes_says_the_same_without_the_pipeline(cache_dir, tmp_path):
+    """The table, the CSV and the warning (the scene's start is no equilibrium) of the cold call."""
+    model = tmp_path / "swing.lag"
+    model.write_text(SWING)
+    cold = lagc("modes", model, "-o", tmp_path / "cold.csv")
+    assert cold[0] == 0 and "not an equilibrium" in cold[2] and "sympy" in cold[3]
+    warm = lagc("modes", model, "-o", tmp_path / "warm.csv")
+    assert warm == (*cold[:3], [])
+    assert (tmp_path / "warm.csv").read_bytes() == (tmp_path / "cold.csv").read_bytes()
+    found = lagc("modes", model, "--find")      # other options: computed again
+    assert found[0] == 0 and "equilibrium" in found[2] and "sympy" in found[3]
