@@ -14,7 +14,6 @@ CPU time per call over a run of calls (the integration's included).
 from __future__ import annotations
 
 import argparse
-import csv
 import os
 import resource
 import statistics
@@ -28,7 +27,6 @@ ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "models"
 CHECKED = ("double_pendulum", "kepler", "elastic_pendulum", "spring_chain")
 SWEEP = ("sweep", MODELS / "double_pendulum.lag", "--vary", "theta1.start=-1:1:20", "--stop", "10")
-BENCH = ("bench", MODELS / "double_pendulum.lag", "--stop", "10", "--repeat", "3")
 SIMULATED = ("elastic_pendulum", "triple_pendulum")
 
 
@@ -59,10 +57,29 @@ def report(what: str, value: float, goal: float, unit: str = "s", note: str = ""
     print(f"{what:<52} {value:9.3g} {unit:<3} goal < {goal:g} {unit:<3} {verdict:<4} {note}")
 
 
-def bench_integrations(table: Path, repeat: int) -> float:
-    """Seconds of integration the bench ran: each setting's fastest time, `repeat` runs each."""
-    with open(table, newline="") as rows:
-        return repeat * sum(float(row["seconds"]) for row in csv.DictReader(rows) if row["seconds"])
+def bench_overhead() -> tuple[float, float]:
+    """(wall s, integration s) of model.bench() on the double pendulum in this process, warm: the
+    model loaded and every integrator's ladder run, each run's integration (summary.wall_time)
+    summed; as `lagc bench --stop 10` but for the imports."""
+    import lagdsl
+    from lagdsl import api
+    spent = []
+    simulate_plan = api.Model.simulate_plan
+
+    def timed(self, *arguments, **options):
+        result = simulate_plan(self, *arguments, **options)
+        spent.append(result.summary.wall_time)
+        return result
+
+    api.Model.simulate_plan = timed
+    try:
+        lagdsl.load(MODELS / "double_pendulum.lag").bench(stop=10)       # fills the cache
+        spent.clear()
+        started = time.perf_counter()
+        lagdsl.load(MODELS / "double_pendulum.lag").bench(stop=10)
+        return time.perf_counter() - started, sum(spent)
+    finally:
+        api.Model.simulate_plan = simulate_plan
 
 
 def simulate_overhead(name: str, calls: int) -> tuple[float, float, float]:
@@ -97,11 +114,9 @@ def main() -> None:
         report("lagc modes spring_chain.lag (200 masses): wall", wall, 2.0, note=f"({cpu:.3g} s CPU)")
         wall, cpu = command(*SWEEP, "-o", Path(work) / "sweep.csv", repeat=repeat)
         report("lagc sweep, 20 members: wall", wall, 1.0, note=f"({cpu:.3g} s CPU)")
-        table = Path(work) / "bench.csv"
-        wall, cpu = command(*BENCH, "-o", table, repeat=max(1, repeat // 2))
-        integrations = bench_integrations(table, 3)
-        report("lagc bench double_pendulum: overhead / integrations", (wall - integrations) / integrations, 2.0,
-               "x", f"({wall:.3g} s wall, {cpu:.3g} s CPU, integrations {integrations:.3g} s)")
+        wall, integrations = bench_overhead()
+        report("model.bench() double_pendulum: overhead / integrations", (wall - integrations) / integrations, 2.0,
+               "x", f"({wall:.3g} s wall, integrations {integrations:.3g} s)")
         wall, cpu = timed([sys.executable, "-c", f"import lagdsl; lagdsl.load({str(MODELS / 'double_pendulum.lag')!r})"],
                           repeat)
         report("lagdsl.load(double_pendulum.lag) in a new process: wall", wall, 1.0, note=f"({cpu:.3g} s CPU)")

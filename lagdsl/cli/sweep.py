@@ -11,9 +11,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..errors import LagError, Setting, SimulationInterrupted
-from ..run import plans
 from ..run.files import check_writable
-from ..run.sweep_job import stored_job, stream_to_file
 from ..settings import RUN_OPTIONS
 from ..source import SourceFile
 from . import common
@@ -42,6 +40,7 @@ def add(commands) -> None:
 def run(arguments) -> int:
     """Run the members of a grid or random sample; write the tidy table and the summary. Members
     that fail are rows with their status; Ctrl-C writes the members finished so far."""
+    from ..run.sweep_job import stored_job, stream_to_file     # the runner: only the commands that run need it
     source = SourceFile.read(arguments.model)
     stored = _stored_plan(source, arguments)
     model = None if stored else common.load_model(source)
@@ -69,9 +68,10 @@ def run(arguments) -> int:
     return 0
 
 
-def _stored_plan(source: SourceFile, arguments) -> plans.StoredPlan | None:
-    """The scene's stored plan for a C sweep on this machine's threads (Dask and NumPy sweeps
-    take the full pipeline)."""
+def _stored_plan(source: SourceFile, arguments):
+    """The scene's stored plan (plans.StoredPlan) for a C sweep on this machine's threads (Dask
+    and NumPy sweeps take the full pipeline)."""
+    from ..run import plans
     if arguments.backend != "c" or arguments.dask is not None:
         return None
     return plans.find(source, arguments.scene, arguments.backend, arguments.integrator)
