@@ -150,7 +150,7 @@ class SummaryLayout:
     fields: tuple[SummaryField, ...]
     counters: tuple[str, ...]
 
-    @property
+    @cached_property
     def size(self) -> int:
         return sum(field.size for field in self.fields)
 
