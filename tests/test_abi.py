@@ -22,7 +22,7 @@ int main(void)
     (void)r_isfinite;       /* the runtime's, unused here */
     (void)lag_print_real;
     for (status = 0; status <= %(last)d; ++status) {
-        lag_print_status(stdout, status, 123L, 1.5e-14);
+        lag_print_status(stdout, status, 123L, 1.5e-14, 4.5e6, 12.5);
         putchar('\n');
     }
     printf("%%ld %%ld %%ld %%.17g %%d %%.17g %%d %%.17g %%d\n", LAG_MAX_ROWS, LAG_DEFAULT_MAX_STEPS,
@@ -51,7 +51,7 @@ def printed(tmp_path_factory) -> list[str]:
 def test_the_c_program_words_every_status_as_python_does(printed):
     for code, status in STATUSES.items():
         rcond = 1.5e-14 if status.detail else None
-        assert printed[code] == status.describe(123, rcond)
+        assert printed[code] == status.describe(123, rcond, 4.5e6, 12.5)
     assert printed[max(STATUSES) + 1] == UNKNOWN_STATUS.message
 
 
