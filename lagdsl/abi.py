@@ -49,16 +49,15 @@ ADVICE = {
                 "(or auto); a fast mode excited above the tolerance must be resolved by any method: loosen --rtol",
     "implicit": "a fast mode excited above the tolerance must be resolved by any method, implicit ones too: "
                 "loosen --rtol and --atol",
-    "fixed": "take a smaller step (step = ...)",
+    "fixed": "the step decides it (step = ...): a smaller one where the solution blew up, a larger one where it "
+             "is below the resolution of t or takes too many steps",
 }
 
 
 def advice_for(integrator: str) -> str:
-    """ADVICE for the integrator named `integrator` (an unregistered name: the explicit advice)."""
-    record = registry.get(integrator) if registry.known(integrator) else None
-    kind = "explicit" if record is None else "fixed" if record.fixed_step else \
-        "implicit" if record.implicit else "explicit"
-    return ADVICE[kind]
+    """ADVICE for the integrator named `integrator`."""
+    record = registry.get(integrator)
+    return ADVICE["fixed" if record.fixed_step else "implicit" if record.implicit else "explicit"]
 
 
 @dataclass(frozen=True)

@@ -82,3 +82,13 @@ def test_the_record_dtype_reads_each_field_at_its_offset(integrator, invariants,
     assert layout.counters == registry.get(integrator).counters
     counters = [layout.offset(counter) for counter in layout.counters]
     assert counters == list(range(counters[0], counters[0] + len(counters)))     # contiguous, as C reads them
+
+
+@pytest.mark.parametrize("integrator", registry.names())
+def test_no_remedy_offers_a_run_the_method_it_used(integrator):
+    """radau5 and auto are never told to try radau5; the explicit methods are, for a stiff problem."""
+    remedies = [status.remedy_for(integrator) for status in STATUSES.values()]
+    assert not any(f"--integrator {integrator}" in remedy or "{" in remedy for remedy in remedies)
+    record = registry.get(integrator)
+    suggests_radau5 = any("--integrator radau5" in remedy for remedy in remedies)
+    assert suggests_radau5 == (not record.implicit and not record.fixed_step)
