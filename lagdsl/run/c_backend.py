@@ -52,7 +52,8 @@ def run_c(kernel: Kernel, source: GeneratedSource, plan: RunPlan, progress: Prog
                     _run_summary(plan, layout, values, elapsed))
     if status != 0:
         y_fail = values[at["y_fail"]:at["y_fail"] + len(plan.initial_state)]
-        raise simulation_error(plan, status, values[at["t_fail"]], y_fail, result, values[at["rcond_fail"]])
+        raise simulation_error(plan, status, values[at["t_fail"]], y_fail, result, values[at["rcond_fail"]],
+                               values[at["forecast"]])
     return result
 
 

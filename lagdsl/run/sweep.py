@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..abi import INTERRUPTED, SummaryLayout, member_summary, plan_summary, settings_vector, status_of
+from ..abi import HOPELESS, INTERRUPTED, SummaryLayout, member_summary, plan_summary, settings_vector, status_of
 from ..errors import LagError, SimulationError, SimulationInterrupted
 from ..integrators import registry
 from ..settings import Overrides, RunPlan
@@ -296,6 +296,9 @@ def statuses(plan: ScenePlan, summaries: np.ndarray) -> np.ndarray:
     messages = np.full(len(codes), "ok", dtype=object)
     for code in np.unique(codes[codes != 0]):
         messages[codes == code] = status_of(int(code)).describe(plan.max_steps)
+    for member in np.flatnonzero(codes == HOPELESS):       # each with its own forecast
+        messages[member] = status_of(HOPELESS).describe(plan.max_steps, forecast=float(summaries["forecast"][member]),
+                                                        t_end=plan.time.stop)
     return messages
 
 
@@ -409,11 +412,11 @@ def _single_member(module, kernel, source, members: Members, b: int, values: np.
     plan = replace(members.plan, parameters=tuple(members.parameters[b]),
                    initial_state=tuple(members.initial[b]))
     try:
-        result, status, t_fail = run_numpy(kernel, source, plan, None, module), 0, 0.0
+        result, status, t_fail, forecast = run_numpy(kernel, source, plan, None, module), 0, 0.0, math.nan
     except SimulationError as error:
-        result, status, t_fail = error.partial, error.status, error.time
+        result, status, t_fail, forecast = error.partial, error.status, error.time, error.forecast
     values[b, :len(result.t)] = result.values
     member = summaries[b:b + 1]
-    member["status"], member["rows"], member["t_fail"] = status, len(result.t), t_fail
+    member["status"], member["rows"], member["t_fail"], member["forecast"] = status, len(result.t), t_fail, forecast
     for counter in ("accepted", "rhs_evals"):
         member[counter] = result.summary.count(counter) or 0
