@@ -13,7 +13,7 @@ from ..frontend.functions import LIBM_TABLE_MARKER, libm_table
 from ..integrators import COUNTER_LABELS, SWITCH_TIMES, c_file
 from ..integrators.registry import MAX_STEPS_CEILING
 from ..settings import (DEFAULT_MAX_STEPS, GRID_SLACK, MAX_ROWS, MIN_STEP_EPS, RCOND_MIN_EPS, RTOL_FLOOR_EPS,
-                        STEPS_PER_ROW)
+                        START_STEP_FRACTION, START_STEP_MIN_STEPS, STEPS_PER_ROW)
 
 # (name, value, what it is): settings.py's numbers as the C driver and integrators read them
 # (those counted in eps: of the working precision).
@@ -26,6 +26,8 @@ SHARED_CONSTANTS = (
     ("LAG_RTOL_FLOOR_EPS", f"{RTOL_FLOOR_EPS}", "the smallest rtol, in eps ..."),
     ("LAG_RTOL_FLOOR", "(LAG_RTOL_FLOOR_EPS * REAL_EPSILON)", "... and as a number"),
     ("LAG_MIN_STEP_EPS", f"{MIN_STEP_EPS}", "the smallest step, in eps of max(|t|, span)"),
+    ("LAG_START_STEP_MIN_STEPS", f"{START_STEP_MIN_STEPS}", "the smallest first step, in smallest steps"),
+    ("LAG_START_STEP_FRACTION", f"LAG_LIT({START_STEP_FRACTION!r})", "the starting step's probe, in spans"),
     ("LAG_RCOND_MIN", f"({RCOND_MIN_EPS} * REAL_EPSILON)", "below this reciprocal condition, K is singular"),
     ("LAG_AUTO_LOGGED", f"{SWITCH_TIMES}", "the switches of auto whose times the summary keeps"),
 )
