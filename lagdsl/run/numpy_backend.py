@@ -176,6 +176,7 @@ def _numpy_result(module, par, times, states, plan, counts, elapsed, projection,
                       if counts.get(name) is None and record.scipy and counts)
     summary = RunSummary("numpy", plan.integrator.name, kept, elapsed, invariants, plan.constraints, residual,
                          projection if plan.constraints else None, plan.integrator.options,
+                         atol_each=plan.integrator.atol_each,
                          stiffness=counts.get("stiffness"), switches=counts.get("switches"), stopped=stopped,
                          uncounted=uncounted)
     return Result(np.asarray(times, dtype=float), plan.columns, np.asarray(values, dtype=float), summary)
