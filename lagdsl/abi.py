@@ -141,14 +141,17 @@ def format_fields(text: str) -> list[tuple[str, str | None, str]]:
 
 
 # The settings vector of lag_run and lag_run_batch: the output grid, then the options in the order
-# of lag_options (0 where the integrator has none), the step limit last.
+# of lag_options (0 where the integrator has none), the step limit last; after these LAG_SETTINGS
+# entries, the LAG_NY absolute tolerances of the components of y (settings_vector).
 SETTINGS = ("t_start", "t_stop", "t_interval", *OPTION_ORDER)
 
 
 def settings_vector(plan: RunPlan) -> np.ndarray:
+    """SETTINGS, then the absolute tolerance of each component of y (lag_options.atol_each)."""
     values = {"t_start": plan.time.start, "t_stop": plan.time.stop, "t_interval": plan.time.interval,
               **dict(plan.integrator.options), "max_steps": plan.max_steps}
-    return np.array([float(values.get(name, 0.0)) for name in SETTINGS])
+    atol_each = plan.atol_vector(plan.coordinates) or [values.get("atol", 0.0)] * (2 * len(plan.coordinates))
+    return np.array([float(values.get(name, 0.0)) for name in SETTINGS] + [float(v) for v in atol_each])
 
 
 @dataclass(frozen=True)

@@ -24,6 +24,7 @@ from .run.runner import run
 from .run.sweep_job import SweepJob, progress_bar, stream_to_file
 from .scene import (RUN_OPTIONS, Overrides, ScenePlan, given_options, parameters_in_expressions,
                     scene_defaults)
+from .settings import given_atol_each
 from .source import SourceFile
 
 BACKENDS = ("c", "numpy")
@@ -67,7 +68,7 @@ class Model:
 
     def simulate(self, scene: str | None = None, backend: str = "c", *, set: dict | None = None,
                  start: float | None = None, stop: float | None = None, interval: float | None = None,
-                 integrator: str | None = None, rtol: float | None = None, atol: float | None = None,
+                 integrator: str | None = None, rtol: float | None = None, atol: float | dict[str, float] | None = None,
                  step: float | None = None, stages: int | None = None, max_step: float | None = None,
                  max_steps: int | None = None, estimate_error: bool = False, draw: bool = False,
                  sensitivities=None, sensitivity_error_control: bool = True, **parameters: float) -> Result:
@@ -97,7 +98,7 @@ class Model:
         options = given_options(dict(rtol=rtol, atol=atol, step=step, stages=stages, max_step=max_step,
                                      max_steps=max_steps))
         overrides = Overrides(tuple((k, single_number(k, v)) for k, v in values.items()),
-                              *_times(start, stop, interval), integrator, options)
+                              *_times(start, stop, interval), integrator, options, given_atol_each({"atol": atol}))
         if sensitivities is not None:
             if draw:
                 raise LagError("a run with sensitivities is not drawn; run simulate(..., draw=True) without them")
@@ -219,7 +220,7 @@ class Model:
         grid = {k: overrides.pop(k) for k in GRID_OVERRIDES if k in overrides}
         options = {k: overrides.pop(k) for k in RUN_OPTIONS if k in overrides}
         base = Overrides((), grid.get("start"), grid.get("stop"), grid.get("interval"), grid.get("integrator"),
-                         given_options(options))
+                         given_options(options), given_atol_each(options))
         return SweepJob(lambda o: self.plan(scene, o), lambda p: self._program(scene, p, backend, base), base,
                         {**overrides, **dict(varied)}, backend)
 

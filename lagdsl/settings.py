@@ -16,6 +16,7 @@ from .errors import LagError, LagWarning, Setting, suggest
 from .integrators import registry
 from .integrators.registry import DEFAULT_MAX_STEPS, MAX_STEPS_CEILING, OPTION_ORDER, OPTIONS
 from .source import Span
+from .tolerances import atol_vector, check_atol_each, component_key
 
 # Integrator settings that can be given outside the model file (`lagc run --rtol`, `simulate(rtol=)`).
 RUN_OPTIONS = OPTION_ORDER
@@ -38,6 +39,25 @@ RTOL_FLOOR = RTOL_FLOOR_EPS * sys.float_info.epsilon
 # the test fire near t = 0 too, where eps |t| is no bound at all (10^14 such steps would not
 # cross the run).
 MIN_STEP_EPS = 10
+# An adaptive method's first step, when none is given, is at least START_STEP_MIN_STEPS smallest
+# steps: the starting-step estimate of HNW I, II.4 (the step that changes y by 1% in the norm of the
+# error test) can lie below the smallest step when a component at 0 is weighed by a tiny atol
+# (an electron's x' = 0 at t = 0 under atol 1e-18), and such a start is no collapse: the error
+# test rejects a too large first step, which leaves room for a few rejections before the floor.
+START_STEP_MIN_STEPS = 100
+# Where the starting-step estimate has nothing to measure (y or f(t0, y) near 0) its probe step is
+# this fraction of the span (HNW I, II.4 and RADAU5 take 1e-6, which assumes t of order 1).
+START_STEP_FRACTION = 1e-6
+
+
+def min_step(t: float, span: float) -> float:
+    """The smallest step an adaptive method may take from t on a run of length `span` (LAG_MIN_STEP)."""
+    return MIN_STEP_EPS * sys.float_info.epsilon * max(abs(t), span)
+
+
+def start_step_floor(t: float, span: float) -> float:
+    """The smallest first step an adaptive method starts with at t (LAG_START_STEP_FLOOR)."""
+    return START_STEP_MIN_STEPS * min_step(t, span)
 # K (M, or the saddle-point matrix of a constrained system) counts as singular below this
 # reciprocal condition estimate: q'' would keep fewer than about 3 correct digits (relative error
 # ~ eps / rcond). It is taken after equilibration, so it measures how nearly dependent the
@@ -59,6 +79,7 @@ class IntegratorChoice:
     name: str
     options: tuple[tuple[str, float], ...]
     span: Span | Setting | None        # Setting: chosen on the command line (--integrator)
+    atol_each: tuple[tuple[str, float], ...] = ()   # atol(x), atol(der(x)): tolerances.py
 
 
 DEFAULT_INTEGRATOR = IntegratorChoice("dop853", (("rtol", 1e-8), ("atol", 1e-10)), None)
@@ -66,8 +87,37 @@ DEFAULT_TIME = TimeGrid(0.0, 10.0, 0.01, None)
 
 
 def given_options(values) -> tuple[tuple[str, float], ...]:
-    """The run options among `values` (a mapping of name to value or None) that were given."""
+    """The run options among `values` (a mapping of name to value or None) that were given; of
+    atol, the value for every component (given_atol_each has those per component)."""
+    values = {**values, "atol": split_atol(values.get("atol"))[0]}
     return tuple((name, float(values[name])) for name in RUN_OPTIONS if values.get(name) is not None)
+
+
+def given_atol_each(values) -> tuple[tuple[str, float], ...]:
+    """atol per component among `values` (tolerances.py): from {"x": 1e-18} or ["x=1e-18", ...]."""
+    return split_atol(values.get("atol"))[1]
+
+
+def split_atol(atol) -> tuple[float | None, tuple[tuple[str, float], ...]]:
+    """(the atol of every component or None, the pairs per component) of a number, a mapping of
+    component names to numbers, or command-line items (a number, or NAME=VALUE; the last number wins)."""
+    if atol is None or isinstance(atol, (int, float)):
+        return atol, ()
+    if isinstance(atol, dict):
+        return None, tuple((component_key(str(k)), single_atol(k, v)) for k, v in atol.items())
+    scalar, pairs = None, []
+    for item in atol:
+        if isinstance(item, tuple):
+            pairs.append(item)
+        else:
+            scalar = item
+    return scalar, tuple(pairs)
+
+
+def single_atol(name, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise LagError(f"atol({name}) must be a number, got {value!r}", Setting("atol"))
+    return float(value)
 
 
 @dataclass(frozen=True)
@@ -84,6 +134,7 @@ class Overrides:
     interval: float | None = None
     integrator: str | None = None
     options: tuple[tuple[str, float], ...] = ()     # rtol, atol, step, stages, max_step, max_steps
+    atol_each: tuple[tuple[str, float], ...] = ()   # per component: ("x", 1e-18), ("der(x)", 1e-6)
 
 
 def grid_rows(start: float, stop: float, interval: float) -> int:
@@ -134,6 +185,12 @@ class IntegratorTraits:
     def series(self) -> bool:
         return registry.get(self.integrator.name).series
 
+    def atol_vector(self, coordinates: tuple[str, ...]) -> tuple[float, ...] | None:
+        """The absolute tolerance of each component of y = (q, q'), or None when atol is one
+        number for all (tolerances.py)."""
+        return atol_vector(dict(self.integrator.options).get("atol", 0.0), self.integrator.atol_each, coordinates,
+                           self.time.stop - self.time.start)
+
 
 @dataclass(frozen=True)
 class RunPlan(IntegratorTraits):
@@ -170,7 +227,7 @@ class SceneSettings:
         """The time grid, the integrator, the parameters set ({name: value}) and the initial values
         set ({coordinate: (start, velocity)}) with `overrides` applied on top of the scene's."""
         time = _time(self.time, overrides)
-        integrator = _integrator(self.integrator, overrides)
+        integrator = _integrator(self.integrator, overrides, self.coordinates)
         set_values = dict(self.set_values)
         initial = {name: (start, velocity) for name, start, velocity in self.initial}
         for name, value in overrides.values:
@@ -222,7 +279,7 @@ def _time(time: TimeGrid, overrides: Overrides) -> TimeGrid:
     return replace(time, start=start, stop=stop, interval=interval)
 
 
-def _integrator(choice: IntegratorChoice, overrides: Overrides) -> IntegratorChoice:
+def _integrator(choice: IntegratorChoice, overrides: Overrides, coordinates: tuple[str, ...]) -> IntegratorChoice:
     """The scene's integrator with the overrides applied.
 
     Another method (`--integrator`) keeps the scene's settings that it has too: the tolerances
@@ -240,7 +297,15 @@ def _integrator(choice: IntegratorChoice, overrides: Overrides) -> IntegratorCho
         if key not in allowed:
             raise LagError(f"{name} has no option '{key}' (options: {', '.join(allowed)})", origins[key])
         values[key] = value
-    return _raise_rtol_to_floor(validate_integrator(name, values, chosen, origins))
+    atol_each = dict(choice.atol_each) if "atol" in allowed else {}
+    for key, value in overrides.atol_each:
+        origins[key] = Setting(f"--atol {key}={value:g}")
+        if "atol" not in allowed:
+            raise LagError(f"{name} has no option 'atol' (options: {', '.join(allowed)})", origins[key])
+        atol_each[key] = value
+    check_atol_each(tuple(atol_each.items()), coordinates, registry.get(name).implicit, origins)
+    validated = validate_integrator(name, values, chosen, origins)
+    return _raise_rtol_to_floor(replace(validated, atol_each=tuple(sorted(atol_each.items()))))
 
 
 def _raise_rtol_to_floor(choice: IntegratorChoice) -> IntegratorChoice:

@@ -12,7 +12,8 @@ from ..integrators.registry import OPTION_ORDER, OPTIONS
 from ..run.files import check_writable, write_output, write_stdout
 from ..progress import slow_stage
 from ..run.interrupt import terminated
-from ..settings import Overrides, check_integrator_name, given_options
+from ..settings import Overrides, check_integrator_name, given_atol_each, given_options
+from ..tolerances import component_key
 from ..source import SourceFile
 
 
@@ -64,8 +65,24 @@ def integrator_options(parser: argparse.ArgumentParser) -> None:
     for name in OPTION_ORDER:
         option = OPTIONS[name]
         users = ", ".join(record for record in registry.names() if name in registry.get(record).options)
+        if name == "atol":
+            parser.add_argument("--atol", action="append", type=atol_item, metavar="[COMPONENT=]VALUE",
+                                help=f"{option.meaning}: {option.requirement}, for every component of the state, "
+                                     "or for one as x=1e-18 or der(x)=1e-6 (a coordinate or its velocity, in SI; "
+                                     f"repeat the option for more) ({users})")
+            continue
         parser.add_argument("--" + option.flag, type=int if option.c_cast else float,
                             help=f"{option.meaning}: {option.requirement} ({users})")
+
+
+def atol_item(text: str) -> float | tuple[str, float]:
+    """--atol VALUE, or --atol COMPONENT=VALUE (tolerances.py)."""
+    name, equals, number = text.rpartition("=")
+    value = parse_number(number.strip())
+    if value is None or (equals and not name.strip()):
+        raise LagError(f"--atol takes a number, or COMPONENT=NUMBER such as x=1e-18 or der(x)=1e-6, got '{text}'",
+                       Setting("--atol"))
+    return (component_key(name), value) if equals else value
 
 
 def scene_options(parser: argparse.ArgumentParser) -> None:
@@ -86,7 +103,7 @@ def input_options(parser: argparse.ArgumentParser) -> None:
 def overrides(arguments) -> Overrides:
     options = given_options(vars(arguments))
     return Overrides(set_values(arguments.set, with_units=True), arguments.start, arguments.stop, arguments.interval,
-                     arguments.integrator, options)
+                     arguments.integrator, options, given_atol_each(vars(arguments)))
 
 
 def set_values(items: list[str], option: str = "--set",

@@ -43,7 +43,7 @@ def run(arguments) -> int:
     result = model.fit(arguments.data, fitted, outputs=arguments.outputs, sigma=arguments.sigma,
                        scene=arguments.scene, bounds=_bounds(arguments.bound),
                        set=dict(common.set_values(arguments.set, with_units=True)), integrator=arguments.integrator,
-                       **dict(given_options(vars(arguments))))
+                       **dict(given_options(vars(arguments))), **_atol(arguments))
     print(result.render())
     if arguments.file is not None:
         write_output(arguments.file, result.to_json())
@@ -65,3 +65,8 @@ def _bounds(items: list[str]) -> dict[str, tuple[float, float]]:
             raise LagError(f"--bound takes NAME=LOW:HIGH with numbers, got '{item}'", Setting("--bound"))
         bounds[name.strip()] = values
     return bounds
+
+
+def _atol(arguments) -> dict:
+    """--atol as given (numbers and NAME=VALUE pairs), which the plan splits (settings.split_atol)."""
+    return {"atol": arguments.atol} if arguments.atol else {}

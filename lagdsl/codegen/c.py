@@ -6,6 +6,7 @@ from ..escape import c_comment, csv_field
 from ..abi import summary_layout
 from ..integrators import c_file, integrator_source, registry
 from ..integrators.registry import OPTION_ORDER, OPTIONS
+from ..tolerances import atol_vector
 from . import GeneratedSource, template_environment
 from .c_abi import runtime_contract, runtime_header, status_printer, summary_packer, verdict_printer
 from .c_factor import factorisation_text
@@ -73,7 +74,8 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
         "verdict_printer": verdict_printer() if method.stiffness_test else "",
         "t_start": _literal(kernel.time.start), "t_stop": _literal(kernel.time.stop),
         "t_interval": _literal(kernel.time.interval),
-        "options_init": _options_initializer(options),
+        "options_init": _options_initializer(options, "lag_scene_atol_each" if _scene_atol_each(kernel) else "NULL"),
+        "scene_atol_each": _scene_atol_each(kernel),
         "option_fields": _option_fields(method.options),
         "fmu": fmu, "stop_text": kernel.stop_text, "stop": None, "constant_mass": None,      # blocks a scene may not have (below)
         **_gram_tables(kernel),
@@ -146,12 +148,21 @@ def _option_fields(allowed: tuple[str, ...]) -> list[dict[str, str]]:
             for key in OPTION_ORDER if key in allowed]
 
 
-def _options_initializer(options: dict[str, float]) -> str:
-    """lag_options in field order: rtol, atol, step, max_step, stages, max_steps (0: the default)."""
+def _options_initializer(options: dict[str, float], atol_each: str = "NULL") -> str:
+    """lag_options in field order: rtol, atol, step, max_step, stages, max_steps (0: the default),
+    atol_each (the name of the array of the atol of each component of y, or NULL)."""
     values = [options.get("rtol", 0.0), options.get("atol", 0.0), options.get("step", 0.0),
               options.get("max_step", 0.0)]
     counts = [str(int(options.get("stages", 0))), f"{int(options.get('max_steps', 0))}L"]
-    return ", ".join([_literal(v) for v in values] + counts)
+    return ", ".join([_literal(v) for v in values] + counts + [atol_each])
+
+
+def _scene_atol_each(kernel: Kernel) -> list[str]:
+    """The scene's atol per component of y (tolerances.py) as the standalone program's default,
+    or nothing when one atol serves all."""
+    values = atol_vector(dict(kernel.integrator.options).get("atol", 0.0), kernel.integrator.atol_each,
+                         kernel.coordinates, kernel.time.stop - kernel.time.start)
+    return [] if values is None else [", ".join(repr(float(v)) for v in values)]
 
 
 def _literal(value: float) -> str:

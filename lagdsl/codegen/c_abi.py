@@ -16,7 +16,8 @@ from ..integrators import (AUTO_CALM, AUTO_GAIN, CALM_STEPS, COUNTER_LABELS, EXC
                            registry)
 from ..integrators.registry import MAX_STEPS_CEILING
 from ..settings import (DEFAULT_MAX_STEPS, FORECAST_JUDGED_AFTER, FORECAST_WINDOW, GRID_SLACK, MAX_ROWS,
-                        MIN_STEP_EPS, RCOND_MIN_EPS, RTOL_FLOOR_EPS, STEPS_PER_ROW)
+                        MIN_STEP_EPS, RCOND_MIN_EPS, RTOL_FLOOR_EPS, START_STEP_FRACTION, START_STEP_MIN_STEPS,
+                        STEPS_PER_ROW)
 
 VERDICT_NAMES = {VERDICT_STIFF: "LAG_VERDICT_STIFF", VERDICT_OSCILLATION: "LAG_VERDICT_OSCILLATION"}
 # (name, value, what it is): settings.py's numbers as the C driver and integrators read them
@@ -32,6 +33,8 @@ SHARED_CONSTANTS = (
     ("LAG_RTOL_FLOOR_EPS", f"{RTOL_FLOOR_EPS}", "the smallest rtol, in eps ..."),
     ("LAG_RTOL_FLOOR", "(LAG_RTOL_FLOOR_EPS * REAL_EPSILON)", "... and as a number"),
     ("LAG_MIN_STEP_EPS", f"{MIN_STEP_EPS}", "the smallest step, in eps of max(|t|, span)"),
+    ("LAG_START_STEP_MIN_STEPS", f"{START_STEP_MIN_STEPS}", "the smallest first step, in smallest steps"),
+    ("LAG_START_STEP_FRACTION", f"LAG_LIT({START_STEP_FRACTION!r})", "the starting step's probe, in spans"),
     ("LAG_RCOND_MIN", f"({RCOND_MIN_EPS} * REAL_EPSILON)", "below this reciprocal condition, K is singular"),
     ("LAG_AUTO_LOGGED", f"{SWITCH_TIMES}", "the switches of auto whose times the summary keeps"),
     ("LAG_STIFF_STEPS", f"{STIFF_STEPS}", "steps beyond the stability boundary that call for a verdict"),

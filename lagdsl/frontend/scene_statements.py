@@ -3,12 +3,17 @@ output list, a stop condition and draw statements, read with every name of the m
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
+import lark
+
 from .. import ir
 from ..errors import ErrorCollector, LagError, suggest
 from .functions import OBSERVABLES
 from ..integrators import registry
 from ..settings import DEFAULT_INTEGRATOR, DEFAULT_TIME, check_integrator_name, validate_integrator
 from ..source import Span
+from ..tolerances import check_atol_each, component_key
 from .tree import call_arguments, expressions_of, subtree, subtrees, through, tokens, written
 from .values import PoisonedName
 
@@ -99,9 +104,32 @@ class SceneStatements:
         token = tokens(node, "NAME")[0]
         name = str(token)
         check_integrator_name(name, self.span(token))
-        options = self.modifiers(node, registry.get(name).options, f"integrator {name}")
+        record = registry.get(name)
+        per_component = [m for m in subtrees(subtree(node, "modifiers")) if m.data == "component_modifier"] \
+            if subtree(node, "modifiers") is not None else []
+        atol_each = self.atol_each(per_component, name, "atol" in record.options)
+        options = self.modifiers(_without(node, per_component), record.options, f"integrator {name}")
         values = {k: self.numbers.number(v, k, self.scope) for k, v in options.items()}
-        return validate_integrator(name, values, self.span(node), {k: self.span(v) for k, v in options.items()})
+        choice = validate_integrator(name, values, self.span(node), {k: self.span(v) for k, v in options.items()})
+        return replace(choice, atol_each=atol_each)
+
+    def atol_each(self, modifiers, name: str, takes_atol: bool) -> tuple[tuple[str, float], ...]:
+        """`atol(x) = 1e-18`, `atol(der(x)) = 1e-6`: the atol of one component of y (tolerances.py), a
+        plain number in the coordinate's SI unit (per second for a velocity)."""
+        pairs, origins = {}, {}
+        for modifier in modifiers:
+            key, component = modifier.children[0], modifier.children[2]
+            if str(key) != "atol" or not takes_atol:
+                raise LagError(f"'{key}(...)' is not an option of integrator {name}: only atol is given per "
+                               f"coordinate, and only to an adaptive integrator", self.span(key))
+            text = component_key(written(self.span(component)))
+            if text in pairs:
+                raise LagError(f"atol({text}) is given twice", self.span(modifier))
+            pairs[text] = self.numbers.number(modifier.children[-1], f"atol({text})", self.scope)
+            origins[text] = self.span(modifier)
+        check_atol_each(tuple(pairs.items()), tuple(c.name for c in self.coordinates),
+                        registry.get(name).implicit, origins)
+        return tuple(sorted(pairs.items()))
 
     def scene_set(self, node):
         token = tokens(node, "NAME")[0]
@@ -157,3 +185,13 @@ class SceneStatements:
         value = self.expr.scalar(node, self.output_scope(), "a scalar output")
         self.dims.column(scene, node, None, outputs)
         return ir.OutputRequest(column, "expression", value, None, span)
+
+
+def _without(node: lark.Tree, modifiers: list) -> lark.Tree:
+    """`node` with those of its modifiers left out (the per-component ones, read apart)."""
+    block = subtree(node, "modifiers")
+    if block is None or not modifiers:
+        return node
+    kept = lark.Tree("modifiers", [c for c in block.children if not any(c is m for m in modifiers)],
+                     block.meta)
+    return lark.Tree(node.data, [kept if c is block else c for c in node.children], node.meta)

@@ -193,6 +193,9 @@ class _ModelBuilder(Declarations, EquationStatements, SceneStatements, DrawState
             if not isinstance(modifier, lark.Tree):
                 continue
             key = modifier.children[0]
+            if modifier.data == "component_modifier":
+                raise LagError(f"{key}(...) = ... sets an option for one coordinate, which only an integrator's "
+                               f"atol takes{f', not {owner}' if owner else ''}", self.span(modifier))
             if str(key) not in allowed:
                 options = ", ".join(allowed) if allowed else "none"
                 owner_text = f" for {owner}" if owner else ""

@@ -68,7 +68,8 @@ def call_arguments(node: lark.Tree) -> list[lark.Tree]:
 def modifier_items(node: lark.Tree) -> list[tuple[lark.Token, lark.Tree]]:
     """The (key, value) pairs of a statement's `(key = value, ...)` block, as written."""
     block = subtree(node, "modifiers")
-    return [(m.children[0], m.children[2]) for m in (subtrees(block) if block is not None else [])]
+    return [(m.children[0], m.children[2]) for m in (subtrees(block) if block is not None else [])
+            if m.data == "modifier"]
 
 
 def uses_names(node: lark.Tree, *numbers: str) -> bool:

@@ -66,7 +66,7 @@ def _run_summary(plan: RunPlan, layout: SummaryLayout, values: list[float], elap
     return RunSummary("c", plan.integrator.name, tuple(counts.items()), elapsed, invariants, plan.constraints,
                       values[at["residual"]] if plan.constraints else None,
                       values[at["projection"]] if plan.constraints else None,
-                      plan.integrator.options,
+                      plan.integrator.options, atol_each=plan.integrator.atol_each,
                       stiffness=_stiffness(values, at, counts) if "stiff" in at else None,
                       switches=_switches(values, at) if "switches" in at else None,
                       stopped=Stop(plan.stop, values[at["t_stop"]]) if plan.stop and values[at["stopped"]] else None)

@@ -85,8 +85,11 @@ def _integrate(module, par, times, y0, plan: RunPlan, progress: Progress | None,
     scipy equivalent stepped by scipy_steps, or its own Python stepper."""
     record = registry.get(plan.integrator.name)
     constrained = (lambda t, y: project(module, par, t, y)[0]) if plan.constraints else None
+    options = dict(plan.integrator.options)
+    atol_each = plan.atol_vector(plan.coordinates)
+    if atol_each is not None:
+        options["atol"] = np.array(atol_each)
     if record.scipy:
-        options = dict(plan.integrator.options)
         jacobian = (lambda t, y: module.jacobian(t, y, par)) if plan.implicit else None
         problem = ScipyProblem(record.scipy, ctrl_c.checked(lambda t, y: module.rhs(t, y, par)), jacobian,
                                options["rtol"], options["atol"], options.get("max_step"), plan.max_steps,
@@ -94,7 +97,7 @@ def _integrate(module, par, times, y0, plan: RunPlan, progress: Progress | None,
         return integrate_scipy(problem, times, y0, *(() if progress is None else (progress,)))
     module_name, function = record.python.split(":")
     stepper = getattr(importlib.import_module(f"lagdsl.integrators.python.{module_name}"), function)
-    run = PythonRun(module, par, times, y0, dict(plan.integrator.options), plan.max_steps, stop, ctrl_c.checked,
+    run = PythonRun(module, par, times, y0, options, plan.max_steps, stop, ctrl_c.checked,
                     constrained)
     try:
         Y, stats = stepper(run)
@@ -173,6 +176,7 @@ def _numpy_result(module, par, times, states, plan, counts, elapsed, projection,
                       if counts.get(name) is None and record.scipy and counts)
     summary = RunSummary("numpy", plan.integrator.name, kept, elapsed, invariants, plan.constraints, residual,
                          projection if plan.constraints else None, plan.integrator.options,
+                         atol_each=plan.integrator.atol_each,
                          stiffness=counts.get("stiffness"), switches=counts.get("switches"), stopped=stopped,
                          uncounted=uncounted)
     return Result(np.asarray(times, dtype=float), plan.columns, np.asarray(values, dtype=float), summary)

@@ -134,6 +134,7 @@ class RunSummary:
     stopped: Stop | None = None                         # the scene's stop condition ended the run
     error: ErrorEstimate | None = None                  # lagc run --error, simulate(estimate_error=True)
     uncounted: tuple[tuple[str, str], ...] = ()         # counters this run could not keep, and why
+    atol_each: tuple[tuple[str, float], ...] = ()       # atol per component, as given (tolerances.py)
 
     def count(self, counter: str) -> int | None:
         """A work counter ("accepted", "rhs_evals", ...), None when the integrator does not keep it."""
@@ -157,9 +158,10 @@ class RunSummary:
         return "\n".join(lines)
 
     def settings_text(self) -> str:
-        """"rtol = 1e-10, atol = 1e-12" or "step = 0.01, stages = 2", as in a scene."""
+        """"rtol = 1e-10, atol = 1e-12, atol(x) = 1e-18" or "step = 0.01, stages = 2", as in a scene."""
         values = dict(self.settings)
-        return ", ".join(f"{key} = {values[key]:g}" for key in OPTION_ORDER if key in values and key != "max_steps")
+        return ", ".join([f"{key} = {values[key]:g}" for key in OPTION_ORDER if key in values and key != "max_steps"]
+                         + [f"atol({name}) = {value:g}" for name, value in self.atol_each])
 
 
 @dataclass(frozen=True)

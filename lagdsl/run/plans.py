@@ -33,7 +33,7 @@ from .cache import cached_entry, find_entry, package_digest
 from .output import Result
 from .toolchain import find_compiler, library_entry
 
-PLAN_FORMAT = 2
+PLAN_FORMAT = 3
 
 
 @dataclass(frozen=True)
@@ -136,7 +136,8 @@ def _to_json(plan: StoredPlan) -> dict:
     return {
         "scene": s.scene_name,
         "time": [s.time.start, s.time.stop, s.time.interval, _span_json(s.time.span)],
-        "integrator": [s.integrator.name, [list(o) for o in s.integrator.options], _span_json(s.integrator.span)],
+        "integrator": [s.integrator.name, [list(o) for o in s.integrator.options], _span_json(s.integrator.span),
+                       [list(o) for o in s.integrator.atol_each]],
         "parameter_names": list(s.parameters), "structural": sorted(s.structural),
         "coordinates": list(s.coordinates), "set_values": [list(v) for v in s.set_values],
         "initial": [list(v) for v in s.initial], "constraints": list(s.constraints),
@@ -149,10 +150,11 @@ def _to_json(plan: StoredPlan) -> dict:
 
 def _from_json(data: dict, source: SourceFile) -> StoredPlan:
     start, stop, interval, time_span = data["time"]
-    name, options, integrator_span = data["integrator"]
+    name, options, integrator_span, atol_each = data["integrator"]
     settings = SceneSettings(
         data["scene"], TimeGrid(start, stop, interval, _span(time_span, source)),
-        IntegratorChoice(name, tuple((k, v) for k, v in options), _span(integrator_span, source)),
+        IntegratorChoice(name, tuple((k, v) for k, v in options), _span(integrator_span, source),
+                         tuple((k, v) for k, v in atol_each)),
         tuple(data["parameter_names"]), frozenset(data["structural"]), tuple(data["coordinates"]),
         tuple((k, v) for k, v in data["set_values"]), tuple((c, s, v) for c, s, v in data["initial"]),
         tuple(data["constraints"]))

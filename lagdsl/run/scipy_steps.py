@@ -16,7 +16,7 @@ import numpy as np
 from ..abi import HOPELESS, INTERRUPTED, MAX_STEPS, NONFINITE, SINGULAR, STEP_TOO_SMALL
 from ..integrators.forecast import WorkForecast
 from ..integrators.python.stiffness import STABILITY_BOUNDARY, StiffnessTest, SwitchLog
-from ..settings import MIN_STEP_EPS
+from ..settings import START_STEP_FRACTION, min_step, start_step_floor
 from .output import Stiffness, Switches
 from .stop import StopCondition
 
@@ -38,7 +38,7 @@ class ScipyProblem:
     fun: Callable[[float, np.ndarray], np.ndarray]
     jac: Callable[[float, np.ndarray], np.ndarray] | None
     rtol: float
-    atol: float
+    atol: float | np.ndarray                # one, or one per component of y
     max_step: float | None
     max_steps: int
     project: Callable[[float, np.ndarray], np.ndarray] | None = None   # onto the constraints
@@ -82,19 +82,43 @@ def integrate_scipy(problem: ScipyProblem, times: np.ndarray, y0: np.ndarray,
 
 
 def _start(problem: ScipyProblem, t: float, y: np.ndarray, t_end: float, first_step: float | None = None):
+    """scipy's solver at (t, y), with its own first step (which evaluates the model) unless
+    `first_step` is given; a first step that is not a number or lies below the floor
+    (settings.START_STEP_MIN_STEPS: a tiny atol on a component at 0 makes it tiny) is replaced,
+    as the C integrators do."""
+    solver = _solver(problem, t, y, t_end, first_step)
+    if first_step is not None:
+        return solver
+    floor = start_step_floor(t, t_end - t)
+    chosen, probe_evaluations = _chosen_first_step(solver, t, floor)
+    if np.isfinite(chosen) and chosen >= floor:
+        solver = solver if probe_evaluations == 0 else _solver(problem, t, y, t_end, None)
+    else:
+        # scipy's choice of the first step divides by atol + rtol |y|, which is 0 for a
+        # component at 0 under pure relative error control (atol = 0): h is NaN, and the
+        # step loop, which stops when h falls below a floor, never ends. Hairer's fallback.
+        first = floor if np.isfinite(chosen) else max(floor, START_STEP_FRACTION * (t_end - t))
+        solver = _solver(problem, t, y, t_end, min(first, t_end - t))
+    solver.nfev += probe_evaluations
+    return solver
+
+
+def _chosen_first_step(solver, t: float, floor: float) -> tuple[float, int]:
+    """The first step `solver` chose, and the evaluations it cost to find out: LSODA chooses it
+    inside its first step, so that step is taken (on a solver to be discarded)."""
+    if hasattr(solver, "h_abs"):
+        return solver.h_abs, 0
+    solver.step()
+    return (solver.t - t if solver.status != "failed" else floor), solver.nfev
+
+
+def _solver(problem: ScipyProblem, t: float, y: np.ndarray, t_end: float, first_step: float | None):
     from scipy import integrate
     method = getattr(integrate, problem.method)
     extra = {"jac": problem.jac} if problem.jac is not None else {}
     if problem.max_step:
         extra["max_step"] = problem.max_step
-    solver = method(problem.fun, t, y, t_end, rtol=problem.rtol, atol=problem.atol, first_step=first_step, **extra)
-    if not np.isfinite(getattr(solver, "h_abs", 0.0)):
-        # scipy's choice of the first step divides by atol + rtol |y|, which is 0 for a
-        # component at 0 under pure relative error control (atol = 0): h is NaN, and the
-        # step loop, which stops when h falls below a floor, never ends. Hairer's fallback.
-        solver = method(problem.fun, t, y, t_end, rtol=problem.rtol, atol=problem.atol,
-                        first_step=1e-6 * abs(t_end - t), **extra)
-    return solver
+    return method(problem.fun, t, y, t_end, rtol=problem.rtol, atol=problem.atol, first_step=first_step, **extra)
 
 
 def _step(problem: ScipyProblem, solver, times, counts: dict, watch: _StepWatch, forecast: WorkForecast,
@@ -181,11 +205,6 @@ def _stopped(states, counts, solver, t0, y0, status, watch) -> tuple[list, dict,
     if solver is None:
         return states, watch.finish(counts), (status, t0, y0)
     return states, watch.finish(_tally(counts, solver)), (status, solver.t, solver.y)
-
-
-def min_step(t: float, span: float) -> float:
-    """The C integrators' LAG_MIN_STEP: MIN_STEP_EPS eps max(|t|, length of the run)."""
-    return MIN_STEP_EPS * np.finfo(float).eps * max(abs(t), span)
 
 
 def _tally(counts: dict, solver) -> dict:

@@ -377,8 +377,10 @@ def _stacked_chunk(module, members: Members, lo: int, hi: int, values: np.ndarra
     par = members.parameters[lo:hi].T
     y0 = members.initial[lo:hi].T
     n, count = y0.shape
-    rtol, atol = options["rtol"] / math.sqrt(count), options["atol"] / math.sqrt(count)
-    if not (atol > 0 and rtol >= SCIPY_RTOL_FLOOR):
+    atol_each = plan.atol_vector(plan.coordinates)          # component i of member b is entry i*count + b
+    atol = np.repeat(atol_each, count) if atol_each is not None else options["atol"]
+    rtol, atol = options["rtol"] / math.sqrt(count), atol / math.sqrt(count)
+    if not (np.all(atol > 0) and rtol >= SCIPY_RTOL_FLOOR):
         return False        # what scipy would change or cannot start with: as single runs
 
     @ctrl_c.checked

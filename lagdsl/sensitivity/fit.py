@@ -22,7 +22,7 @@ import numpy as np
 import scipy.optimize
 
 from ..errors import LagError, Setting, SimulationError
-from ..settings import Overrides, given_options
+from ..settings import Overrides, given_atol_each, given_options
 from .data import read_data
 from .run import directions
 
@@ -71,7 +71,8 @@ def fit(model, data, params: dict, outputs=None, sigma=None, scene: str | None =
     {column: number} (default 1); `integrator` and `options` (rtol, atol, ...) override the
     scene's."""
     names = directions(model.ir, tuple(params), "--fit").names
-    base = Overrides(tuple((set or {}).items()), integrator=integrator, options=given_options(options or {}))
+    base = Overrides(tuple((set or {}).items()), integrator=integrator, options=given_options(options or {}),
+                     atol_each=given_atol_each(options or {}))
     plan = model.plan(scene, base)
     measured = read_data(data, plan.columns, model.name)
     columns = _chosen_columns(measured.columns, outputs)

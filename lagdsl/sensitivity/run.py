@@ -177,6 +177,9 @@ def integrate(program: Program, plan, chosen: Directions, times: np.ndarray | No
         S0 = onto_constraints(program.model, plan, module, par, state, S0, J)
     y0 = np.concatenate([state, S0.ravel()])
     tolerance = np.full(y0.size, atol)
+    atol_each = plan.atol_vector(plan.coordinates)      # the state's own per component; the sensitivities keep atol
+    if atol_each is not None:
+        tolerance[:2 * n] = atol_each
     if not error_control:
         tolerance[2 * n:] = np.inf
     system = VariationalSystem(module, par, J, n)

@@ -97,6 +97,8 @@ static int r_isfinite(real x) { return x - x == x - x; } /* false for inf and na
 /* The smallest step an adaptive method may take from t on a run of length `span`:
  * LAG_MIN_STEP_EPS eps max(|t|, span) (why: settings.MIN_STEP_EPS). */
 #define LAG_MIN_STEP(t, span) (LAG_MIN_STEP_EPS * REAL_EPSILON * r_fmax(r_fabs(t), (span)))
+/* The smallest first step (why: settings.START_STEP_MIN_STEPS). */
+#define LAG_START_STEP_FLOOR(t, span) (LAG_START_STEP_MIN_STEPS * LAG_MIN_STEP(t, span))
 
 /* What the driver asks of an integrator; unused fields are ignored by each method. */
 typedef struct lag_options {
@@ -106,7 +108,12 @@ typedef struct lag_options {
     int stages;        /* gauss: number of stages s (order 2s) */
     long max_steps;    /* give up after this many attempted steps (every try counts), 0 = no limit;
                         * the driver always sets a limit */
+    const double *atol_each;   /* adaptive methods: the atol of each of the LAG_NY components of y,
+                                * or NULL: atol for every one (lagdsl/tolerances.py) */
 } lag_options;
+
+/* The absolute tolerance of component i of y. */
+#define LAG_ATOL(opt, i) ((opt)->atol_each != NULL ? (real)(opt)->atol_each[i] : (opt)->atol)
 
 /* The members every integrator's lag_stepper begins with, which the driver reads (README.md): the
  * time reached by the last accepted step, the start of that step (the dense output is valid on
@@ -171,6 +178,8 @@ enum lag_status {
 #define LAG_RTOL_FLOOR_EPS 10                    /* the smallest rtol, in eps ... */
 #define LAG_RTOL_FLOOR (LAG_RTOL_FLOOR_EPS * REAL_EPSILON) /* ... and as a number */
 #define LAG_MIN_STEP_EPS 10                      /* the smallest step, in eps of max(|t|, span) */
+#define LAG_START_STEP_MIN_STEPS 100             /* the smallest first step, in smallest steps */
+#define LAG_START_STEP_FRACTION LAG_LIT(1e-06)   /* the starting step's probe, in spans */
 #define LAG_RCOND_MIN (1000 * REAL_EPSILON)      /* below this reciprocal condition, K is singular */
 #define LAG_AUTO_LOGGED 8                        /* the switches of auto whose times the summary keeps */
 #define LAG_STIFF_STEPS 15                       /* steps beyond the stability boundary that call for a verdict */
@@ -543,7 +552,8 @@ static int lag_outputs(const lag_system *sys, real t, const real *y, real *out, 
  * 0.9 h_n (h_n / h_{n-1}) (err_{n-1} / err_n^2)^1/4, limited to the same range.
  * A rejected first step is retried with h/10; a right-hand side that fails in a stage (the
  * trial left the domain of the model) or gives non-finite values, with h/10 as well (interface
- * README).  The first step is opt->step, or 1e-6 as in RADAU5 (it adapts within a few steps).
+ * README).  The first step is opt->step, or 1e-6 of the span (RADAU5's 1e-6, which
+ * assumes t of order 1), at least LAG_START_STEP_FLOOR (it adapts within a few steps).
  * When h falls below LAG_MIN_STEP = 10 eps max(|t|, t_end - t0) the reason of the last failure
  * is returned: the right-hand side's status, LAG_ERR_NO_CONVERGENCE for Newton,
  * LAG_ERR_STEP_TOO_SMALL for the error test.
@@ -588,7 +598,7 @@ typedef struct lag_stepper {
     LAG_STEPPER_PUBLIC(lag_stats)  /* t, t_old, y, h and stats, which the driver reads (runtime.h) */
     /* the problem */
     const lag_system *sys;
-    real t_end, span, h_max, rtol, atol, fnewt;
+    real t_end, span, h_max, rtol, atol[LAG_NY], fnewt;   /* atol' per component of y */
     long max_steps;
     /* the method: nodes, eigenvalues of A^-1, the eigenbasis T with
      * T^-1 A^-1 T = [[gamma, 0, 0], [0, alpha, -beta], [0, beta, alpha]], error weights dd = e/gamma0 */
@@ -1092,7 +1102,7 @@ static real radau_norm(const lag_stepper *s, const real *e)
     int i;
     for (i = 0; i < LAG_NY; ++i) {
         real y1 = s->y[i] + s->z[2][i];
-        real sk = s->atol + s->rtol * r_fmax(r_fabs(s->y[i]), r_fabs(y1));
+        real sk = s->atol[i] + s->rtol * r_fmax(r_fabs(s->y[i]), r_fabs(y1));
         sum += (e[i] / sk) * (e[i] / sk);
     }
     return r_sqrt(sum / LAG_NY);
@@ -1189,11 +1199,12 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
         s->y[i] = y0[i];
     radau_coefficients(s);
     s->rtol = LAG_LIT(0.1) * r_pow(rtol, 2 / LAG_LIT(3.0));
-    s->atol = r_fmax(s->rtol * (opt->atol / rtol), REAL_MIN);
+    for (i = 0; i < LAG_NY; ++i)
+        s->atol[i] = r_fmax(s->rtol * (LAG_ATOL(opt, i) / rtol), REAL_MIN);
     s->fnewt = r_fmax(10 * REAL_EPSILON / s->rtol, r_fmin(LAG_LIT(0.03), r_sqrt(s->rtol)));
     s->max_steps = opt->max_steps;
     s->h_max = opt->max_step > 0 ? r_fmin(opt->max_step, t_end - t0) : t_end - t0;
-    s->h = opt->step > 0 ? opt->step : LAG_LIT(1e-6);
+    s->h = opt->step > 0 ? opt->step : r_fmax(LAG_START_STEP_FRACTION * s->span, LAG_START_STEP_FLOOR(t0, s->span));
     s->h = r_fmin(s->h, s->h_max);
     s->h_old = s->h_acc = s->h;
     s->err_acc = 1;
@@ -1225,7 +1236,7 @@ static int lag_stepper_step(lag_stepper *s)
         s->have_f0 = 1;
     }
     for (i = 0; i < LAG_NY; ++i)
-        s->scal[i] = s->atol + s->rtol * r_fabs(s->y[i]);
+        s->scal[i] = s->atol[i] + s->rtol * r_fabs(s->y[i]);
     for (;;) {
         real err, shrink, fac, quot;
         if (s->max_steps > 0 && s->stats.accepted + s->stats.rejected >= s->max_steps)
@@ -1761,7 +1772,7 @@ static void lag_pack_summary(const lag_report *report, double *summary)
  *
  * Pasted after driver.c and the generated lag_pack_summary. A run takes the settings vector
  * (its entries LAG_SET_T_START ... LAG_SET_MAX_STEPS, lagdsl.abi.SETTINGS; max_steps 0 for the
- * default limit), already checked as `lagc run` checks them, and writes its summary as
+ * default limit; then the atol of each of the LAG_NY components of y), already checked as `lagc run` checks them, and writes its summary as
  * lagdsl.abi.SummaryLayout lays it out (LAG_SUMMARY_SIZE doubles). The caller resets
  * lag_interrupt before a call.
  */
@@ -1807,6 +1818,7 @@ static int lag_run_member(const double *parameters, const double *initial, const
     options.max_step = settings[LAG_SET_MAX_STEP];
     options.stages = (int)settings[LAG_SET_STAGES];
     options.max_steps = (long)settings[LAG_SET_MAX_STEPS];
+    options.atol_each = settings + LAG_SETTINGS;
     lag_integrate(&sys, y0, settings[LAG_SET_T_START], settings[LAG_SET_T_STOP], settings[LAG_SET_T_INTERVAL],
                   &options, sink, context, &report);
     lag_pack_summary(&report, summary);
@@ -1893,7 +1905,7 @@ void lag_run_batch(long members, const double *parameters, const double *initial
 #define LAG_SCENE_T_START LAG_LIT(0.0)
 #define LAG_SCENE_T_STOP LAG_LIT(10.0)
 #define LAG_SCENE_T_INTERVAL LAG_LIT(0.1)
-#define LAG_SCENE_OPTIONS { LAG_LIT(1e-08), LAG_LIT(1e-10), LAG_LIT(0.0), LAG_LIT(0.0), 0, 0L }
+#define LAG_SCENE_OPTIONS { LAG_LIT(1e-08), LAG_LIT(1e-10), LAG_LIT(0.0), LAG_LIT(0.0), 0, 0L, NULL }
 
 /* NAME=VALUE for an option of radau5: set it and return 1; 0 when NAME is none of its options;
  * -1 after saying that the value is not allowed (the checks of lagc run). */
@@ -1914,6 +1926,7 @@ static int lag_option_setting(const char *program, const char *text, const char 
             return -1;
         }
         options->atol = value;
+        options->atol_each = NULL;    /* one atol for every component */
         return 1;
     }
     if (strncmp(text, "max-step=", 9) == 0) {
@@ -2392,9 +2405,9 @@ static int lag_batch_main(const char *program, const lag_member *given, real t0,
                           const lag_options *options)
 {
     lag_members members = { 0, 0, NULL, NULL };
-    double settings[LAG_SETTINGS];
+    double settings[LAG_SETTINGS + LAG_NY];
     long last = lag_last_row(t0, t1, dt);
-    int status = 2;
+    int i, status = 2;
     settings[LAG_SET_T_START] = (double)t0;
     settings[LAG_SET_T_STOP] = (double)t1;
     settings[LAG_SET_T_INTERVAL] = (double)dt;
@@ -2404,6 +2417,8 @@ static int lag_batch_main(const char *program, const lag_member *given, real t0,
     settings[LAG_SET_MAX_STEP] = (double)options->max_step;
     settings[LAG_SET_STAGES] = options->stages;
     settings[LAG_SET_MAX_STEPS] = (double)lag_step_limit(options, t0, t1, last);
+    for (i = 0; i < LAG_NY; ++i)
+        settings[LAG_SETTINGS + i] = (double)LAG_ATOL(options, i);
     if (lag_read_members(program, given, &members)) {
         lag_print_header(1);
         lag_catch_interrupt();    /* members in flight stop, the others are not begun */

@@ -97,6 +97,8 @@ static int r_isfinite(real x) { return x - x == x - x; } /* false for inf and na
 /* The smallest step an adaptive method may take from t on a run of length `span`:
  * LAG_MIN_STEP_EPS eps max(|t|, span) (why: settings.MIN_STEP_EPS). */
 #define LAG_MIN_STEP(t, span) (LAG_MIN_STEP_EPS * REAL_EPSILON * r_fmax(r_fabs(t), (span)))
+/* The smallest first step (why: settings.START_STEP_MIN_STEPS). */
+#define LAG_START_STEP_FLOOR(t, span) (LAG_START_STEP_MIN_STEPS * LAG_MIN_STEP(t, span))
 
 /* What the driver asks of an integrator; unused fields are ignored by each method. */
 typedef struct lag_options {
@@ -106,7 +108,12 @@ typedef struct lag_options {
     int stages;        /* gauss: number of stages s (order 2s) */
     long max_steps;    /* give up after this many attempted steps (every try counts), 0 = no limit;
                         * the driver always sets a limit */
+    const double *atol_each;   /* adaptive methods: the atol of each of the LAG_NY components of y,
+                                * or NULL: atol for every one (lagdsl/tolerances.py) */
 } lag_options;
+
+/* The absolute tolerance of component i of y. */
+#define LAG_ATOL(opt, i) ((opt)->atol_each != NULL ? (real)(opt)->atol_each[i] : (opt)->atol)
 
 /* The members every integrator's lag_stepper begins with, which the driver reads (README.md): the
  * time reached by the last accepted step, the start of that step (the dense output is valid on
@@ -171,6 +178,8 @@ enum lag_status {
 #define LAG_RTOL_FLOOR_EPS 10                    /* the smallest rtol, in eps ... */
 #define LAG_RTOL_FLOOR (LAG_RTOL_FLOOR_EPS * REAL_EPSILON) /* ... and as a number */
 #define LAG_MIN_STEP_EPS 10                      /* the smallest step, in eps of max(|t|, span) */
+#define LAG_START_STEP_MIN_STEPS 100             /* the smallest first step, in smallest steps */
+#define LAG_START_STEP_FRACTION LAG_LIT(1e-06)   /* the starting step's probe, in spans */
 #define LAG_RCOND_MIN (1000 * REAL_EPSILON)      /* below this reciprocal condition, K is singular */
 #define LAG_AUTO_LOGGED 8                        /* the switches of auto whose times the summary keeps */
 #define LAG_STIFF_STEPS 15                       /* steps beyond the stability boundary that call for a verdict */
@@ -971,7 +980,7 @@ static int lag_outputs(const lag_system *sys, real t, const real *y, real *out, 
  *
  * Pasted once, after the model and before dopri5.c, dop853.c or rkn8.c (rk4.c does not use it).
  *
- * - Error norm: the root mean square of e_i / (atol + rtol max(|y0_i|, |y1_i|)),
+ * - Error norm: the root mean square of e_i / (atol_i + rtol max(|y0_i|, |y1_i|)),
  *   Hairer-Norsett-Wanner I (HNW I), Section II.4, (4.11); a step is accepted when err <= 1.
  * - New step size: h_new = h * min(10, max(0.2, 0.9 err^(-1/p))), HNW I, II.4, (4.13), p being
  *   the order of the error estimate's leading term (5 for DOPRI5, 8 for DOP853, 7 for RKN8).
@@ -981,7 +990,7 @@ static int lag_outputs(const lag_system *sys, real t, const real *y, real *out, 
  *   err_old^0.04 (DOPRI5), whose smaller average error per step costs about 6% more steps at
  *   tight tolerances.
  * - Starting step size: the algorithm of HNW I, II.4 ("Starting Step Size"), which costs one
- *   right-hand side evaluation.
+ *   right-hand side evaluation, raised to LAG_START_STEP_FLOOR.
  * Integration runs forward only (t_end > t0), as the driver does.
  */
 
@@ -998,7 +1007,7 @@ typedef struct lag_stats {
 } lag_stats;
 
 typedef struct lag_control {
-    real rtol, atol;
+    real rtol, atol[LAG_NY];   /* atol per component of y */
     real t_end;      /* no step goes past it; the last one lands on it exactly */
     real span;       /* t_end - t0, the scale of the smallest step (LAG_MIN_STEP) */
     real hmax;
@@ -1027,8 +1036,10 @@ static const real lag_control_safety = LAG_LIT(0.9),
 /* `order` is p, the power of h in the local error estimate (5 DOPRI5, 8 DOP853, 7 RKN8). */
 static void lag_control_init(lag_control *c, const lag_options *opt, real t0, real t_end, int order)
 {
+    int i;
     c->rtol = opt->rtol;
-    c->atol = opt->atol;
+    for (i = 0; i < LAG_NY; ++i)
+        c->atol[i] = LAG_ATOL(opt, i);
     c->t_end = t_end;
     c->span = t_end - t0;
     c->hmax = opt->max_step > 0 ? opt->max_step : t_end - t0;
@@ -1044,13 +1055,13 @@ static int lag_control_rhs(const lag_system *sys, lag_stats *stats, real t, cons
     return lag_rhs(sys, t, y, f);
 }
 
-/* The scale of component i in the error norm (4.11). max(|y0|, |y1|) is written out rather
+/* The scale of component i in the error norm (4.11), y0 and y1 its values at both ends. max(|y0|, |y1|) is written out rather
  * than called (fmax is a libm call that GCC keeps, and the error loops would not vectorise); it
  * takes |y0| when y1 is NaN, as fmax does. */
-static real lag_control_scale(const lag_control *c, real y0, real y1)
+static real lag_control_scale(const lag_control *c, int i, real y0, real y1)
 {
     real a0 = r_fabs(y0), a1 = r_fabs(y1);
-    return c->atol + c->rtol * (a1 > a0 ? a1 : a0);
+    return c->atol[i] + c->rtol * (a1 > a0 ? a1 : a0);
 }
 
 /* The sum of x_i^2 over n entries, in four interleaved partial sums: the additions of one
@@ -1069,31 +1080,30 @@ static real lag_sum_of_squares(int n, const real *x)
     return (partial[0] + partial[1]) + (partial[2] + partial[3]);
 }
 
-/* The first step: opt->step if given, else HNW I, II.4, steps (a)-(f).  f = f(t, y). */
-static real lag_control_first_step(const lag_control *c, const lag_options *opt, const lag_system *sys,
-                                   lag_stats *stats, real t, const real *y, const real *f)
+/* The starting step estimate of HNW I, II.4, steps (a)-(f), with the probe steps of (a) and (e)
+ * as fractions of the span (Hairer's 1e-6 assumes t of order 1).  f = f(t, y). */
+static real lag_control_estimate_first_step(const lag_control *c, const lag_system *sys, lag_stats *stats,
+                                            real t, const real *y, const real *f)
 {
     real y1[LAG_NY], f1[LAG_NY];
     real d0 = 0, d1 = 0, d2 = 0, h0, h1, dmax, w;
     int i;
-    if (opt->step > 0)
-        return r_fmin(opt->step, c->hmax);
     for (i = 0; i < LAG_NY; ++i) {
-        w = lag_control_scale(c, y[i], y[i]);
+        w = lag_control_scale(c, i, y[i], y[i]);
         d0 += (y[i] / w) * (y[i] / w);
         d1 += (f[i] / w) * (f[i] / w);
     }
     d0 = r_sqrt(d0 / LAG_NY);
     d1 = r_sqrt(d1 / LAG_NY);
     /* (b) the step that changes y by about 1% of its size, to probe f' by a difference */
-    h0 = d0 < LAG_LIT(1e-5) || d1 < LAG_LIT(1e-5) ? LAG_LIT(1e-6) : LAG_LIT(0.01) * d0 / d1;
+    h0 = d0 < LAG_LIT(1e-5) || d1 < LAG_LIT(1e-5) ? LAG_START_STEP_FRACTION * c->span : LAG_LIT(0.01) * d0 / d1;
     h0 = r_fmin(h0, c->hmax);
     for (i = 0; i < LAG_NY; ++i)
         y1[i] = y[i] + h0 * f[i];
     if (lag_control_rhs(sys, stats, t + h0, y1, f1) != LAG_OK)
         return h0;  /* a probe outside the model's domain only loses the refinement */
     for (i = 0; i < LAG_NY; ++i) {
-        w = (f1[i] - f[i]) / lag_control_scale(c, y[i], y[i]);
+        w = (f1[i] - f[i]) / lag_control_scale(c, i, y[i], y[i]);
         d2 += w * w;
     }
     d2 = r_sqrt(d2 / LAG_NY) / h0;
@@ -1101,9 +1111,20 @@ static real lag_control_first_step(const lag_control *c, const lag_options *opt,
         return h0;
     /* (e) the step whose local error, about max(d1, d2) h^order, is 0.01 */
     dmax = r_fmax(d1, d2);
-    h1 = dmax <= LAG_LIT(1e-15) ? r_fmax(LAG_LIT(1e-6), h0 * LAG_LIT(1e-3))
+    h1 = dmax <= LAG_LIT(1e-15) ? r_fmax(LAG_START_STEP_FRACTION * c->span, h0 * LAG_LIT(1e-3))
                                 : r_pow(LAG_LIT(0.01) / dmax, c->exponent);
     return r_fmin(r_fmin(100 * h0, h1), c->hmax);
+}
+
+/* The first step: opt->step if given, else the estimate raised to LAG_START_STEP_FLOOR (an
+ * estimate below the resolution of t is no collapse: settings.START_STEP_MIN_STEPS), at most hmax. */
+static real lag_control_first_step(const lag_control *c, const lag_options *opt, const lag_system *sys,
+                                   lag_stats *stats, real t, const real *y, const real *f)
+{
+    if (opt->step > 0)
+        return r_fmin(opt->step, c->hmax);
+    return r_fmin(r_fmax(lag_control_estimate_first_step(c, sys, stats, t, y, f), LAG_START_STEP_FLOOR(t, c->span)),
+                  c->hmax);
 }
 
 /* The size h of the next trial from t, given the proposal h_proposed, and its end t_new: at most
@@ -1612,7 +1633,7 @@ static real dop853_solution(lag_stepper *s, real h)
         increment = dp8_b1 * s->k1[i] + dp8_b6 * s->k6[i] + dp8_b7 * s->k7[i] + dp8_b8 * s->k8[i]
                     + dp8_b9 * s->k9[i] + dp8_b10 * s->k10[i] + dp8_b11 * s->k11[i] + dp8_b12 * s->k12[i];
         s->y_new[i] = s->y[i] + h * increment;
-        w = lag_control_scale(&s->control, s->y[i], s->y_new[i]);
+        w = lag_control_scale(&s->control, i, s->y[i], s->y_new[i]);
         s->error3[i] = (increment - dp8_bhat1 * s->k1[i] - dp8_bhat9 * s->k9[i] - dp8_bhat12 * s->k12[i]) / w;
         s->error5[i] = (dp8_e1 * s->k1[i] + dp8_e6 * s->k6[i] + dp8_e7 * s->k7[i] + dp8_e8 * s->k8[i]
                         + dp8_e9 * s->k9[i] + dp8_e10 * s->k10[i] + dp8_e11 * s->k11[i]
@@ -2309,7 +2330,7 @@ static void lag_pack_summary(const lag_report *report, double *summary)
  *
  * Pasted after driver.c and the generated lag_pack_summary. A run takes the settings vector
  * (its entries LAG_SET_T_START ... LAG_SET_MAX_STEPS, lagdsl.abi.SETTINGS; max_steps 0 for the
- * default limit), already checked as `lagc run` checks them, and writes its summary as
+ * default limit; then the atol of each of the LAG_NY components of y), already checked as `lagc run` checks them, and writes its summary as
  * lagdsl.abi.SummaryLayout lays it out (LAG_SUMMARY_SIZE doubles). The caller resets
  * lag_interrupt before a call.
  */
@@ -2355,6 +2376,7 @@ static int lag_run_member(const double *parameters, const double *initial, const
     options.max_step = settings[LAG_SET_MAX_STEP];
     options.stages = (int)settings[LAG_SET_STAGES];
     options.max_steps = (long)settings[LAG_SET_MAX_STEPS];
+    options.atol_each = settings + LAG_SETTINGS;
     lag_integrate(&sys, y0, settings[LAG_SET_T_START], settings[LAG_SET_T_STOP], settings[LAG_SET_T_INTERVAL],
                   &options, sink, context, &report);
     lag_pack_summary(&report, summary);
@@ -2441,7 +2463,7 @@ void lag_run_batch(long members, const double *parameters, const double *initial
 #define LAG_SCENE_T_START LAG_LIT(0.0)
 #define LAG_SCENE_T_STOP LAG_LIT(10.0)
 #define LAG_SCENE_T_INTERVAL LAG_LIT(0.01)
-#define LAG_SCENE_OPTIONS { LAG_LIT(1e-08), LAG_LIT(1e-10), LAG_LIT(0.0), LAG_LIT(0.0), 0, 0L }
+#define LAG_SCENE_OPTIONS { LAG_LIT(1e-08), LAG_LIT(1e-10), LAG_LIT(0.0), LAG_LIT(0.0), 0, 0L, NULL }
 
 /* NAME=VALUE for an option of dop853: set it and return 1; 0 when NAME is none of its options;
  * -1 after saying that the value is not allowed (the checks of lagc run). */
@@ -2462,6 +2484,7 @@ static int lag_option_setting(const char *program, const char *text, const char 
             return -1;
         }
         options->atol = value;
+        options->atol_each = NULL;    /* one atol for every component */
         return 1;
     }
     if (strncmp(text, "max-step=", 9) == 0) {
@@ -2955,9 +2978,9 @@ static int lag_batch_main(const char *program, const lag_member *given, real t0,
                           const lag_options *options)
 {
     lag_members members = { 0, 0, NULL, NULL };
-    double settings[LAG_SETTINGS];
+    double settings[LAG_SETTINGS + LAG_NY];
     long last = lag_last_row(t0, t1, dt);
-    int status = 2;
+    int i, status = 2;
     settings[LAG_SET_T_START] = (double)t0;
     settings[LAG_SET_T_STOP] = (double)t1;
     settings[LAG_SET_T_INTERVAL] = (double)dt;
@@ -2967,6 +2990,8 @@ static int lag_batch_main(const char *program, const lag_member *given, real t0,
     settings[LAG_SET_MAX_STEP] = (double)options->max_step;
     settings[LAG_SET_STAGES] = options->stages;
     settings[LAG_SET_MAX_STEPS] = (double)lag_step_limit(options, t0, t1, last);
+    for (i = 0; i < LAG_NY; ++i)
+        settings[LAG_SETTINGS + i] = (double)LAG_ATOL(options, i);
     if (lag_read_members(program, given, &members)) {
         lag_print_header(1);
         lag_catch_interrupt();    /* members in flight stop, the others are not begun */

@@ -97,6 +97,8 @@ static int r_isfinite(real x) { return x - x == x - x; } /* false for inf and na
 /* The smallest step an adaptive method may take from t on a run of length `span`:
  * LAG_MIN_STEP_EPS eps max(|t|, span) (why: settings.MIN_STEP_EPS). */
 #define LAG_MIN_STEP(t, span) (LAG_MIN_STEP_EPS * REAL_EPSILON * r_fmax(r_fabs(t), (span)))
+/* The smallest first step (why: settings.START_STEP_MIN_STEPS). */
+#define LAG_START_STEP_FLOOR(t, span) (LAG_START_STEP_MIN_STEPS * LAG_MIN_STEP(t, span))
 
 /* What the driver asks of an integrator; unused fields are ignored by each method. */
 typedef struct lag_options {
@@ -106,7 +108,12 @@ typedef struct lag_options {
     int stages;        /* gauss: number of stages s (order 2s) */
     long max_steps;    /* give up after this many attempted steps (every try counts), 0 = no limit;
                         * the driver always sets a limit */
+    const double *atol_each;   /* adaptive methods: the atol of each of the LAG_NY components of y,
+                                * or NULL: atol for every one (lagdsl/tolerances.py) */
 } lag_options;
+
+/* The absolute tolerance of component i of y. */
+#define LAG_ATOL(opt, i) ((opt)->atol_each != NULL ? (real)(opt)->atol_each[i] : (opt)->atol)
 
 /* The members every integrator's lag_stepper begins with, which the driver reads (README.md): the
  * time reached by the last accepted step, the start of that step (the dense output is valid on
@@ -171,6 +178,8 @@ enum lag_status {
 #define LAG_RTOL_FLOOR_EPS 10                    /* the smallest rtol, in eps ... */
 #define LAG_RTOL_FLOOR (LAG_RTOL_FLOOR_EPS * REAL_EPSILON) /* ... and as a number */
 #define LAG_MIN_STEP_EPS 10                      /* the smallest step, in eps of max(|t|, span) */
+#define LAG_START_STEP_MIN_STEPS 100             /* the smallest first step, in smallest steps */
+#define LAG_START_STEP_FRACTION LAG_LIT(1e-06)   /* the starting step's probe, in spans */
 #define LAG_RCOND_MIN (1000 * REAL_EPSILON)      /* below this reciprocal condition, K is singular */
 #define LAG_AUTO_LOGGED 8                        /* the switches of auto whose times the summary keeps */
 #define LAG_STIFF_STEPS 15                       /* steps beyond the stability boundary that call for a verdict */
@@ -1019,7 +1028,7 @@ static void lag_pack_summary(const lag_report *report, double *summary)
  *
  * Pasted after driver.c and the generated lag_pack_summary. A run takes the settings vector
  * (its entries LAG_SET_T_START ... LAG_SET_MAX_STEPS, lagdsl.abi.SETTINGS; max_steps 0 for the
- * default limit), already checked as `lagc run` checks them, and writes its summary as
+ * default limit; then the atol of each of the LAG_NY components of y), already checked as `lagc run` checks them, and writes its summary as
  * lagdsl.abi.SummaryLayout lays it out (LAG_SUMMARY_SIZE doubles). The caller resets
  * lag_interrupt before a call.
  */
@@ -1065,6 +1074,7 @@ static int lag_run_member(const double *parameters, const double *initial, const
     options.max_step = settings[LAG_SET_MAX_STEP];
     options.stages = (int)settings[LAG_SET_STAGES];
     options.max_steps = (long)settings[LAG_SET_MAX_STEPS];
+    options.atol_each = settings + LAG_SETTINGS;
     lag_integrate(&sys, y0, settings[LAG_SET_T_START], settings[LAG_SET_T_STOP], settings[LAG_SET_T_INTERVAL],
                   &options, sink, context, &report);
     lag_pack_summary(&report, summary);
@@ -1151,7 +1161,7 @@ void lag_run_batch(long members, const double *parameters, const double *initial
 #define LAG_SCENE_T_START LAG_LIT(0.0)
 #define LAG_SCENE_T_STOP LAG_LIT(0.5)
 #define LAG_SCENE_T_INTERVAL LAG_LIT(0.01)
-#define LAG_SCENE_OPTIONS { LAG_LIT(0.0), LAG_LIT(0.0), LAG_LIT(0.001), LAG_LIT(0.0), 0, 0L }
+#define LAG_SCENE_OPTIONS { LAG_LIT(0.0), LAG_LIT(0.0), LAG_LIT(0.001), LAG_LIT(0.0), 0, 0L, NULL }
 
 /* NAME=VALUE for an option of rk4: set it and return 1; 0 when NAME is none of its options;
  * -1 after saying that the value is not allowed (the checks of lagc run). */
@@ -1631,9 +1641,9 @@ static int lag_batch_main(const char *program, const lag_member *given, real t0,
                           const lag_options *options)
 {
     lag_members members = { 0, 0, NULL, NULL };
-    double settings[LAG_SETTINGS];
+    double settings[LAG_SETTINGS + LAG_NY];
     long last = lag_last_row(t0, t1, dt);
-    int status = 2;
+    int i, status = 2;
     settings[LAG_SET_T_START] = (double)t0;
     settings[LAG_SET_T_STOP] = (double)t1;
     settings[LAG_SET_T_INTERVAL] = (double)dt;
@@ -1643,6 +1653,8 @@ static int lag_batch_main(const char *program, const lag_member *given, real t0,
     settings[LAG_SET_MAX_STEP] = (double)options->max_step;
     settings[LAG_SET_STAGES] = options->stages;
     settings[LAG_SET_MAX_STEPS] = (double)lag_step_limit(options, t0, t1, last);
+    for (i = 0; i < LAG_NY; ++i)
+        settings[LAG_SETTINGS + i] = (double)LAG_ATOL(options, i);
     if (lag_read_members(program, given, &members)) {
         lag_print_header(1);
         lag_catch_interrupt();    /* members in flight stop, the others are not begun */

@@ -274,7 +274,7 @@ static real dop853_solution(lag_stepper *s, real h)
         increment = dp8_b1 * s->k1[i] + dp8_b6 * s->k6[i] + dp8_b7 * s->k7[i] + dp8_b8 * s->k8[i]
                     + dp8_b9 * s->k9[i] + dp8_b10 * s->k10[i] + dp8_b11 * s->k11[i] + dp8_b12 * s->k12[i];
         s->y_new[i] = s->y[i] + h * increment;
-        w = lag_control_scale(&s->control, s->y[i], s->y_new[i]);
+        w = lag_control_scale(&s->control, i, s->y[i], s->y_new[i]);
         s->error3[i] = (increment - dp8_bhat1 * s->k1[i] - dp8_bhat9 * s->k9[i] - dp8_bhat12 * s->k12[i]) / w;
         s->error5[i] = (dp8_e1 * s->k1[i] + dp8_e6 * s->k6[i] + dp8_e7 * s->k7[i] + dp8_e8 * s->k8[i]
                         + dp8_e9 * s->k9[i] + dp8_e10 * s->k10[i] + dp8_e11 * s->k11[i]

@@ -91,7 +91,7 @@ static int dopri5_trial(lag_stepper *s, real h, real t_new, real *err)
     for (i = 0; i < LAG_NY; ++i)
         s->error[i] = h * (dp5_e1 * s->k1[i] + dp5_e3 * s->k3[i] + dp5_e4 * s->k4[i] + dp5_e5 * s->k5[i]
                            + dp5_e6 * s->k6[i] + dp5_e7 * s->k7[i])
-                      / lag_control_scale(&s->control, s->y[i], s->y_new[i]);
+                      / lag_control_scale(&s->control, i, s->y[i], s->y_new[i]);
     *err = r_sqrt(lag_sum_of_squares(LAG_NY, s->error) / LAG_NY);
     if (*err <= 1)      /* a step that passes: stages 6 and 7 (FSAL) both evaluate f at t_new */
         lag_stiffness_measure(&s->stiffness, h, s->y_new, s->y_stage, s->k7, s->k6);

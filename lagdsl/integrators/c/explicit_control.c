@@ -2,7 +2,7 @@
  *
  * Pasted once, after the model and before dopri5.c, dop853.c or rkn8.c (rk4.c does not use it).
  *
- * - Error norm: the root mean square of e_i / (atol + rtol max(|y0_i|, |y1_i|)),
+ * - Error norm: the root mean square of e_i / (atol_i + rtol max(|y0_i|, |y1_i|)),
  *   Hairer-Norsett-Wanner I (HNW I), Section II.4, (4.11); a step is accepted when err <= 1.
  * - New step size: h_new = h * min(10, max(0.2, 0.9 err^(-1/p))), HNW I, II.4, (4.13), p being
  *   the order of the error estimate's leading term (5 for DOPRI5, 8 for DOP853, 7 for RKN8).
@@ -12,7 +12,7 @@
  *   err_old^0.04 (DOPRI5), whose smaller average error per step costs about 6% more steps at
  *   tight tolerances.
  * - Starting step size: the algorithm of HNW I, II.4 ("Starting Step Size"), which costs one
- *   right-hand side evaluation.
+ *   right-hand side evaluation, raised to LAG_START_STEP_FLOOR.
  * Integration runs forward only (t_end > t0), as the driver does.
  */
 
@@ -29,7 +29,7 @@ typedef struct lag_stats {
 } lag_stats;
 
 typedef struct lag_control {
-    real rtol, atol;
+    real rtol, atol[LAG_NY];   /* atol per component of y */
     real t_end;      /* no step goes past it; the last one lands on it exactly */
     real span;       /* t_end - t0, the scale of the smallest step (LAG_MIN_STEP) */
     real hmax;
@@ -58,8 +58,10 @@ static const real lag_control_safety = LAG_LIT(0.9),
 /* `order` is p, the power of h in the local error estimate (5 DOPRI5, 8 DOP853, 7 RKN8). */
 static void lag_control_init(lag_control *c, const lag_options *opt, real t0, real t_end, int order)
 {
+    int i;
     c->rtol = opt->rtol;
-    c->atol = opt->atol;
+    for (i = 0; i < LAG_NY; ++i)
+        c->atol[i] = LAG_ATOL(opt, i);
     c->t_end = t_end;
     c->span = t_end - t0;
     c->hmax = opt->max_step > 0 ? opt->max_step : t_end - t0;
@@ -75,13 +77,13 @@ static int lag_control_rhs(const lag_system *sys, lag_stats *stats, real t, cons
     return lag_rhs(sys, t, y, f);
 }
 
-/* The scale of component i in the error norm (4.11). max(|y0|, |y1|) is written out rather
+/* The scale of component i in the error norm (4.11), y0 and y1 its values at both ends. max(|y0|, |y1|) is written out rather
  * than called (fmax is a libm call that GCC keeps, and the error loops would not vectorise); it
  * takes |y0| when y1 is NaN, as fmax does. */
-static real lag_control_scale(const lag_control *c, real y0, real y1)
+static real lag_control_scale(const lag_control *c, int i, real y0, real y1)
 {
     real a0 = r_fabs(y0), a1 = r_fabs(y1);
-    return c->atol + c->rtol * (a1 > a0 ? a1 : a0);
+    return c->atol[i] + c->rtol * (a1 > a0 ? a1 : a0);
 }
 
 /* The sum of x_i^2 over n entries, in four interleaved partial sums: the additions of one
@@ -100,31 +102,30 @@ static real lag_sum_of_squares(int n, const real *x)
     return (partial[0] + partial[1]) + (partial[2] + partial[3]);
 }
 
-/* The first step: opt->step if given, else HNW I, II.4, steps (a)-(f).  f = f(t, y). */
-static real lag_control_first_step(const lag_control *c, const lag_options *opt, const lag_system *sys,
-                                   lag_stats *stats, real t, const real *y, const real *f)
+/* The starting step estimate of HNW I, II.4, steps (a)-(f), with the probe steps of (a) and (e)
+ * as fractions of the span (Hairer's 1e-6 assumes t of order 1).  f = f(t, y). */
+static real lag_control_estimate_first_step(const lag_control *c, const lag_system *sys, lag_stats *stats,
+                                            real t, const real *y, const real *f)
 {
     real y1[LAG_NY], f1[LAG_NY];
     real d0 = 0, d1 = 0, d2 = 0, h0, h1, dmax, w;
     int i;
-    if (opt->step > 0)
-        return r_fmin(opt->step, c->hmax);
     for (i = 0; i < LAG_NY; ++i) {
-        w = lag_control_scale(c, y[i], y[i]);
+        w = lag_control_scale(c, i, y[i], y[i]);
         d0 += (y[i] / w) * (y[i] / w);
         d1 += (f[i] / w) * (f[i] / w);
     }
     d0 = r_sqrt(d0 / LAG_NY);
     d1 = r_sqrt(d1 / LAG_NY);
     /* (b) the step that changes y by about 1% of its size, to probe f' by a difference */
-    h0 = d0 < LAG_LIT(1e-5) || d1 < LAG_LIT(1e-5) ? LAG_LIT(1e-6) : LAG_LIT(0.01) * d0 / d1;
+    h0 = d0 < LAG_LIT(1e-5) || d1 < LAG_LIT(1e-5) ? LAG_START_STEP_FRACTION * c->span : LAG_LIT(0.01) * d0 / d1;
     h0 = r_fmin(h0, c->hmax);
     for (i = 0; i < LAG_NY; ++i)
         y1[i] = y[i] + h0 * f[i];
     if (lag_control_rhs(sys, stats, t + h0, y1, f1) != LAG_OK)
         return h0;  /* a probe outside the model's domain only loses the refinement */
     for (i = 0; i < LAG_NY; ++i) {
-        w = (f1[i] - f[i]) / lag_control_scale(c, y[i], y[i]);
+        w = (f1[i] - f[i]) / lag_control_scale(c, i, y[i], y[i]);
         d2 += w * w;
     }
     d2 = r_sqrt(d2 / LAG_NY) / h0;
@@ -132,9 +133,20 @@ static real lag_control_first_step(const lag_control *c, const lag_options *opt,
         return h0;
     /* (e) the step whose local error, about max(d1, d2) h^order, is 0.01 */
     dmax = r_fmax(d1, d2);
-    h1 = dmax <= LAG_LIT(1e-15) ? r_fmax(LAG_LIT(1e-6), h0 * LAG_LIT(1e-3))
+    h1 = dmax <= LAG_LIT(1e-15) ? r_fmax(LAG_START_STEP_FRACTION * c->span, h0 * LAG_LIT(1e-3))
                                 : r_pow(LAG_LIT(0.01) / dmax, c->exponent);
     return r_fmin(r_fmin(100 * h0, h1), c->hmax);
+}
+
+/* The first step: opt->step if given, else the estimate raised to LAG_START_STEP_FLOOR (an
+ * estimate below the resolution of t is no collapse: settings.START_STEP_MIN_STEPS), at most hmax. */
+static real lag_control_first_step(const lag_control *c, const lag_options *opt, const lag_system *sys,
+                                   lag_stats *stats, real t, const real *y, const real *f)
+{
+    if (opt->step > 0)
+        return r_fmin(opt->step, c->hmax);
+    return r_fmin(r_fmax(lag_control_estimate_first_step(c, sys, stats, t, y, f), LAG_START_STEP_FLOOR(t, c->span)),
+                  c->hmax);
 }
 
 /* The size h of the next trial from t, given the proposal h_proposed, and its end t_new: at most

@@ -3,7 +3,7 @@
  *
  * Pasted after driver.c and the generated lag_pack_summary. A run takes the settings vector
  * (its entries LAG_SET_T_START ... LAG_SET_MAX_STEPS, lagdsl.abi.SETTINGS; max_steps 0 for the
- * default limit), already checked as `lagc run` checks them, and writes its summary as
+ * default limit; then the atol of each of the LAG_NY components of y), already checked as `lagc run` checks them, and writes its summary as
  * lagdsl.abi.SummaryLayout lays it out (LAG_SUMMARY_SIZE doubles). The caller resets
  * lag_interrupt before a call.
  */
@@ -49,6 +49,7 @@ static int lag_run_member(const double *parameters, const double *initial, const
     options.max_step = settings[LAG_SET_MAX_STEP];
     options.stages = (int)settings[LAG_SET_STAGES];
     options.max_steps = (long)settings[LAG_SET_MAX_STEPS];
+    options.atol_each = settings + LAG_SETTINGS;
     lag_integrate(&sys, y0, settings[LAG_SET_T_START], settings[LAG_SET_T_STOP], settings[LAG_SET_T_INTERVAL],
                   &options, sink, context, &report);
     lag_pack_summary(&report, summary);

@@ -53,7 +53,8 @@
  * 0.9 h_n (h_n / h_{n-1}) (err_{n-1} / err_n^2)^1/4, limited to the same range.
  * A rejected first step is retried with h/10; a right-hand side that fails in a stage (the
  * trial left the domain of the model) or gives non-finite values, with h/10 as well (interface
- * README).  The first step is opt->step, or 1e-6 as in RADAU5 (it adapts within a few steps).
+ * README).  The first step is opt->step, or 1e-6 of the span (RADAU5's 1e-6, which
+ * assumes t of order 1), at least LAG_START_STEP_FLOOR (it adapts within a few steps).
  * When h falls below LAG_MIN_STEP = 10 eps max(|t|, t_end - t0) the reason of the last failure
  * is returned: the right-hand side's status, LAG_ERR_NO_CONVERGENCE for Newton,
  * LAG_ERR_STEP_TOO_SMALL for the error test.
@@ -98,7 +99,7 @@ typedef struct lag_stepper {
     LAG_STEPPER_PUBLIC(lag_stats)  /* t, t_old, y, h and stats, which the driver reads (runtime.h) */
     /* the problem */
     const lag_system *sys;
-    real t_end, span, h_max, rtol, atol, fnewt;
+    real t_end, span, h_max, rtol, atol[LAG_NY], fnewt;   /* atol' per component of y */
     long max_steps;
     /* the method: nodes, eigenvalues of A^-1, the eigenbasis T with
      * T^-1 A^-1 T = [[gamma, 0, 0], [0, alpha, -beta], [0, beta, alpha]], error weights dd = e/gamma0 */
@@ -602,7 +603,7 @@ static real radau_norm(const lag_stepper *s, const real *e)
     int i;
     for (i = 0; i < LAG_NY; ++i) {
         real y1 = s->y[i] + s->z[2][i];
-        real sk = s->atol + s->rtol * r_fmax(r_fabs(s->y[i]), r_fabs(y1));
+        real sk = s->atol[i] + s->rtol * r_fmax(r_fabs(s->y[i]), r_fabs(y1));
         sum += (e[i] / sk) * (e[i] / sk);
     }
     return r_sqrt(sum / LAG_NY);
@@ -699,11 +700,12 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
         s->y[i] = y0[i];
     radau_coefficients(s);
     s->rtol = LAG_LIT(0.1) * r_pow(rtol, 2 / LAG_LIT(3.0));
-    s->atol = r_fmax(s->rtol * (opt->atol / rtol), REAL_MIN);
+    for (i = 0; i < LAG_NY; ++i)
+        s->atol[i] = r_fmax(s->rtol * (LAG_ATOL(opt, i) / rtol), REAL_MIN);
     s->fnewt = r_fmax(10 * REAL_EPSILON / s->rtol, r_fmin(LAG_LIT(0.03), r_sqrt(s->rtol)));
     s->max_steps = opt->max_steps;
     s->h_max = opt->max_step > 0 ? r_fmin(opt->max_step, t_end - t0) : t_end - t0;
-    s->h = opt->step > 0 ? opt->step : LAG_LIT(1e-6);
+    s->h = opt->step > 0 ? opt->step : r_fmax(LAG_START_STEP_FRACTION * s->span, LAG_START_STEP_FLOOR(t0, s->span));
     s->h = r_fmin(s->h, s->h_max);
     s->h_old = s->h_acc = s->h;
     s->err_acc = 1;
@@ -735,7 +737,7 @@ static int lag_stepper_step(lag_stepper *s)
         s->have_f0 = 1;
     }
     for (i = 0; i < LAG_NY; ++i)
-        s->scal[i] = s->atol + s->rtol * r_fabs(s->y[i]);
+        s->scal[i] = s->atol[i] + s->rtol * r_fabs(s->y[i]);
     for (;;) {
         real err, shrink, fac, quot;
         if (s->max_steps > 0 && s->stats.accepted + s->stats.rejected >= s->max_steps)

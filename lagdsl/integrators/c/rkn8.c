@@ -172,8 +172,8 @@ static int rkn8_trial(lag_stepper *s, real h, real t_new, real *err)
         real error_v = h * (rkn8_ev1 * g[0][i] + rkn8_ev3 * g[2][i] + rkn8_ev4 * g[3][i] + rkn8_ev5 * g[4][i]
                             + rkn8_ev6 * g[5][i] + rkn8_ev7 * g[6][i] + rkn8_ev8 * g[7][i]
                             + rkn8_ev9 * g[8][i]);
-        s->error[i] = error_q / lag_control_scale(&s->control, q[i], s->y_new[i]);
-        s->error[LAG_NQ + i] = error_v / lag_control_scale(&s->control, v[i], s->y_new[LAG_NQ + i]);
+        s->error[i] = error_q / lag_control_scale(&s->control, i, q[i], s->y_new[i]);
+        s->error[LAG_NQ + i] = error_v / lag_control_scale(&s->control, LAG_NQ + i, v[i], s->y_new[LAG_NQ + i]);
     }
     *err = r_sqrt(lag_sum_of_squares(LAG_NY, s->error) / LAG_NY);
     return LAG_OK;

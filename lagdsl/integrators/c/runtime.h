@@ -46,6 +46,8 @@ static int r_isfinite(real x) { return x - x == x - x; } /* false for inf and na
 /* The smallest step an adaptive method may take from t on a run of length `span`:
  * LAG_MIN_STEP_EPS eps max(|t|, span) (why: settings.MIN_STEP_EPS). */
 #define LAG_MIN_STEP(t, span) (LAG_MIN_STEP_EPS * REAL_EPSILON * r_fmax(r_fabs(t), (span)))
+/* The smallest first step (why: settings.START_STEP_MIN_STEPS). */
+#define LAG_START_STEP_FLOOR(t, span) (LAG_START_STEP_MIN_STEPS * LAG_MIN_STEP(t, span))
 
 /* What the driver asks of an integrator; unused fields are ignored by each method. */
 typedef struct lag_options {
@@ -55,7 +57,12 @@ typedef struct lag_options {
     int stages;        /* gauss: number of stages s (order 2s) */
     long max_steps;    /* give up after this many attempted steps (every try counts), 0 = no limit;
                         * the driver always sets a limit */
+    const double *atol_each;   /* adaptive methods: the atol of each of the LAG_NY components of y,
+                                * or NULL: atol for every one (lagdsl/tolerances.py) */
 } lag_options;
+
+/* The absolute tolerance of component i of y. */
+#define LAG_ATOL(opt, i) ((opt)->atol_each != NULL ? (real)(opt)->atol_each[i] : (opt)->atol)
 
 /* The members every integrator's lag_stepper begins with, which the driver reads (README.md): the
  * time reached by the last accepted step, the start of that step (the dense output is valid on

@@ -406,9 +406,9 @@ static int lag_batch_main(const char *program, const lag_member *given, real t0,
                           const lag_options *options)
 {
     lag_members members = { 0, 0, NULL, NULL };
-    double settings[LAG_SETTINGS];
+    double settings[LAG_SETTINGS + LAG_NY];
     long last = lag_last_row(t0, t1, dt);
-    int status = 2;
+    int i, status = 2;
     settings[LAG_SET_T_START] = (double)t0;
     settings[LAG_SET_T_STOP] = (double)t1;
     settings[LAG_SET_T_INTERVAL] = (double)dt;
@@ -418,6 +418,8 @@ static int lag_batch_main(const char *program, const lag_member *given, real t0,
     settings[LAG_SET_MAX_STEP] = (double)options->max_step;
     settings[LAG_SET_STAGES] = options->stages;
     settings[LAG_SET_MAX_STEPS] = (double)lag_step_limit(options, t0, t1, last);
+    for (i = 0; i < LAG_NY; ++i)
+        settings[LAG_SETTINGS + i] = (double)LAG_ATOL(options, i);
     if (lag_read_members(program, given, &members)) {
         lag_print_header(1);
         lag_catch_interrupt();    /* members in flight stop, the others are not begun */

@@ -8,8 +8,8 @@
  * rejected: the step is chosen from the series itself, a fraction of its radius of convergence.
  *
  * Tolerances as for the other adaptive methods: component i is measured against
- * w_i = atol + rtol |y_i| (HNW I, II.4, (4.11)), so that x̂ = x / w is the series in units of
- * the tolerance. With M = max(max_i |y_i| / w_i, 1 / (atol + rtol)), the size of the state in
+ * w_i = atol_i + rtol |y_i| (HNW I, II.4, (4.11)), so that x̂ = x / w is the series in units of
+ * the tolerance. With M = max(max_i |y_i| / w_i, 1 / (min_i atol_i + rtol)), the size of the state in
  * those units (1/rtol for a state that rtol governs, that of a unit state where atol does):
  *   order  p = ceil(ln(M) / 2 + 1), Jorba and Zou's -ln(eps)/2 + 1 for eps = 1/M;
  *   radius rho = min over j = p-1, p of (M / max_i |x̂_{j,i}|)^(1/j), the convergence radius
@@ -35,7 +35,8 @@ typedef struct lag_stats {
 typedef struct lag_stepper {
     LAG_STEPPER_PUBLIC(lag_stats)     /* t, t_old (the series below is about t_old), y, h, stats (runtime.h) */
     const lag_system *sys;
-    real t_end, span, hmax, rtol, atol;
+    real t_end, span, hmax, rtol;
+    real atol[LAG_NY], atol_least;    /* per component of y, and the smallest */
     long max_steps;
     int order;                        /* the last step's order */
     int safety_order;                 /* the order `safety` was computed for */
@@ -57,7 +58,11 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
     s->span = t_end - t0;
     s->hmax = opt->max_step > 0 ? opt->max_step : t_end - t0;
     s->rtol = opt->rtol;
-    s->atol = opt->atol;
+    s->atol_least = REAL_MAX;
+    for (i = 0; i < LAG_NY; ++i) {
+        s->atol[i] = LAG_ATOL(opt, i);
+        s->atol_least = r_fmin(s->atol_least, s->atol[i]);
+    }
     s->max_steps = opt->max_steps;
     s->h = 0;
     s->order = 0;                     /* until the first step, the dense output is y0 */
@@ -86,7 +91,7 @@ static real taylor_norm(const lag_stepper *s, const real *weight, int j)
 /* The order for the state y, from its size in units of the tolerance (1/w = weight). */
 static int taylor_order(const lag_stepper *s, const real *weight, real *size)
 {
-    real largest = 1 / (s->atol + s->rtol), wanted;
+    real largest = 1 / (s->atol_least + s->rtol), wanted;
     int i, order;
     for (i = 0; i < LAG_NY; ++i) {
         real x = r_fabs(s->y[i]) * weight[i];
@@ -143,7 +148,7 @@ static int lag_stepper_step(lag_stepper *s)
     if (s->max_steps > 0 && s->stats.accepted >= s->max_steps)
         return LAG_ERR_MAX_STEPS;
     for (i = 0; i < LAG_NY; ++i)
-        weight[i] = 1 / (s->atol + s->rtol * r_fabs(s->y[i]));
+        weight[i] = 1 / (s->atol[i] + s->rtol * r_fabs(s->y[i]));
     s->order = taylor_order(s, weight, &size);
     if ((status = lag_taylor_series(s->sys, s->t, s->y, s->order, s->s)) != LAG_OK)
         return status;

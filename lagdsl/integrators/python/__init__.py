@@ -27,7 +27,7 @@ class PythonRun:
     par: np.ndarray
     times: np.ndarray
     y0: np.ndarray
-    options: dict[str, float]
+    options: dict[str, Any]                         # atol: a number, or an array of one per component
     max_steps: int
     stop: Any                                       # run.stop.StopCondition, or None
     checked: Callable[[Callable], Callable]         # wraps a function to check for Ctrl-C before each call

@@ -55,7 +55,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ...abi import HOPELESS, MAX_STEPS, NONFINITE, OK, SINGULAR, STEP_TOO_SMALL
-from ...settings import MIN_STEP_EPS
+from ...settings import START_STEP_FRACTION, min_step, start_step_floor
 from ..forecast import WorkForecast
 from .fixed_step import STATS_KEYS, STEP_ERRORS, IntegrationFailure, _Output
 
@@ -64,7 +64,6 @@ if TYPE_CHECKING:
 
 __all__ = ["MAX_STEPS", "RKN8", "IntegrationFailure", "integrate_rkn8"]
 
-EPSILON = np.finfo(float).eps
 # explicit_control.c: safety factor, largest decrease and increase of h.
 SAFETY, FACMIN, FACMAX = 0.9, 0.2, 10.0
 
@@ -177,7 +176,8 @@ class _Control:
     """lag_control of explicit_control.c: the trials' sizes and their verdicts."""
 
     def __init__(self, rtol, atol, t0, t_end, max_step, max_steps, stats):
-        self.rtol, self.atol = float(rtol), float(atol)
+        self.rtol = float(rtol)
+        self.atol = np.asarray(atol, dtype=float) if np.ndim(atol) else float(atol)     # one, or one per component
         self.t_end = t_end
         self.span = t_end - t0
         self.hmax = float(max_step) if max_step > 0 else t_end - t0
@@ -191,12 +191,17 @@ class _Control:
         return self.atol + self.rtol * np.where(a1 > a0, a1, a0)
 
     def first_step(self, t, y, f, rhs, n):
-        """HNW I, II.4, steps (a)-(f) (lag_control_first_step); f = rhs(t, y)."""
+        """The starting step estimate, raised to the smallest first step, but at most hmax
+        (lag_control_first_step); f = rhs(t, y)."""
+        return _fmin(_fmax(self.estimate_first_step(t, y, f, rhs, n), start_step_floor(t, self.span)), self.hmax)
+
+    def estimate_first_step(self, t, y, f, rhs, n):
+        """HNW I, II.4, steps (a)-(f) (lag_control_estimate_first_step); f = rhs(t, y)."""
         ny = len(y)
         w = self.scale(y, y)
         d0 = math.sqrt(_sequential_sum((y / w) * (y / w)) / ny)
         d1 = math.sqrt(_sequential_sum((f / w) * (f / w)) / ny)
-        h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
+        h0 = START_STEP_FRACTION * self.span if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
         h0 = _fmin(h0, self.hmax)
         y1 = y + h0 * f
         self.stats["rhs_evals"] += 1
@@ -213,7 +218,7 @@ class _Control:
         if not math.isfinite(d2):
             return h0
         dmax = _fmax(d1, d2)
-        h1 = _fmax(1e-6, h0 * 1e-3) if dmax <= 1e-15 else _pow(0.01 / dmax, _EXPONENT)
+        h1 = _fmax(START_STEP_FRACTION * self.span, h0 * 1e-3) if dmax <= 1e-15 else _pow(0.01 / dmax, _EXPONENT)
         return _fmin(_fmin(100 * h0, h1), self.hmax)
 
     def trial(self, t, h_proposed):
@@ -221,7 +226,7 @@ class _Control:
         hh = _fmin(h_proposed, self.hmax)
         if self.max_steps > 0 and self.stats["accepted"] + self.stats["rejected"] >= self.max_steps:
             return MAX_STEPS, None, None
-        if not hh >= MIN_STEP_EPS * EPSILON * _fmax(abs(t), self.span):
+        if not hh >= min_step(t, self.span):
             return STEP_TOO_SMALL, None, None
         if t + 1.01 * hh >= self.t_end:
             return OK, self.t_end - t, self.t_end
