@@ -840,7 +840,7 @@ static int lag_fast_mode(lag_stiffness_test *test, const lag_system *sys, const 
     if (lag_jacobian_product(sys, evals, t, y, f, test->v, test->jv, test->probe) != LAG_OK)
         return 0;
     for (i = 0; i < LAG_NY; ++i) {
-        w = lag_control_scale(control, y[i], y[i]);
+        w = lag_control_scale(control, i, y[i], y[i]);
         sum += (test->v[i] / w) * (test->v[i] / w) + (test->jv[i] / w) * (test->jv[i] / w) / rho2;
     }
     *amplitude = r_sqrt(sum / (2 * LAG_NY)) / rho2;
