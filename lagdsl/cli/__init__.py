@@ -24,9 +24,9 @@ from .. import __version__
 from ..errors import PREFIX, LagError, LagWarning, SimulationError
 from ..escape import visible
 from ..run.interrupt import terminate_as_interrupt
-from . import animate, bench, common, describe, emit, fit, modes, simulate, sweep
+from . import animate, bench, common, describe, emit, fit, lyapunov, modes, simulate, sweep
 
-COMMANDS = (describe, emit, simulate, animate, sweep, bench, modes, fit)    # each adds its subcommands to the parser
+COMMANDS = (describe, emit, simulate, animate, sweep, bench, modes, fit, lyapunov)    # each adds its subcommands to the parser
 
 
 def main(argv: list[str] | None = None) -> int:
