@@ -16,11 +16,14 @@ Strelcyn, Meccanica 15, 9-30, 1980; the method of docs/numerics.md). One vector 
 largest exponent (QR is then a renormalisation to length 1), k = 2n the whole spectrum.
 The exponents are in 1/s: time is in seconds everywhere in lagdsl.
 
-A Hamiltonian flow (energy conserved: conservative, unforced, time-independent; no active
-constraint) is symplectic, so its spectrum comes in pairs λ_i + λ_{2n+1-i} = 0, and the flow's
-own direction and the energy's gradient give two zero exponents: the report prints the pair sums
-and the two exponents nearest zero, deviations that shrink as the run grows (as 1/T: the QR
-factors of a finite-time symplectic map pair only in the limit).
+The growth is measured in canonical coordinates (q, p), p = ∂L/∂q' (`Legendre`,
+`_canonical_estimates`), from the frame (e_q1 .. e_qn, e_pn .. e_p1), vector 2n+1-i being J times
+vector i. A Hamiltonian flow (energy conserved: conservative, unforced, time-independent; no
+active constraint) is symplectic in (q, p), and the QR factors of a symplectic map Φ from such a
+frame pair exactly at every T: the unit normal to the span of Φ v_1 .. Φ v_2n-1 is
+J Φ v_1/|Φ v_1| (as Φᵀ J Φ = J), so R_2n,2n = |v_1ᵀ J v_2n|/R_11 = 1/R_11, and so on inwards.
+So λ_i + λ_{2n+1-i} = 0 to the integration's error, and the flow's own direction and the energy's
+gradient make the middle pair vanish in the limit (as 1/T): the report prints both.
 
 Constrained models are refused: their tangent vectors would have to stay on the constraint
 manifold's tangent space, and the spectrum would have 2(n - m) exponents; that is not built.
@@ -89,7 +92,8 @@ class Spectrum:
             lines += [f"  lambda_{i} + lambda_{k + 1 - i} = {value: .3e} {UNIT}"
                       for i, value in enumerate(check.pair_sums, 1)]
             lines.append(f"  the two nearest zero: {check.vanishing[0]: .3e}, {check.vanishing[1]: .3e} {UNIT}")
-            lines.append(f"  largest deviation {check.deviation:.3e} {UNIT} (shrinks as 1/T with the run's length)")
+            lines.append(f"  largest deviation {check.deviation:.3e} {UNIT} (the pairs sum to zero to the "
+                         "integration's error; the two nearest zero shrink as 1/T)")
         return "\n".join(lines) + "\n"
 
     def to_csv(self) -> str:
