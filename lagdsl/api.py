@@ -27,13 +27,14 @@ from .run.sweep_job import SweepJob
 from .run.tables import TableFile
 from .scene import (RUN_OPTIONS, Overrides, ScenePlan, given_options, parameters_in_expressions,
                     scene_defaults)
+from .sensitivity.methods import LyapunovMethod
 from .source import SourceFile
 
 BACKENDS = ("c", "numpy")
 GRID_OVERRIDES = ("start", "stop", "interval", "integrator")
 
 
-class Model:
+class Model(LyapunovMethod):
     """A parsed, checked model with its derived equations of motion."""
 
     def __init__(self, source: SourceFile):
@@ -169,26 +170,6 @@ class Model:
             raise LagError(f"fit: unknown option '{unknown[0]}' (options: {', '.join(RUN_OPTIONS)})")
         held = {name: single_number(name, value) for name, value in (set or {}).items()}
         return fit(self, data, params, outputs, sigma, scene, bounds, held, integrator, options)
-
-    def lyapunov(self, scene: str | None = None, *, stop: float | None = None, all: bool = False,
-                 renormalise: float | None = None, set: dict | None = None, start: float | None = None,
-                 integrator: str | None = None, **options):
-        """The largest Lyapunov exponent of a scene's motion, or with `all` the whole spectrum
-        (Benettin's QR method on the generated variational equations, NumPy backend), over the
-        scene's time span (`start`, `stop` override it), re-orthonormalised every `renormalise`
-        seconds; `set`, `integrator` and `options` (rtol, atol, max_step) as in simulate. Returns a
-        sensitivity.lyapunov.Spectrum (.exponents in 1/s, .running against .times, .hamiltonian)."""
-        from .sensitivity import lyapunov, run as sensitivity
-        unknown = [name for name in options if name not in RUN_OPTIONS]
-        if unknown:
-            raise LagError(f"lyapunov: unknown option '{unknown[0]}' (options: {', '.join(RUN_OPTIONS)})")
-        overrides = Overrides(tuple((k, single_number(k, v)) for k, v in (set or {}).items()),
-                              *_times(start, stop, None), integrator, given_options(options))
-        scene_plan = self.plan(scene, overrides)
-        if scene_plan.scene_name not in self._sensitivity_programs:
-            self._sensitivity_programs[scene_plan.scene_name] = sensitivity.build(self, scene)
-        return lyapunov.lyapunov(self, self._sensitivity_programs[scene_plan.scene_name], scene_plan, all,
-                                 renormalise)
 
     def bench(self, scene: str | None = None, *, integrators: tuple[str, ...] | None = None, backend: str = "c",
               peers: bool = False, repeat: int = 3, set: dict | None = None, start: float | None = None,
