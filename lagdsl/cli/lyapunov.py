@@ -5,6 +5,8 @@ model, a model with nothing to integrate) exits 2, a numerical failure 1, as `la
 """
 from __future__ import annotations
 
+from ..progress import TimeProgress
+from ..settings import given_options
 from ..source import SourceFile
 from . import common
 from .modes import BAD_INPUT_EXIT, exit_statuses
@@ -41,13 +43,17 @@ def add(commands) -> None:
 
 
 def run(arguments) -> int:
-    from ..settings import given_options
     common.check_destinations(arguments.model, arguments.file, arguments.plot)
     model = common.load_model(SourceFile.read(arguments.model))
-    spectrum = model.lyapunov(arguments.scene, start=arguments.start, stop=arguments.stop, all=arguments.all,
-                              renormalise=arguments.renormalise,
-                              set=dict(common.set_values(arguments.set, with_units=True)),
-                              integrator=arguments.integrator, **dict(given_options(vars(arguments))))
+    progress = TimeProgress()
+    try:
+        spectrum = model.lyapunov(arguments.scene, start=arguments.start, stop=arguments.stop, all=arguments.all,
+                                  renormalise=arguments.renormalise,
+                                  set=dict(common.set_values(arguments.set, with_units=True)),
+                                  integrator=arguments.integrator, progress=progress,
+                                  **dict(given_options(vars(arguments))))
+    finally:
+        progress.close()
     print(spectrum.render(), end="")
     if arguments.file is not None:
         common.deliver(spectrum.to_csv(), arguments.file)

@@ -69,6 +69,7 @@ class Spectrum:
     Hamiltonian check (None when the model is not Hamiltonian or only the largest was computed)."""
 
     title: str
+    start: float
     exponents: tuple[float, ...]
     times: np.ndarray
     running: np.ndarray
@@ -81,9 +82,8 @@ class Spectrum:
         return max(self.exponents)
 
     def render(self) -> str:
-        span = self.times[-1] - (self.times[0] - self.interval)
-        lines = [f"Lyapunov exponents of {self.title}: {span:g} s, re-orthonormalised every {self.interval:g} s, "
-                 f"{self.solver}"]
+        lines = [f"Lyapunov exponents of {self.title}: {self.times[-1] - self.start:g} s, re-orthonormalised "
+                 f"every {self.interval:g} s, {self.solver}"]
         lines += [f"  lambda_{i} = {value: .6e} {UNIT}" for i, value in enumerate(self.exponents, 1)]
         if self.hamiltonian is not None:
             check = self.hamiltonian
@@ -103,15 +103,13 @@ class Spectrum:
         return header + "\n" + "".join(row + "\n" for row in rows)
 
 
-def lyapunov(model, program, plan, all: bool = False, renormalise: float | None = None) -> Spectrum:
+def lyapunov(model, program, plan, all: bool = False, renormalise: float | None = None,
+             progress=None) -> Spectrum:
     """The largest exponent, or with `all` the whole spectrum, of `plan` (a scene.ScenePlan of
     `model`, an api.Model) over the scene's time span, with the generated functions of `program`
-    (sensitivity.run.build)."""
+    (sensitivity.run.build); `progress(t reached, start, stop)` is called at every t_j."""
     _check_model(model, plan)
-    start, stop = float(plan.time.start), float(plan.time.stop)
-    if not stop > start:
-        raise LagError(f"lyapunov: the stop time ({stop:g} s) must be after the start ({start:g} s)",
-                       Setting("--stop"))
+    start, stop = float(plan.time.start), float(plan.time.stop)     # the plan has checked start < stop
     interval = _interval(renormalise, stop - start)
     n = len(plan.coordinates)
     par = np.array(plan.parameters, dtype=float)
@@ -122,11 +120,11 @@ def lyapunov(model, program, plan, all: bool = False, renormalise: float | None 
     y0 = np.array(plan.initial_state, dtype=float)
     canonical_frame = _lagrangian_frame(n) if all else np.full((2 * n, 1), 1 / np.sqrt(2 * n))
     frame = np.linalg.solve(legendre.at(y0[None], np.array([start]))[0], canonical_frame)
-    times, sums, states, frames = _benettin(system, solver, y0, frame, start, stop, interval)
+    times, sums, states, frames = _benettin(system, solver, y0, frame, (start, stop, interval), progress)
     running = _canonical_estimates(legendre, times, sums, states, frames, start)
     exponents = tuple(float(value) for value in running[-1])
     hamiltonian = _hamiltonian_check(exponents) if all and _is_hamiltonian(model) else None
-    return Spectrum(f"{model.name}, scene {plan.scene_name}", exponents, times, running, interval,
+    return Spectrum(f"{model.name}, scene {plan.scene_name}", start, exponents, times, running, interval,
                     solver.describe(), hamiltonian)
 
 
@@ -145,13 +143,17 @@ class Legendre:
         self.parameters = tuple(plan.parameters)
 
     def at(self, states: np.ndarray, times: np.ndarray) -> np.ndarray:
-        """L at each (state, time): shape (points, 2n, 2n)."""
+        """L at each (state, time): shape (points, 2n, 2n). Only the entries that are not
+        structurally zero are evaluated (a chain's ∂p/∂q' is diagonal, its ∂p/∂q zero)."""
         n = self.n
+        nonzero = [i for i, e in enumerate(self.entries) if e != 0]
         points = [(*y, t, *self.parameters) for y, t in zip(states, times)]
-        values = evaluate_at(self.calculus, self.entries, self.symbols, points)
+        values = evaluate_at(self.calculus, [self.entries[i] for i in nonzero], self.symbols, points)
+        lower = np.zeros((len(points), n * 2 * n))
+        lower[:, nonzero] = [[to_float(x) for x in row] for row in values]
         maps = np.zeros((len(points), 2 * n, 2 * n))
         maps[:, :n, :n] = np.eye(n)
-        maps[:, n:, :] = np.array([[to_float(x) for x in row] for row in values]).reshape(len(points), n, 2 * n)
+        maps[:, n:, :] = lower.reshape(len(points), n, 2 * n)
         return maps
 
 
@@ -192,10 +194,12 @@ def _interval(renormalise: float | None, span: float) -> float:
 
 
 def _benettin(system: VariationalSystem, solver: "_Solver", y0: np.ndarray, frame: np.ndarray,
-              start: float, stop: float, interval: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+              grid: tuple[float, float, float], progress) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The module docstring's method in the coordinates (q, q') the equations are integrated in,
     from the frame V(t_0) = `frame`: the times t_j, the sums Σ log|R_ii| up to each, and the
-    state y(t_j) and orthonormal frame Q_j there (for the change to (q, p), `canonical`)."""
+    state y(t_j) and orthonormal frame Q_j there (for the change to (q, p), `_canonical_estimates`);
+    `grid` is (start, stop, τ)."""
+    start, stop, interval = grid
     steps = int(np.ceil((stop - start) / interval * (1 - 1e-12)))
     times = np.minimum(start + interval * np.arange(1, steps + 1), stop)
     sums = np.zeros((steps, frame.shape[1]))
@@ -213,6 +217,8 @@ def _benettin(system: VariationalSystem, solver: "_Solver", y0: np.ndarray, fram
         total += np.log(growth)
         sums[j], states[j], frames[j] = total, y, Q
         Y, t = np.concatenate([y, Q.ravel()]), t_next
+        if progress is not None:
+            progress(t, start, stop)
     return times, sums, states, frames
 
 

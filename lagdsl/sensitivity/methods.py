@@ -9,12 +9,13 @@ class LyapunovMethod:
 
     def lyapunov(self, scene: str | None = None, *, stop: float | None = None, all: bool = False,
                  renormalise: float | None = None, set: dict | None = None, start: float | None = None,
-                 integrator: str | None = None, **options):
+                 integrator: str | None = None, progress=None, **options):
         """The largest Lyapunov exponent of a scene's motion, or with `all` the whole spectrum
         (Benettin's QR method on the generated variational equations, NumPy backend), over the
         scene's time span (`start`, `stop` override it: seconds, or "2 min"), re-orthonormalised
         every `renormalise` seconds (default 1); `set`, `integrator` and `options` (rtol, atol,
-        max_step) as in simulate. Returns a sensitivity.lyapunov.Spectrum (.exponents in 1/s,
+        max_step) as in simulate; `progress(t reached, start, stop)` is called at each
+        re-orthonormalisation (a lagdsl.progress.TimeProgress draws a bar). Returns a sensitivity.lyapunov.Spectrum (.exponents in 1/s,
         .running against .times, .hamiltonian, .render(), .to_csv())."""
         from ..api import single_number
         from ..errors import LagError
@@ -31,4 +32,4 @@ class LyapunovMethod:
         if scene_plan.scene_name not in self._sensitivity_programs:
             self._sensitivity_programs[scene_plan.scene_name] = sensitivity.build(self, scene)
         return lyapunov.lyapunov(self, self._sensitivity_programs[scene_plan.scene_name], scene_plan, all,
-                                 renormalise)
+                                 renormalise, progress)
