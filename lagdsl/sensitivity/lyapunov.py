@@ -230,8 +230,10 @@ class _Solver:
     """scipy's solver standing for the scene's integrator (dop853 if it has no error control),
     restarted at each re-orthonormalisation with the step size it had reached."""
 
-    def __init__(self, system: VariationalSystem, name: str, method: str, options: dict, implicit: bool):
+    def __init__(self, system: VariationalSystem, name: str, method: str, options: dict, implicit: bool,
+                 instead_of: str | None = None):
         self.system, self.name, self.method = system, name, getattr(scipy.integrate, method)
+        self.instead_of = instead_of        # the scene's integrator, when it has no error control
         self.rtol, self.atol = float(options["rtol"]), float(options["atol"])
         self.max_step = float(options.get("max_step", np.inf))
         self.extra = {"jac": system.newton_matrix} if implicit else {}
@@ -240,14 +242,16 @@ class _Solver:
     @classmethod
     def of(cls, plan, system: VariationalSystem) -> "_Solver":
         record = registry.get(plan.integrator.name)
-        options = dict(plan.integrator.options)
+        options, instead_of = dict(plan.integrator.options), None
         if record.scipy is None or record.fixed_step:
-            record = registry.get(FALLBACK_INTEGRATOR)
+            record, instead_of = registry.get(FALLBACK_INTEGRATOR), record.name
             options = {k: v for k, v in options.items() if k in record.options}
-        return cls(system, record.name, record.scipy, {**dict(record.defaults), **options}, record.implicit)
+        return cls(system, record.name, record.scipy, {**dict(record.defaults), **options}, record.implicit,
+                   instead_of)
 
     def describe(self) -> str:
-        return f"{self.name} (scipy {self.method.__name__}, rtol {self.rtol:g}, atol {self.atol:g})"
+        replaced = f", in place of the scene's {self.instead_of}, which has no error control" if self.instead_of else ""
+        return f"{self.name} (scipy {self.method.__name__}, rtol {self.rtol:g}, atol {self.atol:g}{replaced})"
 
     def advance(self, t: float, t_next: float, Y: np.ndarray) -> np.ndarray:
         """Y at t_next from Y at t; SimulationError naming where the integration failed."""

@@ -15,8 +15,9 @@ class LyapunovMethod:
         scene's time span (`start`, `stop` override it: seconds, or "2 min"), re-orthonormalised
         every `renormalise` seconds (default 1); `set`, `integrator` and `options` (rtol, atol,
         max_step) as in simulate; `progress(t reached, start, stop)` is called at each
-        re-orthonormalisation (a lagdsl.progress.TimeProgress draws a bar). Returns a sensitivity.lyapunov.Spectrum (.exponents in 1/s,
-        .running against .times, .hamiltonian, .render(), .to_csv())."""
+        re-orthonormalisation (a lagdsl.progress.TimeProgress draws a bar). Returns a
+        sensitivity.lyapunov.Spectrum (.exponents in 1/s, .running against .times, .hamiltonian,
+        .render(), .to_csv())."""
         from ..api import single_number
         from ..errors import LagError
         from ..frontend.units import time_in_seconds
