@@ -22,8 +22,9 @@ vector i. A Hamiltonian flow (energy conserved: conservative, unforced, time-ind
 active constraint) is symplectic in (q, p), and the QR factors of a symplectic map Φ from such a
 frame pair exactly at every T: the unit normal to the span of Φ v_1 .. Φ v_2n-1 is
 J Φ v_1/|Φ v_1| (as Φᵀ J Φ = J), so R_2n,2n = |v_1ᵀ J v_2n|/R_11 = 1/R_11, and so on inwards.
-So λ_i + λ_{2n+1-i} = 0 to the integration's error, and the flow's own direction and the energy's
-gradient make the middle pair vanish in the limit (as 1/T): the report prints both.
+So λ_i + λ_{2n+1-i} = 0 to the integration's error, and on a bounded motion the flow's own
+direction and the energy's gradient make the middle pair vanish in the limit (as 1/T): the report
+prints both.
 
 Constrained models are refused: their tangent vectors would have to stay on the constraint
 manifold's tangent space, and the spectrum would have 2(n - m) exponents; that is not built.
@@ -88,7 +89,8 @@ class Spectrum:
         if self.hamiltonian is not None:
             check = self.hamiltonian
             k = len(self.exponents)
-            lines.append("Hamiltonian (energy conserved): the pairs sum to zero and two exponents vanish")
+            lines.append("Hamiltonian (energy conserved): the pairs sum to zero, and on a bounded motion two "
+                         "exponents vanish")
             lines += [f"  lambda_{i} + lambda_{k + 1 - i} = {value: .3e} {UNIT}"
                       for i, value in enumerate(check.pair_sums, 1)]
             lines.append(f"  the two nearest zero: {check.vanishing[0]: .3e}, {check.vanishing[1]: .3e} {UNIT}")
