@@ -24,6 +24,7 @@ from .run.runner import run
 from .run.sweep_job import SweepJob, progress_bar, stream_to_file
 from .scene import (RUN_OPTIONS, Overrides, ScenePlan, given_options, parameters_in_expressions,
                     scene_defaults)
+from .sensitivity.methods import LyapunovMethod
 from .settings import given_atol_each
 from .source import SourceFile
 
@@ -31,7 +32,7 @@ BACKENDS = ("c", "numpy")
 GRID_OVERRIDES = ("start", "stop", "interval", "integrator")
 
 
-class Model:
+class Model(LyapunovMethod):
     """A parsed, checked model with its derived equations of motion."""
 
     def __init__(self, source: SourceFile):

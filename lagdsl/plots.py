@@ -292,3 +292,18 @@ def fit_png(fit) -> bytes:
     figure.suptitle(", ".join(f"{n} = {fit.values[n]:.6g} ± {fit.stderr[n]:.2g}" for n in fit.names))
     figure.tight_layout()
     return _png(figure)
+
+
+def lyapunov_png(spectrum) -> bytes:
+    """`lagc lyapunov --plot`: each exponent's running estimate against t (sensitivity/lyapunov.py)."""
+    pyplot = _pyplot()
+    figure, axes = pyplot.subplots(figsize=(8, 5))
+    for i in range(spectrum.running.shape[1]):
+        axes.plot(spectrum.times, spectrum.running[:, i], label=f"λ{i + 1} = {spectrum.exponents[i]:.4g}")
+    axes.axhline(0.0, color="black", linewidth=0.5)
+    axes.set_xlabel("t [s]")
+    axes.set_ylabel("running estimate [1/s]")
+    axes.set_title(f"Lyapunov exponents of {spectrum.title}")
+    axes.legend()
+    figure.tight_layout()
+    return _png(figure)

@@ -1,8 +1,8 @@
 """The `lagc` command: a thin layer over the Python API.
 
 This is the only place that catches LagError: it prints `file:line:column: error: ...`
-with the source line and a caret, and exits 1 (`lagc modes` and `lagc linearize` exit 2 for bad
-input and 1 for a numerical failure: cli/modes.py). Every message not about a place in a model
+with the source line and a caret, and exits 1 (`lagc modes`, `lagc linearize` and `lagc lyapunov`
+exit 2 for bad input and 1 for a numerical failure: cli/modes.py). Every message not about a place in a model
 file begins `lagc: error:` (`lagc: warning:`, `lagc: interrupted`), usage errors included (exit 1,
 as docs/language.md says). Anything else escaping is a bug in lagdsl.
 Ctrl-C exits 130 (128 + SIGINT, as shells report it) without a traceback; during `lagc run`
@@ -24,9 +24,9 @@ from .. import __version__
 from ..errors import PREFIX, LagError, LagWarning, SimulationError
 from ..escape import visible
 from ..run.interrupt import terminate_as_interrupt
-from . import animate, bench, common, describe, emit, fit, modes, simulate, sweep
+from . import animate, bench, common, describe, emit, fit, lyapunov, modes, simulate, sweep
 
-COMMANDS = (describe, emit, simulate, animate, sweep, bench, modes, fit)    # each adds its subcommands to the parser
+COMMANDS = (describe, emit, simulate, animate, sweep, bench, modes, fit, lyapunov)    # each adds its subcommands to the parser
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,6 +1,6 @@
 """`lagc modes` and `lagc linearize`: the linear analysis of a model about a state.
 
-These two commands exit with status 2 for bad input (a model's error, an option naming no
+These two commands (and `lagc lyapunov`, cli/lyapunov.py) exit with status 2 for bad input (a model's error, an option naming no
 coordinate, parameter or output, a state off the constraints) and 1 for a numerical failure (no
 equilibrium near the guess, a mass matrix singular at the point), as the analysis tools they
 stand beside do; the message is the same located one either way.
@@ -31,7 +31,7 @@ def add(commands) -> None:
     modes_parser.add_argument("--plot", metavar="FILE.png", help="plot the mode shapes")
     modes_parser.add_argument("--count", default=str(PLOTTED_MODES),
                               help=f"modes to plot (default: the lowest {PLOTTED_MODES})")
-    modes_parser.set_defaults(handler=_exit_statuses(modes))
+    modes_parser.set_defaults(handler=exit_statuses(modes))
 
     linearize_parser = commands.add_parser("linearize", help="the linear state-space model about a state: "
                                                              "JSON, .npz or MATLAB .mat")
@@ -43,7 +43,7 @@ def add(commands) -> None:
                                        "energy or momentum(q); repeatable (default: the scene's columns)")
     linearize_parser.add_argument("-o", required=True, metavar="FILE", dest="file",
                                   help="where to write: lin.json, lin.npz or lin.mat")
-    linearize_parser.set_defaults(handler=_exit_statuses(linearize))
+    linearize_parser.set_defaults(handler=exit_statuses(linearize))
 
 
 def _point_options(parser) -> None:
@@ -58,7 +58,7 @@ def _point_options(parser) -> None:
                         help="find the equilibrium near the --at state first (Newton; velocities held)")
 
 
-def _exit_statuses(handler):
+def exit_statuses(handler):
     """Run `handler`; a LagError exits BAD_INPUT_EXIT, an AnalysisError NUMERICAL_FAILURE_EXIT."""
     @functools.wraps(handler)
     def run(arguments) -> int:

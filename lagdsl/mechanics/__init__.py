@@ -23,6 +23,8 @@ def derive_equations(model: ir.Model) -> Equations:
     when the mass matrix (or the saddle-point matrix with the constraints) is singular at every
     state, and when a diagonal entry of M is negative at every state (`definiteness`).
     """
+    if not model.coordinates:
+        raise LagError(f"model {model.name} declares no coordinate: there is nothing to integrate", model.span)
     q = [c.symbol for c in model.coordinates]
     v = [c.velocity_symbol for c in model.coordinates]
     calculus = Differentiator(((let.symbol, let.expression) for let in model.lets), (*q, *v, ir.TIME))
