@@ -44,6 +44,7 @@ class Model:
         self._programs: dict[tuple[str, str, str, bool], Program] = {}   # scene, integrator, backend, drawn
         self._quick_plans: dict[str | None, plans.StoredPlan] = {}     # by the scene asked for
         self._sensitivity_programs: dict[str, object] = {}             # sensitivity.run.Program by scene
+        self._sensitivity_libraries: dict[tuple, object] = {}          # their C libraries (sensitivity.c_run)
 
     @property
     def name(self) -> str:
@@ -89,8 +90,8 @@ class Model:
         `draw` also computes what the draw statements show (`result.drawing`, `result.animate()`).
 
         `sensitivities` names parameters and start values ("q.start", "q.velocity"): the run then
-        integrates the variational equations with the state (sensitivity/run.py; backend
-        "numpy", an adaptive integrator) and returns a SensitivityResult, whose
+        integrates the variational equations with the state (sensitivity/run.py, and
+        sensitivity/c_run.py on the C backend; an adaptive integrator) and returns a SensitivityResult, whose
         `.sensitivity("x", "k")` is ∂x(t)/∂k on the grid; `sensitivity_error_control` says whether
         they enter the step-size control (default: they do).
         """
@@ -112,15 +113,20 @@ class Model:
         """A run with its sensitivities by `names` (see simulate), on `times` (default: the grid)."""
         from .sensitivity import run as sensitivity
         _check_backend(backend)
-        if backend != "numpy":
-            raise LagError("sensitivities are integrated on the NumPy backend only; use backend='numpy'",
-                           Setting("--backend"))
         scene_plan = self.plan(scene, overrides)
         chosen = sensitivity.directions(self.ir, list(names))
         if scene_plan.scene_name not in self._sensitivity_programs:
             self._sensitivity_programs[scene_plan.scene_name] = sensitivity.build(self, scene)
-        result = sensitivity.integrate(self._sensitivity_programs[scene_plan.scene_name], scene_plan, chosen, times,
-                                       error_control)
+        program = self._sensitivity_programs[scene_plan.scene_name]
+        if backend == "c":
+            from .sensitivity import c_run
+            key = (scene_plan.scene_name, scene_plan.integrator.name, len(chosen.names), error_control)
+            if key not in self._sensitivity_libraries:
+                self._sensitivity_libraries[key] = c_run.library(program, scene_plan, len(chosen.names), error_control,
+                                                                 self.source.name)
+            result = c_run.integrate_c(program, self._sensitivity_libraries[key], scene_plan, chosen, times)
+        else:
+            result = sensitivity.integrate(program, scene_plan, chosen, times, error_control)
         return _described(self.ir, result, scene_plan.scene_name)
 
     def simulate_plan(self, scene: str | None, backend: str, overrides: Overrides,
@@ -157,18 +163,20 @@ class Model:
         return self.simulate(scene, backend, draw=True, **{"interval": speed / fps, **options}).animate(speed)
 
     def fit(self, data, params: dict, *, outputs=None, sigma=None, scene: str | None = None,
-            bounds: dict | None = None, set: dict | None = None, integrator: str | None = None, **options):
+            bounds: dict | None = None, set: dict | None = None, integrator: str | None = None,
+            backend: str = "numpy", **options):
         """Fit `params` ({name: start value}) to `data` (a CSV path or a DataFrame with a `t` column
         and columns named as the scene's outputs) by least squares, the sensitivities as the
         Jacobian; returns a sensitivity.fit.Fit (.values, .stderr, .correlation, .residuals, .cost,
-        .nfev). `integrator` and `options` (rtol, atol, max_step, ...) override the scene's. See
-        sensitivity/fit.py for the statistics."""
+        .nfev). `integrator` and `options` (rtol, atol, max_step, ...) override the scene's;
+        `backend` ("numpy" or "c") runs the model. See sensitivity/fit.py for the statistics."""
         from .sensitivity.fit import fit
         unknown = [name for name in options if name not in RUN_OPTIONS]
         if unknown:
             raise LagError(f"fit: unknown option '{unknown[0]}' (options: {', '.join(RUN_OPTIONS)})")
         held = {name: single_number(name, value) for name, value in (set or {}).items()}
-        return fit(self, data, params, outputs, sigma, scene, bounds, held, integrator, options)
+        _check_backend(backend)
+        return fit(self, data, params, outputs, sigma, scene, bounds, held, integrator, options, backend)
 
     def bench(self, scene: str | None = None, *, integrators: tuple[str, ...] | None = None, backend: str = "c",
               peers: bool = False, repeat: int = 3, set: dict | None = None, start: float | None = None,
