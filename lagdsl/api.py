@@ -44,7 +44,6 @@ class Model:
         self._programs: dict[tuple[str, str, str, bool], Program] = {}   # scene, integrator, backend, drawn
         self._quick_plans: dict[str | None, plans.StoredPlan] = {}     # by the scene asked for
         self._sensitivity_programs: dict[str, object] = {}             # sensitivity.run.Program by scene
-        self._sensitivity_libraries: dict[tuple, object] = {}          # their C libraries (sensitivity.c_run)
 
     @property
     def name(self) -> str:
@@ -111,22 +110,14 @@ class Model:
     def sensitivities(self, scene: str | None, backend: str, overrides: Overrides, names, times=None,
                       error_control: bool = True):
         """A run with its sensitivities by `names` (see simulate), on `times` (default: the grid)."""
-        from .sensitivity import run as sensitivity
+        from .sensitivity import c_run, run as sensitivity
         _check_backend(backend)
         scene_plan = self.plan(scene, overrides)
         chosen = sensitivity.directions(self.ir, list(names))
         if scene_plan.scene_name not in self._sensitivity_programs:
             self._sensitivity_programs[scene_plan.scene_name] = sensitivity.build(self, scene)
-        program = self._sensitivity_programs[scene_plan.scene_name]
-        if backend == "c":
-            from .sensitivity import c_run
-            key = (scene_plan.scene_name, scene_plan.integrator.name, len(chosen.names), error_control)
-            if key not in self._sensitivity_libraries:
-                self._sensitivity_libraries[key] = c_run.library(program, scene_plan, len(chosen.names), error_control,
-                                                                 self.source.name)
-            result = c_run.integrate_c(program, self._sensitivity_libraries[key], scene_plan, chosen, times)
-        else:
-            result = sensitivity.integrate(program, scene_plan, chosen, times, error_control)
+        integrate = c_run.integrate_c if backend == "c" else sensitivity.integrate
+        result = integrate(self._sensitivity_programs[scene_plan.scene_name], scene_plan, chosen, times, error_control)
         return _described(self.ir, result, scene_plan.scene_name)
 
     def simulate_plan(self, scene: str | None, backend: str, overrides: Overrides,
@@ -175,7 +166,6 @@ class Model:
         if unknown:
             raise LagError(f"fit: unknown option '{unknown[0]}' (options: {', '.join(RUN_OPTIONS)})")
         held = {name: single_number(name, value) for name, value in (set or {}).items()}
-        _check_backend(backend)
         return fit(self, data, params, outputs, sigma, scene, bounds, held, integrator, options, backend)
 
     def bench(self, scene: str | None = None, *, integrators: tuple[str, ...] | None = None, backend: str = "c",

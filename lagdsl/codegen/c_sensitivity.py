@@ -20,6 +20,7 @@ from dataclasses import replace
 
 from ..errors import LagError, Setting
 from ..integrators import c_file, integrator_source, registry
+from ..integrators.registry import OPTION_ORDER, OPTIONS
 from .c import render_c
 from .kernel import Kernel
 
@@ -46,7 +47,8 @@ def sensitivity_source(kernel: Kernel, integrator, directions: int, source_name:
     program = replace(kernel, integrator=integrator, output_jacobian=None, initial_sensitivity=None)
     context = {"directions": directions, "summary": SUMMARY_FIELDS,
                "nystrom": record.second_order, "implicit": record.implicit, "error_control": error_control,
-               "integrator": augmented_integrator(record.name, error_control), "driver": c_file("sensitivity.c")}
+               "integrator": augmented_integrator(record.name, error_control), "driver": c_file("sensitivity.c"),
+               "options": [(key, OPTIONS[key].c_cast) for key in OPTION_ORDER]}
     return render_c(program, source_name, sensitivity=context)
 
 

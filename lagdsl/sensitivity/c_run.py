@@ -23,14 +23,19 @@ from ..run.status import simulation_error
 from .run import Directions, Program, SensitivityResult, prepare, result
 
 
-def library(program: Program, plan, directions: int, error_control: bool, source_name: str):
-    """The compiled program for `directions` directions with the scene's integrator (cached by
-    its text, run/cache.py)."""
-    return load(sensitivity_source(program.kernel, plan.integrator, directions, source_name, error_control))
+def integrate_c(program: Program, plan, chosen: Directions, times: np.ndarray | None = None,
+                error_control: bool = True) -> SensitivityResult:
+    """As run.integrate, the augmented system integrated by the generated C program, which
+    `program.libraries` keeps by (integrator, directions, error control): built and compiled on
+    first use (and cached by its text, run/cache.py)."""
+    key = (plan.integrator.name, len(chosen.names), error_control)
+    if key not in program.libraries:
+        program.libraries[key] = load(sensitivity_source(program.kernel, plan.integrator, len(chosen.names),
+                                                         program.model.source.name, error_control))
+    return _run(program, program.libraries[key], plan, chosen, times)
 
 
-def integrate_c(program: Program, loaded, plan, chosen: Directions, times: np.ndarray | None = None) -> SensitivityResult:
-    """As run.integrate, with `loaded` (library()) integrating the augmented system."""
+def _run(program: Program, loaded, plan, chosen: Directions, times) -> SensitivityResult:
     start = prepare(program, plan, chosen, times)
     n, m = len(plan.coordinates), len(chosen.names)
     width = 2 * n * (1 + m)
@@ -43,14 +48,17 @@ def integrate_c(program: Program, loaded, plan, chosen: Directions, times: np.nd
     summary = np.zeros(len(SUMMARY_FIELDS) - 1 + width)
     double_p = ctypes.POINTER(ctypes.c_double)
     entry = loaded.lag_sensitivity_run
-    entry.argtypes = [double_p] * 5 + [ctypes.c_long, double_p, double_p]
+    entry.argtypes = [double_p] * 5 + [ctypes.c_long, double_p, double_p, ctypes.c_void_p]
     entry.restype = ctypes.c_int
+    loaded.lag_sensitivity_workspace.restype = ctypes.c_long
+    # the stepper holds reals (double: the library is built in double precision), ints and longs
+    workspace = np.zeros(loaded.lag_sensitivity_workspace() // 8 + 1)
     arrays = [np.ascontiguousarray(a, dtype=float) for a in
               (start.system.par if start.system.par.size else np.zeros(1), start.system.J,
                augmented(start.y0, n, m), settings, start.times)]
     pointer = lambda a: a.ctypes.data_as(double_p)     # noqa: E731
     began = clock.perf_counter()
-    status = entry(*map(pointer, arrays), len(start.times), pointer(values), pointer(summary))
+    status = entry(*map(pointer, arrays), len(start.times), pointer(values), pointer(summary), workspace.ctypes.data)
     seconds = clock.perf_counter() - began
     at = {name: i for i, name in enumerate(SUMMARY_FIELDS)}
     counters = tuple((name, int(summary[at[name]])) for name in ("accepted", "rejected", "rhs_evals"))

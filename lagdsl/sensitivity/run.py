@@ -22,7 +22,7 @@ gets an infinite atol, so steps are chosen for the state alone.
 from __future__ import annotations
 
 import time as clock
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.integrate
@@ -131,6 +131,7 @@ class Program:
     kernel: object
     module: object
     model: object                       # the api.Model: the constraints' derivatives at the start
+    libraries: dict = field(default_factory=dict, compare=False)     # the C programs (c_run.py)
 
 
 def build(model, scene: str | None) -> Program:
