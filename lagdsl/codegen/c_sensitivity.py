@@ -18,7 +18,7 @@ from __future__ import annotations
 import re
 from dataclasses import replace
 
-from ..errors import LagError, Setting
+from ..errors import InternalError, LagError, Setting
 from ..integrators import c_file, integrator_source, registry
 from ..integrators.registry import OPTION_ORDER, OPTIONS
 from .c import render_c
@@ -53,12 +53,13 @@ def sensitivity_source(kernel: Kernel, integrator, directions: int, source_name:
 
 
 def refuse_integrator(record: registry.Integrator, integrator) -> None:
-    """Sensitivities need an adaptive method that integrates any second-order system."""
-    if record.fixed_step or record.series or record.name == "gauss":
+    """Sensitivities need an adaptive method that steps the right-hand side it is given."""
+    if record.fixed_step or record.series:
         why = ("its Taylor series are generated for the equations of motion, not for the variational equations"
                if record.series else "it has no error control")
-        raise LagError(f"sensitivities on the C backend need an adaptive integrator (dopri5, dop853, rkn8, radau5 "
-                       f"or auto), not {record.name}: {why}", integrator.span or Setting("--integrator"))
+        able = [name for name in registry.names() if registry.get(name).adaptive and not registry.get(name).series]
+        raise LagError(f"sensitivities on the C backend need an adaptive integrator ({', '.join(able)}), "
+                       f"not {record.name}: {why}", integrator.span or Setting("--integrator"))
 
 
 def augmented_integrator(name: str, error_control: bool) -> str:
@@ -73,7 +74,7 @@ def augmented_integrator(name: str, error_control: bool) -> str:
         names.update([tag, *(item.split("=")[0].strip() for item in enumerators.split(",") if item.strip())])
     text = re.sub(r"\b(" + "|".join(sorted(names, key=len, reverse=True)) + r")\b",
                   lambda match: _prefixed(match.group(1)), text)
-    return text if error_control else _state_error_norms(text)
+    return text if error_control else _state_error_norms(text, name)
 
 
 def _prefixed(name: str) -> str:
@@ -83,13 +84,22 @@ def _prefixed(name: str) -> str:
     return f"aug_{name}"
 
 
-def _state_error_norms(text: str) -> str:
+def _state_error_norms(text: str, name: str) -> str:
     """The error norms over the state alone: lag_aug_sum_of_squares weighs each component by
     LAG_AUG_IN_ERROR(i) (defined with the augmented system) and the norms divide by LAG_AUG_NERR."""
-    replaced = text.replace("partial[j] += x[i + j] * x[i + j];",
-                            "partial[j] += LAG_AUG_IN_ERROR(i + j) * x[i + j] * x[i + j];")
-    replaced = replaced.replace("partial[0] += x[i] * x[i];", "partial[0] += LAG_AUG_IN_ERROR(i) * x[i] * x[i];")
-    replaced = replaced.replace("sum += (e[i] / sk) * (e[i] / sk);", "sum += LAG_AUG_IN_ERROR(i) * (e[i] / sk) * (e[i] / sk);")
-    for norm in ("s->error) / LAG_AUG_NY", "r_sqrt(LAG_AUG_NY * denominator)", "r_sqrt(sum / LAG_AUG_NY)"):
-        replaced = replaced.replace(norm, norm.replace("LAG_AUG_NY", "LAG_AUG_NERR"))
-    return replaced
+    for sum_of_squares, weighted in STATE_NORMS:
+        text = text.replace(sum_of_squares, weighted)
+    if "LAG_AUG_IN_ERROR" not in text or "LAG_AUG_NERR" not in text:
+        raise InternalError(f"the error norm of {name} is not one STATE_NORMS knows (codegen/c_sensitivity.py)")
+    return text
+
+
+# The sums of squares of the error norms (explicit_control.c's lag_sum_of_squares, radau5's
+# radau_norm) weighted by LAG_AUG_IN_ERROR, and their divisions by the augmented length by 2n.
+STATE_NORMS = (
+    ("partial[j] += x[i + j] * x[i + j];", "partial[j] += LAG_AUG_IN_ERROR(i + j) * x[i + j] * x[i + j];"),
+    ("partial[0] += x[i] * x[i];", "partial[0] += LAG_AUG_IN_ERROR(i) * x[i] * x[i];"),
+    ("sum += (e[i] / sk) * (e[i] / sk);", "sum += LAG_AUG_IN_ERROR(i) * (e[i] / sk) * (e[i] / sk);"),
+    ("s->error) / LAG_AUG_NY", "s->error) / LAG_AUG_NERR"),
+    ("r_sqrt(LAG_AUG_NY * denominator)", "r_sqrt(LAG_AUG_NERR * denominator)"),
+    ("r_sqrt(sum / LAG_AUG_NY)", "r_sqrt(sum / LAG_AUG_NERR)"))
