@@ -26,7 +26,7 @@ from functools import cached_property, lru_cache
 
 import numpy as np
 
-from .integrators import SWITCH_TIMES, registry
+from .integrators import SWITCH_TIMES, VERDICT_OSCILLATION, VERDICT_STIFF, registry
 from .integrators.registry import OPTION_ORDER
 from .settings import RCOND_MIN, RunPlan
 
@@ -86,6 +86,22 @@ STATUSES = {status.code: status for status in (
 )}
 UNKNOWN_STATUS = Status(-1, "", "unknown failure", "please report this")
 
+# The stiffness test's verdicts (c/stiffness_test.c) as every run summary words them, lagc's and
+# the standalone program's (codegen/c_abi.verdict_printer): the time of the verdict, the fast
+# mode's period 2 pi / rho (or time scale 1 / rho) and amplitude in tolerances, the work since,
+# and a remedy from VERDICT_REMEDIES.
+_WORK_SINCE = "since then {accepted} steps ({rejected} rejected) and {rhs_evals} of the {rhs_total} right-hand sides"
+VERDICTS = {
+    VERDICT_STIFF: "stiffness detected at t = {time:.6g}: a fast mode (time scale {scale:.3g} s), damped or not "
+                   "excited, holds the steps at the stability boundary; " + _WORK_SINCE
+                   + "; an implicit method needs far fewer steps: {remedy}",
+    VERDICT_OSCILLATION: "a fast oscillation (period {period:.3g} s) is excited above the tolerance ({amplitude:.3g} "
+                         "times it at t = {time:.6g}) and must be resolved; an implicit method will not take larger "
+                         "steps (" + _WORK_SINCE + ")",
+}
+VERDICT_REMEDIES = {"lagc": "use --integrator radau5 (or auto)",
+                    "program": "generate this program with integrator radau5 (or auto) in the scene"}
+
 
 def status_of(code: int) -> Status:
     return STATUSES.get(code, UNKNOWN_STATUS)
@@ -125,7 +141,8 @@ class SummaryLayout:
     Every run has status, rows, t_fail and rcond_fail (the failure's time and the reciprocal
     condition estimate there), its integrator's work counters (`counters`, contiguous) and the
     state at failure; the others follow from the scene: the constraints' residual and the initial
-    projection, the stiffness test of dopri5 and dop853 (stiff, its time, and the counters then),
+    projection, the stiffness test of dopri5 and dop853 (the kind of verdict, its time, the fast
+    mode's spectral radius and amplitude, and the counters then),
     `auto`'s switches, the invariants' start values and drifts, and whether `stop when` ended the
     run and when.
     """
@@ -170,7 +187,8 @@ def summary_layout(integrator: str, invariants: int, state: int, constraints: bo
         fields += [SummaryField("residual", 1, "residual_max"), SummaryField("projection", 1, "projection_start")]
     if record.stiffness_test:
         fields += [SummaryField(name, 1, f"stats.{name}")
-                   for name in ("stiff", "stiff_time", "stiff_accepted", "stiff_rejected", "stiff_rhs_evals")]
+                   for name in ("stiff", "stiff_time", "stiff_rate", "stiff_amplitude", "stiff_accepted",
+                                "stiff_rejected", "stiff_rhs_evals")]
     if record.parts:
         fields += [SummaryField("switches", 1, "switches.count"),
                    SummaryField("explicit_span", 1, "switches.span[LAG_AUTO_EXPLICIT]"),

@@ -76,7 +76,7 @@ def plan_scene(model: ir.Model, equations: Equations, scene_name: str | None = N
         ir.OutputRequest(c.name, "expression", c.symbol, None, None) for c in model.coordinates)
     draws = scene_draws(model, scene, settings.scene_name) if draw else ()
     outputs += drawn_outputs(draws)
-    _check_outputs(outputs, equations)
+    _check_multipliers(outputs, scene.stop if scene else None, equations)
     settings.check_integrator(integrator)
     if registry.get(integrator.name).second_order:
         _check_velocity_free(equations, integrator)
@@ -212,13 +212,18 @@ def _require_finite(value: float, what: str) -> None:
         raise LagError(f"{what} is {value}, not a finite number (check the values set)")
 
 
-def _check_outputs(outputs, equations: Equations) -> None:
-    """multiplier(c), alone or in an expression, needs c to be active (it has a multiplier)."""
+def _check_multipliers(outputs, stop: ir.StopCondition | None, equations: Equations) -> None:
+    """multiplier(c), alone or in an expression (an output, the stop condition), needs c to be
+    active (it has a multiplier)."""
     dropped = {ir.multiplier_symbol(c.name): c.name for c in equations.constraints if c.dropped}
-    for request in outputs:
-        used = {request.target} if request.kind == "multiplier" else set()
-        if request.kind == "expression":
-            used |= {dropped[s] for s in request.expression.free_symbols & dropped.keys()}
+
+    def reads(expression: sympy.Expr) -> set[str]:
+        return {dropped[s] for s in expression.free_symbols & dropped.keys()}
+    uses = [({request.target} if request.kind == "multiplier" else
+             reads(request.expression) if request.kind == "expression" else set(), request.span)
+            for request in outputs]
+    uses += [(reads(stop.function), stop.span)] if stop is not None else []
+    for used, span in uses:
         for name in sorted(used & set(dropped.values())):
             raise LagError(f"constraint '{name}' is identically satisfied by the coordinates "
-                           "and was dropped, so it has no multiplier", request.span)
+                           "and was dropped, so it has no multiplier", span)

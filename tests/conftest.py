@@ -1,5 +1,5 @@
 """Shared fixtures and helpers: model paths, loading, the --update-golden and --slow options, a
-build cache of the session's own, and `lagc` run in this process.
+build cache of the test suite's own, and `lagc` run in this process.
 
 The default run leaves out the tests marked `slow` (the exhaustive matrices: every model with
 every integrator on both backends, every scene compiled strictly four ways, the fuzz slice, Dask,
@@ -84,13 +84,21 @@ def pytest_addoption(parser):
 
 
 def pytest_configure(config):
-    """Builds go to a temporary cache of the session's, never to the user's ~/.cache/lagdsl,
-    unless LAGDSL_CACHE names one (.ci/run does, to keep builds between its steps). xdist's
-    workers inherit it from the controller, so they share it (the cache takes concurrent builds)."""
-    if not os.environ.get("LAGDSL_CACHE"):
-        path = tempfile.mkdtemp(prefix="lagdsl-test-cache-")
-        os.environ["LAGDSL_CACHE"] = path
-        _OWN_CACHE.append(path)
+    """Builds go to a cache of the test suite's own, never to the user's ~/.cache/lagdsl, unless
+    LAGDSL_CACHE names one (.ci/run does, to keep builds between its steps). The suite's cache
+    lives in pytest's cache directory (.pytest_cache/d/lagdsl-builds), so a developer's next run
+    starts warm, as ccache would, and `pytest --cache-clear` empties it; without pytest's cache
+    (`-p no:cacheprovider`) it is a temporary directory removed at the session's end. xdist's
+    workers inherit it from the controller, so they share it (the cache takes concurrent builds);
+    a test that needs a cold cache makes its own."""
+    if os.environ.get("LAGDSL_CACHE"):
+        return
+    if getattr(config, "cache", None) is not None and not hasattr(config, "workerinput"):
+        os.environ["LAGDSL_CACHE"] = str(config.cache.mkdir("lagdsl-builds"))
+        return
+    path = tempfile.mkdtemp(prefix="lagdsl-test-cache-")
+    os.environ["LAGDSL_CACHE"] = path
+    _OWN_CACHE.append(path)
 
 
 def pytest_unconfigure(config):

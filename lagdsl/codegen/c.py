@@ -7,7 +7,7 @@ from ..abi import summary_layout
 from ..integrators import c_file, integrator_source, registry
 from ..integrators.registry import OPTION_ORDER, OPTIONS
 from . import GeneratedSource, template_environment
-from .c_abi import runtime_contract, runtime_header, status_printer, summary_packer
+from .c_abi import runtime_contract, runtime_header, status_printer, summary_packer, verdict_printer
 from .c_factor import factorisation_text
 from .c_taylor import series_text
 from .kernel import Block, Kernel, Loop, Store
@@ -63,6 +63,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
         "factor": factorisation_text(kernel.layout),
         "canonical": kernel.momenta is not None,
         "outputs_need_multipliers": kernel.outputs_need_multipliers,
+        "stop_needs_multipliers": kernel.stop_needs_multipliers,
         "integrator_source": integrator_source(kernel.integrator.name),
         "taylor_series": series_text(kernel, printer, [_position(s, kernel) for s in kernel.system.stores
                                                        if s.array == "K"]) if method.series else "",
@@ -71,6 +72,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
         "summary_packer": summary_packer(summary_layout(method.name, len(kernel.invariant_names), 2 * kernel.n,
                                                         bool(kernel.constraints), kernel.stop is not None)),
         "status_printer": status_printer(),
+        "verdict_printer": verdict_printer() if method.stiffness_test else "",
         "t_start": _literal(kernel.time.start), "t_stop": _literal(kernel.time.stop),
         "t_interval": _literal(kernel.time.interval),
         "options_init": _options_initializer(options),

@@ -2,19 +2,23 @@
 
 `runtime_header()` is runtime.h with its libm table (generated from lagdsl/frontend/functions.py);
 `runtime_contract()` follows it in every C file (the integrators' tests paste it too): the
-status codes, the shared constants and the indices of the settings vector. `status_printer()`
-and `summary_packer(layout)` go between the driver and the programs that use them.
+status codes, the shared constants and the indices of the settings vector. `status_printer()`,
+`verdict_printer()` and `summary_packer(layout)` go between the driver and the programs that use them.
 """
 from __future__ import annotations
 
-from ..abi import SETTINGS, STATUSES, UNKNOWN_STATUS, Status, SummaryLayout, format_fields
+from ..abi import (SETTINGS, STATUSES, UNKNOWN_STATUS, VERDICT_REMEDIES, VERDICTS, Status, SummaryLayout,
+                   format_fields)
 from ..escape import c_comment, c_string
 from ..frontend.functions import LIBM_TABLE_MARKER, libm_table
-from ..integrators import COUNTER_LABELS, SWITCH_TIMES, c_file
+from ..integrators import (AUTO_CALM, AUTO_GAIN, CALM_STEPS, COUNTER_LABELS, EXCITED_AMPLITUDE, FAST_ITERATIONS,
+                           FAST_PROBE, STIFF_STEPS, SWITCH_TIMES, VERDICT_OSCILLATION, VERDICT_STIFF, c_file,
+                           registry)
 from ..integrators.registry import MAX_STEPS_CEILING
 from ..settings import (DEFAULT_MAX_STEPS, GRID_SLACK, MAX_ROWS, MIN_STEP_EPS, RCOND_MIN_EPS, RTOL_FLOOR_EPS,
                         STEPS_PER_ROW)
 
+VERDICT_NAMES = {VERDICT_STIFF: "LAG_VERDICT_STIFF", VERDICT_OSCILLATION: "LAG_VERDICT_OSCILLATION"}
 # (name, value, what it is): settings.py's numbers as the C driver and integrators read them
 # (those counted in eps: of the working precision).
 SHARED_CONSTANTS = (
@@ -28,6 +32,18 @@ SHARED_CONSTANTS = (
     ("LAG_MIN_STEP_EPS", f"{MIN_STEP_EPS}", "the smallest step, in eps of max(|t|, span)"),
     ("LAG_RCOND_MIN", f"({RCOND_MIN_EPS} * REAL_EPSILON)", "below this reciprocal condition, K is singular"),
     ("LAG_AUTO_LOGGED", f"{SWITCH_TIMES}", "the switches of auto whose times the summary keeps"),
+    ("LAG_STIFF_STEPS", f"{STIFF_STEPS}", "steps beyond the stability boundary that call for a verdict"),
+    ("LAG_CALM_STEPS", f"{CALM_STEPS}", "steps within it, in a row, that clear the count"),
+    ("LAG_FAST_ITERATIONS", f"{FAST_ITERATIONS}", "power iteration on J^2 for the spectral radius rho"),
+    ("LAG_FAST_PROBE", f"LAG_LIT({FAST_PROBE!r})", "the probe of y'' spans this fraction of 1/rho"),
+    ("LAG_EXCITED_AMPLITUDE", f"LAG_LIT({EXCITED_AMPLITUDE!r})", "a fast mode above this many tolerances is excited"),
+    (VERDICT_NAMES[VERDICT_STIFF], f"{VERDICT_STIFF}", "the stiffness test's verdicts: stiff (damped or unexcited) ..."),
+    (VERDICT_NAMES[VERDICT_OSCILLATION], f"{VERDICT_OSCILLATION}", "... or a fast oscillation to be resolved"),
+    ("LAG_AUTO_CALM", f"LAG_LIT({AUTO_CALM!r})", "auto back to dop853 when radau5 keeps h rho below this ..."),
+    ("LAG_AUTO_GAIN", f"LAG_LIT({AUTO_GAIN!r})", "... or its steps are not this many times dop853's"),
+    *((f"LAG_{record.name.upper()}_STABILITY_BOUNDARY", f"LAG_LIT({record.stability_boundary!r})",
+       f"h lambda beyond which {record.name}'s steps are held by stability")
+      for record in map(registry.get, registry.names()) if record.stiffness_test),
 )
 # The C argument of each value a status message may name, and its printf conversion where the
 # message gives no format of its own ({rcond:.3g} is printed with %.3g).
@@ -102,16 +118,46 @@ def status_formatter() -> str:
 
 
 def _printf(status: Status, call: str = "fprintf(file") -> str:
-    """The printf (`call`, up to its format) of the status's message and detail: Python's format
-    fields as printf's."""
-    text, arguments = "", []
-    for literal, name, spec in format_fields(status.message + status.detail):
+    """The printf (`call`, up to its format) of the status's message and detail."""
+    return _printf_text(status.message + status.detail, MESSAGE_ARGUMENTS, call)
+
+
+def _printf_text(message: str, arguments: dict[str, tuple[str, str]], call: str) -> str:
+    """The printf (`call`, up to its format) of `message`: Python's format fields as printf's, each
+    field's C argument and default conversion from `arguments`."""
+    text, values = "", []
+    for literal, name, spec in format_fields(message):
         text += literal.replace("%", "%%")
         if name is not None:
-            argument, conversion = MESSAGE_ARGUMENTS[name]
+            argument, conversion = arguments[name]
             text += f"%{spec}" if spec else conversion
-            arguments.append(argument)
-    return f"{call}, {', '.join([c_string(text), *arguments])});"
+            values.append(argument)
+    return f"{call}, {', '.join([c_string(text), *values])});"
+
+
+def verdict_printer() -> str:
+    """lag_print_verdict: the stiffness test's verdict of a run in the words of lagdsl.abi.VERDICTS,
+    with the standalone program's remedy."""
+    since = {name: (f"report->stats.{counter} - report->stats.stiff_{counter}", "%ld")
+             for name, counter in (("accepted", "accepted"), ("rejected", "rejected"), ("rhs_evals", "rhs_evals"))}
+    arguments = {"time": ("(double)report->stats.stiff_time", "%g"),
+                 "scale": ("1 / (double)report->stats.stiff_rate", "%g"),
+                 "period": ("6.283185307179586 / (double)report->stats.stiff_rate", "%g"),
+                 "amplitude": ("(double)report->stats.stiff_amplitude", "%g"),
+                 "rhs_total": ("report->stats.rhs_evals", "%ld"),
+                 "remedy": (c_string(VERDICT_REMEDIES["program"]), "%s"), **since}
+    cases = []
+    for kind, message in VERDICTS.items():
+        cases += [f"    case {VERDICT_NAMES[kind]}:", f"        {_printf_text(message, arguments, 'fprintf(file')}",
+                  "        fputc('\\n', file);", "        break;"]
+    return "\n".join([
+        "/* The stiffness test's verdict in the words of lagdsl.abi.VERDICTS, if it gave one. */",
+        "static void lag_print_verdict(FILE *file, const lag_report *report)",
+        "{",
+        "    switch (report->stats.stiff) {",
+        *cases,
+        "    }",
+        "}", ""])
 
 
 def summary_packer(layout: SummaryLayout) -> str:

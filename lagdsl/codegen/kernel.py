@@ -27,7 +27,8 @@ The blocks are exactly what the scene needs:
   canonical    gauss only: p = ∂L/∂q', M, and ṗ = ∂L/∂q + Q for Hamilton's equations
   initial      the initial state y0 from the start values (expressions of parameters)
   stop         a scene with `stop when ...` only: the function e(t, y) whose sign change to
-               negative ends the run
+               negative ends the run; where e reads multiplier(c), λ at (t, y) comes from the
+               same solve for (q'', λ) as the outputs' (`stop_needs_multipliers`)
   parameter_jacobian, output_jacobian, initial_sensitivity
                a program for forward sensitivities only (lagdsl/sensitivity/lowering.py):
                Dp = ∂R/∂p, the outputs' ∂h/∂y and ∂h/∂p, and ∂y0/∂p
@@ -108,6 +109,7 @@ class Kernel:
     momentum_rate: Block | None
     stop: Block | None = None                    # e(t, y) of the scene's stop condition
     stop_text: str = ""                          # the condition as written
+    stop_needs_multipliers: bool = False         # e reads multiplier(c): the stop solves for λ
     constant_mass: Block | None = None           # M from the parameters alone (system then gives b)
     jacobian_layout: JacobianLayout | None = None     # how the jacobian block stores Dq, Dv, Dz
     parameter_jacobian: Block | None = None           # Dp = ∂R/∂p (sensitivities only)
@@ -217,12 +219,17 @@ class _Lowering:
             initial=self.initial_block(), system=system, constant_mass=constant_mass,
             outputs=self.outputs_block(),
             outputs_need_multipliers=any(o.kind == "multiplier" or o.kind == "expression" and
-                                         o.expression.free_symbols & set(self.multipliers) for o in plan.outputs),
+                                         self.reads_multipliers(o.expression) for o in plan.outputs),
             constraint_rows=self.constraint_block() if self.active else None,
             **self.jacobian_fields(),
             **self.canonical_blocks(),
             stop=self.block([("ev", (0,), plan.stop.function)]) if plan.stop else None,
-            stop_text=plan.stop.text if plan.stop else "")
+            stop_text=plan.stop.text if plan.stop else "",
+            stop_needs_multipliers=bool(plan.stop and self.reads_multipliers(plan.stop.function)))
+
+    def reads_multipliers(self, expression: sympy.Expr) -> bool:
+        """Whether a value needs λ, solved for with q'' at its state (outputs, the stop condition)."""
+        return bool(expression.free_symbols & set(self.multipliers))
 
     def derived_parameters(self):
         """Parameters defined by earlier ones, written in terms of the array par[] they live in."""

@@ -27,6 +27,7 @@ def render_numpy(kernel: Kernel, source_name: str = "model.lag") -> GeneratedSou
         "derived": [(i, printer.doprint(expr)) for i, expr in kernel.derived_parameters],
         "jacobian": kernel.jacobian is not None, "canonical": kernel.momenta is not None,
         "outputs_need_multipliers": kernel.outputs_need_multipliers,
+        "stop_needs_multipliers": kernel.stop_needs_multipliers,
         "stop_text": kernel.stop_text, "stop": None, "constant_mass": None, "parameter_jacobian": None,      # blocks a scene may not have (below)
         "totals": any(block["accumulators"] for block in blocks.values()), "rcond_min_eps": RCOND_MIN_EPS,
         **blocks,

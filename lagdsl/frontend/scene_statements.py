@@ -18,7 +18,7 @@ ONCE = {"scene_time": "time(...)", "scene_integrator": "integrator(...)", "scene
 
 class SceneStatements:
     """Scenes: a part of semantics._ModelBuilder, whose state it reads (scope, expr, numbers, dims,
-    parameters, coordinates, constraints, outputs, draws) and extends (scenes, scene_spans), and whose
+    parameters, coordinates, outputs, draws) and extends (scenes, scene_spans), and whose
     helpers it calls (modifiers, coordinate_member, target_name, output_scope, draw, span, description)."""
 
     def scene(self, node):
@@ -85,16 +85,13 @@ class SceneStatements:
         return ir.TimeGrid(start, stop, interval, self.span(node))
 
     def scene_stop(self, node) -> ir.StopCondition:
-        """`stop when a < b;`: e = a - b (for `>`, b - a), a function of q, q', t and parameters."""
+        """`stop when a < b;`: e = a - b (for `>`, b - a), a function of q, q', t, parameters and
+        the multipliers λ (multiplier(c): the run solves for them with q'' wherever it evaluates e)."""
         left, right = expressions_of(node)
         sides = [self.expr.scalar(side, self.output_scope(), "a scalar in the stop condition")
                  for side in (left, right)]
         self.dims.scene_stop(left, right)
         function = sides[0] - sides[1] if tokens(node, "LESS") else sides[1] - sides[0]
-        multipliers = {ir.multiplier_symbol(c.name) for c in self.constraints}
-        if function.free_symbols & multipliers:
-            raise LagError("a stop condition cannot use multiplier(...): it is evaluated after every step, "
-                           "where the multipliers are not solved for", self.span(node))
         span = self.span(node)
         return ir.StopCondition(written(through(self.span(left), self.span(right))), function, span)
 

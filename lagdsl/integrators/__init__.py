@@ -13,6 +13,18 @@ COUNTER_LABELS = {"accepted": "steps accepted", "rejected": "rejected", "rhs_eva
 # The times of a composite's first switches that its run summary reports (abi.summary_layout).
 SWITCH_TIMES = 8                  # auto's switch times in a summary (LAG_AUTO_LOGGED in C)
 
+# The stiffness test of the explicit pairs and auto's switches, the same rule on both backends
+# (c/stiffness_test.c, c/auto.c and python/stiffness.py; emitted into C by codegen/c_abi.py; the
+# pairs' stability boundaries are in their records). docs/numerics.md explains the rule.
+STIFF_STEPS = 15                  # accepted steps beyond the stability boundary that call for a verdict
+CALM_STEPS = 6                    # accepted steps within it, in a row, that clear the count
+FAST_ITERATIONS = 8               # steps of power iteration on J^2 for the spectral radius rho
+FAST_PROBE = 1e-3                 # the probe of y'' along the solution spans this fraction of 1/rho
+EXCITED_AMPLITUDE = 100.0         # a fast mode above this many tolerances must be resolved
+VERDICT_STIFF, VERDICT_OSCILLATION = 1, 2   # the kinds of verdict (0: none)
+AUTO_CALM = 3.0                   # auto returns to dop853 when radau5's steps keep h rho below this ...
+AUTO_GAIN = 2.0                   # ... or when they are not this many times dop853's steps
+
 
 def integrator_files(name: str) -> tuple[str, ...]:
     """The C files that make up integrator `name`, in the order they are pasted."""

@@ -76,7 +76,8 @@ class Integrator:
     canonical: bool = False                     # integrates Hamilton's equations (symplectic)
     second_order: bool = False                  # q'' = a(t, q) only: no velocity in M or f
     constraints: str | None = None              # None if it handles constraints, else the remedy
-    stiffness_test: bool = False                # reports the explicit pairs' stiffness test
+    stability_boundary: float = 0.0             # |h lambda| beyond which its steps are held by stability ...
+    # ... (HNW I, IV.2); an explicit pair with one runs the stiffness test (c/stiffness_test.c)
     parts: tuple[str, ...] = ()                 # a composite: the methods it switches between
     c_fragments: tuple[str, ...] = ()           # shared C files pasted before its own
     c_protocol: tuple[str, ...] = ()            # shared C files pasted after it, which use what it defines
@@ -93,6 +94,11 @@ class Integrator:
     def order_with(self, options: dict[str, float]) -> int:
         """The method's order with `options` (gauss: 2 per stage)."""
         return self.order * int(options["stages"]) if self.stage_order else self.order
+
+    @property
+    def stiffness_test(self) -> bool:
+        """It reports the explicit pairs' stiffness test."""
+        return self.stability_boundary > 0
 
     @property
     def adaptive(self) -> bool:
@@ -152,11 +158,11 @@ for _record in (
                options=("step", "max_steps"), defaults=(), counters=("accepted", "rhs_evals"), fixed_step=True,
                c_fragments=("fixed_step.c",), python="fixed_step:run_rk4", order=4),
     Integrator("dopri5", "the Dormand-Prince pair dopri5", "Dormand-Prince 5(4), adaptive, dense output of order 4",
-               stiffness_test=True, c_fragments=_DORMAND_PRINCE, c_protocol=_DORMAND_PRINCE_STEP, scipy="RK45",
+               stability_boundary=3.25, c_fragments=_DORMAND_PRINCE, c_protocol=_DORMAND_PRINCE_STEP, scipy="RK45",
                stacks_in_sweeps=True, order=5),
     Integrator("dop853", "the Dormand-Prince pair dop853",
                "Dormand-Prince 8(5,3), adaptive, dense output of order 7 (the default)",
-               stiffness_test=True, c_fragments=_DORMAND_PRINCE, c_protocol=_DORMAND_PRINCE_STEP, scipy="DOP853",
+               stability_boundary=6.1, c_fragments=_DORMAND_PRINCE, c_protocol=_DORMAND_PRINCE_STEP, scipy="DOP853",
                stacks_in_sweeps=True, order=8),
     Integrator("rkn8", "the Nystrom integrator rkn8",
                "Runge-Kutta-Nystrom 8(6) for q'' = a(t, q), adaptive (no velocity-dependent forces)",

@@ -70,10 +70,11 @@ def _run_summary(plan: RunPlan, layout: SummaryLayout, values: list[float], elap
 
 
 def _stiffness(values: list[float], at: dict[str, int], counts: dict) -> Stiffness | None:
-    """The stiffness test's verdict: when it fired, and the work done since."""
+    """The stiffness test's verdict: its kind, when, the fast mode, and the work done since."""
     if not values[at["stiff"]]:
         return None
-    return Stiffness(values[at["stiff_time"]], int(counts["accepted"] - values[at["stiff_accepted"]]),
+    return Stiffness(int(values[at["stiff"]]), values[at["stiff_time"]], values[at["stiff_rate"]],
+                     values[at["stiff_amplitude"]], int(counts["accepted"] - values[at["stiff_accepted"]]),
                      int(counts["rejected"] - values[at["stiff_rejected"]]),
                      int(counts["rhs_evals"] - values[at["stiff_rhs_evals"]]), counts["rhs_evals"])
 

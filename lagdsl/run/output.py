@@ -1,12 +1,14 @@
 """Results of a run: the output grid, the table of outputs (its CSV by run.tables) and the run summary."""
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..integrators import COUNTER_LABELS
+from ..abi import VERDICT_REMEDIES, VERDICTS
+from ..integrators import COUNTER_LABELS, VERDICT_STIFF
 from ..integrators.registry import OPTION_ORDER
 from ..settings import RunPlan, grid_rows
 
@@ -21,19 +23,29 @@ def output_times(plan: RunPlan) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Stiffness:
-    """The stiffness test of an explicit method fired at `time`; the work done since."""
+    """The verdict of an explicit method's stiffness test (abi.VERDICTS: `kind` VERDICT_STIFF or
+    VERDICT_OSCILLATION) at `time`: the fast mode's spectral radius `rate` (1/s) and amplitude in
+    tolerances; the work done since."""
 
+    kind: int
     time: float
+    rate: float
+    amplitude: float
     accepted: int           # steps accepted since
-    rejected: int | None    # steps rejected since (None: not counted, as by scipy)
+    rejected: int           # steps rejected since
     rhs_evals: int          # right-hand sides evaluated since
     rhs_total: int          # ... and in the whole run
 
+    @property
+    def stiff(self) -> bool:
+        """An implicit method would help (the fast mode is damped or not excited)."""
+        return self.kind == VERDICT_STIFF
+
     def render(self) -> str:
-        rejected = f" ({self.rejected} rejected)" if self.rejected is not None else ""
-        return (f"stiffness detected at t = {self.time:.6g}: since then {self.accepted} steps{rejected} "
-                f"and {self.rhs_evals} of the {self.rhs_total} right-hand sides; "
-                "an implicit method needs far fewer steps: use --integrator radau5 (or auto)")
+        return VERDICTS[self.kind].format(
+            time=self.time, scale=1 / self.rate, period=2 * math.pi / self.rate, amplitude=self.amplitude,
+            accepted=self.accepted, rejected=self.rejected, rhs_evals=self.rhs_evals, rhs_total=self.rhs_total,
+            remedy=VERDICT_REMEDIES["lagc"])
 
 
 @dataclass(frozen=True)

@@ -184,7 +184,7 @@ class _StepWatch:
         self.counts = counts
         self.stiffness = StiffnessTest(method) if method in STABILITY_BOUNDARY else None
         self.switches = SwitchLog() if method == "LSODA" else None
-        self.at_detection: tuple[int, int] | None = None
+        self.at_detection: tuple[int, int, int] | None = None
 
     def record(self, solver) -> None:
         if self.stiffness is not None and self.stiffness.record(solver):
@@ -196,8 +196,9 @@ class _StepWatch:
     def finish(self, counts: dict) -> dict:
         if self.at_detection is not None:
             accepted, rejected, rhs_evals = self.at_detection
-            counts["stiffness"] = Stiffness(self.stiffness.time, counts["accepted"] - accepted,
-                                            None if rejected is None else counts["rejected"] - rejected,
+            verdict = self.stiffness.verdict
+            counts["stiffness"] = Stiffness(verdict.kind, verdict.time, verdict.rate, verdict.amplitude,
+                                            counts["accepted"] - accepted, counts["rejected"] - rejected,
                                             counts["rhs_evals"] - rhs_evals, counts["rhs_evals"])
         if self.switches is not None:
             log = self.switches

@@ -28,11 +28,13 @@ GOLDEN = ROOT / "tests" / "golden"
 # constraints: the sparse LDLᵀ of the saddle-point system), and the local form's loops over members
 # (fpu_chain: diagonal, 200 masses; fem_string_fine: a band, 40 nodes). The Jacobians of radau5:
 # dense (charged_particle.helix) and banded (fpu_chain.implicit, the local form's loops). The
-# Nystrom pair rkn8: pleiades.nystrom.
+# Nystrom pair rkn8: pleiades.nystrom. A stop condition that reads a multiplier (solved for at
+# each state the event search tries): ladder.slide.
 CASES = [("wedge", "slide"), ("rolling_penny", "roll"), ("charged_particle", "helix"),
          ("kepler", "symplectic"), ("double_pendulum", "chaos"), ("fem_string", "mode2"),
          ("pendulum_chain", "swing"), ("fpu_chain", "spread"), ("fpu_chain", "implicit"),
-         ("fem_string_fine", "mode2"), ("cartesian_chain", "swing"), ("pleiades", "nystrom")]
+         ("fem_string_fine", "mode2"), ("cartesian_chain", "swing"), ("pleiades", "nystrom"),
+         ("ladder", "slide")]
 EXTENSIONS = {"c": "c", "numpy": "py"}
 
 
@@ -152,6 +154,14 @@ def test_pleiades_golden_with_the_nystrom_pair_reaches_the_test_sets_state(tmp_p
     for axis, values in PLEIADES_AT_3.items():
         assert np.allclose([table[f"{axis}[{i}]"][-1] for i in range(1, 8)], values, atol=1e-8, rtol=0)
     assert "integrator rkn8(rtol = 1e-12, atol = 1e-12)" in summary
+
+
+def test_ladder_golden_stops_where_the_ladder_leaves_the_wall(tmp_path):
+    from tests.run.test_stop_condition import LEAVES_WALL
+    table, summary = run_golden(tmp_path, "ladder", "slide")
+    assert abs(table["t"][-1] - LEAVES_WALL) < 1e-9
+    assert table["y"][-1] == pytest.approx(2 / 3 * table["y"][0], abs=1e-9)
+    assert f"stopped at t = {table['t'][-1]:.17g}, where multiplier(wall) < 0" in summary
 
 
 def test_standalone_program_takes_overrides(tmp_path):

@@ -117,6 +117,19 @@ def test_stop_condition_ends_the_co_simulation_where_lagc_run_ends(tmp_path, ver
     np.testing.assert_allclose(result["y"], run["y"], atol=1e-12)
 
 
+@VERSIONS
+def test_a_stop_on_a_multiplier_ends_the_co_simulation_where_lagc_run_ends(tmp_path, version):
+    """The ladder leaves the wall where the wall's multiplier turns negative (models/ladder.lag)."""
+    model = load("ladder")
+    run = model.simulate()
+    fmu = tmp_path / "ladder.fmu"
+    fmu.write_bytes(build_fmu(model, version=version))
+    early = {"early_return_allowed": True} if version == 3 else {}
+    result = fmpy.simulate_fmu(str(fmu), fmi_type="CoSimulation", output_interval=0.01, **early)
+    assert result["time"][-1] == pytest.approx(run.t[-1], abs=1e-12) and run.t[-1] < 1
+    np.testing.assert_allclose(result["y"], run["y"], atol=1e-12)
+
+
 def test_an_export_is_the_same_bytes_and_keeps_its_value_references(tmp_path):
     model = load("double_pendulum")
     assert build_fmu(model) == build_fmu(model)

@@ -171,6 +171,17 @@ enum lag_status {
 #define LAG_MIN_STEP_EPS 10                      /* the smallest step, in eps of max(|t|, span) */
 #define LAG_RCOND_MIN (1000 * REAL_EPSILON)      /* below this reciprocal condition, K is singular */
 #define LAG_AUTO_LOGGED 8                        /* the switches of auto whose times the summary keeps */
+#define LAG_STIFF_STEPS 15                       /* steps beyond the stability boundary that call for a verdict */
+#define LAG_CALM_STEPS 6                         /* steps within it, in a row, that clear the count */
+#define LAG_FAST_ITERATIONS 8                    /* power iteration on J^2 for the spectral radius rho */
+#define LAG_FAST_PROBE LAG_LIT(0.001)            /* the probe of y'' spans this fraction of 1/rho */
+#define LAG_EXCITED_AMPLITUDE LAG_LIT(100.0)     /* a fast mode above this many tolerances is excited */
+#define LAG_VERDICT_STIFF 1                      /* the stiffness test's verdicts: stiff (damped or unexcited) ... */
+#define LAG_VERDICT_OSCILLATION 2                /* ... or a fast oscillation to be resolved */
+#define LAG_AUTO_CALM LAG_LIT(3.0)               /* auto back to dop853 when radau5 keeps h rho below this ... */
+#define LAG_AUTO_GAIN LAG_LIT(2.0)               /* ... or its steps are not this many times dop853's */
+#define LAG_DOPRI5_STABILITY_BOUNDARY LAG_LIT(3.25) /* h lambda beyond which dopri5's steps are held by stability */
+#define LAG_DOP853_STABILITY_BOUNDARY LAG_LIT(6.1) /* h lambda beyond which dop853's steps are held by stability */
 
 /* The positions in the settings vector of lag_run and lag_run_batch (lagdsl.abi.SETTINGS). */
 enum lag_setting { LAG_SET_T_START, LAG_SET_T_STOP, LAG_SET_T_INTERVAL, LAG_SET_RTOL, LAG_SET_ATOL, LAG_SET_STEP, LAG_SET_MAX_STEP, LAG_SET_STAGES, LAG_SET_MAX_STEPS, LAG_SETTINGS };
@@ -1928,13 +1939,7 @@ static void lag_print_work(const lag_report *report, const lag_options *options,
     lag_print_counters(stderr, counts);
     fprintf(stderr, ", %.3g s CPU\n", seconds);
 #if LAG_HAS_STIFFNESS_TEST
-    if (report->stats.stiff)
-        fprintf(stderr, "stiffness detected at t = %.6g: since then %ld steps (%ld rejected) and %ld of the "
-                "%ld right-hand sides; an implicit method needs far fewer steps: generate this program "
-                "with integrator radau5 (or auto) in the scene\n",
-                (double)report->stats.stiff_time, report->stats.accepted - report->stats.stiff_accepted,
-                report->stats.rejected - report->stats.stiff_rejected,
-                report->stats.rhs_evals - report->stats.stiff_rhs_evals, report->stats.rhs_evals);
+    lag_print_verdict(stderr, report);
 #endif
 #if LAG_HAS_SWITCHES
     fprintf(stderr, "auto: %ld switch%s", report->switches.count, report->switches.count == 1 ? "" : "es");

@@ -1,6 +1,6 @@
 """Constrained models against closed forms: the Atwood machine's acceleration and tension, the
 swinging Atwood machine's start, the rolling penny (the seeds' corrected multipliers), the
-rolling disk's wobble, the Chaplygin sledge's tanh, the two bodies on a sphere in angles and
+rolling disk's wobble, the Chaplygin sledge's tanh, the ladder's contact forces, the two bodies on a sphere in angles and
 in Cartesian coordinates, the block on the wedge, the chain in Cartesian coordinates against the
 chain in angles."""
 from __future__ import annotations
@@ -120,6 +120,25 @@ def test_two_bodies_on_a_sphere_agree_in_angles_and_in_cartesian_coordinates():
     assert np.max(np.abs(cartesian["residual(sphere1)"])) < 1e-12
     assert drift(cartesian, "energy") < 1e-9 and drift(angles, "energy") < 1e-9
     assert np.ptp(angles["z1"]) > 0.3        # the motion leaves the equator
+
+
+def test_ladder_pushes_on_the_wall_and_floor_as_the_closed_form_says():
+    """While both contacts hold, theta'^2 = (3 g/l)(s0 - sin(theta)) and the contact forces are
+    N_wall = (3 m g/4) cos(theta) (3 sin(theta) - 2 s0) and
+    N_floor = m g (1 - (3/4) cos(theta)^2 - (3/2) sin(theta) (s0 - sin(theta))), s0 = sin(theta0);
+    the scene stops where N_wall = 0, sin(theta) = (2/3) s0, where N_floor = m g/4 (measured:
+    theta'^2 4e-12/s^2, the forces 7e-11 N, the height 5e-13 m; the stop time is checked in
+    tests/run/test_stop_condition.py)."""
+    m, theta0 = 10.0, 1.2
+    result = run("ladder", "slide")
+    s, s0 = np.sin(result["theta"]), np.sin(theta0)
+    cos2 = 1 - s ** 2
+    assert np.allclose(result["der(theta)"] ** 2, 3 * G / 4 * (s0 - s), rtol=0, atol=1e-10)
+    assert np.allclose(result["wall_force"], 3 * m * G / 4 * np.sqrt(cos2) * (3 * s - 2 * s0), rtol=0, atol=1e-9)
+    assert np.allclose(result["floor_force"], m * G * (1 - 0.75 * cos2 - 1.5 * s * (s0 - s)), rtol=0, atol=1e-9)
+    assert result["y"][-1] == pytest.approx(2 / 3 * result["y"][0], abs=1e-11)
+    assert result["floor_force"][-1] == pytest.approx(m * G / 4, abs=1e-9)
+    assert drift(result, "energy") < 1e-11 and result.summary.residual_max < 1e-12
 
 
 def test_wedge_accelerations():

@@ -42,7 +42,7 @@ AGREEMENT = 1e-6
 REFERENCE = ("dop853", "c")
 # Models that must refuse gauss, and why (the rule: no constraints, M independent of q').
 REFUSES_GAUSS = {model: "constraints" for model in (
-    "andrews", "atwood", "car_axis", "cartesian_chain", "cartesian_pendulum", "chaplygin_sledge", "rolling_disk",
+    "andrews", "atwood", "car_axis", "cartesian_chain", "cartesian_pendulum", "chaplygin_sledge", "ladder", "rolling_disk",
     "rolling_penny", "sphere_two_bodies_cartesian")}
 # The NumPy backend refuses auto (scipy's LSODA) with constraints: it restarts at order 1 after
 # every projection.

@@ -14,7 +14,7 @@ import subprocess
 import pytest
 
 from lagdsl.abi import MAX_STEPS, STATUSES, summary_layout
-from lagdsl.codegen.c_abi import runtime_contract, runtime_header, status_printer, summary_packer
+from lagdsl.codegen.c_abi import runtime_contract, runtime_header, status_printer, summary_packer, verdict_printer
 from lagdsl.integrators import c_file
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 
@@ -120,7 +120,7 @@ enum lag_auto_method { LAG_AUTO_EXPLICIT, LAG_AUTO_IMPLICIT };
 typedef struct lag_stats {
     long accepted, rejected, rhs_evals, jac_evals, lu_decomps, newton_iters;
     int stiff;
-    real stiff_time;
+    real stiff_time, stiff_rate, stiff_amplitude, stiff_step;
     long stiff_accepted, stiff_rejected, stiff_rhs_evals;
 } lag_stats;
 typedef struct lag_switches { long count; real at[LAG_AUTO_LOGGED]; real span[2]; } lag_switches;
@@ -217,7 +217,8 @@ def program(constraints, holonomic, invariants, stop, integrator, tolerances) ->
     linear_algebra = c_file("lu.c") if constraints else ""      # the projection's; unused, it is a warning
     return "\n".join([HEADERS, runtime_header(), runtime_contract(), linear_algebra, defines,
                       MODEL % {"holonomic": "#define LAG_NH 1" if holonomic else ""}, STEPPER, c_file("driver.c"),
-                      summary_packer(layout), c_file("library.c"), SCENE, status_printer(), c_file("standalone.c")])
+                      summary_packer(layout), c_file("library.c"), SCENE, status_printer(),
+                      verdict_printer() if integrator == "dop853" else "", c_file("standalone.c")])
 
 
 def build(tmp_path, name: str, combination: tuple) -> str:

@@ -3,7 +3,10 @@
 The stiff test problem (`models/stiff_spring.lag`): two unit masses on soft springs (k1 = 1,
 k2 = 3), joined by a stiff spring K = 1e8, started in the slow normal mode, so that
 x1 = cos(omega t), x2 = r cos(omega t) exactly while the fast mode (omega near 1.4e4) only limits
-an explicit method's step. The chaotic double pendulum is the non-stiff counterpart.
+an explicit method's step. The chaotic double pendulum is the non-stiff counterpart. The cart of
+`models/spring_cart.lag` on a spring k = 1e8 to a shaken support has its fast mode excited far
+above the tolerance: undamped (c = 0) it must be resolved, and is not called stiff; overdamped
+(c = 1e6) it is stiff, and radau5 steps over it.
 """
 from __future__ import annotations
 
@@ -16,17 +19,25 @@ import pytest
 
 import lagdsl
 from lagdsl.errors import LagError
+from lagdsl.integrators import VERDICT_OSCILLATION, VERDICT_STIFF
 from lagdsl.scene import Overrides
 from tests.conftest import library_model
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 
 STIFF_SPRING = Path(__file__).parent / "models" / "stiff_spring.lag"
+SPRING_CART = Path(__file__).parent / "models" / "spring_cart.lag"
 K1, K2, K = 1.0, 3.0, 1e8
+CART_MASS, CART_SPRING, HEAVY_DAMPER = 1.0, 1e8, 1e6
 
 
 @pytest.fixture(scope="module")
 def spring():
     return lagdsl.load(STIFF_SPRING)
+
+
+@pytest.fixture(scope="module")
+def cart():
+    return lagdsl.load(SPRING_CART)
 
 
 @pytest.fixture(scope="module")
@@ -144,3 +155,61 @@ def test_the_auto_program_compiles_strictly(spring, tmp_path):
         done = subprocess.run([cc, *STRICT_FLAGS, *precision, "-c", str(source), "-o", str(tmp_path / "a.o")],
                               capture_output=True, text=True)
         assert done.returncode == 0, done.stderr
+
+
+def trials(result) -> int:
+    return result.summary.count("accepted") + result.summary.count("rejected")
+
+
+@pytest.mark.parametrize("backend, stop", [("c", 2.0), pytest.param("numpy", 0.15, marks=pytest.mark.slow)])
+def test_an_excited_fast_vibration_must_be_resolved_and_is_not_called_stiff(cart, backend, stop):
+    result = cart.simulate(backend=backend, stop=stop, max_steps=10**6)
+    verdict = result.summary.stiffness
+    assert verdict.kind == VERDICT_OSCILLATION and not verdict.stiff
+    # the cart's vibration on the spring, about 2 pi sqrt(M/k) (the bob adds little at 1e4 rad/s)
+    assert verdict.rate == pytest.approx(math.sqrt(CART_SPRING / CART_MASS), rel=0.05)
+    assert verdict.amplitude > 1000
+    text = result.summary.render()
+    assert "a fast oscillation (period 0.000" in text and "must be resolved" in text
+    assert "stiff" not in text and "radau5" not in text
+
+
+@pytest.mark.parametrize("backend, stop", [("c", 0.2), ("numpy", 0.001)])
+def test_an_overdamped_fast_mode_is_stiff(cart, backend, stop):
+    result = cart.simulate(backend=backend, c=HEAVY_DAMPER, stop=stop, max_steps=10**6)
+    verdict = result.summary.stiffness
+    assert verdict.kind == VERDICT_STIFF and verdict.stiff and verdict.amplitude < 10
+    # the fast eigenvalue of the overdamped spring, -c/M
+    assert verdict.rate == pytest.approx(HEAVY_DAMPER / CART_MASS, rel=0.1)
+    assert result.summary.render().count("stiffness detected") == 1
+
+
+def test_auto_stays_with_dop853_on_the_excited_vibration(cart):
+    auto = cart.simulate(integrator="auto")
+    dop853 = cart.simulate(integrator="dop853")
+    assert auto.summary.switches.count <= 2
+    assert trials(auto) <= 1.05 * trials(dop853)
+    assert np.max(np.abs(auto.values - dop853.values)) < 1e-6
+
+
+def test_auto_switches_once_and_saves_work_on_the_overdamped_spring(cart):
+    auto = cart.simulate(integrator="auto", c=HEAVY_DAMPER)
+    dop853 = cart.simulate(integrator="dop853", c=HEAVY_DAMPER, stop=0.2, max_steps=10**6)
+    switches = auto.summary.switches
+    assert switches.count == 1 and switches.spans[1] > 1.99
+    # dop853 needs 10 times auto's steps on a tenth of the run
+    assert 10 * trials(auto) < trials(dop853)
+    reference = cart.simulate(integrator="radau5", c=HEAVY_DAMPER, rtol=1e-10, atol=1e-13)
+    assert np.max(np.abs(auto.values - reference.values)) < 1e-5
+
+
+def test_the_standalone_program_words_the_verdict_as_lagc_does(cart, tmp_path):
+    cc = find_cc()
+    if cc is None:
+        pytest.skip("no C compiler")
+    source, program = tmp_path / "cart.c", tmp_path / "cart"
+    source.write_text(cart.emit("c").text)
+    subprocess.run([cc, *STRICT_FLAGS, str(source), "-o", str(program), "-lm"], check=True)
+    done = subprocess.run([str(program), "t.stop=0.3"], capture_output=True, text=True, check=True)
+    lagc = cart.simulate(stop=0.3).summary.stiffness.render()
+    assert lagc in done.stderr and "stiff" not in done.stderr

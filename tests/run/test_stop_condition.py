@@ -3,12 +3,15 @@ dense output of every integrator, on both backends and in the standalone C progr
 from __future__ import annotations
 
 import subprocess
+import sys
 
 import numpy as np
 import pytest
+from scipy.integrate import quad
 from scipy.special import ellipk
 
 import lagdsl
+from tests.conftest import MODELS, library_model
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 
 PROJECTILE = """model Projectile "a thrown point mass; the flight ends where it comes down"
@@ -61,6 +64,18 @@ ROD = """model Rod "a pendulum in Cartesian coordinates, held by a rod"
   end fall;
 end Rod;
 """
+# The ladder of models/ladder.lag (l = 4 m, theta0 = 1.2 rad) leaves the wall where
+# sin(theta) = (2/3) sin(theta0), after t = integral of dtheta / sqrt((3 g/l)(sin(theta0) - sin(theta)))
+# from there to theta0; with s = sin(theta) = sin(theta0) - w^2 the integrand is smooth, and quad
+# gives t to 1e-14 s (solve_ivp's DOP853 at rtol 1e-14 on theta'' = -(3 g/2l) cos(theta) agrees to 3e-15 s).
+LADDER_S0, LADDER_K = np.sin(1.2), 3 * 9.81 / 4
+LEAVES_WALL = quad(lambda w: 2 / np.sqrt(LADDER_K * (1 - (LADDER_S0 - w * w)**2)), 0, np.sqrt(LADDER_S0 / 3),
+                   epsabs=0, epsrel=1e-13)[0]
+# The integrators that handle constraints on each backend (the NumPy backend's auto is scipy's
+# LSODA, refused with constraints; taylor is C only), and the ladder's located stop time with each
+# (measured: 1e-13 s, radau5 1.1e-11 s).
+CONSTRAINED_INTEGRATORS = {"c": ("dop853", "dopri5", "radau5", "auto", "rk4", "taylor"),
+                           "numpy": ("dop853", "dopri5", "radau5", "rk4")}
 INTEGRATORS = {"dopri5": {}, "dop853": {}, "rkn8": {}, "radau5": {}, "auto": {}, "rk4": {"step": 0.01},
                "gauss": {"step": 0.01}}
 
@@ -138,3 +153,66 @@ def test_the_standalone_program_stops_and_says_where(tmp_path):
         last = run.stdout.splitlines()[-1].split(",")
         assert float(last[0]) == pytest.approx(20 / 9.81, abs=1e-9)
         assert f"stopped at t = {last[0]}, where r.y < 0" in run.stderr
+
+
+@pytest.mark.parametrize("backend, integrator", [(backend, integrator) for backend, names in
+                                                 CONSTRAINED_INTEGRATORS.items() for integrator in names])
+def test_the_ladder_leaves_the_wall_where_its_multiplier_turns_negative(backend, integrator):
+    """`stop when multiplier(wall) < 0;`: the wall's push, solved for with q'' at each dense-output
+    state the root search tries, vanishes where the centre has come down to 2/3 of its height."""
+    options = {"step": 1e-3} if integrator == "rk4" else {}
+    result = library_model("ladder").simulate("slide", backend, integrator=integrator, **options)
+    assert result.summary.stopped is not None and result.summary.stopped.time == result.t[-1]
+    assert abs(result.t[-1] - LEAVES_WALL) < 1e-9
+    assert result["y"][-1] == pytest.approx(2 / 3 * result["y"][0], abs=1e-9)
+    assert np.sin(result["theta"][-1]) == pytest.approx(2 / 3 * LADDER_S0, abs=1e-9)
+    assert abs(result["wall_force"][-1]) < 1e-6 and np.all(result["wall_force"][:-1] > 0)
+    assert "where multiplier(wall) < 0" in result.summary.render()
+
+
+@pytest.mark.parametrize("backend", ["c", "numpy"])
+def test_a_stop_on_a_nonholonomic_multiplier(tmp_path, backend):
+    """The rolling penny (models/rolling_penny.lag): the plane's side force, the multiplier of
+    roll_y, is -m sin(theta) 2 g s (2 cos(theta) - cos(theta0))/3 with theta = theta0 + w t (the
+    corrected closed form of tests/models/test_constrained.py); it changes sign where
+    cos(theta) = cos(theta0)/2."""
+    scene = """  scene turn
+    time(stop = 2, interval = 0.1);
+    integrator dop853(rtol = 1e-12, atol = 1e-14);
+    stop when multiplier(roll_y) > 0;
+    output theta, multiplier(roll_y);
+  end turn;
+end RollingPenny;
+"""
+    text = (MODELS / "rolling_penny.lag").read_text().replace("end RollingPenny;\n", scene)
+    result = load(tmp_path, text, "penny").simulate("turn", backend)
+    assert result.t[-1] == pytest.approx(np.arccos(np.cos(0.3) / 2) - 0.3, abs=1e-9)
+    assert np.all(result["multiplier(roll_y)"][:-1] < 0)
+
+
+def test_a_multiplier_of_a_dropped_constraint_in_the_stop_condition_is_refused_there(tmp_path):
+    """The rod of a pendulum in an angle holds identically, so it is dropped and has no multiplier."""
+    text = """model Swing
+  parameter m = 1 [kg];
+  parameter r = 1 [m];
+  parameter g = 9.81 [m/s^2];
+  coordinate theta(start = 1) [rad];
+  let x = r*sin(theta);
+  let y = -r*cos(theta);
+  T = m/2*(der(x)^2 + der(y)^2);
+  U = m*g*y;
+  constraint rod: x^2 + y^2 = r^2;
+  scene s
+    stop when -2*r*multiplier(rod) < 0;
+  end s;
+end Swing;
+"""
+    path = tmp_path / "swing.lag"
+    path.write_text(text)
+    done = subprocess.run([sys.executable, "-m", "lagdsl", "run", str(path)], capture_output=True, text=True)
+    assert done.returncode == 1 and done.stdout == ""
+    assert done.stderr.splitlines()[:3] == [
+        f"{path}:12:5: error: constraint 'rod' is identically satisfied by the coordinates and was dropped, "
+        "so it has no multiplier",
+        "    stop when -2*r*multiplier(rod) < 0;",
+        "    ^~~~~~~~~~~~~~~~~~~~~~~~~~~~~~~~~~~"]

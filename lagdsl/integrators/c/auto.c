@@ -4,21 +4,24 @@
  * Pasted after dop853.c and radau5.c, whose interfaces are renamed dop853_stepper... and
  * radau5_stepper... (lagdsl.integrators.integrator_source), so that both live in one file.
  *
- * To radau5: when the stiffness test of dop853 fires (explicit_control.c: 15 accepted steps with
- * h lambda beyond the stability boundary 6.1, HNW I, IV.2).  radau5 starts from dop853's last
- * step size, which stability had limited, and soon enlarges it.
- * Back to dop853: when radau5's accepted steps lie well inside dop853's stability region,
- * h rho <= 3 (half its boundary) with rho the spectral radius of J = df/dy, on 15 accepted
- * steps in a row: dop853 could then take radau5's steps without being limited by stability, at
- * less cost per step.  rho is estimated by power iteration on J^2 (one product J (J v) per
- * accepted step, continued from the previous v): the eigenvalues of a mechanical system's
- * stiff modes come in pairs +-i omega (or a +- i b) of equal modulus, which J^2 maps to one
- * real eigenvalue -omega^2 (or one modulus), so ||J^2 v|| / ||v|| -> rho^2 where ||J v|| / ||v||
- * would oscillate.  The products are differences of the right-hand side (two per step).  The margin of 2 and the 15 steps keep the two methods from alternating when
- * the problem sits at the border; so does patience: after each return to dop853, its stiffness
- * verdict is heeded only after twice as many accepted steps as the time before (30, 60, ...),
- * since a fast mode that radau5 had to resolve as well (it is active above the tolerance) makes
- * dop853 look stiff while it is merely accurate.
+ * To radau5: when the stiffness test of dop853 (stiffness_test.c) gives the verdict stiff: a fast
+ * mode holds its steps at the stability boundary, and it is damped or not excited, so that an
+ * L-stable method may step over it.  A fast oscillation excited above the tolerance (the other
+ * verdict) must be resolved by either method, and dop853 resolves it with fewer right-hand
+ * sides: auto stays with dop853 there.  radau5 starts from dop853's last step size, which
+ * stability had limited, and soon enlarges it.
+ * Back to dop853, either of:
+ * - measured work: after LAG_STIFF_STEPS trials of radau5, its mean step is not LAG_AUTO_GAIN
+ *   times dop853's mean step over the steps that made the verdict: radau5 does not pay;
+ * - the stiffness has faded: radau5's accepted steps lie well inside dop853's stability region,
+ *   h rho <= LAG_AUTO_CALM (half its boundary) with rho the spectral radius of J = df/dy, on
+ *   LAG_STIFF_STEPS accepted steps in a row: dop853 could then take radau5's steps without being
+ *   limited by stability, at less cost per step.  rho is estimated by power iteration on J^2
+ *   (lag_power_step, one step per accepted step of radau5, continued from the previous v; two
+ *   evaluations of f).
+ * Hysteresis: after each return to dop853, its stiffness verdict is heeded only after twice as
+ * many accepted steps as the time before (30, 60, ...), so that a problem at the border between
+ * the two switches O(log(steps)) times, not once per verdict.
  *
  * Each switch restarts the other method at the current (t, y), as if a new integration began
  * there.  The dense output stays that of the method that took the last step, so output rows
@@ -28,8 +31,6 @@
  */
 
 #define LAG_INTEGRATOR_NAME "auto"
-
-#define LAG_AUTO_CALM LAG_LIT(3.0)  /* h rho below this: dop853 would be stable with this h */
 
 enum lag_auto_method { LAG_AUTO_EXPLICIT, LAG_AUTO_IMPLICIT };
 
@@ -54,6 +55,9 @@ typedef struct lag_stepper {
     int last;                      /* the method that took the last step (its dense output) */
     lag_stats finished;            /* counters of the methods' earlier runs */
     int calm_steps;                /* radau5 steps in a row with h rho <= LAG_AUTO_CALM */
+    int measured;                  /* radau5's work since the last switch was judged */
+    real switched_at;              /* t of the last switch to radau5 ... */
+    real explicit_step;            /* ... and dop853's mean step over the steps of its verdict */
     long patience;                 /* dop853 steps before its stiffness verdict is heeded */
     real v[LAG_NY];                /* power iteration vector for rho(J)^2 */
     real jv[LAG_NY];
@@ -125,36 +129,13 @@ static int auto_switch(lag_stepper *s, int method, real h0)
     return status;
 }
 
-/* J u by a forward difference of the right-hand side at radau5's (t, y), whose f(t, y) is f0:
- * J u ~ (f(t, y + delta u) - f0) / delta, delta = sqrt(eps) (1 + |y|) / |u| (radau5 keeps J
- * only in the reduced form of its iteration matrices). */
-static int auto_product(lag_stepper *s, const real *f0, const real *u, real *ju)
-{
-    radau5_stepper *r = &s->implicit_method;
-    real size_u = 0, size_y = 0, delta;
-    int i, status;
-    for (i = 0; i < LAG_NY; ++i) {
-        size_u += u[i] * u[i];
-        size_y += r->y[i] * r->y[i];
-    }
-    if (!(size_u > 0) || !r_isfinite(size_u))
-        return LAG_ERR_NONFINITE;
-    delta = r_sqrt(REAL_EPSILON) * (1 + r_sqrt(size_y)) / r_sqrt(size_u);
-    for (i = 0; i < LAG_NY; ++i)
-        r->tmp[i] = r->y[i] + delta * u[i];
-    status = lag_rhs(s->sys, r->t, r->tmp, ju);
-    r->stats.rhs_evals += 1;
-    for (i = 0; i < LAG_NY; ++i)
-        ju[i] = (ju[i] - f0[i]) / delta;
-    return status;
-}
-
-/* rho(J)^2 from one step of power iteration on J^2, J (J v) by two differences; f(t, y) is
- * left to radau5 as the start of its next step.  0 when nothing was learnt. */
+/* rho(J)^2 at radau5's (t, y) from one step of power iteration on J^2 (lag_power_step); f(t, y)
+ * is left to radau5 as the start of its next step.  0 when nothing was learnt, and the iteration
+ * starts afresh. */
 static real auto_spectral_radius_squared(lag_stepper *s)
 {
     radau5_stepper *r = &s->implicit_method;
-    real size = 0, before = 0;
+    real rho2;
     int i;
     if (!r->have_f0) {
         if (lag_rhs(s->sys, r->t, r->y, r->f0) != LAG_OK)
@@ -162,25 +143,35 @@ static real auto_spectral_radius_squared(lag_stepper *s)
         r->stats.rhs_evals += 1;
         r->have_f0 = 1;
     }
-    for (i = 0; i < LAG_NY; ++i)
-        before += s->v[i] * s->v[i];
-    if (auto_product(s, r->f0, s->v, s->jv) != LAG_OK || auto_product(s, r->f0, s->jv, s->v) != LAG_OK) {
+    rho2 = lag_power_step(s->sys, &r->stats.rhs_evals, r->t, r->y, r->f0, s->v, s->jv, r->tmp);
+    if (!(rho2 > 0))
         for (i = 0; i < LAG_NY; ++i)
             s->v[i] = 1;
+    return rho2;
+}
+
+/* radau5 has had LAG_STIFF_STEPS trials since the switch (judged once) and its mean step is not
+ * LAG_AUTO_GAIN times dop853's: it does not pay. */
+static int auto_radau5_does_not_pay(lag_stepper *s)
+{
+    const radau5_stats *stats = &s->implicit_method.stats;
+    long trials = stats->accepted + stats->rejected;
+    if (s->measured || trials < LAG_STIFF_STEPS)
         return 0;
-    }
-    for (i = 0; i < LAG_NY; ++i)
-        size += s->v[i] * s->v[i];
-    size = r_sqrt(size);
-    if (!(size > 0) || !r_isfinite(size)) {
-        /* J^2 v = 0 (no stiff direction seen from v) or overflow: start the iteration afresh */
-        for (i = 0; i < LAG_NY; ++i)
-            s->v[i] = 1;
-        return 0;
-    }
-    for (i = 0; i < LAG_NY; ++i)
-        s->v[i] /= size;
-    return size / r_sqrt(before);
+    s->measured = 1;
+    return s->t - s->switched_at < LAG_AUTO_GAIN * s->explicit_step * trials;
+}
+
+/* radau5 returns to dop853 after measuring that it does not pay, or on LAG_STIFF_STEPS steps in
+ * a row that dop853 could take as well. */
+static int auto_back_to_dop853(lag_stepper *s)
+{
+    real h_rho;
+    if (auto_radau5_does_not_pay(s))
+        return 1;
+    h_rho = s->implicit_method.h_old * r_sqrt(auto_spectral_radius_squared(s));
+    s->calm_steps = h_rho <= LAG_AUTO_CALM ? s->calm_steps + 1 : 0;
+    return s->calm_steps >= LAG_STIFF_STEPS;
 }
 
 static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, const real *y0,
@@ -203,16 +194,21 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
 
 static int lag_stepper_step(lag_stepper *s)
 {
-    real t = s->t, h_rho;
+    const dop853_stats *verdict = &s->explicit_method.stats;
+    real t = s->t;
     int status;
     if (s->method == LAG_AUTO_EXPLICIT) {
         status = dop853_stepper_step(&s->explicit_method);
         s->last = LAG_AUTO_EXPLICIT;
         auto_sync(s);
         s->switches.span[LAG_AUTO_EXPLICIT] += s->t - t;
-        if (status == LAG_OK && s->explicit_method.stats.stiff && s->explicit_method.stats.accepted >= s->patience
-            && s->t < s->t_end)
+        if (status == LAG_OK && verdict->stiff == LAG_VERDICT_STIFF && verdict->accepted >= s->patience
+            && s->t < s->t_end) {
+            s->measured = 0;
+            s->switched_at = s->t;
+            s->explicit_step = verdict->stiff_step;
             status = auto_switch(s, LAG_AUTO_IMPLICIT, s->explicit_method.h);
+        }
         return status;
     }
     status = radau5_stepper_step(&s->implicit_method);
@@ -221,9 +217,7 @@ static int lag_stepper_step(lag_stepper *s)
     s->switches.span[LAG_AUTO_IMPLICIT] += s->t - t;
     if (status != LAG_OK || !(s->t < s->t_end))
         return status;
-    h_rho = s->implicit_method.h_old * r_sqrt(auto_spectral_radius_squared(s));
-    s->calm_steps = h_rho <= LAG_AUTO_CALM ? s->calm_steps + 1 : 0;
-    if (s->calm_steps >= LAG_STIFF_STEPS) {
+    if (auto_back_to_dop853(s)) {
         s->patience = s->patience > 0 ? 2 * s->patience : 2 * LAG_STIFF_STEPS;
         status = auto_switch(s, LAG_AUTO_EXPLICIT, s->implicit_method.h_old);
     }

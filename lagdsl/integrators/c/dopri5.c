@@ -20,7 +20,7 @@
 #define LAG_PAIR_ORDER 5
 #define LAG_PAIR_TRIAL dopri5_trial
 #define LAG_PAIR_LAST_STAGE k7
-#define LAG_PAIR_STIFFNESS_BOUNDARY LAG_LIT(3.25)
+#define LAG_PAIR_STIFFNESS_BOUNDARY LAG_DOPRI5_STABILITY_BOUNDARY
 
 static const real dp5_c2 = (real)1 / 5, dp5_c3 = (real)3 / 10, dp5_c4 = (real)4 / 5, dp5_c5 = (real)8 / 9;
 

@@ -7,7 +7,8 @@
  *
  * Pasted after the pair's file and before explicit_step.c, whose LAG_PAIR_START and
  * LAG_PAIR_ACCEPT it defines. The pair's file names its last stage, f(t_new, y_new), as
- * LAG_PAIR_LAST_STAGE and its stability boundary as LAG_PAIR_STIFFNESS_BOUNDARY.
+ * LAG_PAIR_LAST_STAGE and its stability boundary as LAG_PAIR_STIFFNESS_BOUNDARY (a constant of the
+ * registry, lagdsl/integrators/registry.py).
  */
 
 /* The start at (t0, y0 = s->y), f = f(t0, y0): until the first step, the dense output is the
@@ -25,7 +26,8 @@ static void dormand_prince_start(lag_stepper *s, const real *f)
 }
 
 /* An accepted trial of size h to t_new: r1 and r2 of its dense output, its first stage and the
- * next one's, and its count in the stiffness test (whose h lambda the trial measured). */
+ * next one's, and its count in the stiffness test (whose h lambda the trial measured), at the
+ * new state y_new with f = k1. */
 static void dormand_prince_accept(lag_stepper *s, real h, real t_new)
 {
     int i;
@@ -37,7 +39,7 @@ static void dormand_prince_accept(lag_stepper *s, real h, real t_new)
     memcpy(s->k1_done, s->k1, sizeof s->k1);
     memcpy(s->k1, s->LAG_PAIR_LAST_STAGE, sizeof s->k1);
     s->h_done = h;
-    lag_stiffness_record(&s->stiffness, &s->stats, t_new);
+    lag_stiffness_record(&s->stiffness, s->sys, &s->control, &s->stats, t_new, s->y_new, s->k1);
 }
 
 /* The driver moved y (projection): refresh the FSAL derivative, and add theta (y - y_end) to the

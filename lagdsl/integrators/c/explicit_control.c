@@ -17,13 +17,14 @@
  */
 
 /* Work counters of the explicit pairs, printed by the run summary; and the verdict of the
- * stiffness test of dopri5 and dop853: stiff = 1 once it has fired, at stiff_time, when the
- * counters stood at stiff_accepted, stiff_rejected, stiff_rhs_evals (lag_stiffness_record in
- * stiffness_test.c). */
+ * stiffness test of dopri5 and dop853 (lag_stiffness_record in stiffness_test.c): stiff is 0, or
+ * the kind of fast mode it found (LAG_VERDICT_STIFF, LAG_VERDICT_OSCILLATION) at stiff_time,
+ * with its spectral radius stiff_rate, its amplitude in tolerances, the pair's mean step over
+ * the steps that made the verdict, and the counters then. */
 typedef struct lag_stats {
     long accepted, rejected, rhs_evals;
     int stiff;
-    real stiff_time;
+    real stiff_time, stiff_rate, stiff_amplitude, stiff_step;
     long stiff_accepted, stiff_rejected, stiff_rhs_evals;
 } lag_stats;
 

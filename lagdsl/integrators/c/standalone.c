@@ -539,13 +539,7 @@ static void lag_print_work(const lag_report *report, const lag_options *options,
     lag_print_counters(stderr, counts);
     fprintf(stderr, ", %.3g s CPU\n", seconds);
 #if LAG_HAS_STIFFNESS_TEST
-    if (report->stats.stiff)
-        fprintf(stderr, "stiffness detected at t = %.6g: since then %ld steps (%ld rejected) and %ld of the "
-                "%ld right-hand sides; an implicit method needs far fewer steps: generate this program "
-                "with integrator radau5 (or auto) in the scene\n",
-                (double)report->stats.stiff_time, report->stats.accepted - report->stats.stiff_accepted,
-                report->stats.rejected - report->stats.stiff_rejected,
-                report->stats.rhs_evals - report->stats.stiff_rhs_evals, report->stats.rhs_evals);
+    lag_print_verdict(stderr, report);
 #endif
 #if LAG_HAS_SWITCHES
     fprintf(stderr, "auto: %ld switch%s", report->switches.count, report->switches.count == 1 ? "" : "es");
