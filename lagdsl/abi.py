@@ -19,6 +19,7 @@ those of `settings.py`, emitted into C by `codegen/c_abi.py`.
 """
 from __future__ import annotations
 
+import math
 import re
 import string
 from dataclasses import dataclass
@@ -40,11 +41,32 @@ def parse_number(text: str) -> float | None:
     return float(text) if NUMBER.fullmatch(text) else None
 
 
+# What to try when a run's steps fail or grow too many, by the kind of integrator (Status.remedy's
+# {advice}): a stiff problem wants an implicit method, but radau5 and auto are implicit already, and
+# a fast mode excited above the tolerance must be resolved by any method; a fixed step is the user's.
+ADVICE = {
+    "explicit": "if the problem is stiff (a fast mode that is damped or not excited), try --integrator radau5 "
+                "(or auto); a fast mode excited above the tolerance must be resolved by any method: loosen --rtol",
+    "implicit": "a fast mode excited above the tolerance must be resolved by any method, implicit ones too: "
+                "loosen --rtol and --atol",
+    "fixed": "the step decides it (step = ...): a smaller one where the solution blew up, a larger one where it "
+             "is below the resolution of t or takes too many steps",
+}
+
+
+def advice_for(integrator: str) -> str:
+    """ADVICE for the integrator named `integrator`."""
+    record = registry.get(integrator)
+    return ADVICE["fixed" if record.fixed_step else "implicit" if record.implicit else "explicit"]
+
+
 @dataclass(frozen=True)
 class Status:
-    """How a run ended. `message` may name the run's step limit ({max_steps}); `detail`, added
-    where the reciprocal condition estimate at the failure is known, may name it ({rcond}) and
-    the threshold ({rcond_min})."""
+    """How a run ended. `message` may name the run's step limit ({max_steps}) and the work
+    forecast that stopped it ({forecast} steps to reach {t_end}: integrators/forecast.py);
+    `detail`, added where the reciprocal condition estimate at the failure is known, may name it
+    ({rcond}) and the threshold ({rcond_min}). `remedy` may end in the integrator's ADVICE
+    ({advice})."""
 
     code: int
     c_name: str         # the lag_status enumerator in C
@@ -52,9 +74,14 @@ class Status:
     remedy: str         # what to try
     detail: str = ""
 
-    def describe(self, max_steps: int, rcond: float | None = None) -> str:
+    def describe(self, max_steps: int, rcond: float | None = None, forecast: float = math.nan,
+                 t_end: float = math.nan) -> str:
         text = self.message + (self.detail if rcond is not None else "")
-        return text.format(max_steps=max_steps, rcond=rcond, rcond_min=RCOND_MIN)
+        return text.format(max_steps=max_steps, rcond=rcond, rcond_min=RCOND_MIN, forecast=forecast, t_end=t_end)
+
+    def remedy_for(self, integrator: str) -> str:
+        """The remedy for a run of the integrator named `integrator`."""
+        return self.remedy.format(advice=advice_for(integrator))
 
 
 OK, SINGULAR, NONFINITE, STEP_TOO_SMALL, MAX_STEPS, NO_CONVERGENCE, PROJECTION_FAILED, INTERRUPTED, HOPELESS = range(9)
@@ -67,22 +94,23 @@ STATUSES = {status.code: status for status in (
            "negative value does the same (the kinetic energy must be positive for every motion)",
            " (reciprocal condition estimate {rcond:.3g}, below {rcond_min:.3g})"),
     Status(NONFINITE, "LAG_ERR_NONFINITE", "the state or its derivative became infinite or NaN",
-           "check the parameters and initial values; a stiff model may need --integrator radau5"),
+           "check the parameters and initial values; {advice}"),
     Status(STEP_TOO_SMALL, "LAG_ERR_STEP_TOO_SMALL", "the step size collapsed below the resolution of t",
-           "the solution may be singular near this time (a collision, a coordinate singularity), "
-           "or the problem is stiff: try --integrator radau5 or a looser --rtol"),
+           "the solution may be singular near this time (a collision, a coordinate singularity); "
+           "or {advice}"),
     Status(MAX_STEPS, "LAG_ERR_MAX_STEPS", "the step limit of {max_steps} steps was reached",
-           "raise --max-steps, or the problem is stiff: try --integrator radau5 (or loosen --rtol)"),
+           "raise --max-steps; or {advice}"),
     Status(NO_CONVERGENCE, "LAG_ERR_NO_CONVERGENCE", "the implicit iteration did not converge",
            "reduce the step (gauss: step = ...), or loosen the tolerances"),
     Status(PROJECTION_FAILED, "LAG_ERR_PROJECTION", "projection onto the constraints did not converge",
            "the constraints may be singular at this state; check the initial values"),
     Status(INTERRUPTED, "LAG_ERR_INTERRUPTED", "interrupted", ""),
-    # The NumPy backend's forecast (scipy_steps.WorkForecast); a C run meets the step limit itself.
+    # Either backend's work forecast (integrators/forecast.py): the run stops long before its limit.
     Status(HOPELESS, "LAG_ERR_HOPELESS",
-           "at its pace so far, the run would need more steps than the step limit of {max_steps} allows",
-           "the solution may be singular near this time, or the problem is stiff: try --integrator "
-           "radau5, or raise --max-steps"),
+           "at this pace reaching t = {t_end:g} would take {forecast:.3g} steps, more than the step limit of "
+           "{max_steps}",
+           "the solution may be singular near this time, or the tolerance too tight for the run; to let it "
+           "run, raise --max-steps above the forecast; or {advice}"),
 )}
 UNKNOWN_STATUS = Status(-1, "", "unknown failure", "please report this")
 
@@ -139,18 +167,18 @@ class SummaryLayout:
     """The run summary of a scene: its fields, one after the other, each `size` doubles.
 
     Every run has status, rows, t_fail and rcond_fail (the failure's time and the reciprocal
-    condition estimate there), its integrator's work counters (`counters`, contiguous) and the
-    state at failure; the others follow from the scene: the constraints' residual and the initial
-    projection, the stiffness test of dopri5 and dop853 (the kind of verdict, its time, the fast
-    mode's spectral radius and amplitude, and the counters then),
-    `auto`'s switches, the invariants' start values and drifts, and whether `stop when` ended the
-    run and when.
+    condition estimate there), the work forecast's last verdict (integrators/forecast.py), its
+    integrator's work counters (`counters`, contiguous) and the state at failure; the others
+    follow from the scene: the constraints' residual and the initial projection, the stiffness
+    test of dopri5 and dop853 (the kind of verdict, its time, the fast mode's spectral radius and
+    amplitude, and the counters then), `auto`'s switches, the invariants' start values and
+    drifts, and whether `stop when` ended the run and when.
     """
 
     fields: tuple[SummaryField, ...]
     counters: tuple[str, ...]
 
-    @property
+    @cached_property
     def size(self) -> int:
         return sum(field.size for field in self.fields)
 
@@ -182,6 +210,7 @@ def summary_layout(integrator: str, invariants: int, state: int, constraints: bo
     counters = record.counters
     fields = [SummaryField("status", 1, "status"), SummaryField("rows", 1, "rows"),
               SummaryField("t_fail", 1, "t_fail"), SummaryField("rcond_fail", 1, "rcond_fail"),
+              SummaryField("forecast", 1, "forecast.steps"),
               *(SummaryField(counter, 1, f"stats.{counter}") for counter in counters)]
     if constraints:
         fields += [SummaryField("residual", 1, "residual_max"), SummaryField("projection", 1, "projection_start")]
@@ -204,9 +233,10 @@ def summary_layout(integrator: str, invariants: int, state: int, constraints: bo
 
 
 def member_summary(counters: tuple[str, ...]) -> SummaryLayout:
-    """What a sweep reads of each member (status, rows, t_fail and the `counters`): the summaries
+    """What a sweep reads of each member (status, rows, t_fail, the work forecast that stopped it
+    and the `counters`): the summaries
     the NumPy backend's batch path fills."""
-    fields = ("status", "rows", "t_fail", *counters)
+    fields = ("status", "rows", "t_fail", "forecast", *counters)
     return SummaryLayout(tuple(SummaryField(name, 1, name) for name in fields), counters)
 
 

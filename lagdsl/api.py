@@ -1,7 +1,6 @@
 """The Python API: `lagdsl.load("model.lag").simulate()`. The command line is a thin layer over it."""
 from __future__ import annotations
 
-import contextlib
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -17,14 +16,12 @@ from .errors import LagError, Setting, SimulationError
 from .escape import visible
 from .mechanics import Equations
 from .pipeline import compile_model, execute, generate, plan
-from .progress import bar as progress_bar
 from .run import plans
 from .run.output import Result
 from .run import sweep as batch
 from .run.loading import load as load_program
 from .run.runner import run
-from .run.sweep_job import SweepJob
-from .run.tables import TableFile
+from .run.sweep_job import SweepJob, progress_bar, stream_to_file
 from .scene import (RUN_OPTIONS, Overrides, ScenePlan, given_options, parameters_in_expressions,
                     scene_defaults)
 from .source import SourceFile
@@ -201,7 +198,7 @@ class Model:
         """
         job = self._sweep_job(scene, backend, set, client, overrides)
         job.check_fits()
-        with _progress_bar(progress, job.count) as advance:
+        with progress_bar(progress, job.count) as advance:
             return job.run(0, job.count, workers, client, advance)
 
     def sweep_to_file(self, path: str | Path, scene: str | None = None, backend: str = "c", *, set: dict,
@@ -211,9 +208,7 @@ class Model:
         by a block whatever the number of members: Parquet if the name ends in .parquet (and
         pyarrow is installed), else CSV. The file appears complete or not at all; after Ctrl-C it
         holds the members run so far and SimulationInterrupted carries their summary."""
-        job = self._sweep_job(scene, backend, set, client, overrides)
-        with TableFile(path) as table, _progress_bar(progress, job.count) as advance:
-            return job.stream(table, workers, client, advance)
+        return stream_to_file(self._sweep_job(scene, backend, set, client, overrides), path, workers, client, progress)
 
     def _sweep_job(self, scene: str | None, backend: str, varied: dict, client, overrides: dict) -> SweepJob:
         _check_backend(backend)
@@ -333,16 +328,6 @@ def _execute(model: ir.Model, program: Program, scene_plan: ScenePlan, progress)
 def load(path: str | Path) -> Model:
     """Read, check and derive a model file; raises LagError with located diagnostics."""
     return Model(SourceFile.read(path))
-
-
-@contextlib.contextmanager
-def _progress_bar(show: bool, members: int):
-    """A progress bar over the members when `show`; yields a callable(members finished)."""
-    if not show:
-        yield None
-        return
-    with progress_bar(members, "member") as bar:
-        yield lambda finished: bar.update(max(0, finished - bar.n))
 
 
 def _described(model: ir.Model, result: Result, scene_name: str) -> Result:

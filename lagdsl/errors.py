@@ -15,6 +15,7 @@
 from __future__ import annotations
 
 import difflib
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -100,12 +101,13 @@ class ErrorCollector:
 
 class SimulationError(Exception):
     """The integration failed; `partial` holds what was computed before the failure, `status`
-    the run's status code (abi.STATUSES), 0 where no run ended with one."""
+    the run's status code (abi.STATUSES), 0 where no run ended with one, `forecast` the steps
+    the work forecast said the run would take when it stopped it (integrators/forecast.py)."""
 
     def __init__(self, message: str, time: float, state: dict[str, float], remedy: str,
-                 partial: Any = None, status: int = 0):
+                 partial: Any = None, status: int = 0, forecast: float = math.nan):
         self.message, self.time, self.state, self.remedy = message, time, state, remedy
-        self.partial, self.status = partial, status
+        self.partial, self.status, self.forecast = partial, status, forecast
         super().__init__(self.render())
 
     def render(self) -> str:

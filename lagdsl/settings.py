@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 
 from .errors import LagError, LagWarning, Setting, suggest
 from .integrators import registry
-from .integrators.registry import MAX_STEPS_CEILING, OPTION_ORDER, OPTIONS
+from .integrators.registry import DEFAULT_MAX_STEPS, MAX_STEPS_CEILING, OPTION_ORDER, OPTIONS
 from .source import Span
 
 # Integrator settings that can be given outside the model file (`lagc run --rtol`, `simulate(rtol=)`).
@@ -23,8 +23,13 @@ RUN_OPTIONS = OPTION_ORDER
 # Numbers the generated C shares (codegen/c_abi.py emits them as LAG_MAX_ROWS, ...). Those
 # counted in units of the rounding unit eps are eps of the working precision in C.
 MAX_ROWS = 10**7              # the largest output grid
-DEFAULT_MAX_STEPS = 100000    # the step limit unless the grid asks for more (step_limit) ...
+# DEFAULT_MAX_STEPS (registry.py, where the help text names it): an adaptive run's step limit
+# unless the grid asks for more (step_limit) ...
 STEPS_PER_ROW = 100           # ... at this many steps per output row
+# The work forecast (integrators/forecast.py, the C driver's lag_forecast_step): judged from this
+# many accepted steps on, once every FORECAST_WINDOW steps, with the largest step of the last window.
+FORECAST_JUDGED_AFTER = 1000
+FORECAST_WINDOW = 100
 GRID_SLACK = 1e-9             # a grid time within this many intervals of stop is stop
 RTOL_FLOOR_EPS = 10           # no error control is finer than the rounding of y: rtol >= this many eps
 RTOL_FLOOR = RTOL_FLOOR_EPS * sys.float_info.epsilon
@@ -94,8 +99,10 @@ def step_limit(integrator: IntegratorChoice, time: TimeGrid) -> int:
     """The most steps (accepted + rejected) a run may take (the C driver's lag_step_limit): the
     integrator's max_steps if given; for a fixed step h, the steps it implies, which are the
     user's own count: floor((stop - start) / h) + 1, and one more a row where a step is cut to land
-    on it; else DEFAULT_MAX_STEPS (as in Hairer's codes) or STEPS_PER_ROW per output row,
-    whichever is larger."""
+    on it; else DEFAULT_MAX_STEPS or STEPS_PER_ROW per output row, whichever is larger. An
+    adaptive run stops long before it reaches the limit when its pace forecasts more steps than
+    the limit (integrators/forecast.py): the limit is a budget of work, not a count a legitimate
+    run is expected to reach."""
     options = dict(integrator.options)
     rows = grid_rows(time.start, time.stop, time.interval)
     if options.get("max_steps"):

@@ -22,7 +22,7 @@ int main(void)
     (void)r_isfinite;       /* the runtime's, unused here */
     (void)lag_print_real;
     for (status = 0; status <= %(last)d; ++status) {
-        lag_print_status(stdout, status, 123L, 1.5e-14);
+        lag_print_status(stdout, status, 123L, 1.5e-14, 4.5e6, 12.5);
         putchar('\n');
     }
     printf("%%ld %%ld %%ld %%.17g %%d %%.17g %%d %%.17g %%d\n", LAG_MAX_ROWS, LAG_DEFAULT_MAX_STEPS,
@@ -51,7 +51,7 @@ def printed(tmp_path_factory) -> list[str]:
 def test_the_c_program_words_every_status_as_python_does(printed):
     for code, status in STATUSES.items():
         rcond = 1.5e-14 if status.detail else None
-        assert printed[code] == status.describe(123, rcond)
+        assert printed[code] == status.describe(123, rcond, 4.5e6, 12.5)
     assert printed[max(STATUSES) + 1] == UNKNOWN_STATUS.message
 
 
@@ -82,3 +82,13 @@ def test_the_record_dtype_reads_each_field_at_its_offset(integrator, invariants,
     assert layout.counters == registry.get(integrator).counters
     counters = [layout.offset(counter) for counter in layout.counters]
     assert counters == list(range(counters[0], counters[0] + len(counters)))     # contiguous, as C reads them
+
+
+@pytest.mark.parametrize("integrator", registry.names())
+def test_no_remedy_offers_a_run_the_method_it_used(integrator):
+    """radau5 and auto are never told to try radau5; the explicit methods are, for a stiff problem."""
+    remedies = [status.remedy_for(integrator) for status in STATUSES.values()]
+    assert not any(f"--integrator {integrator}" in remedy or "{" in remedy for remedy in remedies)
+    record = registry.get(integrator)
+    suggests_radau5 = any("--integrator radau5" in remedy for remedy in remedies)
+    assert suggests_radau5 == (not record.implicit and not record.fixed_step)

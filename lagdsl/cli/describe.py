@@ -1,11 +1,11 @@
 """The commands that show a model rather than run it: `lagc check`, `lagc eom`, and `lagc cache`
-for the build cache."""
+for the build cache. A warm `lagc check` prints the answer stored by the first (run/answers.py)."""
 from __future__ import annotations
 
 import sys
 
 from ..escape import visible
-from ..run import cache
+from ..run import answers, cache
 from ..source import SourceFile
 from . import common
 
@@ -26,12 +26,19 @@ def add(commands) -> None:
 
 
 def check(arguments) -> int:
-    from ..present import describe_model
-    model = common.load_model(SourceFile.read(arguments.model))
-    for note in model.ir.units.notes if model.ir.units else ():
-        print(note.render(), file=sys.stderr)
-    common.deliver(describe_model(model.ir, model.equations) + "\n", None)
+    source = SourceFile.read(arguments.model)
+    answer = answers.kept("check", source, [], lambda: _check_answer(source))
+    print(answer["notes"], end="", file=sys.stderr)
+    common.deliver(answer["summary"], None)
     return 0
+
+
+def _check_answer(source: SourceFile) -> dict[str, str]:
+    """What `lagc check` prints: the unit notes, the summary."""
+    from ..present import describe_model
+    model = common.load_model(source)
+    notes = "".join(note.render() + "\n" for note in (model.ir.units.notes if model.ir.units else ()))
+    return {"notes": notes, "summary": describe_model(model.ir, model.equations) + "\n"}
 
 
 def eom(arguments) -> int:

@@ -11,6 +11,7 @@ import functools
 import sys
 
 from ..errors import AnalysisError, LagError
+from ..run import answers
 from ..run.files import check_writable, write_output
 from ..source import SourceFile
 from . import common
@@ -73,39 +74,54 @@ def _exit_statuses(handler):
 
 
 def _linear(arguments, inputs=(), outputs=None):
-    """(model, linear model) of the command's point; the equilibrium found is reported on stderr."""
+    """(model, linear model, the equilibrium found or None) of the command's point."""
     from ..linear import linearize_model
     model = common.load_model(SourceFile.read(arguments.model))
     at = dict(common.set_values(arguments.at, "--at"))
     linear, found = linearize_model(model, arguments.scene, at, dict(common.set_values(arguments.set)),
                                     inputs, outputs, arguments.find)
-    if found is not None:
-        print(found, file=sys.stderr)
-    return model, linear
+    return model, linear, found
 
 
 def modes(arguments) -> int:
-    from ..linear import analyse
-    from ..linear.export import modes_csv, modes_text
+    """The table on stdout, the equilibrium found on stderr, -o CSV, --plot PNG. Without --plot the
+    answer is kept for the next call with the same model text and options (run/answers.py)."""
     count = common.positive_integer("--count", arguments.count)     # bad input: exits 2 here, not 1 in parsing
     common.check_destinations(arguments.model, arguments.output, arguments.plot)
-    model, linear = _linear(arguments, outputs=())           # the modes need neither B nor C
+    if arguments.plot:
+        answer = _modes_answer(arguments, count)
+    else:
+        options = [arguments.scene, arguments.at, arguments.set, arguments.find, bool(arguments.output)]
+        answer = answers.kept("modes", SourceFile.read(arguments.model), options,
+                              lambda: _modes_answer(arguments, count))
+    print(answer["found"], end="", file=sys.stderr)
+    print(answer["table"], end="")
+    if arguments.output:
+        write_output(arguments.output, answer["csv"])
+    return 0
+
+
+def _modes_answer(arguments, count: int) -> dict[str, str]:
+    """The texts `lagc modes` prints and writes (the plot written here)."""
+    from ..linear import analyse
+    from ..linear.export import modes_csv, modes_text
+    model, linear, found = _linear(arguments, outputs=())           # the modes need neither B nor C
     result = analyse(linear)
     title = f"{model.name} ({SourceFile.read(arguments.model).name})"
-    print(modes_text(result, linear, title), end="")
-    if arguments.output:
-        write_output(arguments.output, modes_csv(result))
     if arguments.plot:
         from ..plots import mode_shapes_png
         write_output(arguments.plot, mode_shapes_png(result, f"mode shapes of {title}", count))
-    return 0
+    return {"found": f"{found}\n" if found is not None else "", "table": modes_text(result, linear, title),
+            "csv": modes_csv(result) if arguments.output else ""}
 
 
 def linearize(arguments) -> int:
     from ..linear.export import check_format, write_linear
     check_format(arguments.file)
     check_writable(arguments.file, arguments.model)
-    model, linear = _linear(arguments, tuple(arguments.input), arguments.outputs)
+    model, linear, found = _linear(arguments, tuple(arguments.input), arguments.outputs)
+    if found is not None:
+        print(found, file=sys.stderr)
     write_linear(arguments.file, linear, model.name, model.plan(arguments.scene).scene_name)
     print(f"wrote {len(linear.A)} states, {len(linear.inputs)} inputs, {len(linear.outputs)} outputs "
           f"to {arguments.file}", file=sys.stderr)

@@ -1,11 +1,12 @@
 """`lagc sweep`: many members of a scene (a grid or a random sample of inputs) in one call, one
-tidy table to -o."""
+tidy table to -o. On the C backend, with a stored plan of the scene (run/plans.py), a warm sweep
+neither parses nor derives the model, as a warm `lagc run` does not."""
 from __future__ import annotations
 
 import contextlib
 import math
 import sys
-from typing import TYPE_CHECKING
+from dataclasses import replace
 
 import numpy as np
 
@@ -14,9 +15,6 @@ from ..run.files import check_writable
 from ..settings import RUN_OPTIONS
 from ..source import SourceFile
 from . import common
-
-if TYPE_CHECKING:
-    pass
 
 RUN_KEYWORDS = ("start", "stop", "interval", "integrator", *RUN_OPTIONS)     # model.sweep's overrides
 
@@ -42,17 +40,25 @@ def add(commands) -> None:
 def run(arguments) -> int:
     """Run the members of a grid or random sample; write the tidy table and the summary. Members
     that fail are rows with their status; Ctrl-C writes the members finished so far."""
-    model = common.load_model(SourceFile.read(arguments.model))
+    from ..run.sweep_job import stored_job, stream_to_file     # the runner: only the commands that run need it
+    source = SourceFile.read(arguments.model)
+    stored = _stored_plan(source, arguments)
+    model = None if stored else common.load_model(source)
     check_writable(arguments.output, arguments.model)
     varied = sweep_values(arguments.vary, arguments.random, arguments.count, arguments.seed)
     overrides = common.overrides(arguments)
+    varied = {**dict(overrides.values), **varied}
+    job = stored and stored_job(stored, replace(overrides, values=()), varied)
     keywords = {k: getattr(arguments, k) for k in RUN_KEYWORDS if getattr(arguments, k) is not None}
     with _dask_client(arguments.dask, arguments.workers) as client:
         try:
-            summary = model.sweep_to_file(arguments.output, arguments.scene, arguments.backend,
-                                          set={**dict(overrides.values), **varied},
-                                          workers=None if client else arguments.workers, client=client,
-                                          progress=True, **keywords)
+            if job:
+                summary = stream_to_file(job, arguments.output, arguments.workers, None, progress=True)
+            else:
+                model = model or common.load_model(source)
+                summary = model.sweep_to_file(arguments.output, arguments.scene, arguments.backend, set=varied,
+                                              workers=None if client else arguments.workers, client=client,
+                                              progress=True, **keywords)
         except SimulationInterrupted as stopped:
             print(stopped.partial.render(), file=sys.stderr)
             print(f"lagc: interrupted; the table in {arguments.output} has the {stopped.partial.members} members "
@@ -60,6 +66,15 @@ def run(arguments) -> int:
             return common.interrupted_exit()
     print(summary.render(), file=sys.stderr)
     return 0
+
+
+def _stored_plan(source: SourceFile, arguments):
+    """The scene's stored plan (plans.StoredPlan) for a C sweep on this machine's threads (Dask
+    and NumPy sweeps take the full pipeline)."""
+    from ..run import plans
+    if arguments.backend != "c" or arguments.dask is not None:
+        return None
+    return plans.find(source, arguments.scene, arguments.backend, arguments.integrator)
 
 
 @contextlib.contextmanager

@@ -68,7 +68,8 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
         "taylor_series": series_text(kernel, printer, [_position(s, kernel) for s in kernel.system.stores
                                                        if s.array == "K"]) if method.series else "",
         "contract": runtime_contract(), "flags": _driver_flags(kernel, method),
-        "driver": c_file("driver.c"), "library": c_file("library.c"), "standalone": c_file("standalone.c"),
+        "driver": c_file("forecast.c") + "\n" + c_file("driver.c"), "library": c_file("library.c"),
+        "standalone": c_file("standalone.c"),
         "summary_packer": summary_packer(summary_layout(method.name, len(kernel.invariant_names), 2 * kernel.n,
                                                         bool(kernel.constraints), kernel.stop is not None)),
         "status_printer": status_printer(),

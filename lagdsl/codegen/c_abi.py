@@ -15,17 +15,19 @@ from ..integrators import (AUTO_CALM, AUTO_GAIN, CALM_STEPS, COUNTER_LABELS, EXC
                            FAST_PROBE, STIFF_STEPS, SWITCH_TIMES, VERDICT_OSCILLATION, VERDICT_STIFF, c_file,
                            registry)
 from ..integrators.registry import MAX_STEPS_CEILING
-from ..settings import (DEFAULT_MAX_STEPS, GRID_SLACK, MAX_ROWS, MIN_STEP_EPS, RCOND_MIN_EPS, RTOL_FLOOR_EPS,
-                        STEPS_PER_ROW)
+from ..settings import (DEFAULT_MAX_STEPS, FORECAST_JUDGED_AFTER, FORECAST_WINDOW, GRID_SLACK, MAX_ROWS,
+                        MIN_STEP_EPS, RCOND_MIN_EPS, RTOL_FLOOR_EPS, STEPS_PER_ROW)
 
 VERDICT_NAMES = {VERDICT_STIFF: "LAG_VERDICT_STIFF", VERDICT_OSCILLATION: "LAG_VERDICT_OSCILLATION"}
 # (name, value, what it is): settings.py's numbers as the C driver and integrators read them
 # (those counted in eps: of the working precision).
 SHARED_CONSTANTS = (
     ("LAG_MAX_ROWS", f"{MAX_ROWS}L", "the largest output grid, in rows"),
-    ("LAG_DEFAULT_MAX_STEPS", f"{DEFAULT_MAX_STEPS}L", "the default step limit, or ..."),
+    ("LAG_DEFAULT_MAX_STEPS", f"{DEFAULT_MAX_STEPS}L", "an adaptive run's default step limit, or ..."),
     ("LAG_STEPS_PER_ROW", f"{STEPS_PER_ROW}L", "... this many steps per output row"),
     ("LAG_MAX_STEPS_CEILING", f"{MAX_STEPS_CEILING}L", "the largest step limit, given or implied by a fixed step"),
+    ("LAG_FORECAST_JUDGED_AFTER", f"{FORECAST_JUDGED_AFTER}L", "the work forecast judges a run from this step on ..."),
+    ("LAG_FORECAST_WINDOW", f"{FORECAST_WINDOW}L", "... once every this many steps"),
     ("LAG_GRID_SLACK", f"LAG_LIT({GRID_SLACK!r})", "a grid time within this many intervals of t1 is t1"),
     ("LAG_RTOL_FLOOR_EPS", f"{RTOL_FLOOR_EPS}", "the smallest rtol, in eps ..."),
     ("LAG_RTOL_FLOOR", "(LAG_RTOL_FLOOR_EPS * REAL_EPSILON)", "... and as a number"),
@@ -48,7 +50,10 @@ SHARED_CONSTANTS = (
 # The C argument of each value a status message may name, and its printf conversion where the
 # message gives no format of its own ({rcond:.3g} is printed with %.3g).
 MESSAGE_ARGUMENTS = {"max_steps": ("max_steps", "%ld"), "rcond": ("rcond", "%g"),
-                     "rcond_min": ("(double)LAG_RCOND_MIN", "%g")}
+                     "rcond_min": ("(double)LAG_RCOND_MIN", "%g"), "forecast": ("forecast", "%g"),
+                     "t_end": ("t_end", "%g")}
+# The arguments of lag_print_status and lag_format_status after the status.
+STATUS_PARAMETERS = "long max_steps, double rcond, double forecast, double t_end"
 
 
 def runtime_header() -> str:
@@ -60,7 +65,7 @@ def runtime_contract() -> str:
     """enum lag_status, the constants shared with Python, and the settings vector's indices."""
     width = max(len(status.c_name) for status in STATUSES.values()) + len(" = 0,")
     enumerators = [f"{status.c_name} = {code}{',' if code != max(STATUSES) else ''}".ljust(width)
-                   + f" /* {c_comment(status.message.format(max_steps='max_steps'))} */"
+                   + f" /* {c_comment(_with_field_names(status.message))} */"
                    for code, status in STATUSES.items()]
     constants = [f"#define {name} {value}".ljust(48) + f" /* {c_comment(what)} */"
                  for name, value, what in SHARED_CONSTANTS]
@@ -82,8 +87,9 @@ def status_printer() -> str:
         cases += [f"    {label}", f"        {_printf(status)}", "        break;"]
     return "\n".join([
         "/* How a run with `status` failed, in the words of lagdsl.abi.STATUSES: the step limit was",
-        " * max_steps, the reciprocal condition estimate at the failure rcond. */",
-        "static void lag_print_status(FILE *file, int status, long max_steps, double rcond)",
+        " * max_steps, the reciprocal condition estimate at the failure rcond, the work forecast that",
+        " * stopped it `forecast` steps to reach t_end. */",
+        f"static void lag_print_status(FILE *file, int status, {STATUS_PARAMETERS})",
         "{",
         "    switch (status) {",
         *cases,
@@ -91,17 +97,17 @@ def status_printer() -> str:
         "}", ""])
 
 
-def status_formatter() -> str:
+def status_formatter(integrator: str) -> str:
     """lag_format_status, lag_print_status into a buffer (an FMU's log, codegen/fmu.py), and
-    lag_status_remedy, each status's remedy."""
+    lag_status_remedy, each status's remedy for a run of `integrator`."""
     cases, remedies = [], []
     for status in [*STATUSES.values(), UNKNOWN_STATUS]:
         label = f"case {status.c_name}:" if status.c_name else "default:"
         cases += [f"    {label}", f"        {_printf(status, 'snprintf(buffer, size')}", "        break;"]
-        remedies += [f"    {label}", f"        return {c_string(status.remedy)};"]
+        remedies += [f"    {label}", f"        return {c_string(status.remedy_for(integrator))};"]
     return "\n".join([
         "/* lag_print_status's words into `buffer` (of `size` bytes). */",
-        "static void lag_format_status(char *buffer, size_t size, int status, long max_steps, double rcond)",
+        f"static void lag_format_status(char *buffer, size_t size, int status, {STATUS_PARAMETERS})",
         "{",
         "    switch (status) {",
         *cases,
@@ -115,6 +121,11 @@ def status_formatter() -> str:
         *remedies,
         "    }",
         "}", ""])
+
+
+def _with_field_names(text: str) -> str:
+    """`text` with its format fields as their names: a message's words in a C comment."""
+    return "".join(literal + (name or "") for literal, name, _ in format_fields(text))
 
 
 def _printf(status: Status, call: str = "fprintf(file") -> str:
@@ -172,7 +183,7 @@ def summary_packer(layout: SummaryLayout) -> str:
             lines.append(f"    summary[{offset}] = (double)report->{field.source};")
         offset += field.size
     offsets = [f"#define LAG_SUMMARY_{name.upper()} {layout.offset(name)}"
-               for name in ("status", "rows", "t_fail", "rcond_fail")]
+               for name in ("status", "rows", "t_fail", "rcond_fail", "forecast")]
     return "\n".join([
         "/* The run summary as lagdsl.abi.SummaryLayout lays it out for this scene: doubles, field by field. */",
         f"#define LAG_SUMMARY_SIZE {layout.size}",

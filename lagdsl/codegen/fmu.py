@@ -220,7 +220,7 @@ def fmu_c_part(kernel, plan: ScenePlan, variables: tuple[FmuVariable, ...], kind
         "#define LAG_FMU_VARIABLES { \\", *rows, "}",
         f"enum lag_fmu_category {{ {categories}, LAG_FMU_NCATEGORIES }};",
         "#define LAG_FMU_CATEGORIES { " + ", ".join(c_string(name) for name, _ in LOG_CATEGORIES) + " }",
-        "", _option_refusal(plan), status_formatter(),
+        "", _option_refusal(plan), status_formatter(plan.integrator.name),
         *(c_file(name) for name in ("fmu.c", "fmu_values.c", "fmu_run.c", *FMI_FILES[version]))])
 
 

@@ -32,6 +32,16 @@ class Option:
 
 # The largest step limit: the most a run may be given (--max-steps), and the most a fixed step implies.
 MAX_STEPS_CEILING = 10**15
+# An adaptive run's step limit unless the grid asks for more (settings.step_limit): a budget the work
+# forecast (integrators/forecast.py) holds the run's pace to.
+DEFAULT_MAX_STEPS = 10**7
+
+
+def _count(number: int) -> str:
+    """1e15 and 1e7, not 1e+15 and 1e+07."""
+    mantissa, exponent = f"{number:.0e}".split("e")
+    return f"{mantissa}e{int(exponent)}"
+
 
 OPTIONS: dict[str, Option] = {option.name: option for option in (
     Option("rtol", "relative tolerance (adaptive integrators)", "a finite number >= 0",
@@ -44,8 +54,10 @@ OPTIONS: dict[str, Option] = {option.name: option for option in (
            lambda v: 0 < v < math.inf, "r_isfinite(value) && value > 0"),
     Option("stages", "Gauss-Legendre stages (gauss: order 2s)", "a whole number from 1 to 6",
            lambda v: 1 <= v <= 6 and v == int(v), "value >= 1 && value <= 6 && value == r_floor(value)", "(int)"),
-    Option("max_steps", "the step limit (accepted + rejected steps)",
-           "a whole number from 1 to " + f"{MAX_STEPS_CEILING:.0e}".replace("e+", "e"),
+    Option("max_steps", "the step limit (accepted + rejected steps): none by default for a fixed step; "
+                        f"for an adaptive method {_count(DEFAULT_MAX_STEPS)} (more for a long output grid), and a run "
+                        "whose pace forecasts more stops early, naming the forecast",
+           "a whole number from 1 to " + _count(MAX_STEPS_CEILING),
            lambda v: 1 <= v <= MAX_STEPS_CEILING and v == int(v),
            "value >= 1 && value <= (real)LAG_MAX_STEPS_CEILING && value == r_floor(value)", "(long)"),
 )}

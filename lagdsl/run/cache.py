@@ -15,8 +15,10 @@ inside lagc: a cache directory that is writable by others or owned by another us
 nor an entry or manifest that is. When the cache cannot be created, written or trusted, a private
 temporary cache is used for the rest of the process (removed at exit) and one warning goes to stderr;
 `private_cache()` (`lagc run --no-cache`) does the same on purpose, without the warning.
-`find_entry` only looks an entry up (a warm `lagc run`, `plans.py`); `clear` and `usage` serve
-`lagc cache clear` and `lagc cache info`.
+`find_entry` only looks an entry up (a warm `lagc run`, `plans.py`; a warm `lagc check`,
+`answers.py`); `clear` and `usage` serve `lagc cache clear` and `lagc cache info`. Beside the
+entries, the front end keeps its helpers in subdirectories (`helper_directory`, HELPERS), which
+`clear` removes too.
 """
 from __future__ import annotations
 
@@ -32,9 +34,11 @@ import stat
 import sys
 import tempfile
 import time
+from functools import lru_cache
 from pathlib import Path
 from typing import Callable, Iterator
 
+from .. import __version__
 from ..escape import visible
 
 MANIFEST_SUFFIX = ".manifest"
@@ -46,6 +50,8 @@ STALE_BUILD_SECONDS = 3600      # a build directory this old was left by a proce
 MAX_NAME = 200                  # bytes of an entry's name: room for the manifest's suffix and the build's
 _fallbacks: dict[str, Path] = {}     # unusable cache root -> the private cache standing in for it
 PRIVATE = "private"                  # the _fallbacks key of private_cache()
+HELPERS = ("lark", "pint")           # the helper subdirectories: the parser's tables, pint's definitions
+PACKAGE_FILES = (".py", ".lark", ".j2", ".c", ".h")    # what lagdsl generates code, plans and answers from
 
 
 def cache_root() -> str:
@@ -98,6 +104,22 @@ def helper_directory(name: str) -> Path | None:
         return path
     except OSError:
         return None
+
+
+@lru_cache(maxsize=1)
+def package_digest() -> str:
+    """The version of lagdsl and the size and modification time of each of its files, for the
+    keys of what is kept from its output (plans.py, answers.py): a changed code generator or
+    integrator (even under the same version number, as while lagdsl is being developed) never
+    runs a plan or program built before. (Hashing the files' bytes instead would add a tenth to
+    a warm run.)"""
+    package = Path(__file__).resolve().parents[1]
+    digest = hashlib.sha256(__version__.encode())
+    for path in sorted(package.rglob("*")):
+        if path.suffix in PACKAGE_FILES and "__pycache__" not in path.parts:
+            status = path.stat()
+            digest.update(f"{path.relative_to(package).as_posix()}\0{status.st_size}\0{status.st_mtime_ns}\0".encode())
+    return digest.hexdigest()
 
 
 def _fall_back(root: str, error: OSError) -> Path:
@@ -216,20 +238,28 @@ def usage() -> tuple[int, int]:
 
 
 def clear() -> int:
-    """Remove every entry, manifest and stale build directory; other files are left alone.
-    Returns the number of entries removed."""
+    """Remove every entry, manifest, helper subdirectory and stale build directory; other files
+    are left alone. Returns the number of entries removed."""
     directory = Path(cache_root())
     files = _entry_files(directory)
     for file in files:
         file.unlink(missing_ok=True)
     if directory.is_dir():
         for build in directory.glob(BUILD_PREFIX + "*"):
-            status = build.lstat()
-            if stat.S_ISLNK(status.st_mode):            # never one of ours: remove the link, not its target
-                build.unlink(missing_ok=True)
-            elif time.time() - status.st_mtime > STALE_BUILD_SECONDS:
-                shutil.rmtree(build, ignore_errors=True)
+            _remove_directory(build, stale=time.time() - build.lstat().st_mtime > STALE_BUILD_SECONDS)
+        for name in HELPERS:
+            if os.path.lexists(directory / name):
+                _remove_directory(directory / name, stale=True)
     return sum(1 for f in files if not f.name.endswith(MANIFEST_SUFFIX))
+
+
+def _remove_directory(path: Path, stale: bool) -> None:
+    """Remove a directory of ours if `stale`; a link in its place is never ours: remove the link,
+    not its target."""
+    if stat.S_ISLNK(path.lstat().st_mode):
+        path.unlink(missing_ok=True)
+    elif stale:
+        shutil.rmtree(path, ignore_errors=True)
 
 
 def _entry_files(directory: Path) -> list[Path]:

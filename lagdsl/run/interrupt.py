@@ -6,7 +6,10 @@ stop flag before Python gets a chance to drop the KeyboardInterrupt.
 """
 from __future__ import annotations
 
+import _signal      # signal's own functions, without the enum conversions of `signal` (a tenth of a short run)
+import _thread
 import ctypes
+import os
 import signal
 import threading
 import time as clock
@@ -32,7 +35,9 @@ def interruptible(library: ctypes.CDLL, call: Callable[[], int],
     interrupt = ctypes.c_int.in_dll(library, "lag_interrupt")
     interrupt.value = 0
     outcome: list[tuple[int, float]] = []
-    done = threading.Event()
+    ended: list[bool] = []          # set before `finished` is released
+    finished = _thread.allocate_lock()
+    finished.acquire()
 
     def work() -> None:
         try:
@@ -40,28 +45,57 @@ def interruptible(library: ctypes.CDLL, call: Callable[[], int],
             status = call()
             outcome.append((status, clock.perf_counter() - started))
         finally:
-            done.set()
+            ended.append(True)
+            finished.release()
 
-    threading.Thread(target=work, name="lagdsl-c-run", daemon=True).start()
-    # Waits on the event, not join(timeout): a KeyboardInterrupt inside Thread.join can leave
-    # the thread looking finished while it still runs. The wait ends as soon as the run does, so
-    # a run of milliseconds does not wait out a poll interval. Ctrl-C is caught wherever the
-    # main thread is in the loop, in the wait, the test of the event or the poll: Python raises
-    # KeyboardInterrupt at whichever bytecode it reaches next (and CtrlC has set the flag even
-    # if that bytecode was a finaliser's, which drops the exception).
+    worker = _idle_workers.pop() if _idle_workers else _Worker()
+    worker.start(work)
+    # The wait ends as soon as the run does, so a run of milliseconds does not wait out a poll
+    # interval. Ctrl-C is caught wherever the main thread is in the loop, in the wait, the test
+    # of `ended` or the poll: Python raises KeyboardInterrupt at whichever bytecode it reaches
+    # next (and CtrlC has set the flag even if that bytecode was a finaliser's, which drops the
+    # exception); `ended`, not the lock, says when to stop waiting, since the exception may come
+    # just after the lock was taken.
     with CtrlC(lambda: setattr(interrupt, "value", 1)):
-        while True:
+        while not ended:
             try:
-                while not done.is_set():
-                    done.wait(POLL_SECONDS)
-                    if poll is not None:
-                        poll()
-                break
+                finished.acquire(timeout=POLL_SECONDS)
+                if poll is not None:
+                    poll()
             except KeyboardInterrupt:
                 interrupt.value = 1
+    _idle_workers.append(worker)
     if not outcome:
         raise InternalError("the C run ended without a status")
     return outcome[0]
+
+
+class _Worker:
+    """A thread kept for the C calls of `interruptible`, one call at a time: handing a call to a
+    waiting thread costs microseconds, starting a thread (threading.Thread.start waits until it
+    runs) tens of them, which a fit's thousands of short simulate() calls would pay each time."""
+
+    def __init__(self):
+        self._go = _thread.allocate_lock()
+        self._go.acquire()
+        self._call: Callable[[], None] = lambda: None
+        _thread.start_new_thread(self._serve, ())
+
+    def start(self, call: Callable[[], None]) -> None:
+        self._call = call
+        self._go.release()
+
+    def _serve(self) -> None:
+        while True:
+            self._go.acquire()
+            try:
+                self._call()
+            except BaseException:       # noqa: BLE001  the caller says the run ended without a status
+                pass
+
+
+_idle_workers: list[_Worker] = []       # list.pop and append are atomic: callers in several threads each take one
+os.register_at_fork(after_in_child=_idle_workers.clear)     # a child has none of the parent's threads
 
 
 def terminate_as_interrupt() -> None:
@@ -115,13 +149,13 @@ class CtrlC:
         if threading.current_thread() is threading.main_thread():
             self._outer, CtrlC._innermost = CtrlC._innermost, self
             for number, default in ((signal.SIGINT, signal.default_int_handler), (signal.SIGTERM, _terminated)):
-                if signal.getsignal(number) is default:
-                    self._previous[number] = signal.signal(number, self._handle)
+                if _signal.getsignal(number) is default:
+                    self._previous[number] = _signal.signal(number, self._handle)
         return self
 
     def __exit__(self, *exception) -> None:
         for number, previous in self._previous.items():
-            signal.signal(number, previous)
+            _signal.signal(number, previous)
         if CtrlC._innermost is self:
             CtrlC._innermost = self._outer
 

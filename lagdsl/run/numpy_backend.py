@@ -69,13 +69,13 @@ def run_numpy(kernel: Kernel, source: GeneratedSource, plan: RunPlan, progress: 
         result = _numpy_result(module, par, times[:rows], states[:rows], plan, counts, elapsed, projection,
                                stopped)
     if failure is not None:
-        status, t_fail, y_fail = failure
+        status, t_fail, y_fail, *forecast = failure        # the work forecast follows HOPELESS
         with np.errstate(all="ignore"):
             try:
                 rcond = float(module.reciprocal_condition(t_fail, y_fail, par))
             except (np.linalg.LinAlgError, ArithmeticError):     # K itself cannot be formed there
                 rcond = float("nan")
-        raise simulation_error(plan, status, t_fail, y_fail, result, rcond)
+        raise simulation_error(plan, status, t_fail, y_fail, result, rcond, *forecast)
     return result
 
 
@@ -99,7 +99,7 @@ def _integrate(module, par, times, y0, plan: RunPlan, progress: Progress | None,
     try:
         Y, stats = stepper(run)
     except IntegrationFailure as failure:
-        return list(failure.Y[:failure.completed]), {}, (failure.status, failure.t, failure.y)
+        return list(failure.Y[:failure.completed]), {}, (failure.status, failure.t, failure.y, failure.forecast)
     return list(Y), stats, None
 
 

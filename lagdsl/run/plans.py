@@ -24,20 +24,16 @@ from __future__ import annotations
 import hashlib
 import json
 from dataclasses import dataclass
-from functools import lru_cache
-from pathlib import Path
 
-from .. import __version__
 from ..errors import LagError
 from ..settings import IntegratorChoice, Overrides, RunPlan, SceneSettings, TimeGrid
 from ..source import SourceFile, Span
 from . import loading, runner
-from .cache import cached_entry, find_entry
+from .cache import cached_entry, find_entry, package_digest
 from .output import Result
 from .toolchain import find_compiler, library_entry
 
 PLAN_FORMAT = 2
-PACKAGE_FILES = (".py", ".lark", ".j2", ".c", ".h")    # what lagdsl generates code and plans from
 
 
 @dataclass(frozen=True)
@@ -130,23 +126,8 @@ def _plan_key(source: SourceFile, scene: str | None, backend: str, integrator: s
         compiler = find_compiler() if backend == "c" else ""
     except LagError:
         return None
-    fields = json.dumps([PLAN_FORMAT, _lagdsl_digest(), scene, backend, integrator, compiler])
+    fields = json.dumps([PLAN_FORMAT, package_digest(), scene, backend, integrator, compiler])
     return hashlib.sha256(f"{fields}\0{source.text}".encode()).hexdigest()
-
-
-@lru_cache(maxsize=1)
-def _lagdsl_digest() -> str:
-    """The version of lagdsl and the size and modification time of each of its files: a changed
-    code generator or integrator (even under the same version number, as while lagdsl is being
-    developed) never runs a plan or program built before. (Hashing the files' bytes instead
-    would add a tenth to a warm run.)"""
-    package = Path(__file__).resolve().parents[1]
-    digest = hashlib.sha256(__version__.encode())
-    for path in sorted(package.rglob("*")):
-        if path.suffix in PACKAGE_FILES and "__pycache__" not in path.parts:
-            status = path.stat()
-            digest.update(f"{path.relative_to(package).as_posix()}\0{status.st_size}\0{status.st_mtime_ns}\0".encode())
-    return digest.hexdigest()
 
 
 # ---- JSON ----------------------------------------------------------------------------------

@@ -2,19 +2,19 @@
 
 The loop takes scipy's steps itself rather than calling solve_ivp, so that it can count them
 against the step limit, stop a run whose steps have collapsed (scipy's own floor, 10 ulp of t, is
-no floor at t = 0) or that cannot reach its stop time (`WorkForecast`), check Ctrl-C between
+no floor at t = 0) or that cannot reach its stop time (the work forecast, integrators/forecast.py), check Ctrl-C between
 steps, project onto the constraints after each one, and check a stop condition after each one
 as the C driver does: its row ends the run.
 """
 from __future__ import annotations
 
-import collections
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..abi import HOPELESS, INTERRUPTED, MAX_STEPS, NONFINITE, SINGULAR, STEP_TOO_SMALL
+from ..integrators.forecast import WorkForecast
 from ..integrators.python.stiffness import STABILITY_BOUNDARY, StiffnessTest, SwitchLog
 from ..settings import MIN_STEP_EPS
 from .output import Stiffness, Switches
@@ -26,7 +26,8 @@ SCIPY_RTOL_FLOOR = 100 * float(np.finfo(float).eps)    # scipy raises a smaller 
 # step() call made tell how many attempts it rejected. Radau and LSODA report no such count.
 EXPLICIT_PAIRS = ("RK45", "DOP853")
 Progress = Callable[[float, float, float], None]     # (t reached, start, stop)
-Failure = tuple[int, float, np.ndarray]              # (status, last time reached, the state there)
+# (status, last time reached, the state there), and after HOPELESS the steps forecast
+Failure = tuple[int, float, np.ndarray] | tuple[int, float, np.ndarray, float]
 
 
 @dataclass(frozen=True)
@@ -111,8 +112,8 @@ def _step(problem: ScipyProblem, solver, times, counts: dict, watch: _StepWatch,
         return STEP_TOO_SMALL, t_before, y_before
     counts["accepted"] += 1
     watch.record(solver)
-    if forecast.hopeless(solver.t - t_before, solver.t, counts["accepted"]):
-        return HOPELESS, solver.t, solver.y
+    if forecast.hopeless(solver.t - t_before, solver.t):
+        return HOPELESS, solver.t, solver.y, forecast.steps
     if not np.all(np.isfinite(solver.y)):
         return NONFINITE, solver.t, solver.y
     return None
@@ -143,37 +144,6 @@ def _restart_projected(problem: ScipyProblem, solver, counts: dict, t_end: float
     _tally(counts, solver)
     proposed = getattr(solver, "h_abs", solver.step_size)
     return _start(problem, solver.t, projected, t_end, first_step=min(proposed, t_end - solver.t))
-
-
-class WorkForecast:
-    """Stops a run early that cannot end within its step limit.
-
-    A NumPy step costs about a millisecond, so a run whose steps have shrunk to near the
-    resolution of t (an extreme parameter, a singularity) or that needs more steps than allowed
-    would grind through the whole step limit for minutes. From `JUDGED_AFTER` steps on, the run
-    is hopeless when two forecasts of the steps still needed both exceed the steps still allowed:
-    the average pace since the start, (stop - t) x taken / (t - start), which a passing burst of
-    small steps (a close approach) barely moves, and the largest of the last `WINDOW` steps,
-    (stop - t) / h, which forgives a fast transient at the start. Steps that shrink on towards a
-    singularity end here too, before the step-size floor would. (A C step costs microseconds;
-    there the step limit itself ends such runs within a second.)
-    """
-
-    JUDGED_AFTER, WINDOW = 1000, 100
-
-    def __init__(self, start: float, stop: float, max_steps: int):
-        self.start, self.stop, self.max_steps = start, stop, max_steps
-        self.recent: collections.deque = collections.deque(maxlen=self.WINDOW)
-
-    def hopeless(self, step: float, t: float, taken: int) -> bool:
-        self.recent.append(abs(step))
-        if taken < self.JUDGED_AFTER:
-            return False
-        largest = max(self.recent)
-        left, allowed = abs(self.stop - t), self.max_steps - taken
-        by_average = left * taken > allowed * abs(t - self.start)
-        by_recent = left > allowed * largest
-        return by_average and by_recent
 
 
 class _StepWatch:

@@ -14,20 +14,26 @@ import math
 import os
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..abi import INTERRUPTED, SummaryLayout, member_summary, plan_summary, settings_vector, status_of
+from ..abi import HOPELESS, INTERRUPTED, SummaryLayout, member_summary, plan_summary, settings_vector, status_of
 from ..errors import LagError, SimulationError, SimulationInterrupted
 from ..integrators import registry
-from ..scene import Overrides, ScenePlan
+from ..settings import Overrides, RunPlan
 from .interrupt import CtrlC, interruptible
 from .numpy_backend import run_numpy
 from .output import output_times
 from .tables import csv_text, parquet_bytes
 from .scipy_steps import SCIPY_RTOL_FLOOR, ScipyProblem, integrate_scipy
 
+if TYPE_CHECKING:       # the scene's full plan needs sympy; a warm `lagc sweep` runs a stored plan (plans.py)
+    from ..scene import ScenePlan
+
 NUMPY_CHUNK = 256            # NumPy: members integrated as one stacked system
+# (first member's plan, varied inputs) -> the parameter and coordinate names to put values in, or None
+Placement = Callable[[RunPlan, dict], tuple[list[str], list[str]] | None]
 
 
 @dataclass(frozen=True)
@@ -131,42 +137,53 @@ class Sweep:
 class Members:
     """The inputs of B members: parameters (B, NP) and initial states (B, NY), as planned."""
 
-    plan: ScenePlan               # member 0's plan: the grid, integrator and options of all
+    plan: RunPlan                 # member 0's plan (a ScenePlan, or a stored plan's): the grid, integrator and options of all
     parameters: np.ndarray
     initial: np.ndarray
     inputs: dict[str, np.ndarray]
 
 
-def member_inputs(plan: Callable[[Overrides], ScenePlan], base: Overrides, varied: dict) -> Members:
+def member_inputs(plan: Callable[[Overrides], RunPlan], base: Overrides, varied: dict,
+                  placement: Placement | None = None) -> Members:
     """Plan every member. `plan(overrides)` plans one run; `varied` maps names simulate(set=...)
     takes to scalars or 1-D arrays of one length B.
 
     When nothing planned depends on a varied parameter (no parameter computed from others, no
     start value that is an expression), member b's inputs are member 0's with its values put in
-    place, as plan_scene would put them; otherwise every member is planned.
+    place, as plan_scene would put them; otherwise every member is planned. `placement(first,
+    inputs)` says which: the names of the parameters and coordinates to put values in, or None
+    (default: read from the ScenePlan `first`, scene_placement).
     """
     inputs = broadcast(varied)
     count = len(next(iter(inputs.values()))) if inputs else 1
     first = plan(_with_values(base, inputs, 0))
     parameters = np.tile(np.array(first.parameters, dtype=float), (count, 1))
     initial = np.tile(np.array(first.initial_state, dtype=float), (count, 1))
-    if _inputs_depend_on_parameters(first, inputs):
+    names = (placement or scene_placement)(first, inputs)
+    if names is None:
         for b in range(1, count):
             member = plan(_with_values(base, inputs, b))
             parameters[b], initial[b] = member.parameters, member.initial_state
         return Members(first, parameters, initial, inputs)
     _check_finite(inputs)
-    names = [p.name for p in first.model.parameters]
-    coordinates = [c.name for c in first.model.coordinates]
+    parameter_names, coordinates = names
     for name, values in inputs.items():
         coordinate, _, part = name.rpartition(".")
-        if name in names:
-            parameters[:, names.index(name)] = values
+        if name in parameter_names:
+            parameters[:, parameter_names.index(name)] = values
         elif part == "start":
             initial[:, coordinates.index(coordinate)] = values
         else:
             initial[:, len(coordinates) + coordinates.index(coordinate)] = values
     return Members(first, parameters, initial, inputs)
+
+
+def scene_placement(plan: ScenePlan, inputs: dict) -> tuple[list[str], list[str]] | None:
+    """The names of the parameters and coordinates of `plan`'s model, or None when a varied
+    parameter enters other values (every member is then planned)."""
+    if _inputs_depend_on_parameters(plan, inputs):
+        return None
+    return [p.name for p in plan.model.parameters], [c.name for c in plan.model.coordinates]
 
 
 def broadcast(varied: dict) -> dict[str, np.ndarray]:
@@ -279,6 +296,9 @@ def statuses(plan: ScenePlan, summaries: np.ndarray) -> np.ndarray:
     messages = np.full(len(codes), "ok", dtype=object)
     for code in np.unique(codes[codes != 0]):
         messages[codes == code] = status_of(int(code)).describe(plan.max_steps)
+    for member in np.flatnonzero(codes == HOPELESS):       # each with its own forecast
+        messages[member] = status_of(HOPELESS).describe(plan.max_steps, forecast=float(summaries["forecast"][member]),
+                                                        t_end=plan.time.stop)
     return messages
 
 
@@ -392,11 +412,11 @@ def _single_member(module, kernel, source, members: Members, b: int, values: np.
     plan = replace(members.plan, parameters=tuple(members.parameters[b]),
                    initial_state=tuple(members.initial[b]))
     try:
-        result, status, t_fail = run_numpy(kernel, source, plan, None, module), 0, 0.0
+        result, status, t_fail, forecast = run_numpy(kernel, source, plan, None, module), 0, 0.0, math.nan
     except SimulationError as error:
-        result, status, t_fail = error.partial, error.status, error.time
+        result, status, t_fail, forecast = error.partial, error.status, error.time, error.forecast
     values[b, :len(result.t)] = result.values
     member = summaries[b:b + 1]
-    member["status"], member["rows"], member["t_fail"] = status, len(result.t), t_fail
+    member["status"], member["rows"], member["t_fail"], member["forecast"] = status, len(result.t), t_fail, forecast
     for counter in ("accepted", "rhs_evals"):
         member[counter] = result.summary.count(counter) or 0

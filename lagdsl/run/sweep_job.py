@@ -8,17 +8,22 @@ holds the same numbers as Model.sweep's table.
 """
 from __future__ import annotations
 
+import contextlib
 import time as clock
 from collections.abc import Callable
-from typing import Any
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from ..errors import SimulationInterrupted
-from ..scene import Overrides, ScenePlan
-from ..settings import check_step_count
+from ..settings import Overrides, RunPlan, check_step_count
 from . import sweep as batch
 from .memory import budget, check_fits, sweep_bytes
 from .output import output_times
 from .tables import TableFile
+
+if TYPE_CHECKING:
+    from ..scene import ScenePlan
 
 BLOCK_SHARE = 0.25              # of the memory budget, what one block may take
 BLOCK_CEILING = 256 * 2 ** 20   # bytes: larger blocks gain nothing and delay the first rows on disk
@@ -29,11 +34,12 @@ Advance = Callable[[int], None] | None
 class SweepJob:
     """The members of a sweep: `varied` (names simulate(set=...) takes, numbers or 1-D arrays of
     one length) over the `base` overrides. `plan(overrides)` plans one run and `program(plan)`
-    gives its generated, loaded code (api.Program)."""
+    gives its generated, loaded code (api.Program, or a StoredProgram); `placement` is
+    member_inputs'."""
 
-    def __init__(self, plan: Callable[[Overrides], ScenePlan], program: Callable[[ScenePlan], Any],
-                 base: Overrides, varied: dict, backend: str):
-        self.plan, self.base, self.backend = plan, base, backend
+    def __init__(self, plan: Callable[[Overrides], RunPlan], program: Callable[[RunPlan], Any],
+                 base: Overrides, varied: dict, backend: str, placement: batch.Placement | None = None):
+        self.plan, self.base, self.backend, self.placement = plan, base, backend, placement
         self.inputs = batch.broadcast(varied)
         self.count = len(next(iter(self.inputs.values()))) if self.inputs else 1
         self.scene_plan = self.members(0, 1).plan
@@ -42,7 +48,8 @@ class SweepJob:
         self.program = program(self.scene_plan)
 
     def members(self, lo: int, hi: int) -> batch.Members:
-        return batch.member_inputs(self.plan, self.base, {name: values[lo:hi] for name, values in self.inputs.items()})
+        return batch.member_inputs(self.plan, self.base, {name: values[lo:hi] for name, values in self.inputs.items()},
+                                   self.placement)
 
     def check_fits(self) -> None:
         """Refuse a sweep whose table would not fit in memory, before running it."""
@@ -80,6 +87,45 @@ class SweepJob:
             table.write(sweep.tidy())
             summary = batch.merge(summary, sweep.summary)
         return summary
+
+
+@dataclass(frozen=True)
+class StoredProgram:
+    """The program of a stored plan (run/plans.py): its loaded library, all that C threads need."""
+
+    loaded: object
+
+
+def stored_job(stored, base: Overrides, varied: dict) -> SweepJob | None:
+    """The job of a C sweep run from a stored plan (plans.StoredPlan) without sympy, as a warm
+    `lagc run` runs; None where the stored plan cannot serve it: a varied value that other values
+    are computed from, overrides that need the model, a program no longer in the cache."""
+    if set(varied) & stored.computed_from or stored.resolve(base) is None:
+        return None
+    loaded = stored.program.load()
+    if loaded is None:
+        return None
+    names = list(stored.settings.parameters), list(stored.settings.coordinates)
+    return SweepJob(stored.resolve, lambda plan: StoredProgram(loaded), base, varied, "c",
+                    placement=lambda first, inputs: names)
+
+
+def stream_to_file(job: SweepJob, path: str | Path, workers: int | None, client,
+                   progress: bool) -> batch.SweepSummary:
+    """The members of `job` into the table at `path` (see Model.sweep_to_file)."""
+    with TableFile(path) as table, progress_bar(progress, job.count) as advance:
+        return job.stream(table, workers, client, advance)
+
+
+@contextlib.contextmanager
+def progress_bar(show: bool, members: int):
+    """A progress bar over the members when `show`; yields a callable(members finished)."""
+    if not show:
+        yield None
+        return
+    from ..progress import bar
+    with bar(members, "member") as shown:
+        yield lambda finished: shown.update(max(0, finished - shown.n))
 
 
 def run_members(program, members: batch.Members, backend: str, workers: int | None, client, advance: Advance):

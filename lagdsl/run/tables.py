@@ -31,10 +31,26 @@ def csv_text(header, columns) -> str:
 def _csv_cells(column) -> list[str]:
     array = np.asarray(column)
     if array.dtype.kind == "f":
-        return list(map("%.17g".__mod__, array.tolist()))
+        return _float_cells(array.astype(np.float64, copy=False).ravel())
     if array.dtype.kind in "iub":
         return list(array.astype(np.int64).astype(str))
-    return ["" if x is None else format(x, ".17g") if isinstance(x, float) else csv_field(str(x)) for x in column]
+    texts: dict = {}        # a sweep's status column repeats a few texts
+    return [texts[x] if x in texts else texts.setdefault(x, _cell(x)) for x in column]
+
+
+def _float_cells(array: np.ndarray) -> list[str]:
+    """Each double as %.17g; a column that repeats its values (a sweep's times and inputs, one per
+    member row) formats each distinct value once. Distinct means distinct bits, so 0 and -0 stay
+    apart."""
+    bits, index = np.unique(array.view(np.uint64), return_inverse=True)
+    if 2 * len(bits) > len(array):
+        return list(map("%.17g".__mod__, array.tolist()))
+    texts = list(map("%.17g".__mod__, bits.view(np.float64).tolist()))
+    return list(map(texts.__getitem__, index.ravel().tolist()))
+
+
+def _cell(value) -> str:
+    return "" if value is None else format(value, ".17g") if isinstance(value, float) else csv_field(str(value))
 
 
 class TableFile:

@@ -158,13 +158,15 @@ enum lag_status {
     LAG_ERR_NO_CONVERGENCE = 5, /* the implicit iteration did not converge */
     LAG_ERR_PROJECTION = 6,     /* projection onto the constraints did not converge */
     LAG_ERR_INTERRUPTED = 7,    /* interrupted */
-    LAG_ERR_HOPELESS = 8        /* at its pace so far, the run would need more steps than the step limit of max_steps allows */
+    LAG_ERR_HOPELESS = 8        /* at this pace reaching t = t_end would take forecast steps, more than the step limit of max_steps */
 };
 
 #define LAG_MAX_ROWS 10000000L                   /* the largest output grid, in rows */
-#define LAG_DEFAULT_MAX_STEPS 100000L            /* the default step limit, or ... */
+#define LAG_DEFAULT_MAX_STEPS 10000000L          /* an adaptive run's default step limit, or ... */
 #define LAG_STEPS_PER_ROW 100L                   /* ... this many steps per output row */
 #define LAG_MAX_STEPS_CEILING 1000000000000000L  /* the largest step limit, given or implied by a fixed step */
+#define LAG_FORECAST_JUDGED_AFTER 1000L          /* the work forecast judges a run from this step on ... */
+#define LAG_FORECAST_WINDOW 100L                 /* ... once every this many steps */
 #define LAG_GRID_SLACK LAG_LIT(1e-09)            /* a grid time within this many intervals of t1 is t1 */
 #define LAG_RTOL_FLOOR_EPS 10                    /* the smallest rtol, in eps ... */
 #define LAG_RTOL_FLOOR (LAG_RTOL_FLOOR_EPS * REAL_EPSILON) /* ... and as a number */
@@ -1366,6 +1368,49 @@ static int lag_stepper_step(lag_stepper *s)
 #undef LAG_PAIR_ACCEPT
 
 /* ---- driver ---- */
+/* The work forecast: an adaptive run stops as soon as its pace says it cannot reach its stop
+ * time within its step limit, rather than when it has used the limit up. Pasted into every
+ * generated C file just before the driver (driver.c), which calls lag_forecast_step after each
+ * accepted step. The same rule as the NumPy backend's (lagdsl/integrators/forecast.py, which
+ * says why), with the same constants (LAG_FORECAST_*, from lagdsl/settings.py).
+ */
+
+/* The forecast of an adaptive run: after n accepted steps from `start` to t, the run will take
+ *     n + min(left n / |t - start|, left / h_recent)       (left = |stop - t|)
+ * steps, h_recent the largest step of the last one or two windows of LAG_FORECAST_WINDOW steps.
+ * Judged once a window from LAG_FORECAST_JUDGED_AFTER steps on; over `budget` (the step limit),
+ * the run stops with LAG_ERR_HOPELESS long before it would use the limit up. budget 0: never. */
+typedef struct lag_forecast {
+    real start, stop;
+    long budget, taken;
+    real window_largest, previous_largest;
+    real steps;                    /* the forecast when it last judged the run (0 before) */
+} lag_forecast;
+
+/* After an accepted step of size h that reached t: LAG_ERR_HOPELESS if the run can no longer
+ * reach its stop within its budget, else LAG_OK. */
+static int lag_forecast_step(lag_forecast *forecast, real h, real t)
+{
+    real recent, left, covered, by_average, by_recent;
+    if (forecast->budget <= 0)
+        return LAG_OK;
+    forecast->taken += 1;
+    forecast->window_largest = r_fmax(forecast->window_largest, r_fabs(h));
+    if (forecast->taken % LAG_FORECAST_WINDOW != 0)
+        return LAG_OK;
+    recent = r_fmax(forecast->window_largest, forecast->previous_largest);
+    forecast->previous_largest = forecast->window_largest;
+    forecast->window_largest = 0;
+    if (forecast->taken < LAG_FORECAST_JUDGED_AFTER)
+        return LAG_OK;
+    left = r_fabs(forecast->stop - t);
+    covered = r_fabs(t - forecast->start);
+    by_average = covered > 0 ? left * (real)forecast->taken / covered : (real)INFINITY;
+    by_recent = recent > 0 ? left / recent : (real)INFINITY;
+    forecast->steps = (real)forecast->taken + (by_recent < by_average ? by_recent : by_average);
+    return forecast->steps > (real)forecast->budget ? LAG_ERR_HOPELESS : LAG_OK;
+}
+
 /* The driver: integrate a scene on its output grid, projecting onto its constraints and watching
  * its invariants and its stop condition, and report how the run went (lag_integrate).
  *
@@ -1387,6 +1432,7 @@ typedef struct lag_report {
     real y_fail[LAG_NY];           /* on failure: the state there */
     real rcond_fail;               /* on failure: the reciprocal condition estimate of the system for q'' there */
     long rows;                     /* output rows delivered */
+    lag_forecast forecast;         /* the work forecast, its last verdict in forecast.steps */
     lag_stats stats;
 #if LAG_HAS_SWITCHES
     lag_switches switches;         /* auto: when it changed methods, and the span of t of each */
@@ -1580,8 +1626,8 @@ static long lag_last_row(real t0, real t1, real dt)
 /* The step limit of a run from t0 to t1 whose final row is `last`: the options' max_steps if
  * given; for a fixed step (options->step > 0: rk4, gauss), the steps it implies, the user's own
  * count (one a step, and one more a row where a step is cut to land on it); else
- * LAG_DEFAULT_MAX_STEPS (as in Hairer's codes) or LAG_STEPS_PER_ROW per output row, whichever is
- * larger (settings.step_limit). */
+ * LAG_DEFAULT_MAX_STEPS or LAG_STEPS_PER_ROW per output row, whichever is larger
+ * (settings.step_limit); an adaptive run's work forecast stops it long before (lag_forecast). */
 static long lag_step_limit(const lag_options *options, real t0, real t1, long last)
 {
     if (options->max_steps > 0)
@@ -1607,7 +1653,6 @@ static int lag_advance(lag_system *sys, lag_stepper *stepper, real tk, real *e_o
     while (stepper->t < tk && status == LAG_OK && !report->stopped) {
 #else
     (void)e_old;
-    (void)report;
     while (stepper->t < tk && status == LAG_OK) {
 #endif
         status = lag_stepper_step(stepper);
@@ -1622,6 +1667,8 @@ static int lag_advance(lag_system *sys, lag_stepper *stepper, real tk, real *e_o
         if (status == LAG_OK)
             status = lag_stop_check(sys, stepper, e_old, &report->stopped, &report->t_stop);
 #endif
+        if (status == LAG_OK)
+            status = lag_forecast_step(&report->forecast, stepper->t - stepper->t_old, stepper->t);
         lag_progress_t = (double)stepper->t;
         if (status == LAG_OK && lag_interrupt)
             status = LAG_ERR_INTERRUPTED;
@@ -1722,6 +1769,9 @@ static int lag_integrate(lag_system *sys, const real *y0, real t0, real t1, real
     stepper->t = t0;           /* where a failure before the first step (projecting y0) is reported */
     memcpy(stepper->y, y, sizeof stepper->y);
     limited.max_steps = lag_step_limit(options, t0, t1, last);
+    report->forecast.start = t0;
+    report->forecast.stop = t1;
+    report->forecast.budget = options->step > 0 ? 0 : limited.max_steps;     /* a fixed step's count is known */
     lag_progress_t = (double)t0;
     status = lag_start(sys, t0, y, &e_old, &last, sink, context, report);
     if (status == LAG_OK)
@@ -1745,12 +1795,13 @@ static int lag_integrate(lag_system *sys, const real *y0, real t0, real t1, real
 #endif
 
 /* The run summary as lagdsl.abi.SummaryLayout lays it out for this scene: doubles, field by field. */
-#define LAG_SUMMARY_SIZE 96
+#define LAG_SUMMARY_SIZE 97
 #define LAG_SUMMARY_STATUS 0
 #define LAG_SUMMARY_ROWS 1
 #define LAG_SUMMARY_T_FAIL 2
 #define LAG_SUMMARY_RCOND_FAIL 3
-#define LAG_SUMMARY_COUNTERS 4     /* the work counters, labelled: */
+#define LAG_SUMMARY_FORECAST 4
+#define LAG_SUMMARY_COUNTERS 5     /* the work counters, labelled: */
 #define LAG_NCOUNTERS 3
 static const char *const lag_counter_labels[LAG_NCOUNTERS] = { "steps accepted", "rejected", "right-hand sides" };
 
@@ -1761,22 +1812,23 @@ static void lag_pack_summary(const lag_report *report, double *summary)
     summary[1] = (double)report->rows;
     summary[2] = (double)report->t_fail;
     summary[3] = (double)report->rcond_fail;
-    summary[4] = (double)report->stats.accepted;
-    summary[5] = (double)report->stats.rejected;
-    summary[6] = (double)report->stats.rhs_evals;
-    summary[7] = (double)report->stats.stiff;
-    summary[8] = (double)report->stats.stiff_time;
-    summary[9] = (double)report->stats.stiff_rate;
-    summary[10] = (double)report->stats.stiff_amplitude;
-    summary[11] = (double)report->stats.stiff_accepted;
-    summary[12] = (double)report->stats.stiff_rejected;
-    summary[13] = (double)report->stats.stiff_rhs_evals;
+    summary[4] = (double)report->forecast.steps;
+    summary[5] = (double)report->stats.accepted;
+    summary[6] = (double)report->stats.rejected;
+    summary[7] = (double)report->stats.rhs_evals;
+    summary[8] = (double)report->stats.stiff;
+    summary[9] = (double)report->stats.stiff_time;
+    summary[10] = (double)report->stats.stiff_rate;
+    summary[11] = (double)report->stats.stiff_amplitude;
+    summary[12] = (double)report->stats.stiff_accepted;
+    summary[13] = (double)report->stats.stiff_rejected;
+    summary[14] = (double)report->stats.stiff_rhs_evals;
     for (i = 0; i < 1; ++i)
-        summary[14 + i] = (double)report->invariant_start[i];
+        summary[15 + i] = (double)report->invariant_start[i];
     for (i = 0; i < 1; ++i)
-        summary[15 + i] = (double)report->invariant_drift[i];
+        summary[16 + i] = (double)report->invariant_drift[i];
     for (i = 0; i < 80; ++i)
-        summary[16 + i] = (double)report->y_fail[i];
+        summary[17 + i] = (double)report->y_fail[i];
 }
 
 /* ---- the shared library's entry points ---- */
@@ -1969,8 +2021,9 @@ static void lag_print_options(FILE *file, const lag_options *options)
 }
 
 /* How a run with `status` failed, in the words of lagdsl.abi.STATUSES: the step limit was
- * max_steps, the reciprocal condition estimate at the failure rcond. */
-static void lag_print_status(FILE *file, int status, long max_steps, double rcond)
+ * max_steps, the reciprocal condition estimate at the failure rcond, the work forecast that
+ * stopped it `forecast` steps to reach t_end. */
+static void lag_print_status(FILE *file, int status, long max_steps, double rcond, double forecast, double t_end)
 {
     switch (status) {
     case LAG_OK:
@@ -1998,7 +2051,7 @@ static void lag_print_status(FILE *file, int status, long max_steps, double rcon
         fprintf(file, "interrupted");
         break;
     case LAG_ERR_HOPELESS:
-        fprintf(file, "at its pace so far, the run would need more steps than the step limit of %ld allows", max_steps);
+        fprintf(file, "at this pace reaching t = %g would take %.3g steps, more than the step limit of %ld", t_end, forecast, max_steps);
         break;
     default:
         fprintf(file, "unknown failure");
@@ -2353,9 +2406,9 @@ static int lag_read_members(const char *program, const lag_member *common, lag_m
 }
 
 /* Write member `number`'s rows (`width` doubles each) and add its counters to `totals`; say how
- * it failed. Returns its status. */
-static int lag_write_member(long number, const double *summary, const double *rows, long width, long max_steps,
-                            long *totals)
+ * it failed (its step limit and stop time in `settings`). Returns its status. */
+static int lag_write_member(long number, const double *summary, const double *rows, long width,
+                            const double *settings, long *totals)
 {
     int status = (int)summary[LAG_SUMMARY_STATUS], i;
     long r;
@@ -2371,7 +2424,8 @@ static int lag_write_member(long number, const double *summary, const double *ro
     if (status != LAG_OK && status != LAG_ERR_INTERRUPTED) {
         fprintf(stderr, "member %ld: simulation failed at t = %.17g after %ld rows: ", number,
                 summary[LAG_SUMMARY_T_FAIL], (long)summary[LAG_SUMMARY_ROWS]);
-        lag_print_status(stderr, status, max_steps, summary[LAG_SUMMARY_RCOND_FAIL]);
+        lag_print_status(stderr, status, (long)settings[LAG_SET_MAX_STEPS], summary[LAG_SUMMARY_RCOND_FAIL],
+                         summary[LAG_SUMMARY_FORECAST], settings[LAG_SET_T_STOP]);
         fputc('\n', stderr);
     }
     return status;
@@ -2405,7 +2459,7 @@ static int lag_run_standalone_batch(const lag_members *members, const double *se
                         lag_buffer_row, width, values, capacity, summaries, LAG_SUMMARY_SIZE, threads);
         for (b = 0; b < count; ++b) {
             int status = lag_write_member(first + b, summaries + b * LAG_SUMMARY_SIZE, values + b * capacity * width,
-                                          width, (long)settings[LAG_SET_MAX_STEPS], totals);
+                                          width, settings, totals);
             if (status == LAG_ERR_INTERRUPTED && unfinished < 0)
                 unfinished = first + b;
             failed += status != LAG_OK && status != LAG_ERR_INTERRUPTED;
@@ -2604,7 +2658,8 @@ static int lag_print_summary(const lag_report *report, const lag_options *option
     if (report->status != LAG_OK) {
         fprintf(stderr, "the run is incomplete: %ld rows written\n", report->rows);
         fprintf(stderr, "simulation failed at t = %.17g: ", (double)report->t_fail);
-        lag_print_status(stderr, report->status, max_steps, (double)report->rcond_fail);
+        lag_print_status(stderr, report->status, max_steps, (double)report->rcond_fail,
+                         (double)report->forecast.steps, (double)report->forecast.stop);
         fputs("\n  state:", stderr);
         for (i = 0; i < LAG_NQ; ++i)
             fprintf(stderr, " %s = %.17g, %s' = %.17g", lag_coordinate_names[i], (double)report->y_fail[i],

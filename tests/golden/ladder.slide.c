@@ -158,19 +158,32 @@ enum lag_status {
     LAG_ERR_NO_CONVERGENCE = 5, /* the implicit iteration did not converge */
     LAG_ERR_PROJECTION = 6,     /* projection onto the constraints did not converge */
     LAG_ERR_INTERRUPTED = 7,    /* interrupted */
-    LAG_ERR_HOPELESS = 8        /* at its pace so far, the run would need more steps than the step limit of max_steps allows */
+    LAG_ERR_HOPELESS = 8        /* at this pace reaching t = t_end would take forecast steps, more than the step limit of max_steps */
 };
 
 #define LAG_MAX_ROWS 10000000L                   /* the largest output grid, in rows */
-#define LAG_DEFAULT_MAX_STEPS 100000L            /* the default step limit, or ... */
+#define LAG_DEFAULT_MAX_STEPS 10000000L          /* an adaptive run's default step limit, or ... */
 #define LAG_STEPS_PER_ROW 100L                   /* ... this many steps per output row */
 #define LAG_MAX_STEPS_CEILING 1000000000000000L  /* the largest step limit, given or implied by a fixed step */
+#define LAG_FORECAST_JUDGED_AFTER 1000L          /* the work forecast judges a run from this step on ... */
+#define LAG_FORECAST_WINDOW 100L                 /* ... once every this many steps */
 #define LAG_GRID_SLACK LAG_LIT(1e-09)            /* a grid time within this many intervals of t1 is t1 */
 #define LAG_RTOL_FLOOR_EPS 10                    /* the smallest rtol, in eps ... */
 #define LAG_RTOL_FLOOR (LAG_RTOL_FLOOR_EPS * REAL_EPSILON) /* ... and as a number */
 #define LAG_MIN_STEP_EPS 10                      /* the smallest step, in eps of max(|t|, span) */
 #define LAG_RCOND_MIN (1000 * REAL_EPSILON)      /* below this reciprocal condition, K is singular */
 #define LAG_AUTO_LOGGED 8                        /* the switches of auto whose times the summary keeps */
+#define LAG_STIFF_STEPS 15                       /* steps beyond the stability boundary that call for a verdict */
+#define LAG_CALM_STEPS 6                         /* steps within it, in a row, that clear the count */
+#define LAG_FAST_ITERATIONS 8                    /* power iteration on J^2 for the spectral radius rho */
+#define LAG_FAST_PROBE LAG_LIT(0.001)            /* the probe of y'' spans this fraction of 1/rho */
+#define LAG_EXCITED_AMPLITUDE LAG_LIT(100.0)     /* a fast mode above this many tolerances is excited */
+#define LAG_VERDICT_STIFF 1                      /* the stiffness test's verdicts: stiff (damped or unexcited) ... */
+#define LAG_VERDICT_OSCILLATION 2                /* ... or a fast oscillation to be resolved */
+#define LAG_AUTO_CALM LAG_LIT(3.0)               /* auto back to dop853 when radau5 keeps h rho below this ... */
+#define LAG_AUTO_GAIN LAG_LIT(2.0)               /* ... or its steps are not this many times dop853's */
+#define LAG_DOPRI5_STABILITY_BOUNDARY LAG_LIT(3.25) /* h lambda beyond which dopri5's steps are held by stability */
+#define LAG_DOP853_STABILITY_BOUNDARY LAG_LIT(6.1) /* h lambda beyond which dop853's steps are held by stability */
 
 /* The positions in the settings vector of lag_run and lag_run_batch (lagdsl.abi.SETTINGS). */
 enum lag_setting { LAG_SET_T_START, LAG_SET_T_STOP, LAG_SET_T_INTERVAL, LAG_SET_RTOL, LAG_SET_ATOL, LAG_SET_STEP, LAG_SET_MAX_STEP, LAG_SET_STAGES, LAG_SET_MAX_STEPS, LAG_SETTINGS };
@@ -663,13 +676,14 @@ static real lag_stop_function(const real *par, real t, const real *y)
  */
 
 /* Work counters of the explicit pairs, printed by the run summary; and the verdict of the
- * stiffness test of dopri5 and dop853: stiff = 1 once it has fired, at stiff_time, when the
- * counters stood at stiff_accepted, stiff_rejected, stiff_rhs_evals (lag_stiffness_record in
- * stiffness_test.c). */
+ * stiffness test of dopri5 and dop853 (lag_stiffness_record in stiffness_test.c): stiff is 0, or
+ * the kind of fast mode it found (LAG_VERDICT_STIFF, LAG_VERDICT_OSCILLATION) at stiff_time,
+ * with its spectral radius stiff_rate, its amplitude in tolerances, the pair's mean step over
+ * the steps that made the verdict, and the counters then. */
 typedef struct lag_stats {
     long accepted, rejected, rhs_evals;
     int stiff;
-    real stiff_time;
+    real stiff_time, stiff_rate, stiff_amplitude, stiff_step;
     long stiff_accepted, stiff_rejected, stiff_rhs_evals;
 } lag_stats;
 
@@ -832,31 +846,58 @@ static int lag_control_update(lag_control *c, lag_stats *stats, int status, real
 }
 
 /* Stiffness detection, Hairer-Norsett-Wanner I, Section IV.2 ("Automatic Stiffness Detection"),
- * as in the codes DOPRI5 and DOP853 (pasted after explicit_control.c, for those two only).  The
- * last two stages of the pairs evaluate f at the same time t + h, at the stage argument y_stage
- * and at the new solution y_new (FSAL), so
+ * as in the codes DOPRI5 and DOP853 (pasted after explicit_control.c, for those two only), with a
+ * verdict on the kind of fast mode that held the steps.
+ *
+ * The trigger: the last two stages of the pairs evaluate f at the same time t + h, at the stage
+ * argument y_stage and at the new solution y_new (FSAL), so
  *     h lambda = h ||f(t+h, y_new) - f(t+h, y_stage)|| / ||y_new - y_stage||
- * estimates h times the dominant eigenvalue of df/dy.  A step whose h lambda exceeds the method's
- * stability boundary (3.25 for DOPRI5, 6.1 for DOP853) was limited by stability rather than
- * accuracy; 15 such accepted steps, without 6 non-stiff ones in a row in between, mean the
- * problem is stiff: the first time, the counters are recorded in the statistics (stiff = 1), so
- * that the run summary can say when, what the explicit method has cost since, and recommend an
- * implicit method. */
+ * estimates h times the dominant eigenvalue of df/dy at no cost.  LAG_STIFF_STEPS accepted steps
+ * with h lambda beyond the method's stability boundary (LAG_DOPRI5_STABILITY_BOUNDARY, ...),
+ * without LAG_CALM_STEPS non-stiff ones in a row in between, call for a verdict.
+ *
+ * The verdict (lag_fast_mode): a fast mode excited above the tolerance must be resolved by any
+ * method, while a damped or unexcited one is stiff in the sense an implicit method helps with
+ * (it steps over it and damps what is left).  At the verdict's step (t, y, f = y'):
+ *   rho^2 = ||J^2 v|| / ||v||, rho the spectral radius of J = df/dy, by LAG_FAST_ITERATIONS steps
+ *     of power iteration on J^2 from v = f, each J u a difference quotient of f (the fast modes
+ *     of a mechanical system come as pairs +-i omega or a +- i b, whose squares have one
+ *     modulus, so the iteration on J^2 settles where one on J would oscillate);
+ *   y'' = (f(t + d, y + d f) - f) / d with d = LAG_FAST_PROBE / rho, the time derivative of f
+ *     along the solution: a fast mode of amplitude A contributes rho^2 A to it, the slow motion
+ *     about Omega^2 |y| (Omega its frequency), a part (Omega / rho)^2 of that; J y'' (one more
+ *     product) holds the fast mode a quarter period on, so that for a mode q = A cos(phi),
+ *     q' = -omega A sin(phi) the sum below does not depend on its phase phi;
+ *   amplitude = sqrt((|y''|^2 + |J y''|^2 / rho^2) / 2n) / rho^2, with |.| weighting component i
+ *     by 1 / (atol + rtol |y_i|) (as the error test does): the fast mode's amplitude in units of
+ *     the tolerance.
+ * Above LAG_EXCITED_AMPLITUDE the mode is excited and must be resolved (LAG_VERDICT_OSCILLATION,
+ * period 2 pi / rho): an implicit method would not take larger steps.  Below, it is
+ * LAG_VERDICT_STIFF.  (While the pair runs at its stability boundary, its step-size control
+ * holds an unexcited mode near the tolerance: amplitude 0.07 .. 8, hence the margin.)  The
+ * verdict costs 2 LAG_FAST_ITERATIONS + 2 evaluations of f.  A stiff verdict is final; after an
+ * oscillation the test goes on, and calls for the next verdict after twice as many stiff steps
+ * (the oscillation may be damped slowly).  The statistics keep the first verdict, or the first
+ * stiff one after an oscillation: the kind (stats->stiff), when, the counters then, rho and the
+ * amplitude, and the mean step of the pair over the steps that made it (auto.c compares radau5's
+ * steps with it). */
 typedef struct lag_stiffness_test {
     real boundary;      /* h lambda beyond which a step counts as stiff */
     real h_lambda;      /* the estimate of the trial that is being accepted */
     int stiff_steps;    /* stiff accepted steps since the last run of non-stiff ones */
     int calm_steps;     /* non-stiff accepted steps in a row */
+    long patience;      /* stiff steps that call for the next verdict */
+    real window_t;      /* t and the trials (accepted + rejected) when the stiff steps began */
+    long window_trials;
+    real v[LAG_NY], jv[LAG_NY], probe[LAG_NY];   /* the power iteration's vectors, a probe's state */
 } lag_stiffness_test;
-
-#define LAG_STIFF_STEPS 15   /* stiff steps that make the verdict */
-#define LAG_CALM_STEPS 6     /* non-stiff steps in a row that clear the stiff count */
 
 static void lag_stiffness_start(lag_stiffness_test *test, real boundary)
 {
     test->boundary = boundary;
     test->h_lambda = 0;
     test->stiff_steps = test->calm_steps = 0;
+    test->patience = LAG_STIFF_STEPS;
 }
 
 /* h lambda of the trial of size h from its two derivatives at t + h (0 when y_new = y_stage). */
@@ -872,22 +913,117 @@ static void lag_stiffness_measure(lag_stiffness_test *test, real h, const real *
     test->h_lambda = dy > 0 ? h * r_sqrt(df / dy) : 0;
 }
 
-/* Count the accepted step that ended at t; stats already counts it. */
-static void lag_stiffness_record(lag_stiffness_test *test, lag_stats *stats, real t)
+/* J u ~ (f(t, y + delta u) - f) / delta, delta = sqrt(eps) (1 + |y|) / |u|, into ju (u != ju);
+ * `evals` counts the evaluation.  `probe` is scratch. */
+static int lag_jacobian_product(const lag_system *sys, long *evals, real t, const real *y, const real *f,
+                                const real *u, real *ju, real *probe)
 {
+    real size_u = 0, size_y = 0, delta;
+    int i, status;
+    for (i = 0; i < LAG_NY; ++i) {
+        size_u += u[i] * u[i];
+        size_y += y[i] * y[i];
+    }
+    if (!(size_u > 0) || !r_isfinite(size_u))
+        return LAG_ERR_NONFINITE;
+    delta = r_sqrt(REAL_EPSILON) * (1 + r_sqrt(size_y)) / r_sqrt(size_u);
+    for (i = 0; i < LAG_NY; ++i)
+        probe[i] = y[i] + delta * u[i];
+    status = lag_rhs(sys, t, probe, ju);
+    *evals += 1;
+    for (i = 0; i < LAG_NY; ++i)
+        ju[i] = (ju[i] - f[i]) / delta;
+    return status;
+}
+
+/* One step of power iteration on J^2 at (t, y), f = f(t, y): v <- J^2 v / |J^2 v|; returns
+ * |J^2 v| / |v| (an estimate of rho^2), 0 when nothing was learnt (J^2 v = 0, a failed f). */
+static real lag_power_step(const lag_system *sys, long *evals, real t, const real *y, const real *f,
+                           real *v, real *jv, real *probe)
+{
+    real before = 0, size = 0;
+    int i;
+    for (i = 0; i < LAG_NY; ++i)
+        before += v[i] * v[i];
+    if (lag_jacobian_product(sys, evals, t, y, f, v, jv, probe) != LAG_OK
+        || lag_jacobian_product(sys, evals, t, y, f, jv, v, probe) != LAG_OK)
+        return 0;
+    for (i = 0; i < LAG_NY; ++i)
+        size += v[i] * v[i];
+    size = r_sqrt(size);
+    if (!(size > 0) || !r_isfinite(size))
+        return 0;
+    for (i = 0; i < LAG_NY; ++i)
+        v[i] /= size;
+    return size / r_sqrt(before);
+}
+
+/* The kind of the fast mode at (t, y), f = f(t, y) (the rule above): LAG_VERDICT_STIFF or
+ * LAG_VERDICT_OSCILLATION, with rho and the amplitude; 0 when a probe failed. */
+static int lag_fast_mode(lag_stiffness_test *test, const lag_system *sys, const lag_control *control,
+                         long *evals, real t, const real *y, const real *f, real *rho, real *amplitude)
+{
+    real rho2 = 0, d, w, sum = 0;
+    int i, k;
+    memcpy(test->v, f, sizeof test->v);
+    for (k = 0; k < LAG_FAST_ITERATIONS; ++k)
+        if (!((rho2 = lag_power_step(sys, evals, t, y, f, test->v, test->jv, test->probe)) > 0))
+            return 0;
+    *rho = r_sqrt(rho2);
+    d = LAG_FAST_PROBE / *rho;
+    for (i = 0; i < LAG_NY; ++i)
+        test->probe[i] = y[i] + d * f[i];
+    *evals += 1;
+    if (lag_rhs(sys, t + d, test->probe, test->jv) != LAG_OK)
+        return 0;
+    for (i = 0; i < LAG_NY; ++i)
+        test->v[i] = (test->jv[i] - f[i]) / d;     /* y'' */
+    if (lag_jacobian_product(sys, evals, t, y, f, test->v, test->jv, test->probe) != LAG_OK)
+        return 0;
+    for (i = 0; i < LAG_NY; ++i) {
+        w = lag_control_scale(control, y[i], y[i]);
+        sum += (test->v[i] / w) * (test->v[i] / w) + (test->jv[i] / w) * (test->jv[i] / w) / rho2;
+    }
+    *amplitude = r_sqrt(sum / (2 * LAG_NY)) / rho2;
+    if (!r_isfinite(*amplitude))
+        return 0;
+    return *amplitude > LAG_EXCITED_AMPLITUDE ? LAG_VERDICT_OSCILLATION : LAG_VERDICT_STIFF;
+}
+
+/* Count the accepted step that ended at (t, y) with f = f(t, y); stats already counts it. */
+static void lag_stiffness_record(lag_stiffness_test *test, const lag_system *sys, const lag_control *control,
+                                 lag_stats *stats, real t, const real *y, const real *f)
+{
+    real rho = 0, amplitude = 0;
+    int kind;
+    if (stats->stiff == LAG_VERDICT_STIFF)
+        return;
     if (!(test->h_lambda > test->boundary)) {
         if (++test->calm_steps == LAG_CALM_STEPS)
             test->stiff_steps = 0;
         return;
     }
     test->calm_steps = 0;
-    if (++test->stiff_steps == LAG_STIFF_STEPS && !stats->stiff) {
-        stats->stiff = 1;
-        stats->stiff_time = t;
-        stats->stiff_accepted = stats->accepted;
-        stats->stiff_rejected = stats->rejected;
-        stats->stiff_rhs_evals = stats->rhs_evals;
+    if (test->stiff_steps++ == 0) {
+        test->window_t = t;
+        test->window_trials = stats->accepted + stats->rejected;
     }
+    if (test->stiff_steps < test->patience)
+        return;
+    test->stiff_steps = 0;
+    kind = lag_fast_mode(test, sys, control, &stats->rhs_evals, t, y, f, &rho, &amplitude);
+    if (kind == LAG_VERDICT_OSCILLATION)
+        test->patience *= 2;
+    if (kind == 0 || (stats->stiff && kind == LAG_VERDICT_OSCILLATION))
+        return;
+    stats->stiff = kind;
+    stats->stiff_time = t;
+    stats->stiff_rate = rho;
+    stats->stiff_amplitude = amplitude;
+    stats->stiff_step = (t - test->window_t) / (stats->accepted + stats->rejected - test->window_trials);
+    stats->stiff_accepted = stats->accepted;
+    stats->stiff_rejected = stats->rejected;
+    stats->stiff_rhs_evals = stats->rhs_evals;
 }
 
 /* DOP853: the explicit Runge-Kutta method of order 8 of Dormand and Prince, 12 stages plus f at
@@ -921,7 +1057,7 @@ static void lag_stiffness_record(lag_stiffness_test *test, lag_stats *stats, rea
 #define LAG_PAIR_ORDER 8
 #define LAG_PAIR_TRIAL dop853_trial
 #define LAG_PAIR_LAST_STAGE k13
-#define LAG_PAIR_STIFFNESS_BOUNDARY LAG_LIT(6.1)
+#define LAG_PAIR_STIFFNESS_BOUNDARY LAG_DOP853_STABILITY_BOUNDARY
 
 static const real dp8_c2 = LAG_LIT(0.526001519587677318785587544488e-01),
                   dp8_c3 = LAG_LIT(0.789002279381515978178381316732e-01),
@@ -1287,7 +1423,8 @@ static int lag_stepper_dense(lag_stepper *s, real t, real *yout)
  *
  * Pasted after the pair's file and before explicit_step.c, whose LAG_PAIR_START and
  * LAG_PAIR_ACCEPT it defines. The pair's file names its last stage, f(t_new, y_new), as
- * LAG_PAIR_LAST_STAGE and its stability boundary as LAG_PAIR_STIFFNESS_BOUNDARY.
+ * LAG_PAIR_LAST_STAGE and its stability boundary as LAG_PAIR_STIFFNESS_BOUNDARY (a constant of the
+ * registry, lagdsl/integrators/registry.py).
  */
 
 /* The start at (t0, y0 = s->y), f = f(t0, y0): until the first step, the dense output is the
@@ -1305,7 +1442,8 @@ static void dormand_prince_start(lag_stepper *s, const real *f)
 }
 
 /* An accepted trial of size h to t_new: r1 and r2 of its dense output, its first stage and the
- * next one's, and its count in the stiffness test (whose h lambda the trial measured). */
+ * next one's, and its count in the stiffness test (whose h lambda the trial measured), at the
+ * new state y_new with f = k1. */
 static void dormand_prince_accept(lag_stepper *s, real h, real t_new)
 {
     int i;
@@ -1317,7 +1455,7 @@ static void dormand_prince_accept(lag_stepper *s, real h, real t_new)
     memcpy(s->k1_done, s->k1, sizeof s->k1);
     memcpy(s->k1, s->LAG_PAIR_LAST_STAGE, sizeof s->k1);
     s->h_done = h;
-    lag_stiffness_record(&s->stiffness, &s->stats, t_new);
+    lag_stiffness_record(&s->stiffness, s->sys, &s->control, &s->stats, t_new, s->y_new, s->k1);
 }
 
 /* The driver moved y (projection): refresh the FSAL derivative, and add theta (y - y_end) to the
@@ -1392,6 +1530,49 @@ static int lag_stepper_step(lag_stepper *s)
 #undef LAG_PAIR_ACCEPT
 
 /* ---- driver ---- */
+/* The work forecast: an adaptive run stops as soon as its pace says it cannot reach its stop
+ * time within its step limit, rather than when it has used the limit up. Pasted into every
+ * generated C file just before the driver (driver.c), which calls lag_forecast_step after each
+ * accepted step. The same rule as the NumPy backend's (lagdsl/integrators/forecast.py, which
+ * says why), with the same constants (LAG_FORECAST_*, from lagdsl/settings.py).
+ */
+
+/* The forecast of an adaptive run: after n accepted steps from `start` to t, the run will take
+ *     n + min(left n / |t - start|, left / h_recent)       (left = |stop - t|)
+ * steps, h_recent the largest step of the last one or two windows of LAG_FORECAST_WINDOW steps.
+ * Judged once a window from LAG_FORECAST_JUDGED_AFTER steps on; over `budget` (the step limit),
+ * the run stops with LAG_ERR_HOPELESS long before it would use the limit up. budget 0: never. */
+typedef struct lag_forecast {
+    real start, stop;
+    long budget, taken;
+    real window_largest, previous_largest;
+    real steps;                    /* the forecast when it last judged the run (0 before) */
+} lag_forecast;
+
+/* After an accepted step of size h that reached t: LAG_ERR_HOPELESS if the run can no longer
+ * reach its stop within its budget, else LAG_OK. */
+static int lag_forecast_step(lag_forecast *forecast, real h, real t)
+{
+    real recent, left, covered, by_average, by_recent;
+    if (forecast->budget <= 0)
+        return LAG_OK;
+    forecast->taken += 1;
+    forecast->window_largest = r_fmax(forecast->window_largest, r_fabs(h));
+    if (forecast->taken % LAG_FORECAST_WINDOW != 0)
+        return LAG_OK;
+    recent = r_fmax(forecast->window_largest, forecast->previous_largest);
+    forecast->previous_largest = forecast->window_largest;
+    forecast->window_largest = 0;
+    if (forecast->taken < LAG_FORECAST_JUDGED_AFTER)
+        return LAG_OK;
+    left = r_fabs(forecast->stop - t);
+    covered = r_fabs(t - forecast->start);
+    by_average = covered > 0 ? left * (real)forecast->taken / covered : (real)INFINITY;
+    by_recent = recent > 0 ? left / recent : (real)INFINITY;
+    forecast->steps = (real)forecast->taken + (by_recent < by_average ? by_recent : by_average);
+    return forecast->steps > (real)forecast->budget ? LAG_ERR_HOPELESS : LAG_OK;
+}
+
 /* The driver: integrate a scene on its output grid, projecting onto its constraints and watching
  * its invariants and its stop condition, and report how the run went (lag_integrate).
  *
@@ -1413,6 +1594,7 @@ typedef struct lag_report {
     real y_fail[LAG_NY];           /* on failure: the state there */
     real rcond_fail;               /* on failure: the reciprocal condition estimate of the system for q'' there */
     long rows;                     /* output rows delivered */
+    lag_forecast forecast;         /* the work forecast, its last verdict in forecast.steps */
     lag_stats stats;
 #if LAG_HAS_SWITCHES
     lag_switches switches;         /* auto: when it changed methods, and the span of t of each */
@@ -1606,8 +1788,8 @@ static long lag_last_row(real t0, real t1, real dt)
 /* The step limit of a run from t0 to t1 whose final row is `last`: the options' max_steps if
  * given; for a fixed step (options->step > 0: rk4, gauss), the steps it implies, the user's own
  * count (one a step, and one more a row where a step is cut to land on it); else
- * LAG_DEFAULT_MAX_STEPS (as in Hairer's codes) or LAG_STEPS_PER_ROW per output row, whichever is
- * larger (settings.step_limit). */
+ * LAG_DEFAULT_MAX_STEPS or LAG_STEPS_PER_ROW per output row, whichever is larger
+ * (settings.step_limit); an adaptive run's work forecast stops it long before (lag_forecast). */
 static long lag_step_limit(const lag_options *options, real t0, real t1, long last)
 {
     if (options->max_steps > 0)
@@ -1633,7 +1815,6 @@ static int lag_advance(lag_system *sys, lag_stepper *stepper, real tk, real *e_o
     while (stepper->t < tk && status == LAG_OK && !report->stopped) {
 #else
     (void)e_old;
-    (void)report;
     while (stepper->t < tk && status == LAG_OK) {
 #endif
         status = lag_stepper_step(stepper);
@@ -1648,6 +1829,8 @@ static int lag_advance(lag_system *sys, lag_stepper *stepper, real tk, real *e_o
         if (status == LAG_OK)
             status = lag_stop_check(sys, stepper, e_old, &report->stopped, &report->t_stop);
 #endif
+        if (status == LAG_OK)
+            status = lag_forecast_step(&report->forecast, stepper->t - stepper->t_old, stepper->t);
         lag_progress_t = (double)stepper->t;
         if (status == LAG_OK && lag_interrupt)
             status = LAG_ERR_INTERRUPTED;
@@ -1748,6 +1931,9 @@ static int lag_integrate(lag_system *sys, const real *y0, real t0, real t1, real
     stepper->t = t0;           /* where a failure before the first step (projecting y0) is reported */
     memcpy(stepper->y, y, sizeof stepper->y);
     limited.max_steps = lag_step_limit(options, t0, t1, last);
+    report->forecast.start = t0;
+    report->forecast.stop = t1;
+    report->forecast.budget = options->step > 0 ? 0 : limited.max_steps;     /* a fixed step's count is known */
     lag_progress_t = (double)t0;
     status = lag_start(sys, t0, y, &e_old, &last, sink, context, report);
     if (status == LAG_OK)
@@ -1771,12 +1957,13 @@ static int lag_integrate(lag_system *sys, const real *y0, real t0, real t1, real
 #endif
 
 /* The run summary as lagdsl.abi.SummaryLayout lays it out for this scene: doubles, field by field. */
-#define LAG_SUMMARY_SIZE 24
+#define LAG_SUMMARY_SIZE 27
 #define LAG_SUMMARY_STATUS 0
 #define LAG_SUMMARY_ROWS 1
 #define LAG_SUMMARY_T_FAIL 2
 #define LAG_SUMMARY_RCOND_FAIL 3
-#define LAG_SUMMARY_COUNTERS 4     /* the work counters, labelled: */
+#define LAG_SUMMARY_FORECAST 4
+#define LAG_SUMMARY_COUNTERS 5     /* the work counters, labelled: */
 #define LAG_NCOUNTERS 3
 static const char *const lag_counter_labels[LAG_NCOUNTERS] = { "steps accepted", "rejected", "right-hand sides" };
 
@@ -1787,24 +1974,27 @@ static void lag_pack_summary(const lag_report *report, double *summary)
     summary[1] = (double)report->rows;
     summary[2] = (double)report->t_fail;
     summary[3] = (double)report->rcond_fail;
-    summary[4] = (double)report->stats.accepted;
-    summary[5] = (double)report->stats.rejected;
-    summary[6] = (double)report->stats.rhs_evals;
-    summary[7] = (double)report->residual_max;
-    summary[8] = (double)report->projection_start;
-    summary[9] = (double)report->stats.stiff;
-    summary[10] = (double)report->stats.stiff_time;
-    summary[11] = (double)report->stats.stiff_accepted;
-    summary[12] = (double)report->stats.stiff_rejected;
-    summary[13] = (double)report->stats.stiff_rhs_evals;
+    summary[4] = (double)report->forecast.steps;
+    summary[5] = (double)report->stats.accepted;
+    summary[6] = (double)report->stats.rejected;
+    summary[7] = (double)report->stats.rhs_evals;
+    summary[8] = (double)report->residual_max;
+    summary[9] = (double)report->projection_start;
+    summary[10] = (double)report->stats.stiff;
+    summary[11] = (double)report->stats.stiff_time;
+    summary[12] = (double)report->stats.stiff_rate;
+    summary[13] = (double)report->stats.stiff_amplitude;
+    summary[14] = (double)report->stats.stiff_accepted;
+    summary[15] = (double)report->stats.stiff_rejected;
+    summary[16] = (double)report->stats.stiff_rhs_evals;
     for (i = 0; i < 1; ++i)
-        summary[14 + i] = (double)report->invariant_start[i];
+        summary[17 + i] = (double)report->invariant_start[i];
     for (i = 0; i < 1; ++i)
-        summary[15 + i] = (double)report->invariant_drift[i];
+        summary[18 + i] = (double)report->invariant_drift[i];
     for (i = 0; i < 6; ++i)
-        summary[16 + i] = (double)report->y_fail[i];
-    summary[22] = (double)report->stopped;
-    summary[23] = (double)report->t_stop;
+        summary[19 + i] = (double)report->y_fail[i];
+    summary[25] = (double)report->stopped;
+    summary[26] = (double)report->t_stop;
 }
 
 /* ---- the shared library's entry points ---- */
@@ -1998,8 +2188,9 @@ static void lag_print_options(FILE *file, const lag_options *options)
 }
 
 /* How a run with `status` failed, in the words of lagdsl.abi.STATUSES: the step limit was
- * max_steps, the reciprocal condition estimate at the failure rcond. */
-static void lag_print_status(FILE *file, int status, long max_steps, double rcond)
+ * max_steps, the reciprocal condition estimate at the failure rcond, the work forecast that
+ * stopped it `forecast` steps to reach t_end. */
+static void lag_print_status(FILE *file, int status, long max_steps, double rcond, double forecast, double t_end)
 {
     switch (status) {
     case LAG_OK:
@@ -2027,10 +2218,25 @@ static void lag_print_status(FILE *file, int status, long max_steps, double rcon
         fprintf(file, "interrupted");
         break;
     case LAG_ERR_HOPELESS:
-        fprintf(file, "at its pace so far, the run would need more steps than the step limit of %ld allows", max_steps);
+        fprintf(file, "at this pace reaching t = %g would take %.3g steps, more than the step limit of %ld", t_end, forecast, max_steps);
         break;
     default:
         fprintf(file, "unknown failure");
+        break;
+    }
+}
+
+/* The stiffness test's verdict in the words of lagdsl.abi.VERDICTS, if it gave one. */
+static void lag_print_verdict(FILE *file, const lag_report *report)
+{
+    switch (report->stats.stiff) {
+    case LAG_VERDICT_STIFF:
+        fprintf(file, "stiffness detected at t = %.6g: a fast mode (time scale %.3g s), damped or not excited, holds the steps at the stability boundary; since then %ld steps (%ld rejected) and %ld of the %ld right-hand sides; an implicit method needs far fewer steps: %s", (double)report->stats.stiff_time, 1 / (double)report->stats.stiff_rate, report->stats.accepted - report->stats.stiff_accepted, report->stats.rejected - report->stats.stiff_rejected, report->stats.rhs_evals - report->stats.stiff_rhs_evals, report->stats.rhs_evals, "generate this program with integrator radau5 (or auto) in the scene");
+        fputc('\n', file);
+        break;
+    case LAG_VERDICT_OSCILLATION:
+        fprintf(file, "a fast oscillation (period %.3g s) is excited above the tolerance (%.3g times it at t = %.6g) and must be resolved; an implicit method will not take larger steps (since then %ld steps (%ld rejected) and %ld of the %ld right-hand sides)", 6.283185307179586 / (double)report->stats.stiff_rate, (double)report->stats.stiff_amplitude, (double)report->stats.stiff_time, report->stats.accepted - report->stats.stiff_accepted, report->stats.rejected - report->stats.stiff_rejected, report->stats.rhs_evals - report->stats.stiff_rhs_evals, report->stats.rhs_evals);
+        fputc('\n', file);
         break;
     }
 }
@@ -2367,9 +2573,9 @@ static int lag_read_members(const char *program, const lag_member *common, lag_m
 }
 
 /* Write member `number`'s rows (`width` doubles each) and add its counters to `totals`; say how
- * it failed. Returns its status. */
-static int lag_write_member(long number, const double *summary, const double *rows, long width, long max_steps,
-                            long *totals)
+ * it failed (its step limit and stop time in `settings`). Returns its status. */
+static int lag_write_member(long number, const double *summary, const double *rows, long width,
+                            const double *settings, long *totals)
 {
     int status = (int)summary[LAG_SUMMARY_STATUS], i;
     long r;
@@ -2385,7 +2591,8 @@ static int lag_write_member(long number, const double *summary, const double *ro
     if (status != LAG_OK && status != LAG_ERR_INTERRUPTED) {
         fprintf(stderr, "member %ld: simulation failed at t = %.17g after %ld rows: ", number,
                 summary[LAG_SUMMARY_T_FAIL], (long)summary[LAG_SUMMARY_ROWS]);
-        lag_print_status(stderr, status, max_steps, summary[LAG_SUMMARY_RCOND_FAIL]);
+        lag_print_status(stderr, status, (long)settings[LAG_SET_MAX_STEPS], summary[LAG_SUMMARY_RCOND_FAIL],
+                         summary[LAG_SUMMARY_FORECAST], settings[LAG_SET_T_STOP]);
         fputc('\n', stderr);
     }
     return status;
@@ -2419,7 +2626,7 @@ static int lag_run_standalone_batch(const lag_members *members, const double *se
                         lag_buffer_row, width, values, capacity, summaries, LAG_SUMMARY_SIZE, threads);
         for (b = 0; b < count; ++b) {
             int status = lag_write_member(first + b, summaries + b * LAG_SUMMARY_SIZE, values + b * capacity * width,
-                                          width, (long)settings[LAG_SET_MAX_STEPS], totals);
+                                          width, settings, totals);
             if (status == LAG_ERR_INTERRUPTED && unfinished < 0)
                 unfinished = first + b;
             failed += status != LAG_OK && status != LAG_ERR_INTERRUPTED;
@@ -2577,13 +2784,7 @@ static void lag_print_work(const lag_report *report, const lag_options *options,
     lag_print_counters(stderr, counts);
     fprintf(stderr, ", %.3g s CPU\n", seconds);
 #if LAG_HAS_STIFFNESS_TEST
-    if (report->stats.stiff)
-        fprintf(stderr, "stiffness detected at t = %.6g: since then %ld steps (%ld rejected) and %ld of the "
-                "%ld right-hand sides; an implicit method needs far fewer steps: generate this program "
-                "with integrator radau5 (or auto) in the scene\n",
-                (double)report->stats.stiff_time, report->stats.accepted - report->stats.stiff_accepted,
-                report->stats.rejected - report->stats.stiff_rejected,
-                report->stats.rhs_evals - report->stats.stiff_rhs_evals, report->stats.rhs_evals);
+    lag_print_verdict(stderr, report);
 #endif
 #if LAG_HAS_SWITCHES
     fprintf(stderr, "auto: %ld switch%s", report->switches.count, report->switches.count == 1 ? "" : "es");
@@ -2624,7 +2825,8 @@ static int lag_print_summary(const lag_report *report, const lag_options *option
     if (report->status != LAG_OK) {
         fprintf(stderr, "the run is incomplete: %ld rows written\n", report->rows);
         fprintf(stderr, "simulation failed at t = %.17g: ", (double)report->t_fail);
-        lag_print_status(stderr, report->status, max_steps, (double)report->rcond_fail);
+        lag_print_status(stderr, report->status, max_steps, (double)report->rcond_fail,
+                         (double)report->forecast.steps, (double)report->forecast.stop);
         fputs("\n  state:", stderr);
         for (i = 0; i < LAG_NQ; ++i)
             fprintf(stderr, " %s = %.17g, %s' = %.17g", lag_coordinate_names[i], (double)report->y_fail[i],

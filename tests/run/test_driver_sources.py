@@ -216,9 +216,9 @@ def program(constraints, holonomic, invariants, stop, integrator, tolerances) ->
     layout = summary_layout(integrator, int(invariants), 4, constraints, stop)
     linear_algebra = c_file("lu.c") if constraints else ""      # the projection's; unused, it is a warning
     return "\n".join([HEADERS, runtime_header(), runtime_contract(), linear_algebra, defines,
-                      MODEL % {"holonomic": "#define LAG_NH 1" if holonomic else ""}, STEPPER, c_file("driver.c"),
-                      summary_packer(layout), c_file("library.c"), SCENE, status_printer(),
-                      verdict_printer() if integrator == "dop853" else "", c_file("standalone.c")])
+                      MODEL % {"holonomic": "#define LAG_NH 1" if holonomic else ""}, STEPPER,
+                      c_file("forecast.c"), c_file("driver.c"), summary_packer(layout), c_file("library.c"), SCENE,
+                      status_printer(), verdict_printer() if integrator == "dop853" else "", c_file("standalone.c")])
 
 
 def build(tmp_path, name: str, combination: tuple) -> str:

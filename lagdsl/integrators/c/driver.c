@@ -19,6 +19,7 @@ typedef struct lag_report {
     real y_fail[LAG_NY];           /* on failure: the state there */
     real rcond_fail;               /* on failure: the reciprocal condition estimate of the system for q'' there */
     long rows;                     /* output rows delivered */
+    lag_forecast forecast;         /* the work forecast, its last verdict in forecast.steps */
     lag_stats stats;
 #if LAG_HAS_SWITCHES
     lag_switches switches;         /* auto: when it changed methods, and the span of t of each */
@@ -212,8 +213,8 @@ static long lag_last_row(real t0, real t1, real dt)
 /* The step limit of a run from t0 to t1 whose final row is `last`: the options' max_steps if
  * given; for a fixed step (options->step > 0: rk4, gauss), the steps it implies, the user's own
  * count (one a step, and one more a row where a step is cut to land on it); else
- * LAG_DEFAULT_MAX_STEPS (as in Hairer's codes) or LAG_STEPS_PER_ROW per output row, whichever is
- * larger (settings.step_limit). */
+ * LAG_DEFAULT_MAX_STEPS or LAG_STEPS_PER_ROW per output row, whichever is larger
+ * (settings.step_limit); an adaptive run's work forecast stops it long before (lag_forecast). */
 static long lag_step_limit(const lag_options *options, real t0, real t1, long last)
 {
     if (options->max_steps > 0)
@@ -239,7 +240,6 @@ static int lag_advance(lag_system *sys, lag_stepper *stepper, real tk, real *e_o
     while (stepper->t < tk && status == LAG_OK && !report->stopped) {
 #else
     (void)e_old;
-    (void)report;
     while (stepper->t < tk && status == LAG_OK) {
 #endif
         status = lag_stepper_step(stepper);
@@ -254,6 +254,8 @@ static int lag_advance(lag_system *sys, lag_stepper *stepper, real tk, real *e_o
         if (status == LAG_OK)
             status = lag_stop_check(sys, stepper, e_old, &report->stopped, &report->t_stop);
 #endif
+        if (status == LAG_OK)
+            status = lag_forecast_step(&report->forecast, stepper->t - stepper->t_old, stepper->t);
         lag_progress_t = (double)stepper->t;
         if (status == LAG_OK && lag_interrupt)
             status = LAG_ERR_INTERRUPTED;
@@ -354,6 +356,9 @@ static int lag_integrate(lag_system *sys, const real *y0, real t0, real t1, real
     stepper->t = t0;           /* where a failure before the first step (projecting y0) is reported */
     memcpy(stepper->y, y, sizeof stepper->y);
     limited.max_steps = lag_step_limit(options, t0, t1, last);
+    report->forecast.start = t0;
+    report->forecast.stop = t1;
+    report->forecast.budget = options->step > 0 ? 0 : limited.max_steps;     /* a fixed step's count is known */
     lag_progress_t = (double)t0;
     status = lag_start(sys, t0, y, &e_old, &last, sink, context, report);
     if (status == LAG_OK)

@@ -168,7 +168,8 @@ static int lag_fmu_failure(lag_fmu *fmu, int status, long max_steps, real t, con
     char message[512], state[1024] = "";
     size_t used = 0;
     int i;
-    lag_format_status(message, sizeof message, status, max_steps, (double)lag_condition(&fmu->sys, t, y));
+    lag_format_status(message, sizeof message, status, max_steps, (double)lag_condition(&fmu->sys, t, y),
+                      (double)fmu->report.forecast.steps, (double)fmu->report.forecast.stop);
     for (i = 0; i < LAG_NQ && used < sizeof state; ++i) {
         int length = snprintf(state + used, sizeof state - used, " %s = %.17g, %s' = %.17g", lag_coordinate_names[i],
                               (double)y[i], lag_coordinate_names[i], (double)y[LAG_NQ + i]);

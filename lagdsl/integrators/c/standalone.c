@@ -329,9 +329,9 @@ static int lag_read_members(const char *program, const lag_member *common, lag_m
 }
 
 /* Write member `number`'s rows (`width` doubles each) and add its counters to `totals`; say how
- * it failed. Returns its status. */
-static int lag_write_member(long number, const double *summary, const double *rows, long width, long max_steps,
-                            long *totals)
+ * it failed (its step limit and stop time in `settings`). Returns its status. */
+static int lag_write_member(long number, const double *summary, const double *rows, long width,
+                            const double *settings, long *totals)
 {
     int status = (int)summary[LAG_SUMMARY_STATUS], i;
     long r;
@@ -347,7 +347,8 @@ static int lag_write_member(long number, const double *summary, const double *ro
     if (status != LAG_OK && status != LAG_ERR_INTERRUPTED) {
         fprintf(stderr, "member %ld: simulation failed at t = %.17g after %ld rows: ", number,
                 summary[LAG_SUMMARY_T_FAIL], (long)summary[LAG_SUMMARY_ROWS]);
-        lag_print_status(stderr, status, max_steps, summary[LAG_SUMMARY_RCOND_FAIL]);
+        lag_print_status(stderr, status, (long)settings[LAG_SET_MAX_STEPS], summary[LAG_SUMMARY_RCOND_FAIL],
+                         summary[LAG_SUMMARY_FORECAST], settings[LAG_SET_T_STOP]);
         fputc('\n', stderr);
     }
     return status;
@@ -381,7 +382,7 @@ static int lag_run_standalone_batch(const lag_members *members, const double *se
                         lag_buffer_row, width, values, capacity, summaries, LAG_SUMMARY_SIZE, threads);
         for (b = 0; b < count; ++b) {
             int status = lag_write_member(first + b, summaries + b * LAG_SUMMARY_SIZE, values + b * capacity * width,
-                                          width, (long)settings[LAG_SET_MAX_STEPS], totals);
+                                          width, settings, totals);
             if (status == LAG_ERR_INTERRUPTED && unfinished < 0)
                 unfinished = first + b;
             failed += status != LAG_OK && status != LAG_ERR_INTERRUPTED;
@@ -580,7 +581,8 @@ static int lag_print_summary(const lag_report *report, const lag_options *option
     if (report->status != LAG_OK) {
         fprintf(stderr, "the run is incomplete: %ld rows written\n", report->rows);
         fprintf(stderr, "simulation failed at t = %.17g: ", (double)report->t_fail);
-        lag_print_status(stderr, report->status, max_steps, (double)report->rcond_fail);
+        lag_print_status(stderr, report->status, max_steps, (double)report->rcond_fail,
+                         (double)report->forecast.steps, (double)report->forecast.stop);
         fputs("\n  state:", stderr);
         for (i = 0; i < LAG_NQ; ++i)
             fprintf(stderr, " %s = %.17g, %s' = %.17g", lag_coordinate_names[i], (double)report->y_fail[i],

@@ -26,6 +26,7 @@ Output times between step ends are interpolated; a step ending exactly on one is
 """
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -51,11 +52,13 @@ STATS_KEYS = ("accepted", "rejected", "rhs_evals", "jac_evals", "lu_decomps", "n
 
 class IntegrationFailure(RuntimeError):
     """The integration stopped: t and y are the last good time and state, Y the output rows
-    delivered before (Y[:completed]), status the matching C status code."""
+    delivered before (Y[:completed]), status the matching C status code, forecast the steps the
+    work forecast said the run would take (HOPELESS; integrators/forecast.py)."""
 
     def __init__(self, message: str, t: float, y: np.ndarray, Y: np.ndarray,
-                 completed: int | None = None, status: int = NONFINITE):
+                 completed: int | None = None, status: int = NONFINITE, forecast: float = math.nan):
         super().__init__(message)
+        self.forecast = forecast
         self.t = t
         self.y = y
         self.Y = Y
@@ -101,10 +104,12 @@ class _Output:
             self.completed += 1
             self.stopped = True
 
-    def failure(self, method: str, t, y, status: int = NONFINITE, detail: str = "", max_steps: int = 0):
+    def failure(self, method: str, t, y, status: int = NONFINITE, detail: str = "", max_steps: int = 0,
+                forecast: float = math.nan):
         """`method` failed with `status` in the step from (t, y): the status table's words, then `detail`."""
-        message = f"{method}: {status_of(status).describe(max_steps)} (in the step from t = {t}){detail}"
-        return IntegrationFailure(message, t, y, self.Y[:self.completed].copy(), self.completed, status)
+        words = status_of(status).describe(max_steps, forecast=forecast, t_end=float(self.t_grid[-1]))
+        message = f"{method}: {words} (in the step from t = {t}){detail}"
+        return IntegrationFailure(message, t, y, self.Y[:self.completed].copy(), self.completed, status, forecast)
 
     def failure_of(self, error: BaseException, method: str, t, y):
         """The failure of an exception raised in `method`'s step from t (one of STEP_ERRORS):

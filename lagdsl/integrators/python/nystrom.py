@@ -32,7 +32,8 @@ rounded once from its exact quotient), so that the NumPy and C backends agree to
   evaluation (lag_control_first_step);
 - the trials: at most max_step, stretched by up to 1% to land on t_end; a step below
   MIN_STEP_EPS eps max(|t|, t_end - t0) fails with STEP_TOO_SMALL, and accepted + rejected >= max_steps > 0
-  with MAX_STEPS (lag_control_trial);
+  with MAX_STEPS (lag_control_trial); after each accepted step the work forecast of the C driver
+  (integrators/forecast.py) may end a run that cannot finish within max_steps, with HOPELESS;
 - the step size: h err^(-1/7) with safety 0.9, the factor within [0.2, 10], no growth right
   after a rejection, h/10 after a trial whose accelerations failed (singular, non-finite) or
   whose error is not finite (lag_control_update);
@@ -53,8 +54,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ...abi import MAX_STEPS, NONFINITE, OK, SINGULAR, STEP_TOO_SMALL
+from ...abi import HOPELESS, MAX_STEPS, NONFINITE, OK, SINGULAR, STEP_TOO_SMALL
 from ...settings import MIN_STEP_EPS
+from ..forecast import WorkForecast
 from .fixed_step import STATS_KEYS, STEP_ERRORS, IntegrationFailure, _Output
 
 if TYPE_CHECKING:
@@ -330,6 +332,7 @@ def integrate_rkn8(accelerations, rhs, t_grid, y0, rtol, atol, max_step=0, max_s
     t = t0
     control = _Control(rtol, atol, t0, t_end, max_step, max_steps, stats)
     stepper = _Stepper(accelerations, n, stats)
+    forecast = WorkForecast(t0, t_end, max_steps) if max_steps > 0 else None
     try:
         f = _first_derivative(rhs, t, y, n, stats)
         stepper.g[0] = f[n:].copy()
@@ -339,6 +342,8 @@ def integrate_rkn8(accelerations, rhs, t_grid, y0, rtol, atol, max_step=0, max_s
             # rkn8_accept: the start of the step is kept for the dense output
             t_old, y_old, g_old = t, y, stepper.g[0]
             t, y, stepper.g[0] = t_new, y_new, stepper.g[8]
+            if forecast is not None and forecast.hopeless(t - t_old, t):
+                raise output.failure("rkn8", t, y, HOPELESS, max_steps=max_steps, forecast=forecast.steps)
             output.deliver(t, y, lambda s, t_old=t_old, y_old=y_old, g_old=g_old, t_now=t, y_now=y:
                            stepper.dense(s, t_old, y_old, g_old, t_now, y_now))
     except _StageFailure as failure:

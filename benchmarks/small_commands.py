@@ -1,0 +1,130 @@
+"""How long the small commands take, warm, against the goals of issue 36 (and issue 30's
+`lagc modes` on the 200-mass chain).
+
+Each command first runs once to fill the build cache (its own, a temporary directory, or
+$LAGDSL_CACHE), then `--repeat` times; the median counts. A command's CPU time is that of its
+process (resource.getrusage of the children), which a loaded machine inflates less than the
+wall time; both are printed. The repeated simulate() runs in this process: its overhead is the
+call's wall time less the integration's (summary.wall_time, timed around the C call), and its
+CPU time per call over a run of calls (the integration's included).
+
+    python benchmarks/small_commands.py              # about a minute warm, more on a fresh cache
+    python benchmarks/small_commands.py --repeat 9
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+MODELS = ROOT / "models"
+CHECKED = ("double_pendulum", "kepler", "elastic_pendulum", "spring_chain")
+SWEEP = ("sweep", MODELS / "double_pendulum.lag", "--vary", "theta1.start=-1:1:20", "--stop", "10")
+SIMULATED = ("elastic_pendulum", "triple_pendulum")
+
+
+def command(*arguments, repeat: int) -> tuple[float, float]:
+    """(median wall s, median CPU s) of `lagc arguments`, after one run to warm."""
+    return timed([sys.executable, "-m", "lagdsl", *map(str, arguments)], repeat)
+
+
+def timed(argv: list[str], repeat: int) -> tuple[float, float]:
+    """(median wall s, median CPU s) of the process `argv`, after one run to warm."""
+    walls, cpus = [], []
+    for attempt in range(repeat + 1):
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        started = time.perf_counter()
+        done = subprocess.run(argv, capture_output=True, text=True)
+        wall = time.perf_counter() - started
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        if done.returncode != 0:
+            sys.exit(f"{' '.join(argv)} failed:\n{done.stderr}")
+        if attempt:
+            walls.append(wall)
+            cpus.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
+    return statistics.median(walls), statistics.median(cpus)
+
+
+def report(what: str, value: float, goal: float, unit: str = "s", note: str = "") -> None:
+    verdict = "ok" if value < goal else "OVER"
+    print(f"{what:<52} {value:9.3g} {unit:<3} goal < {goal:g} {unit:<3} {verdict:<4} {note}")
+
+
+def bench_overhead() -> tuple[float, float]:
+    """(wall s, integration s) of model.bench() on the double pendulum in this process, warm: the
+    model loaded and every integrator's ladder run, each run's integration (summary.wall_time)
+    summed; as `lagc bench --stop 10` but for the imports."""
+    import lagdsl
+    from lagdsl import api
+    spent = []
+    simulate_plan = api.Model.simulate_plan
+
+    def timed(self, *arguments, **options):
+        result = simulate_plan(self, *arguments, **options)
+        spent.append(result.summary.wall_time)
+        return result
+
+    api.Model.simulate_plan = timed
+    try:
+        lagdsl.load(MODELS / "double_pendulum.lag").bench(stop=10)       # fills the cache
+        spent.clear()
+        started = time.perf_counter()
+        lagdsl.load(MODELS / "double_pendulum.lag").bench(stop=10)
+        return time.perf_counter() - started, sum(spent)
+    finally:
+        api.Model.simulate_plan = simulate_plan
+
+
+def simulate_overhead(name: str, calls: int) -> tuple[float, float, float]:
+    """(median overhead s, median integration s, CPU s per call) of a repeated simulate()."""
+    import lagdsl
+    model = lagdsl.load(MODELS / f"{name}.lag")
+    model.simulate()
+    overheads, integrations = [], []
+    cpu = time.process_time()
+    for _ in range(calls):
+        started = time.perf_counter()
+        result = model.simulate()
+        overheads.append(time.perf_counter() - started - result.summary.wall_time)
+        integrations.append(result.summary.wall_time)
+    cpu = (time.process_time() - cpu) / calls
+    return statistics.median(overheads), statistics.median(integrations), cpu
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--repeat", type=int, default=5, help="warm runs of each command (median counts)")
+    parser.add_argument("--calls", type=int, default=2000, help="simulate() calls")
+    arguments = parser.parse_args()
+    with tempfile.TemporaryDirectory(prefix="lagdsl-small-") as work:
+        os.environ.setdefault("LAGDSL_CACHE", str(Path(work) / "cache"))
+        repeat = arguments.repeat
+        print(f"warm, median of {repeat} runs; cache {os.environ['LAGDSL_CACHE']}\n")
+        for name in CHECKED:
+            wall, cpu = command("check", MODELS / f"{name}.lag", repeat=repeat)
+            report(f"lagc check {name}.lag: CPU", cpu, 0.5, note=f"({wall:.3g} s wall)")
+        wall, cpu = command("modes", MODELS / "spring_chain.lag", repeat=repeat)
+        report("lagc modes spring_chain.lag (200 masses): wall", wall, 2.0, note=f"({cpu:.3g} s CPU)")
+        wall, cpu = command(*SWEEP, "-o", Path(work) / "sweep.csv", repeat=repeat)
+        report("lagc sweep, 20 members: wall", wall, 1.0, note=f"({cpu:.3g} s CPU)")
+        wall, integrations = bench_overhead()
+        report("model.bench() double_pendulum: overhead / integrations", (wall - integrations) / integrations, 2.0,
+               "x", f"({wall:.3g} s wall, integrations {integrations:.3g} s)")
+        wall, cpu = timed([sys.executable, "-c", f"import lagdsl; lagdsl.load({str(MODELS / 'double_pendulum.lag')!r})"],
+                          repeat)
+        report("lagdsl.load(double_pendulum.lag) in a new process: wall", wall, 1.0, note=f"({cpu:.3g} s CPU)")
+        for name in SIMULATED:
+            overhead, integration, per_call = simulate_overhead(name, arguments.calls)
+            report(f"repeated simulate() {name}: overhead", overhead * 1e6, 50, "us",
+                   f"(integration {integration * 1e6:.0f} us, CPU {per_call * 1e6:.0f} us a call)")
+
+
+if __name__ == "__main__":
+    main()
