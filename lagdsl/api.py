@@ -88,8 +88,8 @@ class Model(LyapunovMethod):
         `draw` also computes what the draw statements show (`result.drawing`, `result.animate()`).
 
         `sensitivities` names parameters and start values ("q.start", "q.velocity"): the run then
-        integrates the variational equations with the state (sensitivity/run.py; backend
-        "numpy", an adaptive integrator) and returns a SensitivityResult, whose
+        integrates the variational equations with the state (sensitivity/run.py, and
+        sensitivity/c_run.py on the C backend; an adaptive integrator) and returns a SensitivityResult, whose
         `.sensitivity("x", "k")` is ∂x(t)/∂k on the grid; `sensitivity_error_control` says whether
         they enter the step-size control (default: they do).
         """
@@ -109,17 +109,14 @@ class Model(LyapunovMethod):
     def sensitivities(self, scene: str | None, backend: str, overrides: Overrides, names, times=None,
                       error_control: bool = True):
         """A run with its sensitivities by `names` (see simulate), on `times` (default: the grid)."""
-        from .sensitivity import run as sensitivity
+        from .sensitivity import c_run, run as sensitivity
         _check_backend(backend)
-        if backend != "numpy":
-            raise LagError("sensitivities are integrated on the NumPy backend only; use backend='numpy'",
-                           Setting("--backend"))
         scene_plan = self.plan(scene, overrides)
         chosen = sensitivity.directions(self.ir, list(names))
         if scene_plan.scene_name not in self._sensitivity_programs:
             self._sensitivity_programs[scene_plan.scene_name] = sensitivity.build(self, scene)
-        result = sensitivity.integrate(self._sensitivity_programs[scene_plan.scene_name], scene_plan, chosen, times,
-                                       error_control)
+        integrate = c_run.integrate_c if backend == "c" else sensitivity.integrate
+        result = integrate(self._sensitivity_programs[scene_plan.scene_name], scene_plan, chosen, times, error_control)
         return _described(self.ir, result, scene_plan.scene_name)
 
     def simulate_plan(self, scene: str | None, backend: str, overrides: Overrides,
@@ -156,18 +153,19 @@ class Model(LyapunovMethod):
         return self.simulate(scene, backend, draw=True, **{"interval": speed / fps, **options}).animate(speed)
 
     def fit(self, data, params: dict, *, outputs=None, sigma=None, scene: str | None = None,
-            bounds: dict | None = None, set: dict | None = None, integrator: str | None = None, **options):
+            bounds: dict | None = None, set: dict | None = None, integrator: str | None = None,
+            backend: str = "numpy", **options):
         """Fit `params` ({name: start value}) to `data` (a CSV path or a DataFrame with a `t` column
         and columns named as the scene's outputs) by least squares, the sensitivities as the
         Jacobian; returns a sensitivity.fit.Fit (.values, .stderr, .correlation, .residuals, .cost,
-        .nfev). `integrator` and `options` (rtol, atol, max_step, ...) override the scene's. See
-        sensitivity/fit.py for the statistics."""
+        .nfev). `integrator` and `options` (rtol, atol, max_step, ...) override the scene's;
+        `backend` ("numpy" or "c") runs the model. See sensitivity/fit.py for the statistics."""
         from .sensitivity.fit import fit
         unknown = [name for name in options if name not in RUN_OPTIONS]
         if unknown:
             raise LagError(f"fit: unknown option '{unknown[0]}' (options: {', '.join(RUN_OPTIONS)})")
         held = {name: single_number(name, value) for name, value in (set or {}).items()}
-        return fit(self, data, params, outputs, sigma, scene, bounds, held, integrator, options)
+        return fit(self, data, params, outputs, sigma, scene, bounds, held, integrator, options, backend)
 
     def bench(self, scene: str | None = None, *, integrators: tuple[str, ...] | None = None, backend: str = "c",
               peers: bool = False, repeat: int = 3, set: dict | None = None, start: float | None = None,

@@ -27,6 +27,8 @@ def add(commands) -> None:
                         help="a data column to fit (default: every column but t); repeatable")
     parser.add_argument("--sigma", type=float, help="the standard deviation of the data (default 1; the "
                                                     "standard errors are scaled by the residual variance)")
+    parser.add_argument("--backend", choices=("c", "numpy"), default="numpy",
+                        help="generated code that runs the model and its sensitivities (default: numpy)")
     parser.add_argument("-o", metavar="FIT.json", dest="file", help="write the fit as JSON")
     parser.add_argument("--plot", metavar="FIT.png", help="plot the data, the fitted model and the residuals")
     parser.set_defaults(handler=run)
@@ -43,7 +45,7 @@ def run(arguments) -> int:
     result = model.fit(arguments.data, fitted, outputs=arguments.outputs, sigma=arguments.sigma,
                        scene=arguments.scene, bounds=_bounds(arguments.bound),
                        set=dict(common.set_values(arguments.set, with_units=True)), integrator=arguments.integrator,
-                       **dict(given_options(vars(arguments))), **_atol(arguments))
+                       backend=arguments.backend, **dict(given_options(vars(arguments))), **_atol(arguments))
     print(result.render())
     if arguments.file is not None:
         write_output(arguments.file, result.to_json())

@@ -32,9 +32,12 @@ FUNCTION_PARAMETERS = {
 }
 
 
-def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = None) -> GeneratedSource:
+def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = None,
+             sensitivity: dict | None = None) -> GeneratedSource:
     """The scene's C file: with `fmu` (the FMU's variables and FMI functions, codegen/fmu.py) in place
-    of the shared library's entry points and the standalone program."""
+    of the shared library's entry points and the standalone program; with `sensitivity` (the
+    context of templates/c/sensitivity.c.j2, codegen/c_sensitivity.py) followed by the forward
+    sensitivities' right-hand side, integrator and entry point."""
     printer = CPrinter()
     blocks = {name: _print_block(getattr(kernel, name), signature(kernel, name), kernel, printer)
               for name in FUNCTION_PARAMETERS if getattr(kernel, name) is not None}
@@ -56,7 +59,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
                      for i, (name, value) in enumerate(kernel.parameters)],
         "derived": [f"if (!fixed[{i}])\n        par[{i}] = {printer.doprint(expr)};"
                     for i, expr in kernel.derived_parameters],
-        "solver": kernel.solver, "jacobian": kernel.jacobian is not None, "jac": kernel.jacobian_layout,
+        "solver": kernel.solver, "jacobian": kernel.jacobian is not None, "implicit": method.implicit, "jac": kernel.jacobian_layout,
         "layout": layout_kind(kernel), "bandwidth": kernel.layout.bandwidth if kernel.layout else 0, "stored": kernel.layout.size if kernel.layout else kernel.size ** 2,
         "factor": factorisation_text(kernel.layout),
         "canonical": kernel.momenta is not None,
@@ -77,7 +80,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
         "options_init": _options_initializer(options, "lag_scene_atol_each" if _scene_atol_each(kernel) else "NULL"),
         "scene_atol_each": _scene_atol_each(kernel),
         "option_fields": _option_fields(method.options),
-        "fmu": fmu, "stop_text": kernel.stop_text, "stop": None, "constant_mass": None,      # blocks a scene may not have (below)
+        "fmu": fmu, "sensitivity": sensitivity, "stop_text": kernel.stop_text, "stop": None, "constant_mass": None,      # blocks a scene may not have (below)
         **_gram_tables(kernel),
         **blocks,
     }
@@ -250,5 +253,5 @@ def _position(store: Store, kernel: Kernel) -> int:
         return kernel.layout.coordinate_slot(row, column)
     if store.array in CLEARED:
         return kernel.jacobian_layout.slot(row, column)
-    columns = {"K": kernel.size, "A": kernel.n, "M": kernel.n}[store.array]
+    columns = {"K": kernel.size, "A": kernel.n, "M": kernel.n, "Dp": len(kernel.parameters)}[store.array]
     return row * columns + column

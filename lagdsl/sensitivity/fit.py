@@ -63,13 +63,13 @@ class Fit:
 
 def fit(model, data, params: dict, outputs=None, sigma=None, scene: str | None = None,
         bounds: dict | None = None, set: dict | None = None, integrator: str | None = None,
-        options: dict | None = None) -> Fit:
+        options: dict | None = None, backend: str = "numpy") -> Fit:
     """Fit `params` ({name: start value}: parameters or "q.start", "q.velocity") of `model` (an
     api.Model) so that its `outputs` (default: the data's columns) match `data` (see data.py);
     `set` holds other parameters fixed (numbers, or texts with a unit that scene.plan_scene
     converts: "30 deg"), `bounds` maps a name to (low, high), `sigma` is one number or
     {column: number} (default 1); `integrator` and `options` (rtol, atol, ...) override the
-    scene's."""
+    scene's; `backend` ("numpy" or "c") runs the model."""
     names = directions(model.ir, tuple(params), "--fit").names
     base = Overrides(tuple((set or {}).items()), integrator=integrator, options=given_options(options or {}),
                      atol_each=given_atol_each(options or {}))
@@ -83,7 +83,7 @@ def fit(model, data, params: dict, outputs=None, sigma=None, scene: str | None =
     picked = [measured.columns.index(c) for c in columns]
     scale = _sigma(sigma, columns)
     target = measured.values[:, picked]
-    runs = _Runs(model, scene, names, base, times, rows, [plan.columns.index(c) for c in columns])
+    runs = _Runs(model, (scene, backend), names, base, times, rows, [plan.columns.index(c) for c in columns])
 
     def residuals(x):
         values, _ = runs.at(x)
@@ -103,8 +103,9 @@ def fit(model, data, params: dict, outputs=None, sigma=None, scene: str | None =
 class _Runs:
     """One model run per parameter vector, kept for the residuals and the Jacobian at it."""
 
-    def __init__(self, model, scene, names, base: Overrides, times, rows, columns):
-        self.model, self.scene, self.names, self.base = model, scene, names, base
+    def __init__(self, model, where: tuple[str | None, str], names, base: Overrides, times, rows, columns):
+        self.model, self.names, self.base = model, names, base
+        self.scene, self.backend = where
         self.times, self.rows, self.columns = times, rows, columns
         self.count, self.last = 0, None
 
@@ -114,7 +115,7 @@ class _Runs:
             overrides = replace(self.base, values=tuple(values.items()),
                                 stop=float(self.times[-1]))
             try:
-                result = self.model.sensitivities(self.scene, "numpy", overrides, self.names, self.times)
+                result = self.model.sensitivities(self.scene, self.backend, overrides, self.names, self.times)
             except SimulationError as error:
                 trial = ", ".join(f"{name} = {value:.10g}" for name, value in zip(self.names, x))
                 raise SimulationError(f"{error.message}, in the fit's run at {trial}", error.time, error.state,

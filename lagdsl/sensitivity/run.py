@@ -22,7 +22,7 @@ gets an infinite atol, so steps are chosen for the state alone.
 from __future__ import annotations
 
 import time as clock
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.integrate
@@ -131,6 +131,7 @@ class Program:
     kernel: object
     module: object
     model: object                       # the api.Model: the constraints' derivatives at the start
+    libraries: dict = field(default_factory=dict, compare=False)     # the C programs (c_run.py)
 
 
 def build(model, scene: str | None) -> Program:
@@ -162,6 +163,37 @@ def integrate(program: Program, plan, chosen: Directions, times: np.ndarray | No
               error_control: bool = True) -> SensitivityResult:
     """Run `plan` (a scene.ScenePlan) with the sensitivities by `chosen` on `times` (default: the
     scene's output grid, which starts at the scene's start time)."""
+    start = prepare(program, plan, chosen, times)
+    method, options = solver_of(plan)
+    n = len(plan.coordinates)
+    tolerance = np.full(start.y0.size, float(options["atol"]))
+    atol_each = plan.atol_vector(plan.coordinates)      # the state's own per component; the sensitivities keep atol
+    if atol_each is not None:
+        tolerance[:2 * n] = atol_each
+    if not error_control:
+        tolerance[2 * n:] = np.inf
+    system = start.system
+    started = clock.perf_counter()
+    jacobian = system.newton_matrix if registry.get(plan.integrator.name).implicit else None
+    settings = dict(method=method, rtol=float(options["rtol"]), atol=tolerance, max_step=options.get("max_step", np.inf),
+                    **({"jac": jacobian} if jacobian else {}))
+    solution = _solve(system, plan, start.times, start.y0, settings)
+    return result(program, plan, chosen, system, (solution.t, solution.y), "numpy",
+                  (("rhs_evals", int(solution.nfev)),), clock.perf_counter() - started, options)
+
+
+@dataclass(frozen=True)
+class Start:
+    """What a run with sensitivities starts from: the output times, y0 = (y(0), S(0) by rows)
+    and the augmented system at the plan's parameters (its J = ∂par/∂θ)."""
+
+    times: np.ndarray
+    y0: np.ndarray
+    system: VariationalSystem
+
+
+def prepare(program: Program, plan, chosen: Directions, times: np.ndarray | None = None) -> Start:
+    """The times, the start (S(0) projected onto the constraints' linearization) and the system."""
     if plan.stop is not None:
         raise LagError("sensitivities: the scene ends on a condition (`stop when`), whose time would move with "
                        "the parameters; run a scene with a fixed stop time", Setting("--scene"))
@@ -169,26 +201,11 @@ def integrate(program: Program, plan, chosen: Directions, times: np.ndarray | No
     par = np.array(plan.parameters, dtype=float)        # the plan computed the derived ones
     J = parameter_directions(plan.model, plan, chosen, par)
     times = output_times(plan.run_plan()) if times is None else np.asarray(times, dtype=float)
-    method, options = solver_of(plan)
-    rtol, atol = float(options["rtol"]), float(options["atol"])
     state = np.array(plan.initial_state, dtype=float)
     S0 = initial_directions(module, plan, chosen, par, J)
     if program.kernel.constraints:
         S0 = onto_constraints(program.model, plan, module, par, state, S0, J)
-    y0 = np.concatenate([state, S0.ravel()])
-    tolerance = np.full(y0.size, atol)
-    atol_each = plan.atol_vector(plan.coordinates)      # the state's own per component; the sensitivities keep atol
-    if atol_each is not None:
-        tolerance[:2 * n] = atol_each
-    if not error_control:
-        tolerance[2 * n:] = np.inf
-    system = VariationalSystem(module, par, J, n)
-    started = clock.perf_counter()
-    jacobian = system.newton_matrix if registry.get(plan.integrator.name).implicit else None
-    settings = dict(method=method, rtol=rtol, atol=tolerance, max_step=options.get("max_step", np.inf),
-                    **({"jac": jacobian} if jacobian else {}))
-    solution = _solve(system, plan, times, y0, settings)
-    return _result(program, plan, chosen, system, solution, clock.perf_counter() - started, options)
+    return Start(times, np.concatenate([state, S0.ravel()]), VariationalSystem(module, par, J, n))
 
 
 def _solve(system: VariationalSystem, plan, times, y0, settings: dict):
@@ -210,21 +227,23 @@ def _solve(system: VariationalSystem, plan, times, y0, settings: dict):
                           "check the parameter values; lower rtol, or choose radau5 for a stiff model")
 
 
-def _result(program, plan, chosen, system, solution, seconds, options: dict) -> SensitivityResult:
-    """The output columns and their derivatives on the grid, with the run summary."""
+def result(program, plan, chosen, system, solution: tuple[np.ndarray, np.ndarray], backend: str, counters,
+           seconds: float, options: dict) -> SensitivityResult:
+    """The output columns and their derivatives on the grid, with the run summary; `solution` is
+    (t, Y) with Y = (y, S by rows) a column per time."""
     module, n = program.module, len(plan.coordinates)
-    out, inv = module.observables(solution.t, solution.y[:2 * n], system.par)
+    t_grid, Y = solution
+    out, inv = module.observables(t_grid, Y[:2 * n], system.par)
     constrained = bool(program.kernel.constraints)
-    derivatives = np.array([system.output_derivatives(t, solution.y[:, row], constrained)
-                            for row, t in enumerate(solution.t)])
+    derivatives = np.array([system.output_derivatives(t, Y[:, row], constrained) for row, t in enumerate(t_grid)])
     drifts = tuple((name, float(inv[i, 0]), float(np.max(np.abs(inv[i] - inv[i, 0]))))
                    for i, name in enumerate(plan.invariants))
     residual = None
     if constrained:         # not projected: the index-1 equations keep to the constraints up to their error
-        g, c, _ = module.constraint_rows(system.par, solution.t, solution.y[:2 * n])
+        g, c, _ = module.constraint_rows(system.par, t_grid, Y[:2 * n])
         residual = float(max(np.max(np.abs(g), initial=0.0), np.max(np.abs(c), initial=0.0)))
-    summary = RunSummary("numpy", plan.integrator.name, (("rhs_evals", int(solution.nfev)),), seconds, drifts,
+    summary = RunSummary(backend, plan.integrator.name, tuple(counters), seconds, drifts,
                          program.kernel.constraints, residual, None,
                          tuple((name, float(value)) for name, value in options.items()))
-    return SensitivityResult(solution.t, plan.columns, np.asarray(out, dtype=float).T, summary,
+    return SensitivityResult(t_grid, plan.columns, np.asarray(out, dtype=float).T, summary,
                              directions=chosen.names, derivatives=derivatives)

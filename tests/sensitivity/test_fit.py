@@ -49,6 +49,17 @@ def test_lagc_fit_writes_the_json_and_the_plot(swing, tmp_path, capsys):
     assert (tmp_path / "fit.png").read_bytes().startswith(b"\x89PNG")
 
 
+def test_lagc_fit_on_the_c_backend_finds_the_numpy_fit(swing, capsys):
+    _, _, path = swing
+    outputs = []
+    for backend in ("numpy", "c"):
+        status, out, err = lagc(capsys, "fit", model("damped_driven_pendulum").source.name, path, "--fit", "l=1",
+                                "--fit", "b=0.5", "--sigma", NOISE, "--backend", backend)
+        assert status == 0, err
+        outputs.append(out.splitlines()[:2])        # l = ... ± ..., b = ... ± ... to 10 digits
+    assert outputs[0] == outputs[1]
+
+
 @pytest.mark.parametrize("text, message", [
     ("time,theta\n0,0.2\n", "swing.csv:1:1: error: the data has no column 't'"),
     ("t,theta,phi\n0,0.2,1\n", "swing.csv:1:9: error: data column 'phi' is not an output of the scene"),

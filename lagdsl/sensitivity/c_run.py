@@ -1,0 +1,92 @@
+"""Forward sensitivities on the C backend: the augmented system integrated by the scene's own C
+integrator (codegen/c_sensitivity.py, templates/c/sensitivity.c.j2), called through ctypes.
+
+The start (S(0), its projection onto the constraints), the output columns and their derivatives
+on the grid are those of the NumPy path (run.py, variational.py), from the same kernel: only the
+integration differs. The C program orders the augmented state as a second-order system,
+Y = (q, Sq_1 .. Sq_m, q', Sv_1 .. Sv_m), so that rkn8 and radau5 see the structure they use;
+`augmented` and `first_order` convert from and to run.py's (y, S by rows).
+"""
+from __future__ import annotations
+
+import ctypes
+import time as clock
+
+import numpy as np
+
+from ..abi import SETTINGS, settings_vector
+from ..errors import LagError, Setting
+from ..codegen.c_sensitivity import SUMMARY_FIELDS, sensitivity_source
+from ..integrators import registry
+from ..run.loading import load
+from ..run.output import Result
+from ..run.status import simulation_error
+from .run import Directions, Program, SensitivityResult, prepare, result
+
+
+def integrate_c(program: Program, plan, chosen: Directions, times: np.ndarray | None = None,
+                error_control: bool = True) -> SensitivityResult:
+    """As run.integrate, the augmented system integrated by the generated C program, which
+    `program.libraries` keeps by (integrator, directions, error control): built and compiled on
+    first use (and cached by its text, run/cache.py)."""
+    key = (plan.integrator.name, len(chosen.names), error_control)
+    if key not in program.libraries:
+        program.libraries[key] = load(sensitivity_source(program.kernel, plan.integrator, len(chosen.names),
+                                                         program.model.source.name, error_control))
+    return _run(program, program.libraries[key], plan, chosen, times)
+
+
+def _run(program: Program, loaded, plan, chosen: Directions, times) -> SensitivityResult:
+    if plan.atol_vector(plan.coordinates) is not None:
+        raise LagError("sensitivities on the C backend take one atol for every component; "
+                       "run them with backend='numpy' (--backend numpy) to keep atol per component",
+                       Setting("--atol"))
+    start = prepare(program, plan, chosen, times)
+    n, m = len(plan.coordinates), len(chosen.names)
+    width = 2 * n * (1 + m)
+    record = registry.get(plan.integrator.name)
+    options = {**dict(record.defaults), **dict(plan.integrator.options)}
+    settings = settings_vector(plan.run_plan())
+    for name in ("rtol", "atol"):
+        settings[SETTINGS.index(name)] = options[name]
+    values = np.zeros((len(start.times), width))
+    summary = np.zeros(len(SUMMARY_FIELDS) - 1 + width)
+    double_p = ctypes.POINTER(ctypes.c_double)
+    entry = loaded.lag_sensitivity_run
+    entry.argtypes = [double_p] * 5 + [ctypes.c_long, double_p, double_p, ctypes.c_void_p]
+    entry.restype = ctypes.c_int
+    loaded.lag_sensitivity_workspace.restype = ctypes.c_long
+    # the stepper holds reals (double: the library is built in double precision), ints and longs
+    workspace = np.zeros(loaded.lag_sensitivity_workspace() // 8 + 1)
+    arrays = [np.ascontiguousarray(a, dtype=float) for a in
+              (start.system.par if start.system.par.size else np.zeros(1), start.system.J,
+               augmented(start.y0, n, m), settings, start.times)]
+    pointer = lambda a: a.ctypes.data_as(double_p)     # noqa: E731
+    began = clock.perf_counter()
+    status = entry(*map(pointer, arrays), len(start.times), pointer(values), pointer(summary), workspace.ctypes.data)
+    seconds = clock.perf_counter() - began
+    at = {name: i for i, name in enumerate(SUMMARY_FIELDS)}
+    counters = tuple((name, int(summary[at[name]])) for name in ("accepted", "rejected", "rhs_evals"))
+    if status != 0:
+        reached = first_order(summary[at["y_reached"]:][None, :], n, m)[0]
+        done = int(summary[at["rows"]])
+        partial = Result(start.times[:done], plan.columns, np.zeros((done, len(plan.columns))), None)
+        raise simulation_error(plan.run_plan(), status, float(summary[at["t_reached"]]), reached[:2 * n],
+                               partial, None)
+    Y = first_order(values, n, m).T
+    return result(program, plan, chosen, start.system, (start.times, Y), "c", counters, seconds, options)
+
+
+def augmented(y0: np.ndarray, n: int, m: int) -> np.ndarray:
+    """(y, S by rows) -> (q, Sq_1 .. Sq_m, q', Sv_1 .. Sv_m)."""
+    S = y0[2 * n:].reshape(2 * n, m)
+    return np.concatenate([y0[:n], S[:n].T.ravel(), y0[n:2 * n], S[n:].T.ravel()])
+
+
+def first_order(rows: np.ndarray, n: int, m: int) -> np.ndarray:
+    """augmented's inverse, row by row: (rows, 2n(1 + m)) -> (rows, 2n + 2nm)."""
+    count = len(rows)
+    Q = rows[:, :n * (1 + m)].reshape(count, 1 + m, n)
+    V = rows[:, n * (1 + m):].reshape(count, 1 + m, n)
+    S = np.concatenate([Q[:, 1:].transpose(0, 2, 1), V[:, 1:].transpose(0, 2, 1)], axis=1)
+    return np.concatenate([Q[:, 0], V[:, 0], S.reshape(count, -1)], axis=1)

@@ -1,0 +1,110 @@
+"""Forward sensitivities on the C backend: every adaptive C integrator, against the NumPy path and
+central differences; the generated program compiled under the strict flags; a fit run on C."""
+from __future__ import annotations
+
+import subprocess
+
+import numpy as np
+import pytest
+
+from lagdsl.codegen.c_sensitivity import augmented_integrator, sensitivity_source
+from lagdsl.sensitivity import run as sensitivity
+from lagdsl.sensitivity.c_run import augmented, first_order
+from lagdsl.settings import Overrides
+from tests.linear.support import model
+from tests.run.c_harness import STRICT_FLAGS, find_cc
+
+# (model, scene, output column, directions): an unconstrained pendulum, a model whose
+# accelerations read no velocity (rkn8) and a constrained one (its KKT system).
+CASES = {"double_pendulum": (None, "theta2", ["m2", "l1", "theta1.start", "theta2.velocity"]),
+         "coupled_oscillators": ("mode1", "x[2]", ["k", "A", "x[1].velocity"]),
+         "cartesian_pendulum": (None, "y", ["l", "theta0", "x.start", "y.velocity"])}
+INTEGRATORS = ["dopri5", "dop853", "rkn8", "radau5", "auto"]
+
+
+def against_numpy(library: str, integrator: str, error_control: bool = True):
+    """The C run's sensitivities against the NumPy path's, both at tight tolerances."""
+    scene, column, names = CASES[library]
+    subject = model(library)
+    tight = dict(stop=2.0, rtol=1e-11, atol=1e-13)
+    run = subject.simulate(scene, backend="c", sensitivities=names, integrator=integrator,
+                           sensitivity_error_control=error_control, **tight)
+    reference = subject.simulate(scene, backend="numpy", sensitivities=names, **tight)
+    assert run.summary.backend == "c" and run.summary.integrator == integrator
+    for name in names:
+        expected = reference.sensitivity(column, name)
+        assert np.max(np.abs(run.sensitivity(column, name) - expected)) <= 1e-6 * max(1.0, np.max(np.abs(expected))), \
+            (integrator, name)
+
+
+@pytest.mark.parametrize("library, integrator", [("double_pendulum", "dopri5"), ("coupled_oscillators", "rkn8"),
+                                                 ("cartesian_pendulum", "radau5")])
+def test_each_family_of_c_integrators_agrees_with_the_numpy_sensitivities(library, integrator):
+    against_numpy(library, integrator)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("error_control", [True, False])
+@pytest.mark.parametrize("integrator", INTEGRATORS)
+@pytest.mark.parametrize("library", list(CASES))
+def test_every_adaptive_c_integrator_agrees_with_the_numpy_sensitivities(library, integrator, error_control):
+    if integrator == "rkn8" and library != "coupled_oscillators":
+        pytest.skip("rkn8 needs accelerations without velocities and without constraints")
+    against_numpy(library, integrator, error_control)
+
+
+def test_rkn8_is_refused_where_the_scene_refuses_it():
+    with pytest.raises(Exception) as raised:
+        model("double_pendulum").simulate(backend="c", sensitivities=["m2"], integrator="rkn8")
+    assert "rkn8" in str(raised.value)
+
+
+def test_the_augmented_state_orders_positions_before_velocities():
+    # n = 2, m = 2: (q, v, S by rows) <-> (q, Sq_1, Sq_2, v, Sv_1, Sv_2)
+    n, m = 2, 2
+    y = np.arange(2 * n + 2 * n * m, dtype=float)
+    S = y[2 * n:].reshape(2 * n, m)
+    Y = augmented(y, n, m)
+    np.testing.assert_array_equal(Y[:n], y[:n])
+    np.testing.assert_array_equal(Y[n:2 * n], S[:n, 0])
+    np.testing.assert_array_equal(Y[n * (1 + m) + n:n * (1 + m) + 2 * n], S[n:, 0])
+    np.testing.assert_array_equal(first_order(Y[None, :], n, m)[0], y)
+
+
+def test_without_error_control_only_the_error_norms_change():
+    for name in ("dopri5", "dop853", "rkn8", "radau5", "auto"):
+        full, state = augmented_integrator(name, True), augmented_integrator(name, False)
+        assert full != state and "LAG_AUG_IN_ERROR" in state and "LAG_AUG_NERR" in state, name
+        assert "lag_stepper" not in full.replace("lag_aug_stepper", "")   # every interface name is the copy's
+
+
+@pytest.mark.parametrize("library, scene, integrator", [
+    ("cartesian_pendulum", None, "radau5"),         # dense LU of the KKT system, the augmented Jacobian
+    ("pendulum_chain", None, "dopri5"),             # dense Cholesky
+    pytest.param("cartesian_chain", None, "auto", marks=pytest.mark.slow),     # sparse LDLᵀ with constraints
+    ("coupled_oscillators", "mode1", "rkn8"),       # M factored once (constant), rkn8's accelerations
+])
+@pytest.mark.parametrize("error_control", [True, False])
+def test_the_sensitivity_program_compiles_under_the_strict_flags(tmp_path, library, scene, integrator, error_control):
+    cc = find_cc()
+    if cc is None:
+        pytest.skip("no C compiler")
+    subject = model(library)
+    program = sensitivity.build(subject, scene)
+    plan = subject.plan(scene, Overrides(integrator=integrator))
+    source = sensitivity_source(program.kernel, plan.integrator, 3, "model.lag", error_control)
+    assert source.text == sensitivity_source(program.kernel, plan.integrator, 3, "model.lag", error_control).text
+    path = tmp_path / "sensitivity.c"
+    path.write_text(source.text)
+    for extra in ([], ["-DLAG_LONG_DOUBLE"]):
+        done = subprocess.run([cc, *STRICT_FLAGS, *extra, "-c", str(path), "-o", str(tmp_path / "s.o")],
+                              capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr[:3000]
+
+
+def test_a_fit_runs_on_the_c_backend():
+    subject = model("damped_driven_pendulum")
+    truth = subject.simulate(backend="c", stop=4, interval=0.1, l=1.3, b=0.3)
+    fit = subject.fit({"t": truth.t, "theta": truth["theta"]}, {"l": 1.0, "b": 0.5}, backend="c")
+    assert fit.success
+    assert fit.values["l"] == pytest.approx(1.3, rel=1e-6) and fit.values["b"] == pytest.approx(0.3, rel=1e-6)
