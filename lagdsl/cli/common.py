@@ -6,7 +6,7 @@ import argparse
 import signal
 
 from ..abi import parse_number
-from ..errors import LagError, Setting
+from ..errors import InputError, LagError, Setting
 from ..integrators import registry
 from ..integrators.registry import OPTION_ORDER, OPTIONS
 from ..run.files import check_writable, write_output, write_stdout
@@ -76,7 +76,8 @@ def input_options(parser: argparse.ArgumentParser) -> None:
     """Parameters, initial values and the time grid: the inputs of a run."""
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                         help="override a parameter, or an initial value as COORDINATE.start / COORDINATE.velocity; "
-                             "a plain number is in SI, a number with a unit ('30 deg', '500g') is converted")
+                             "a plain number is in the unit the model declares for it (as in the model file), "
+                             "a number with a unit ('30 deg', '500g') is converted")
     for option, meaning in (("start", "start time of the output grid"), ("stop", "stop time"),
                             ("interval", "output interval")):
         parser.add_argument(f"--{option}", type=lambda text, option=option: time_value(f"--{option}", text),
@@ -112,7 +113,10 @@ def time_value(option: str, text: str) -> float:
     if value is not None:
         return value
     from ..frontend.units import time_in_seconds     # with sympy, which a warm run does without
-    return time_in_seconds(text.strip(), option)
+    try:
+        return time_in_seconds(text.strip(), option)
+    except InputError as error:     # a ValueError, which argparse would take for its own "invalid value"
+        raise LagError.combine([error]) from None
 
 
 def refuse(option: str, message: str):

@@ -20,7 +20,8 @@ import numpy as np
 from ..abi import INTERRUPTED, SummaryLayout, member_summary, plan_summary, settings_vector, status_of
 from ..errors import LagError, SimulationError, SimulationInterrupted
 from ..integrators import registry
-from ..scene import Overrides, ScenePlan
+from ..scene import Overrides, ScenePlan, input_units
+from ..settings import input_in_si
 from .interrupt import CtrlC, interruptible
 from .numpy_backend import run_numpy
 from .output import output_times
@@ -158,7 +159,9 @@ def member_inputs(plan: Callable[[Overrides], ScenePlan], base: Overrides, varie
     _check_finite(inputs)
     names = [p.name for p in first.model.parameters]
     coordinates = [c.name for c in first.model.coordinates]
-    for name, values in inputs.items():
+    declared = dict(input_units(first.model))
+    for name, given in inputs.items():
+        values = [input_in_si(name, value, declared.get(name)) for value in given.tolist()]
         coordinate, _, part = name.rpartition(".")
         if name in names:
             parameters[:, names.index(name)] = values
@@ -172,7 +175,7 @@ def member_inputs(plan: Callable[[Overrides], ScenePlan], base: Overrides, varie
 def broadcast(varied: dict) -> dict[str, np.ndarray]:
     for name, value in varied.items():
         if isinstance(value, str):
-            raise LagError(f"sweep: the values of '{name}' are numbers, in SI; '{value}' (a value with its unit) "
+            raise LagError(f"sweep: the values of '{name}' are numbers, each in its declared unit; '{value}' (a value with its unit) "
                            "is taken by run and bench only")
     arrays = {name: np.asarray(value, dtype=float) for name, value in varied.items()}
     for name, array in arrays.items():
