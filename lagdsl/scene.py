@@ -141,13 +141,18 @@ def parameters_in_expressions(model: ir.Model) -> frozenset[str]:
     return frozenset(p.name for p in model.parameters if p.symbol in used)
 
 
-def input_units(model: ir.Model) -> tuple[tuple[str, settings.InputUnit], ...]:
-    """The declared unit of each value that can be set from outside the model file and has one:
-    parameters, then each coordinate's start and velocity (its unit per second), in that order."""
+def declared_inputs(model: ir.Model) -> tuple[tuple[str, ir.Unit | None], ...]:
+    """Each value that can be set from outside the model file with its declared unit (None if
+    it has none): the parameters, then each coordinate's start, then each one's velocity (in the
+    coordinate's unit per second): the order of the generated program's table of them."""
     declared = [(p.name, p.unit) for p in model.parameters]
     declared += [(f"{q.name}.start", q.unit) for q in model.coordinates]
-    declared += [(f"{q.name}.velocity", units.per_second(q.unit)) for q in model.coordinates]
-    return tuple((name, units.input_unit(unit)) for name, unit in declared if unit is not None)
+    return tuple(declared + [(f"{q.name}.velocity", units.per_second(q.unit)) for q in model.coordinates])
+
+
+def input_units(model: ir.Model) -> tuple[tuple[str, settings.InputUnit], ...]:
+    """What settings.input_in_si needs of each declared unit of declared_inputs."""
+    return tuple((name, units.input_unit(unit)) for name, unit in declared_inputs(model) if unit is not None)
 
 
 def _find_scene(model: ir.Model, name: str | None) -> ir.Scene | None:

@@ -171,7 +171,17 @@ def per_second(unit: Unit | None) -> Unit | None:
         return None
     factors = dict(unit.factors)
     factors["s"] = factors.get("s", Fraction(0)) - 1
-    return Unit(f"({unit.text})/s", tuple(sorted((n, p) for n, p in factors.items() if p != 0)), unit.span)
+    text = unit.text if re.fullmatch(r"\w+", unit.text) else f"({unit.text})"
+    return Unit(f"{text}/s", tuple(sorted((n, p) for n, p in factors.items() if p != 0)), unit.span)
+
+
+def si_text(unit: Unit) -> str:
+    """The SI unit a quantity declared in `unit` is computed in: `kg` for [g], `rad` for [deg],
+    `rad/s` for [deg/s], `N` for [kN]."""
+    si = dimension(unit).si()
+    if angle_power(unit) != 1:
+        return si
+    return "rad" if si == "1" else "rad" + si[1:] if si.startswith("1/") else f"rad*{si}"
 
 
 def value_in_si(text: str, declared: InputUnit | None, where) -> float:

@@ -136,7 +136,7 @@ def test_the_generated_program_refuses_a_unit_of_another_dimension(program):
     batch = run_program(program["plain"], "--batch", stdin="m=2s\n")
     assert batch.returncode == 2 and "line 1" in batch.stderr
     helped = run_program(program["plain"], "--help")
-    assert "theta.start [deg]" in helped.stdout and "m [g]" in helped.stdout
+    assert "theta [deg]" in helped.stdout and "m [g]" in helped.stdout
 
 
 def test_the_generated_program_runs_as_lagc_run(swing, program):
