@@ -62,8 +62,10 @@ DEFAULT_TIME = TimeGrid(0.0, 10.0, 0.01, None)
 
 
 def given_options(values) -> tuple[tuple[str, float], ...]:
-    """The run options among `values` (a mapping of name to value or None) that were given."""
-    return tuple((name, float(values[name])) for name in RUN_OPTIONS if values.get(name) is not None)
+    """The run options among `values` (a mapping of name to value or None) that were given; a
+    time (step, max_step) may carry its unit ("1 ms")."""
+    return tuple((name, input_in_si(name, values[name], SECONDS) if OPTIONS[name].time else float(values[name]))
+                 for name in RUN_OPTIONS if values.get(name) is not None)
 
 
 @dataclass(frozen=True)
@@ -100,6 +102,9 @@ def input_in_si(name: str, value: float | str, unit: InputUnit | None) -> float:
     if isinstance(value, InSI):
         return float(value)
     return scaled_to_si(value, unit.factor if unit is not None else Fraction(1))
+
+
+SECONDS = InputUnit("s", Fraction(1))       # the unit of a time set from outside the model file
 
 
 @dataclass(frozen=True)

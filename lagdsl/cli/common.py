@@ -64,8 +64,10 @@ def integrator_options(parser: argparse.ArgumentParser) -> None:
     for name in OPTION_ORDER:
         option = OPTIONS[name]
         users = ", ".join(record for record in registry.names() if name in registry.get(record).options)
-        parser.add_argument("--" + option.flag, type=int if option.c_cast else float,
-                            help=f"{option.meaning}: {option.requirement} ({users})")
+        kind = int if option.c_cast else (lambda text, flag=option.flag: time_value(f"--{flag}", text)) \
+            if option.time else float
+        seconds = " in seconds, or a number and a unit of time ('1 ms')" if option.time else ""
+        parser.add_argument("--" + option.flag, type=kind, help=f"{option.meaning}: {option.requirement}{seconds} ({users})")
 
 
 def scene_options(parser: argparse.ArgumentParser) -> None:

@@ -17,7 +17,7 @@ import sympy
 
 from ..errors import InputError, LagError, Setting
 from ..ir import Unit
-from ..settings import InputUnit, scaled_to_si
+from ..settings import SECONDS, InputUnit, scaled_to_si
 from ..source import SourceFile, Span
 
 BASE_DIMENSIONS = ("mass", "length", "time", "current", "temperature", "substance", "luminosity")
@@ -144,7 +144,6 @@ def is_angle(unit: Unit) -> bool:
 # A value given with its unit outside the model file: `30 deg`, `500g`, `0.785 [rad]`.
 _VALUE_WITH_UNIT = re.compile(r"\s*(?P<number>[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*"
                               r"(?:\[(?P<bracketed>[^\]]*)\]|(?P<bare>[A-Za-z_][^\[\]]*))\s*")
-SECONDS = InputUnit("s", Fraction(1))
 
 
 def input_unit(unit: Unit | None) -> InputUnit | None:

@@ -1356,8 +1356,8 @@ static int lag_input_value(const char *prefix, const char *text, const char *equ
     }
     lag_written_unit(given + length, unit);
     if (unit[0] != '\0' && declared->unit[0] == '\0') {
-        fprintf(stderr, "%s: %.*s: '%s' has a unit, but the model declares none for this value: give a plain "
-                "number\n", prefix, name, text, given);
+        fprintf(stderr, "%s: %.*s: expected a plain number (the model declares no unit for it), got '%s'\n",
+                prefix, name, text, given);
         return 0;
     }
     if (unit[0] != '\0' && strcmp(unit, declared->unit) != 0 && strcmp(unit, declared->si) != 0) {

@@ -146,3 +146,55 @@ def test_the_generated_program_runs_as_lagc_run(swing, program):
     standalone = run_program(program["plain"], *settings(PLAIN))
     parsed = [np.loadtxt(text.splitlines()[1:], delimiter=",") for text in (run.stdout, standalone.stdout)]
     assert np.array_equal(parsed[0], parsed[1])
+
+
+TIMED = """model Spring
+  parameter k = 4 [N/m];
+  parameter m = 1 [kg];
+  coordinate x(start = 1) [cm];
+  T = m/2*der(x)^2;
+  U = k/2*x^2;
+  scene seconds
+    time(stop = 0.8, interval = 0.1);
+    integrator rk4(step = 0.001);
+    set x(start = 0.2 [mm], velocity = 3 [cm/s]);
+  end seconds;
+  scene milliseconds
+    time(stop = 800 [ms], interval = 100 [ms]);
+    integrator rk4(step = 1 [ms]);
+    set x(start = 0.02, velocity = 3);
+  end milliseconds;
+end Spring;
+"""
+
+
+def test_times_and_timed_options_take_units_in_a_scene_and_outside():
+    model = Model(SourceFile("spring.lag", TIMED))
+    seconds = model.simulate("seconds", backend="numpy")
+    in_scene = model.simulate("milliseconds", backend="numpy")
+    assert np.array_equal(in_scene.t, seconds.t) and np.array_equal(in_scene.values, seconds.values)
+    given = model.simulate("seconds", backend="numpy", step="1 ms", stop="800 ms")
+    assert np.array_equal(given.values, seconds.values)
+
+
+@pytest.mark.parametrize("replaced, by, message", [
+    ("stop = 800 [ms]", "stop = 800 [m]", "time(stop) must be a time, but [m] is a length"),
+    ("rk4(step = 1 [ms])", "dop853(rtol = 1 [s])", "dop853(rtol = ...) takes a plain number, without a unit"),
+    ("start = 0.02,", "start = 2 [kg],", "the start value of x must be a length, but [kg] is a mass"),
+    ("x(start = 1) [cm]", "x(start = 1 [cm]) [cm]", "start takes a plain number here, in the unit declared"),
+])
+def test_a_written_unit_of_another_dimension_is_located(replaced, by, message):
+    with pytest.raises(LagError) as refused:
+        Model(SourceFile("spring.lag", TIMED.replace(replaced, by)))
+    diagnostic = refused.value.diagnostics[0]
+    assert message in diagnostic.message and diagnostic.span.text.startswith("[")
+
+
+def test_command_line_steps_take_a_unit_of_time(tmp_path):
+    path = tmp_path / "spring.lag"
+    path.write_text(TIMED)
+    plain = lagc("run", str(path), "--backend", "numpy", "--step", "0.002")
+    given = lagc("run", str(path), "--backend", "numpy", "--step", "2 ms")
+    assert given.returncode == 0 and given.stdout == plain.stdout
+    wrong = lagc("run", str(path), "--backend", "numpy", "--step", "2 m")
+    assert wrong.returncode == 1 and "--step: '2 m' is a length, but this value is declared in [s]" in wrong.stderr
