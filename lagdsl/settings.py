@@ -97,7 +97,8 @@ def input_in_si(name: str, value: float | str, unit: InputUnit | None) -> float:
     "500g"), checked against the declared one (frontend/units.value_in_si). Every path that sets a
     value (`--set`, `simulate(set=)`, a sweep, a scene's `set`) converts through here."""
     if isinstance(value, str):
-        from .frontend.units import value_in_si      # pint and sympy: only for a value with a unit
+        # pint and sympy, imported only for a value with a unit
+        from .frontend.units import value_in_si
         return value_in_si(value, unit, Setting(name))
     if isinstance(value, InSI):
         return float(value)

@@ -13,8 +13,8 @@ import sympy
 
 from .. import ir
 from ..errors import LagError
-from .tree import subtrees
 from ..settings import scaled_to_si
+from .tree import subtrees
 from .units import si_factor
 from .values import Scope
 
