@@ -14,14 +14,14 @@ from dataclasses import dataclass
 
 import sympy
 
-from . import ir, settings
+from . import ir
 from .frontend import draws as drawing, units
 from .errors import LagError, suggest
 from .integrators import registry
 from .mechanics import Equations
 # Re-exported: the run settings were defined here before they moved to settings.py.
 from .settings import (DEFAULT_INTEGRATOR, DEFAULT_MAX_STEPS, DEFAULT_TIME, GRID_SLACK, MAX_ROWS,  # noqa: F401
-                       RTOL_FLOOR, RUN_OPTIONS, IntegratorTraits, Overrides, RunPlan, SceneSettings,
+                       RTOL_FLOOR, RUN_OPTIONS, InputUnit, IntegratorTraits, Overrides, RunPlan, SceneSettings,
                        check_step_count, given_options, grid_rows, step_limit)
 
 
@@ -150,7 +150,7 @@ def declared_inputs(model: ir.Model) -> tuple[tuple[str, ir.Unit | None], ...]:
     return tuple(declared + [(f"{q.name}.velocity", units.per_second(q.unit)) for q in model.coordinates])
 
 
-def input_units(model: ir.Model) -> tuple[tuple[str, settings.InputUnit], ...]:
+def input_units(model: ir.Model) -> tuple[tuple[str, InputUnit], ...]:
     """What settings.input_in_si needs of each declared unit of declared_inputs."""
     return tuple((name, units.input_unit(unit)) for name, unit in declared_inputs(model) if unit is not None)
 

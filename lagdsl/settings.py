@@ -71,7 +71,7 @@ def given_options(values) -> tuple[tuple[str, float], ...]:
 @dataclass(frozen=True)
 class InputUnit:
     """The declared unit of a value that can be set from outside the model file (a parameter,
-    "q.start", "q.velocity"): as written (`g`, `deg`, `(deg)/s`) and its exact factor to SI."""
+    "q.start", "q.velocity"): as written (`g`, `deg`, `deg/s`) and its exact factor to SI."""
 
     text: str
     factor: Fraction
@@ -95,7 +95,8 @@ def input_in_si(name: str, value: float | str, unit: InputUnit | None) -> float:
     """A value set from outside the model file, in SI: a plain number is in the declared `unit` of
     what it sets (as in the model file, and as in Modelica), a text carries its own unit ("30 deg",
     "500g"), checked against the declared one (frontend/units.value_in_si). Every path that sets a
-    value (`--set`, `simulate(set=)`, a sweep, a scene's `set`) converts through here."""
+    value from outside (`--set`, `simulate(set=)`, sweep members, fit, the warm plan) converts
+    through here; a scene's `set` scales its numbers by the same scaled_to_si (compile_time.py)."""
     if isinstance(value, str):
         # pint and sympy, imported only for a value with a unit
         from .frontend.units import value_in_si
