@@ -120,6 +120,14 @@ typedef struct lag_options {
     stats_type stats;
 
 #ifndef LAG_FMU     /* an FMU reads and writes no text of numbers (codegen/fmu.py) */
+/* The declared unit of an input of the standalone program, in which NAME=VALUE reads a plain
+ * number (as lagc run --set does): as written, in SI, its dimension in words, and its factor to
+ * SI as scale + scale_low (the generated table lag_input_units, one a parameter, start, velocity). */
+typedef struct lag_input_unit {
+    const char *unit, *si, *dimension;
+    double scale, scale_low;
+} lag_input_unit;
+
 /* Reading and writing numbers in the working precision (the CSV and the command line). */
 #if defined(LAG_FLOAT128)
 #define r_strtod(text, end) strtoflt128((text), (end))
@@ -1725,14 +1733,8 @@ void lag_run_batch(long members, const double *parameters, const double *initial
 #define LAG_SCENE_T_INTERVAL LAG_LIT(0.01)
 #define LAG_SCENE_OPTIONS { LAG_LIT(1e-10), LAG_LIT(1e-12), LAG_LIT(0.0), LAG_LIT(0.0), 0, 0L }
 
-/* The declared unit of an input, in which NAME=VALUE reads a plain number (as lagc run --set
- * does): as written, in SI, its dimension in words, and its factor to SI as scale + scale_low. */
-typedef struct lag_input_unit {
-    const char *unit, *si, *dimension;
-    double scale, scale_low;
-} lag_input_unit;
-
-/* The parameters, each coordinate's start, each one's velocity: the slots of lag_member. */
+/* The declared unit of each input (runtime.h): the parameters, each coordinate's start, each
+ * one's velocity, the slots of lag_member (standalone.c). */
 static const lag_input_unit lag_input_units[] = {
     { "kg", "kg", "mass", 1.0, 0.0 },
     { "kg", "kg", "mass", 1.0, 0.0 },
