@@ -12,7 +12,7 @@
 
 - `NUMBER`: the values a setting takes on either command line (`lagc run --set`, the standalone
   program's NAME=VALUE): a decimal number with an optional sign, fraction and exponent, or inf,
-  infinity, nan in any case. C's `lag_is_number` checks the same grammar.
+  infinity, nan in any case. C's `lag_number_length` reads the same grammar.
 
 The constants C shares with Python (the row limit, the step limit, the rtol floor ...) are
 those of `settings.py`, emitted into C by `codegen/c_abi.py`.

@@ -80,6 +80,11 @@ class LagError(Exception):
         return self.render()
 
 
+class InputError(LagError, ValueError):
+    """A value given outside the model file that does not fit what it sets (a unit of another
+    dimension, no number): a LagError for lagc, a ValueError for Python callers."""
+
+
 class ErrorCollector:
     """Gathers independent errors so that one run reports all of them."""
 

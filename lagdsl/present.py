@@ -86,7 +86,7 @@ def shown_parameter(model: ir.Model, parameter: ir.Parameter) -> str:
     if unit is None or model.units is None:
         return f"{parameter.name} = {format_number(parameter.value)}{shown_unit(model, parameter.name)}"
     factor = float(units.si_factor(unit))
-    si = f" (= {format_number(parameter.value)} {_si_text(unit)})" if factor != 1 else _si_beside(unit)
+    si = f" (= {format_number(parameter.value)} {units.si_text(unit)})" if factor != 1 else _si_beside(unit)
     return f"{parameter.name} = {format_number(parameter.value / factor)} [{unit.text}]{si}"
 
 
@@ -110,14 +110,10 @@ def declared_unit(model: ir.Model, name: str) -> ir.Unit | None:
 def _si_beside(unit: ir.Unit) -> str:
     """` (= 0.01 m)` for a multiple of the SI unit, ` (= kg/s^2)` for a product written otherwise,
     ` (= 0.01)` for a multiple of a pure number (`%`)."""
-    factor, si = float(units.si_factor(unit)), _si_text(unit)
+    factor, si = float(units.si_factor(unit)), units.si_text(unit)
     if factor != 1:
         return f" (= {format_number(factor)}{'' if si == '1' else ' ' + si})"
     return f" (= {si})" if si != unit.text else ""
-
-
-def _si_text(unit: ir.Unit) -> str:
-    return "rad" if units.is_angle(unit) else units.dimension(unit).si()
 
 
 def degrees_of_freedom(equations: Equations) -> str:

@@ -10,18 +10,18 @@ for the symplectic `gauss`.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import sympy
 
 from . import ir
 from .frontend import draws as drawing, units
-from .errors import LagError, Setting, suggest
+from .errors import LagError, suggest
 from .integrators import registry
 from .mechanics import Equations
 # Re-exported: the run settings were defined here before they moved to settings.py.
 from .settings import (DEFAULT_INTEGRATOR, DEFAULT_MAX_STEPS, DEFAULT_TIME, GRID_SLACK, MAX_ROWS,  # noqa: F401
-                       RTOL_FLOOR, RUN_OPTIONS, IntegratorTraits, Overrides, RunPlan, SceneSettings,
+                       RTOL_FLOOR, RUN_OPTIONS, InputUnit, IntegratorTraits, Overrides, RunPlan, SceneSettings,
                        check_step_count, given_options, grid_rows, step_limit)
 
 
@@ -69,7 +69,6 @@ def plan_scene(model: ir.Model, equations: Equations, scene_name: str | None = N
     the same generated code (for the animation)."""
     scene = _find_scene(model, scene_name)
     settings = _settings(model, equations, scene)
-    overrides = replace(overrides, values=tuple((name, _in_si(model, name, value)) for name, value in overrides.values))
     time, integrator, set_values, initial = settings.resolve(overrides)
     parameters = _parameter_values(model, set_values)
     outputs = scene.outputs if scene and scene.outputs else tuple(
@@ -129,7 +128,7 @@ def _settings(model: ir.Model, equations: Equations, scene: ir.Scene | None) -> 
         frozenset(p.name for p in model.parameters if p.structural), tuple(c.name for c in model.coordinates),
         tuple((o.name, o.value) for o in (scene.parameter_overrides if scene else ())),
         tuple((o.coordinate, o.start, o.velocity) for o in (scene.initial_overrides if scene else ())),
-        tuple(c.name for c in equations.active_constraints))
+        tuple(c.name for c in equations.active_constraints), input_units(model))
 
 
 def parameters_in_expressions(model: ir.Model) -> frozenset[str]:
@@ -142,17 +141,18 @@ def parameters_in_expressions(model: ir.Model) -> frozenset[str]:
     return frozenset(p.name for p in model.parameters if p.symbol in used)
 
 
-def _in_si(model: ir.Model, name: str, value: float | str) -> float:
-    """A value set from outside the model file: a number as it is (SI), a text with its unit
-    (`"30 deg"`) converted to SI after its dimension is checked against the declared unit."""
-    if not isinstance(value, str):
-        return value
-    coordinate, _, part = name.rpartition(".")
-    declared = next((p.unit for p in model.parameters if p.name == name), None)
-    for q in model.coordinates:
-        if q.name == coordinate and part in ("start", "velocity"):
-            declared = q.unit if part == "start" else units.per_second(q.unit)
-    return units.value_in_si(value, declared, Setting(name))
+def declared_inputs(model: ir.Model) -> tuple[tuple[str, ir.Unit | None], ...]:
+    """Each value that can be set from outside the model file with its declared unit (None if
+    it has none): the parameters, then each coordinate's start, then each one's velocity (in the
+    coordinate's unit per second): the order of the generated program's table of them."""
+    declared = [(p.name, p.unit) for p in model.parameters]
+    declared += [(f"{q.name}.start", q.unit) for q in model.coordinates]
+    return tuple(declared + [(f"{q.name}.velocity", units.per_second(q.unit)) for q in model.coordinates])
+
+
+def input_units(model: ir.Model) -> tuple[tuple[str, InputUnit], ...]:
+    """What settings.input_in_si needs of each declared unit of declared_inputs."""
+    return tuple((name, units.input_unit(unit)) for name, unit in declared_inputs(model) if unit is not None)
 
 
 def _find_scene(model: ir.Model, name: str | None) -> ir.Scene | None:

@@ -11,6 +11,7 @@ import math
 import sys
 import warnings
 from dataclasses import dataclass, replace
+from fractions import Fraction
 
 from .errors import LagError, LagWarning, Setting, suggest
 from .integrators import registry
@@ -88,9 +89,52 @@ DEFAULT_TIME = TimeGrid(0.0, 10.0, 0.01, None)
 
 def given_options(values) -> tuple[tuple[str, float], ...]:
     """The run options among `values` (a mapping of name to value or None) that were given; of
-    atol, the value for every component (given_atol_each has those per component)."""
+    atol, the value for every component (given_atol_each has those per component); a time (step,
+    max_step) may carry its unit ("1 ms")."""
     values = {**values, "atol": split_atol(values.get("atol"))[0]}
-    return tuple((name, float(values[name])) for name in RUN_OPTIONS if values.get(name) is not None)
+    return tuple((name, input_in_si(name, values[name], SECONDS) if OPTIONS[name].time else float(values[name]))
+                 for name in RUN_OPTIONS if values.get(name) is not None)
+
+
+@dataclass(frozen=True)
+class InputUnit:
+    """The declared unit of a value that can be set from outside the model file (a parameter,
+    "q.start", "q.velocity"): as written (`g`, `deg`, `deg/s`) and its exact factor to SI."""
+
+    text: str
+    factor: Fraction
+
+
+def scaled_to_si(value: float, factor: Fraction) -> float:
+    """A number in a unit whose factor to SI is `factor`, in SI: the number as a double times the
+    exact factor, rounded once. The generated C program does the same (lag_in_si, with the factor
+    as a double and its remainder), so that `theta.start=30` there runs as `--set theta.start=30`."""
+    if factor == 1 or not math.isfinite(value):
+        return float(value)
+    return float(Fraction(float(value)) * factor)
+
+
+class InSI(float):
+    """A value already in SI, taken as it is: a fit's trial values, which its Jacobian (the
+    sensitivities) is taken against."""
+
+
+def input_in_si(name: str, value: float | str, unit: InputUnit | None) -> float:
+    """A value set from outside the model file, in SI: a plain number is in the declared `unit` of
+    what it sets (as in the model file, and as in Modelica), a text carries its own unit ("30 deg",
+    "500g"), checked against the declared one (frontend/units.value_in_si). Every path that sets a
+    value from outside (`--set`, `simulate(set=)`, sweep members, fit, the warm plan) converts
+    through here; a scene's `set` scales its numbers by the same scaled_to_si (compile_time.py)."""
+    if isinstance(value, str):
+        # pint and sympy, imported only for a value with a unit
+        from .frontend.units import value_in_si
+        return value_in_si(value, unit, Setting(name))
+    if isinstance(value, InSI):
+        return float(value)
+    return scaled_to_si(value, unit.factor if unit is not None else Fraction(1))
+
+
+SECONDS = InputUnit("s", Fraction(1))       # the unit of a time set from outside the model file
 
 
 def given_atol_each(values) -> tuple[tuple[str, float], ...]:
@@ -124,8 +168,9 @@ def single_atol(name, value) -> float:
 class Overrides:
     """Settings given outside the model file (`lagc run` options, `simulate()` arguments).
 
-    `values` maps a parameter name, "q.start" or "q.velocity" to a number (in SI), or to a text of
-    a number and its unit ("30 deg"), which scene.plan_scene converts to SI.
+    `values` maps a parameter name, "q.start" or "q.velocity" to a number in the declared unit of
+    what it sets, or to a text of a number and its unit ("30 deg"); SceneSettings.resolve converts
+    both to SI (input_in_si).
     """
 
     values: tuple[tuple[str, float | str], ...] = ()
@@ -222,6 +267,7 @@ class SceneSettings:
     set_values: tuple[tuple[str, float], ...]       # the scene's `set p = value`
     initial: tuple[tuple[str, float | None, float | None], ...]   # the scene's (coordinate, start, velocity)
     constraints: tuple[str, ...]                    # active constraints
+    units: tuple[tuple[str, InputUnit], ...] = ()   # the declared unit of each input that has one
 
     def resolve(self, overrides: Overrides) -> tuple[TimeGrid, IntegratorChoice, dict, dict]:
         """The time grid, the integrator, the parameters set ({name: value}) and the initial values
@@ -230,8 +276,10 @@ class SceneSettings:
         integrator = _integrator(self.integrator, overrides, self.coordinates)
         set_values = dict(self.set_values)
         initial = {name: (start, velocity) for name, start, velocity in self.initial}
+        units = dict(self.units)
         for name, value in overrides.values:
-            self._apply_override(name, value, set_values, initial)
+            self._check_name(name)
+            self._apply_override(name, input_in_si(name, value, units.get(name)), set_values, initial)
         return time, integrator, set_values, initial
 
     def check_integrator(self, choice: IntegratorChoice) -> None:
@@ -239,16 +287,13 @@ class SceneSettings:
         if refusal is not None:
             raise LagError(refusal, choice.span)
 
-    def _apply_override(self, name: str, value: float, set_values: dict, initial: dict) -> None:
-        if not isinstance(value, str) and not math.isfinite(value):     # a text is of a name not known
-            raise LagError(f"cannot set '{name}' to {value}: values must be finite numbers")
+    def _check_name(self, name: str) -> None:
+        """`name` is a parameter that may be set, or COORDINATE.start or COORDINATE.velocity."""
         coordinate, _, part = name.rpartition(".")
         if part in ("start", "velocity") and coordinate:
             if coordinate not in self.coordinates:
                 raise LagError(f"cannot set '{name}': '{coordinate}' is not a coordinate"
                                f"{suggest(coordinate, self.coordinates)}")
-            start, velocity = initial.get(coordinate, (None, None))
-            initial[coordinate] = (value, velocity) if part == "start" else (start, value)
             return
         if name not in self.parameters:
             choices = list(self.parameters) + [f"{c}.start" for c in self.coordinates]
@@ -257,7 +302,18 @@ class SceneSettings:
         if name in self.structural:
             raise LagError(f"'{name}' fixes the size of the model (it is used as an index range); "
                            "change it in the model file")
-        set_values[name] = value
+
+    @staticmethod
+    def _apply_override(name: str, value: float, set_values: dict, initial: dict) -> None:
+        """Set the checked `name` to `value` (in SI)."""
+        if not math.isfinite(value):
+            raise LagError(f"cannot set '{name}' to {value}: values must be finite numbers")
+        coordinate, _, part = name.rpartition(".")
+        if part in ("start", "velocity") and coordinate:
+            start, velocity = initial.get(coordinate, (None, None))
+            initial[coordinate] = (value, velocity) if part == "start" else (start, value)
+        else:
+            set_values[name] = value
 
 
 def _time(time: TimeGrid, overrides: Overrides) -> TimeGrid:

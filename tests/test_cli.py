@@ -272,12 +272,13 @@ def test_the_standalone_program_checks_its_arguments(oscillator, tmp_path):
     limited = subprocess.run([program, "t.stop=100", "--max-steps=10"], capture_output=True, text=True, timeout=30)
     assert limited.returncode == 1 and "the step limit of 10 steps was reached" in limited.stderr
     for argument, words in [("rtol=1e-12", "'rtol' is an option of the integrator: write --rtol=1e-12"),
-                            ("k=0x10", "expected NAME=VALUE, got 'k=0x10'"),
+                            ("k=0x10", "k: expected a plain number (the model declares no unit for it), got '0x10'"),
+                            ("k=", "expected NAME=VALUE with a number (and a unit), got 'k='"),
                             ("--k=1", "unknown option '--k'")]:
         done = subprocess.run([program, argument], capture_output=True, text=True, timeout=30)
         assert done.returncode == 2 and words in done.stderr, (argument, done.stderr)
     helped = subprocess.run([program, "--help"], capture_output=True, text=True, timeout=30)
-    assert helped.returncode == 0 and "--rtol" in helped.stdout and "NAME is a parameter: m k w" in helped.stdout
+    assert helped.returncode == 0 and "--rtol" in helped.stdout and "NAME is a parameter [in its declared unit]: m k w" in helped.stdout
     grid = subprocess.run([program, "t.interval=0.3"], capture_output=True, text=True, timeout=30)
     times = [row[0] for row in _assert_valid_partial_csv(grid.stdout, "t,x,energy")]
     assert times == pytest.approx([0.0, 0.3, 0.6, 0.9, 1.0], abs=1e-15) and times[-1] == 1.0

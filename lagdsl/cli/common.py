@@ -6,7 +6,7 @@ import argparse
 import signal
 
 from ..abi import parse_number
-from ..errors import LagError, Setting
+from ..errors import InputError, LagError, Setting
 from ..integrators import registry
 from ..integrators.registry import OPTION_ORDER, OPTIONS
 from ..run.files import check_writable, write_output, write_stdout
@@ -71,8 +71,10 @@ def integrator_options(parser: argparse.ArgumentParser) -> None:
                                      "or for one as x=1e-18 or der(x)=1e-6 (a coordinate or its velocity, in SI; "
                                      f"repeat the option for more) ({users})")
             continue
-        parser.add_argument("--" + option.flag, type=int if option.c_cast else float,
-                            help=f"{option.meaning}: {option.requirement} ({users})")
+        kind = int if option.c_cast else (lambda text, flag=option.flag: time_value(f"--{flag}", text)) \
+            if option.time else float
+        seconds = " in seconds, or a number and a unit of time ('1 ms')" if option.time else ""
+        parser.add_argument("--" + option.flag, type=kind, help=f"{option.meaning}: {option.requirement}{seconds} ({users})")
 
 
 def atol_item(text: str) -> float | tuple[str, float]:
@@ -93,7 +95,8 @@ def input_options(parser: argparse.ArgumentParser) -> None:
     """Parameters, initial values and the time grid: the inputs of a run."""
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                         help="override a parameter, or an initial value as COORDINATE.start / COORDINATE.velocity; "
-                             "a plain number is in SI, a number with a unit ('30 deg', '500g') is converted")
+                             "a plain number is in the unit the model declares for it (as in the model file), "
+                             "a number with a unit ('30 deg', '500g') is converted")
     for option, meaning in (("start", "start time of the output grid"), ("stop", "stop time"),
                             ("interval", "output interval")):
         parser.add_argument(f"--{option}", type=lambda text, option=option: time_value(f"--{option}", text),
@@ -129,7 +132,10 @@ def time_value(option: str, text: str) -> float:
     if value is not None:
         return value
     from ..frontend.units import time_in_seconds     # with sympy, which a warm run does without
-    return time_in_seconds(text.strip(), option)
+    try:
+        return time_in_seconds(text.strip(), option)
+    except InputError as error:     # a ValueError, which argparse would take for its own "invalid value"
+        raise LagError.combine([error]) from None
 
 
 def refuse(option: str, message: str):

@@ -1,8 +1,11 @@
 """Kernel -> one standalone C99 file (runtime, linear algebra, model, one integrator, driver)."""
 from __future__ import annotations
 
+from fractions import Fraction
+
 from .. import __version__
-from ..escape import c_comment, csv_field
+from ..escape import c_comment, c_string, csv_field
+from ..frontend import units
 from ..abi import summary_layout
 from ..integrators import c_file, integrator_source, registry
 from ..integrators.registry import OPTION_ORDER, OPTIONS
@@ -55,6 +58,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
         "invariants": bool(kernel.invariant_names), "invariant_names": kernel.invariant_names,
         "parameter_names": [name for name, _ in kernel.parameters], "coordinates": kernel.coordinates,
         "csv_columns": [csv_field(column) for column in kernel.columns],
+        "input_units": _input_unit_rows(kernel),
         "defaults": [f"par[{i}] = {_literal(value)};  /* {c_comment(name)} */"
                      for i, (name, value) in enumerate(kernel.parameters)],
         "derived": [f"if (!fixed[{i}])\n        par[{i}] = {printer.doprint(expr)};"
@@ -166,6 +170,25 @@ def _scene_atol_each(kernel: Kernel) -> list[str]:
     values = atol_vector(dict(kernel.integrator.options).get("atol", 0.0), kernel.integrator.atol_each,
                          kernel.coordinates, kernel.time.stop - kernel.time.start)
     return [] if values is None else [", ".join(repr(float(v)) for v in values)]
+
+
+def _input_unit_rows(kernel: Kernel) -> list[str]:
+    """The initializers of lag_input_units (standalone.c): for each parameter, each coordinate's
+    start and each one's velocity, its declared unit, its SI unit, its dimension in words and its
+    factor to SI as a double and the remainder (the exact factor is their sum to about 2^-106)."""
+    declared = kernel.input_units or (None,) * (len(kernel.parameters) + 2 * kernel.n)
+    rows = []
+    for unit in declared:
+        if unit is None:
+            rows.append('{ "", "", "", 1.0, 0.0 }')
+            continue
+        factor = Fraction(units.si_factor(unit))
+        scale = float(factor)
+        dimension = units.dimension(unit)
+        words = "dimensionless" if dimension.dimensionless else dimension.words()
+        rows.append(f"{{ {c_string(unit.text)}, {c_string(units.si_text(unit))}, {c_string(words)}, "
+                    f"{scale!r}, {float(factor - Fraction(scale))!r} }}")
+    return rows
 
 
 def _literal(value: float) -> str:

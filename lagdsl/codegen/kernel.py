@@ -47,7 +47,7 @@ from ..calculus import Differentiator
 from ..errors import InternalError, LagError
 from ..mechanics import Equations
 from ..mechanics.families import LocalEquations
-from ..scene import ScenePlan
+from ..scene import ScenePlan, declared_inputs
 from .cse import eliminate_common_subexpressions
 from .naming import NameTable, check_target_names
 from .structure import JacobianLayout, MassLayout, jacobian_layout, kkt_layout, mass_layout
@@ -115,6 +115,7 @@ class Kernel:
     parameter_jacobian: Block | None = None           # Dp = ∂R/∂p (sensitivities only)
     output_jacobian: Block | None = None              # Cy = ∂h/∂y, Cp = ∂h/∂p of the columns
     initial_sensitivity: Block | None = None          # S0 = ∂y0/∂p
+    input_units: tuple[ir.Unit | None, ...] = ()      # declared: each parameter, q.start, q.velocity
 
     @property
     def n(self) -> int:
@@ -225,7 +226,8 @@ class _Lowering:
             **self.canonical_blocks(),
             stop=self.block([("ev", (0,), plan.stop.function)]) if plan.stop else None,
             stop_text=plan.stop.text if plan.stop else "",
-            stop_needs_multipliers=bool(plan.stop and self.reads_multipliers(plan.stop.function)))
+            stop_needs_multipliers=bool(plan.stop and self.reads_multipliers(plan.stop.function)),
+            input_units=tuple(unit for _, unit in declared_inputs(self.model)))
 
     def reads_multipliers(self, expression: sympy.Expr) -> bool:
         """Whether a value needs λ, solved for with q'' at its state (outputs, the stop condition)."""

@@ -7,12 +7,15 @@ indexed lets together are bounded (MAX_UNROLLED), since each is derived symbolic
 """
 from __future__ import annotations
 
+from fractions import Fraction
+
 import sympy
 
 from .. import ir
 from ..errors import LagError
+from ..settings import scaled_to_si
 from .tree import subtrees
-from .units import in_si
+from .units import si_factor
 from .values import Scope
 
 MAX_MEMBERS = 10000         # largest index range or indexed family: sizes are unrolled at compile time
@@ -40,15 +43,19 @@ class CompileTime:
         return value.xreplace({s: sympy.Float(v.evalf(30), 30) for s, v in self.exact_parameters.items()})
 
     def number(self, node, what: str, scope: Scope, unit: ir.Unit | None = None) -> float:
-        """A number in a scene or modifier: parameters allowed, evaluated at their defaults (in SI;
-        a plain number is in `unit`)."""
-        value = in_si(self.builder.scalar(node, scope, what), unit)
+        """A number in a scene or modifier: parameters allowed, evaluated at their defaults, in SI.
+        An expression of parameters is in SI already; one of numbers only is in `unit`, converted
+        as a value set from outside the model file is (settings.scaled_to_si), so that a scene's
+        `set theta(start = 30)` runs bit for bit as `--set theta.start=30`."""
+        value = self.builder.scalar(node, scope, what)
         if value.free_symbols - set(self.exact_parameters):
             raise LagError(f"{what} may only use numbers and parameters", self.builder.span(node))
         result = complex(self.with_parameter_values(value).evalf(20))
         if result.imag != 0 or not abs(result.real) < float("inf"):
             raise LagError(f"{what} is not a finite real number", self.builder.span(node))
-        return result.real
+        if unit is None or value.free_symbols:
+            return result.real
+        return scaled_to_si(float(value) if value.is_Rational else result.real, Fraction(si_factor(unit)))
 
     def integer(self, node, scope: Scope, what: str) -> int:
         """An index or range bound: parameters in it are fixed at compile time (structural), and

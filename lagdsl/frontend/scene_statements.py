@@ -11,11 +11,21 @@ from .. import ir
 from ..errors import ErrorCollector, LagError, suggest
 from .functions import OBSERVABLES
 from ..integrators import registry
+from ..integrators.registry import OPTIONS
 from ..settings import DEFAULT_INTEGRATOR, DEFAULT_TIME, check_integrator_name, validate_integrator
 from ..source import Span
+from . import units
+from .units import Dimension
 from ..tolerances import check_atol_each, component_key
 from .tree import call_arguments, expressions_of, subtree, subtrees, through, tokens, written
 from .values import PoisonedName
+
+TIME = Dimension.of(time=1)
+
+
+def _words(dimension: Dimension) -> str:
+    return "dimensionless" if dimension.dimensionless else f"a {dimension.words()}"
+
 
 # The statements a scene gives at most once, and their names in messages.
 ONCE = {"scene_time": "time(...)", "scene_integrator": "integrator(...)", "scene_stop": "a stop condition"}
@@ -78,8 +88,8 @@ class SceneStatements:
         return parts
 
     def scene_time(self, node) -> ir.TimeGrid:
-        options = self.modifiers(node, ("start", "stop", "interval"), "time(...)")
-        values = {k: self.numbers.number(v, f"time({k})", self.scope) for k, v in options.items()}
+        options = self.modifiers(node, ("start", "stop", "interval"), "time(...)", with_units=True)
+        values = self.scene_numbers(node, options, lambda k: f"time({k})", {}, dict.fromkeys(options, TIME))
         start, stop = values.get("start", 0.0), values.get("stop", DEFAULT_TIME.stop)
         interval = values.get("interval", (stop - start) / 1000 if "stop" in values else DEFAULT_TIME.interval)
         if not stop > start:
@@ -108,8 +118,10 @@ class SceneStatements:
         per_component = [m for m in subtrees(subtree(node, "modifiers")) if m.data == "component_modifier"] \
             if subtree(node, "modifiers") is not None else []
         atol_each = self.atol_each(per_component, name, "atol" in record.options)
-        options = self.modifiers(_without(node, per_component), record.options, f"integrator {name}")
-        values = {k: self.numbers.number(v, k, self.scope) for k, v in options.items()}
+        plain = _without(node, per_component)
+        options = self.modifiers(plain, record.options, f"integrator {name}", with_units=True)
+        values = self.scene_numbers(plain, options, lambda k: f"{name}({k} = ...)", {},
+                                    {k: TIME for k in options if OPTIONS[k].time})
         choice = validate_integrator(name, values, self.span(node), {k: self.span(v) for k, v in options.items()})
         return replace(choice, atol_each=atol_each)
 
@@ -134,7 +146,7 @@ class SceneStatements:
     def scene_set(self, node):
         token = tokens(node, "NAME")[0]
         binding = self.scope.bindings.get(str(token))
-        parts = [c for c in subtrees(node) if c.data != "modifiers"]
+        parts = [c for c in subtrees(node) if c.data not in ("modifiers", "unit")]
         if binding is not None and binding.kind == "invalid":
             raise PoisonedName()
         if subtree(node, "modifiers") is None:        # set p = value
@@ -150,7 +162,11 @@ class SceneStatements:
             if parameter.symbol in self.numbers.structural:
                 raise LagError(f"'{name}' fixes the size of the model and cannot be changed by a scene",
                                self.span(token))
-            value = self.numbers.number(parts[-1], "the value", self.scope, parameter.unit)
+            written = self.unit(node)
+            if written is not None:
+                self.check_written_unit(written, units.dimension(parameter.unit) if parameter.unit else None,
+                                        f"the value of {name}")
+            value = self.numbers.number(parts[-1], "the value", self.scope, written or parameter.unit)
             self.dims.scene_set(node, token, binding.dimension)
             return ir.ParameterOverride(name, value, self.span(node))
         if binding is not None and binding.kind == "parameter":
@@ -160,11 +176,33 @@ class SceneStatements:
             raise LagError(f"'{token}' is not a coordinate{suggest(str(token), coordinates)}", self.span(token))
         name = self.coordinate_member(token, binding, parts[0] if parts else None,
                                       f"set {token}[i](start = ...)")
-        options = self.modifiers(node, ("start", "velocity"), f"set {name}")
+        options = self.modifiers(node, ("start", "velocity"), f"set {name}", with_units=True)
         unit = next(c.unit for c in self.coordinates if c.name == name)
-        values = {k: self.numbers.number(v, f"the {k} value", self.scope, unit) for k, v in options.items()}
+        declared = {"start": unit, "velocity": units.per_second(unit)}
+        values = self.scene_numbers(node, options, lambda k: f"the {k} value of {name}", declared,
+                                    {k: units.dimension(u) for k, u in declared.items() if u is not None})
         self.dims.scene_set(node, token, binding.dimension)
         return ir.InitialOverride(name, values.get("start"), values.get("velocity"), self.span(node))
+
+    def scene_numbers(self, node, options: dict, what, declared: dict, expected: dict) -> dict[str, float]:
+        """The numbers of a scene statement's `options` (key: value node), in SI. A number is in
+        the unit written after it, whose dimension must be expected[key] (a key not there takes
+        none), else in declared.get(key) (None: SI); what(key) names it in messages."""
+        written = self.written_units(node)
+        values = {}
+        for key, value in options.items():
+            if key in written:
+                self.check_written_unit(written[key], expected.get(key), what(key))
+            values[key] = self.numbers.number(value, what(key), self.scope, written.get(key, declared.get(key)))
+        return values
+
+    @staticmethod
+    def check_written_unit(unit: ir.Unit, expected: Dimension | None, what: str) -> None:
+        if expected is None:
+            raise LagError(f"{what} takes a plain number, without a unit", unit.span)
+        found = units.dimension(unit)
+        if found != expected:
+            raise LagError(f"{what} must be {_words(expected)}, but [{unit.text}] is {_words(found)}", unit.span)
 
     def output_request(self, node, scene: str) -> ir.OutputRequest:
         span = self.span(node)

@@ -186,7 +186,9 @@ class _ModelBuilder(Declarations, EquationStatements, SceneStatements, DrawState
                          structural=p.symbol in self.numbers.structural)
             for p in self.parameters]
 
-    def modifiers(self, node, allowed, owner: str = "") -> dict[str, lark.Tree]:
+    def modifiers(self, node, allowed, owner: str = "", with_units: bool = False) -> dict[str, lark.Tree]:
+        """The value of each `(key = value, ...)` of `node`; a unit after a value only `with_units`
+        (a scene's values: written_units)."""
         found: dict[str, lark.Tree] = {}
         block = subtree(node, "modifiers")
         for modifier in (block.children if block is not None else []):
@@ -203,8 +205,18 @@ class _ModelBuilder(Declarations, EquationStatements, SceneStatements, DrawState
                                self.span(key))
             if str(key) in found:
                 raise LagError(f"'{key}' is given twice", self.span(key))
+            unit = subtree(modifier, "unit")
+            if unit is not None and not with_units:
+                raise LagError(f"{key} takes a plain number here, in the unit declared after the parentheses",
+                               self.span(unit))
             found[str(key)] = modifier.children[2]
         return found
+
+    def written_units(self, node) -> dict[str, ir.Unit]:
+        """The unit written after the value of each `(key = value [unit], ...)` of `node` that has one."""
+        block = subtree(node, "modifiers")
+        modifiers = [m for m in (block.children if block is not None else []) if isinstance(m, lark.Tree)]
+        return {str(m.children[0]): self.unit(m) for m in modifiers if subtree(m, "unit") is not None}
 
     def declare_later_name(self, node):
         """Constraints and outputs have names too; declare them up front to catch clashes."""

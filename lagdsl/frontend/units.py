@@ -15,8 +15,9 @@ from fractions import Fraction
 
 import sympy
 
-from ..errors import LagError, Setting
+from ..errors import InputError, LagError, Setting
 from ..ir import Unit
+from ..settings import SECONDS, InputUnit, scaled_to_si
 from ..source import SourceFile, Span
 
 BASE_DIMENSIONS = ("mass", "length", "time", "current", "temperature", "substance", "luminosity")
@@ -145,12 +146,17 @@ _VALUE_WITH_UNIT = re.compile(r"\s*(?P<number>[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-
                               r"(?:\[(?P<bracketed>[^\]]*)\]|(?P<bare>[A-Za-z_][^\[\]]*))\s*")
 
 
+def input_unit(unit: Unit | None) -> InputUnit | None:
+    """What a value set from outside the model needs of its declared unit (settings.input_in_si)."""
+    return None if unit is None else InputUnit(unit.text, Fraction(si_factor(unit)))
+
+
 def time_in_seconds(value: float | str | None, option: str) -> float | None:
     """A time given outside the model file (`--stop`, simulate(stop=...)): a number in seconds,
     or a number and a unit of time (`0.8 ns`, `2 min`)."""
     if not isinstance(value, str):
         return value
-    return value_in_si(value, _written_unit("s"), Setting(option))
+    return value_in_si(value, SECONDS, Setting(option))
 
 
 def _written_unit(text: str) -> Unit:
@@ -164,28 +170,40 @@ def per_second(unit: Unit | None) -> Unit | None:
         return None
     factors = dict(unit.factors)
     factors["s"] = factors.get("s", Fraction(0)) - 1
-    return Unit(f"({unit.text})/s", tuple(sorted((n, p) for n, p in factors.items() if p != 0)), unit.span)
+    text = unit.text if re.fullmatch(r"\w+", unit.text) else f"({unit.text})"
+    return Unit(f"{text}/s", tuple(sorted((n, p) for n, p in factors.items() if p != 0)), unit.span)
 
 
-def value_in_si(text: str, declared: Unit | None, where) -> float:
+def si_text(unit: Unit) -> str:
+    """The SI unit a quantity declared in `unit` is computed in: `kg` for [g], `rad` for [deg],
+    `rad/s` for [deg/s], `N` for [kN]."""
+    si = dimension(unit).si()
+    if angle_power(unit) != 1:
+        return si
+    return "rad" if si == "1" else "rad" + si[1:] if si.startswith("1/") else f"rad*{si}"
+
+
+def value_in_si(text: str, declared: InputUnit | None, where) -> float:
     """A value written with a unit (`30 deg`, `500g`, `0.785 [rad]`) in SI, where the quantity it
-    sets is declared in `declared`; its dimension must be that unit's. Raises LagError at `where`
-    (an errors.Setting) for text that is no number and unit, an unknown unit, a quantity declared
-    without a unit, or another dimension."""
+    sets is declared in `declared`; its dimension must be that unit's. The number is read as a
+    double and scaled as a plain number is (settings.scaled_to_si): `30 deg` runs as 30 given for a
+    value declared in deg. Raises LagError at `where` (an errors.Setting) for text that is no
+    number and unit, an unknown unit, a quantity declared without a unit, or another dimension."""
     match = _VALUE_WITH_UNIT.fullmatch(text)
     if match is None:
-        raise LagError(f"expected a number, or a number and a unit such as '30 deg', got '{text}'", where)
+        raise InputError(f"expected a number, or a number and a unit such as '30 deg', got '{text}'", where)
     written = match.group("bracketed") if match.group("bracketed") is not None else match.group("bare")
     try:
         unit = _written_unit(written.strip())
     except LagError as error:
-        raise LagError(f"in '{text}': {error.diagnostics[0].message}", where) from None
+        raise InputError(f"in '{text}': {error.diagnostics[0].message}", where) from None
     if declared is None:
-        raise LagError(f"'{text}' has a unit, but the model declares none for this value: give a plain number", where)
-    if dimension(unit) != dimension(declared):
-        raise LagError(f"'{text}' is a {dimension(unit).words()}, but this value is declared in [{declared.text}] "
-                       f"({dimension(declared).words()})", where)
-    return float(sympy.Rational(match.group("number")) * si_factor(unit))
+        raise InputError(f"'{text}' has a unit, but the model declares none for this value: give a plain number", where)
+    expected = dimension(_written_unit(declared.text))
+    if dimension(unit) != expected:
+        raise InputError(f"'{text}' is a {dimension(unit).words()}, but this value is declared in [{declared.text}] "
+                       f"({expected.words() if not expected.dimensionless else 'dimensionless'})", where)
+    return scaled_to_si(float(match.group("number")), Fraction(si_factor(unit)))
 
 
 _TOKEN = re.compile(r"\s*(?:(?P<name>[A-Za-z_][A-Za-z_0-9]*)|(?P<number>\d+(?:\.\d+)?)|(?P<op>\*\*|[*/^()\-+.]))")

@@ -23,6 +23,7 @@ class Option:
     accepts: Callable[[float], bool]    # the check, in Python
     c_accepts: str                      # the same check in C, on a double `value`
     c_cast: str = ""                    # how the standalone program stores it: "", "(int)", "(long)"
+    time: bool = False                  # a time: in seconds, or written with a unit of time
 
     @property
     def flag(self) -> str:
@@ -49,9 +50,9 @@ OPTIONS: dict[str, Option] = {option.name: option for option in (
     Option("atol", "absolute tolerance (adaptive integrators)", "a finite number >= 0",
            lambda v: 0 <= v < math.inf, "r_isfinite(value) && value >= 0"),
     Option("step", "the step (fixed-step integrators)", "a finite number > 0",
-           lambda v: 0 < v < math.inf, "r_isfinite(value) && value > 0"),
+           lambda v: 0 < v < math.inf, "r_isfinite(value) && value > 0", time=True),
     Option("max_step", "the largest step an adaptive integrator may take", "a finite number > 0",
-           lambda v: 0 < v < math.inf, "r_isfinite(value) && value > 0"),
+           lambda v: 0 < v < math.inf, "r_isfinite(value) && value > 0", time=True),
     Option("stages", "Gauss-Legendre stages (gauss: order 2s)", "a whole number from 1 to 6",
            lambda v: 1 <= v <= 6 and v == int(v), "value >= 1 && value <= 6 && value == r_floor(value)", "(int)"),
     Option("max_steps", "the step limit (accepted + rejected steps): none by default for a fixed step; "

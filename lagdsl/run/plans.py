@@ -24,9 +24,10 @@ from __future__ import annotations
 import hashlib
 import json
 from dataclasses import dataclass
+from fractions import Fraction
 
 from ..errors import LagError
-from ..settings import IntegratorChoice, Overrides, RunPlan, SceneSettings, TimeGrid
+from ..settings import InputUnit, IntegratorChoice, Overrides, RunPlan, SceneSettings, TimeGrid
 from ..source import SourceFile, Span
 from . import loading, runner
 from .cache import cached_entry, find_entry, package_digest
@@ -76,9 +77,9 @@ class StoredPlan:
 
     def resolve(self, overrides: Overrides) -> RunPlan | None:
         """The run plan with `overrides` applied, as scene.plan_scene makes it (the same errors, in
-        the same order); None when a value to set needs the model's expressions or its units."""
-        if any(name in self.computed_from or isinstance(value, str) for name, value in overrides.values):
-            return None         # a value with a unit is converted by the full plan
+        the same order); None when a value to set needs the model's expressions."""
+        if any(name in self.computed_from for name, _ in overrides.values):
+            return None
         settings = self.settings
         time, integrator, set_values, initial = settings.resolve(overrides)
         settings.check_integrator(integrator)
@@ -141,6 +142,7 @@ def _to_json(plan: StoredPlan) -> dict:
         "parameter_names": list(s.parameters), "structural": sorted(s.structural),
         "coordinates": list(s.coordinates), "set_values": [list(v) for v in s.set_values],
         "initial": [list(v) for v in s.initial], "constraints": list(s.constraints),
+        "units": [[name, unit.text, str(unit.factor)] for name, unit in s.units],
         "parameters": list(plan.parameters), "initial_state": list(plan.initial_state),
         "computed_from": sorted(plan.computed_from), "columns": list(plan.columns),
         "invariants": list(plan.invariants), "stop": plan.stop,
@@ -157,7 +159,8 @@ def _from_json(data: dict, source: SourceFile) -> StoredPlan:
                          tuple((k, v) for k, v in atol_each)),
         tuple(data["parameter_names"]), frozenset(data["structural"]), tuple(data["coordinates"]),
         tuple((k, v) for k, v in data["set_values"]), tuple((c, s, v) for c, s, v in data["initial"]),
-        tuple(data["constraints"]))
+        tuple(data["constraints"]),
+        tuple((name, InputUnit(text, Fraction(factor))) for name, text, factor in data["units"]))
     return StoredPlan(settings, tuple(data["parameters"]), tuple(data["initial_state"]),
                       frozenset(data["computed_from"]), tuple(data["columns"]), tuple(data["invariants"]),
                       data["stop"], ProgramEntry(*data["program"]))

@@ -21,7 +21,7 @@ import numpy as np
 from ..abi import HOPELESS, INTERRUPTED, SummaryLayout, member_summary, plan_summary, settings_vector, status_of
 from ..errors import LagError, SimulationError, SimulationInterrupted
 from ..integrators import registry
-from ..settings import Overrides, RunPlan
+from ..settings import InputUnit, Overrides, RunPlan, input_in_si
 from .interrupt import CtrlC, interruptible
 from .numpy_backend import run_numpy
 from .output import output_times
@@ -33,7 +33,7 @@ if TYPE_CHECKING:       # the scene's full plan needs sympy; a warm `lagc sweep`
 
 NUMPY_CHUNK = 256            # NumPy: members integrated as one stacked system
 # (first member's plan, varied inputs) -> the parameter and coordinate names to put values in, or None
-Placement = Callable[[RunPlan, dict], tuple[list[str], list[str]] | None]
+Placement = Callable[[RunPlan, dict], tuple[list[str], list[str], dict[str, InputUnit]] | None]
 
 
 @dataclass(frozen=True)
@@ -166,8 +166,9 @@ def member_inputs(plan: Callable[[Overrides], RunPlan], base: Overrides, varied:
             parameters[b], initial[b] = member.parameters, member.initial_state
         return Members(first, parameters, initial, inputs)
     _check_finite(inputs)
-    parameter_names, coordinates = names
-    for name, values in inputs.items():
+    parameter_names, coordinates, declared = names
+    for name, given in inputs.items():
+        values = [input_in_si(name, value, declared.get(name)) for value in given.tolist()]
         coordinate, _, part = name.rpartition(".")
         if name in parameter_names:
             parameters[:, parameter_names.index(name)] = values
@@ -178,18 +179,20 @@ def member_inputs(plan: Callable[[Overrides], RunPlan], base: Overrides, varied:
     return Members(first, parameters, initial, inputs)
 
 
-def scene_placement(plan: ScenePlan, inputs: dict) -> tuple[list[str], list[str]] | None:
-    """The names of the parameters and coordinates of `plan`'s model, or None when a varied
-    parameter enters other values (every member is then planned)."""
+def scene_placement(plan: ScenePlan, inputs: dict) -> tuple[list[str], list[str], dict[str, InputUnit]] | None:
+    """The names of the parameters and coordinates of `plan`'s model and the declared units of
+    its inputs, or None when a varied parameter enters other values (every member is then planned)."""
+    from ..scene import input_units      # the model's units: only where a ScenePlan, and so sympy, is there
     if _inputs_depend_on_parameters(plan, inputs):
         return None
-    return [p.name for p in plan.model.parameters], [c.name for c in plan.model.coordinates]
+    return ([p.name for p in plan.model.parameters], [c.name for c in plan.model.coordinates],
+            dict(input_units(plan.model)))
 
 
 def broadcast(varied: dict) -> dict[str, np.ndarray]:
     for name, value in varied.items():
         if isinstance(value, str):
-            raise LagError(f"sweep: the values of '{name}' are numbers, in SI; '{value}' (a value with its unit) "
+            raise LagError(f"sweep: the values of '{name}' are numbers, each in its declared unit; '{value}' (a value with its unit) "
                            "is taken by run and bench only")
     arrays = {name: np.asarray(value, dtype=float) for name, value in varied.items()}
     for name, array in arrays.items():

@@ -105,7 +105,7 @@ def stored_job(stored, base: Overrides, varied: dict) -> SweepJob | None:
     loaded = stored.program.load()
     if loaded is None:
         return None
-    names = list(stored.settings.parameters), list(stored.settings.coordinates)
+    names = list(stored.settings.parameters), list(stored.settings.coordinates), dict(stored.settings.units)
     return SweepJob(stored.resolve, lambda plan: StoredProgram(loaded), base, varied, "c",
                     placement=lambda first, inputs: names)
 

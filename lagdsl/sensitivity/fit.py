@@ -22,7 +22,8 @@ import numpy as np
 import scipy.optimize
 
 from ..errors import LagError, Setting, SimulationError
-from ..settings import Overrides, given_atol_each, given_options
+from ..scene import input_units
+from ..settings import InSI, Overrides, given_atol_each, given_options, input_in_si
 from .data import read_data
 from .run import directions
 
@@ -93,8 +94,9 @@ def fit(model, data, params: dict, outputs=None, sigma=None, scene: str | None =
         _, derivatives = runs.at(x)
         return (derivatives / scale[None, :, None]).reshape(-1, len(names))
 
-    low, high = _bounds(names, bounds or {})
-    start = np.array([float(params[name]) for name in names])
+    declared = dict(input_units(model.ir))
+    low, high = _bounds(names, bounds or {}, declared)
+    start = np.array([input_in_si(name, params[name], declared.get(name)) for name in names])
     solution = scipy.optimize.least_squares(residuals, np.clip(start, low, high), jac=jacobian, bounds=(low, high),
                                             x_scale="jac")
     return _result(names, solution, runs, target, measured.t, columns)
@@ -111,7 +113,7 @@ class _Runs:
 
     def at(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if self.last is None or not np.array_equal(self.last[0], x):
-            values = {**dict(self.base.values), **{name: float(value) for name, value in zip(self.names, x)}}
+            values = {**dict(self.base.values), **{name: InSI(value) for name, value in zip(self.names, x)}}
             overrides = replace(self.base, values=tuple(values.items()),
                                 stop=float(self.times[-1]))
             try:
@@ -152,13 +154,14 @@ def _sigma(sigma, columns) -> np.ndarray:
     return scale
 
 
-def _bounds(names, bounds: dict) -> tuple[np.ndarray, np.ndarray]:
+def _bounds(names, bounds: dict, declared: dict) -> tuple[np.ndarray, np.ndarray]:
+    """The bounds of each fitted value in SI (given in its declared unit, as its start value)."""
     unknown = [name for name in bounds if name not in names]
     if unknown:
         raise LagError(f"bounds given for '{unknown[0]}', which is not fitted (fitted: {', '.join(names)})",
                        Setting("--bounds"))
-    low = np.array([float(bounds.get(n, (-np.inf, np.inf))[0]) for n in names])
-    high = np.array([float(bounds.get(n, (-np.inf, np.inf))[1]) for n in names])
+    low, high = (np.array([input_in_si(n, bounds.get(n, (-np.inf, np.inf))[end], declared.get(n)) for n in names])
+                 for end in (0, 1))
     if np.any(low >= high):
         raise LagError("each bound needs low < high", Setting("--bounds"))
     return low, high

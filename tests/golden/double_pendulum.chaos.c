@@ -127,6 +127,14 @@ typedef struct lag_options {
     stats_type stats;
 
 #ifndef LAG_FMU     /* an FMU reads and writes no text of numbers (codegen/fmu.py) */
+/* The declared unit of an input of the standalone program, in which NAME=VALUE reads a plain
+ * number (as lagc run --set does): as written, in SI, its dimension in words, and its factor to
+ * SI as scale + scale_low (the generated table lag_input_units, one a parameter, start, velocity). */
+typedef struct lag_input_unit {
+    const char *unit, *si, *dimension;
+    double scale, scale_low;
+} lag_input_unit;
+
 /* Reading and writing numbers in the working precision (the CSV and the command line). */
 #if defined(LAG_FLOAT128)
 #define r_strtod(text, end) strtoflt128((text), (end))
@@ -1937,6 +1945,20 @@ void lag_run_batch(long members, const double *parameters, const double *initial
 #define LAG_SCENE_T_INTERVAL LAG_LIT(0.01)
 #define LAG_SCENE_OPTIONS { LAG_LIT(1e-10), LAG_LIT(1e-12), LAG_LIT(0.0), LAG_LIT(0.0), 0, 0L, NULL }
 
+/* The declared unit of each input (runtime.h): the parameters, each coordinate's start, each
+ * one's velocity, the slots of lag_member (standalone.c). */
+static const lag_input_unit lag_input_units[] = {
+    { "kg", "kg", "mass", 1.0, 0.0 },
+    { "kg", "kg", "mass", 1.0, 0.0 },
+    { "m", "m", "length", 1.0, 0.0 },
+    { "m", "m", "length", 1.0, 0.0 },
+    { "m/s^2", "m/s^2", "length/time^2", 1.0, 0.0 },
+    { "rad", "rad", "dimensionless", 1.0, 0.0 },
+    { "rad", "rad", "dimensionless", 1.0, 0.0 },
+    { "rad/s", "rad/s", "1/time", 1.0, 0.0 },
+    { "rad/s", "rad/s", "1/time", 1.0, 0.0 }
+};
+
 /* NAME=VALUE for an option of dop853: set it and return 1; 0 when NAME is none of its options;
  * -1 after saying that the value is not allowed (the checks of lagc run). */
 static int lag_option_setting(const char *program, const char *text, const char *equals, real value,
@@ -2094,43 +2116,45 @@ static int lag_index_of(const char *const *names, int count, const char *name, s
     return -1;
 }
 
-/* `text` is `word`, in any case. */
-static int lag_same_word(const char *text, const char *word)
+/* `text` begins with `word`, in any case. */
+static int lag_begins_with_word(const char *text, const char *word)
 {
     for (; *word != '\0'; ++text, ++word)
         if (tolower((unsigned char)*text) != *word)
             return 0;
-    return *text == '\0';
+    return 1;
 }
 
-/* A value as `lagc run --set` takes it (abi.NUMBER): a decimal number with an optional sign,
- * fraction and exponent, or inf, infinity or nan in any case; strtod alone would also take
- * hexadecimal (0x10) and stop at a NUL byte. */
-static int lag_is_number(const char *text)
+/* The length of the number `text` begins with (abi.NUMBER): a decimal number with an optional
+ * sign, fraction and exponent, or inf, infinity or nan in any case; 0 if it begins with none. */
+static size_t lag_number_length(const char *text)
 {
+    static const char *const words[] = { "infinity", "inf", "nan" };
     const char *c = text + (*text == '+' || *text == '-');
-    int digits = 0;
-    if (lag_same_word(c, "inf") || lag_same_word(c, "infinity") || lag_same_word(c, "nan"))
-        return 1;
+    int digits = 0, i;
+    for (i = 0; i < 3; ++i)
+        if (lag_begins_with_word(c, words[i]))
+            return (size_t)(c - text) + strlen(words[i]);
     for (; isdigit((unsigned char)*c); ++c)
         digits = 1;
     if (*c == '.')
         for (++c; isdigit((unsigned char)*c); ++c)
             digits = 1;
-    if (digits && (*c == 'e' || *c == 'E')) {
+    if (digits && (*c == 'e' || *c == 'E') && isdigit((unsigned char)c[1 + (c[1] == '+' || c[1] == '-')])) {
         c += 1 + (c[1] == '+' || c[1] == '-');
-        if (!isdigit((unsigned char)*c))
-            return 0;
         while (isdigit((unsigned char)*c))
             ++c;
     }
-    return digits && *c == '\0';
+    return digits ? (size_t)(c - text) : 0;
 }
 
+/* A value as `lagc run --set` takes it (abi.NUMBER), and nothing after it; strtod alone would
+ * also take hexadecimal (0x10) and stop at a NUL byte. */
 static int lag_parse_value(const char *text, real *value)
 {
+    size_t length = lag_number_length(text);
     char *end;
-    if (!lag_is_number(text))
+    if (length == 0 || text[length] != '\0')
         return 0;
     *value = r_strtod(text, &end);
     return end != text && *end == '\0';
@@ -2155,8 +2179,9 @@ static const char *lag_split_setting(const char *prefix, const char *text, real 
     return equals;
 }
 
-/* A parameter, or a coordinate's start or velocity: set it and return 1; anything else: 0. */
-static int lag_member_setting(const char *text, const char *equals, real value, lag_member *member)
+/* The slot of lag_input_units that NAME (ending at `equals`) sets: a parameter, or a
+ * coordinate's start or velocity; -1 for any other name. */
+static int lag_input_slot(const char *text, const char *equals)
 {
     const char *dot = NULL;
     const char *c;
@@ -2164,19 +2189,101 @@ static int lag_member_setting(const char *text, const char *equals, real value, 
     for (c = text; c < equals; ++c)    /* the last '.' of the name */
         if (*c == '.')
             dot = c;
-    if ((index = lag_index_of(lag_parameter_names, LAG_NP, text, (size_t)(equals - text))) >= 0) {
-        member->par[index] = value;
-        member->fixed[index] = 1;
-        return 1;
-    }
+    if ((index = lag_index_of(lag_parameter_names, LAG_NP, text, (size_t)(equals - text))) >= 0)
+        return index;
     if (dot != NULL && (index = lag_index_of(lag_coordinate_names, LAG_NQ, text, (size_t)(dot - text))) >= 0
-        && (strncmp(dot, ".start=", 7) == 0 || strncmp(dot, ".velocity=", 10) == 0)) {
-        int slot = dot[1] == 's' ? index : LAG_NQ + index;
-        member->start[slot] = value;
-        member->overridden[slot] = 1;
-        return 1;
+        && (strncmp(dot, ".start=", 7) == 0 || strncmp(dot, ".velocity=", 10) == 0))
+        return LAG_NP + (dot[1] == 's' ? index : LAG_NQ + index);
+    return -1;
+}
+
+/* x in a unit whose factor to SI is scale + scale_low, in SI. The error of the product is
+ * recovered exactly (fma), so the result is rounded once from within about 2^-106 of the exact
+ * product: the value lagc run --set gives (settings.scaled_to_si). */
+static real lag_in_si(real x, const lag_input_unit *unit)
+{
+    real product = x * (real)unit->scale;
+    if (unit->scale_low == 0 || !r_isfinite(product))
+        return product;
+    return product + (LAG_FN(fma)(x, (real)unit->scale, -product) + x * (real)unit->scale_low);
+}
+
+/* The unit written after a number ("deg", " [deg]"), without the spaces and brackets, into
+ * `unit` (of LAG_LINE_MAX characters). */
+static void lag_written_unit(const char *text, char *unit)
+{
+    size_t length;
+    while (isspace((unsigned char)*text))
+        ++text;
+    length = strlen(text);
+    while (length > 0 && isspace((unsigned char)text[length - 1]))
+        --length;
+    if (length >= 2 && text[0] == '[' && text[length - 1] == ']') {
+        text += 1;
+        length -= 2;
     }
-    return 0;
+    memcpy(unit, text, length);
+    unit[length] = '\0';
+}
+
+/* VALUE for input `slot`, in SI: a number in the input's declared unit, or a number and a unit,
+ * the declared one or SI ("30 deg", "30deg", "30 [deg]", "0.52 rad"); 0 after saying what is wrong. */
+static int lag_input_value(const char *prefix, const char *text, const char *equals, int slot, real *value)
+{
+    const lag_input_unit *declared = &lag_input_units[slot];
+    const char *given = equals + 1;
+    size_t length = lag_number_length(given);
+    char number[LAG_LINE_MAX], unit[LAG_LINE_MAX];
+    int name = (int)(equals - text);
+    if (length == 0 || strlen(given) >= LAG_LINE_MAX) {
+        fprintf(stderr, "%s: expected NAME=VALUE with a number (and a unit), got '%s'\n", prefix, text);
+        return 0;
+    }
+    lag_written_unit(given + length, unit);
+    if (unit[0] != '\0' && declared->unit[0] == '\0') {
+        fprintf(stderr, "%s: %.*s: expected a plain number (the model declares no unit for it), got '%s'\n",
+                prefix, name, text, given);
+        return 0;
+    }
+    if (unit[0] != '\0' && strcmp(unit, declared->unit) != 0 && strcmp(unit, declared->si) != 0) {
+        fprintf(stderr, "%s: %.*s: '%s' is not in %s (%s): give a plain number in %s, or write %s or %s after it\n",
+                prefix, name, text, given, declared->unit, declared->dimension, declared->unit, declared->unit,
+                declared->si);
+        return 0;
+    }
+    memcpy(number, given, length);
+    number[length] = '\0';
+    *value = r_strtod(number, NULL);
+    if (unit[0] == '\0' || strcmp(unit, declared->unit) == 0)
+        *value = lag_in_si(*value, declared);
+    return 1;
+}
+
+/* Set input `slot` of `member` to `value` (in SI). */
+static void lag_set_input(lag_member *member, int slot, real value)
+{
+    if (slot < LAG_NP) {
+        member->par[slot] = value;
+        member->fixed[slot] = 1;
+    } else {
+        member->start[slot - LAG_NP] = value;
+        member->overridden[slot - LAG_NP] = 1;
+    }
+}
+
+/* NAME=VALUE of a parameter, or of a coordinate's start or velocity: set it in `member` and
+ * return 1; 0 for any other name; -1 after saying what is wrong with VALUE. */
+static int lag_member_setting(const char *prefix, const char *text, lag_member *member)
+{
+    const char *equals = strchr(text, '=');
+    int slot = equals == NULL ? -1 : lag_input_slot(text, equals);
+    real value;
+    if (slot < 0)
+        return 0;
+    if (!lag_input_value(prefix, text, equals, slot, &value))
+        return -1;
+    lag_set_input(member, slot, value);
+    return 1;
 }
 
 static void lag_on_interrupt(int signal_number)
@@ -2348,15 +2455,18 @@ static int lag_read_members(const char *program, const lag_member *common, lag_m
             continue;
         for (; word != NULL; word = strtok(NULL, " \t\r\n")) {
             real value;
-            const char *equals = lag_split_setting(prefix, word, &value);
-            if (equals == NULL)
+            const char *equals;
+            int set = lag_member_setting(prefix, word, &member);
+            if (set < 0)
                 return 0;
-            if (!lag_member_setting(word, equals, value, &member)) {
-                fprintf(stderr, "%s: '%.*s' is not a parameter or a coordinate's start or velocity; only those "
-                        "differ between members (give the others on the command line)\n", prefix,
-                        (int)(equals - word), word);
+            if (set > 0)
+                continue;
+            if ((equals = lag_split_setting(prefix, word, &value)) == NULL)
                 return 0;
-            }
+            fprintf(stderr, "%s: '%.*s' is not a parameter or a coordinate's start or velocity; only those "
+                    "differ between members (give the others on the command line)\n", prefix,
+                    (int)(equals - word), word);
+            return 0;
         }
         if (!lag_member_state(prefix, &member, y0))
             return 0;
@@ -2500,22 +2610,35 @@ static void lag_unknown_setting(const char *program, const char *text, const cha
         fprintf(stderr, "%s: unknown setting '%.*s' (run %s --help)\n", program, length, text, program);
 }
 
+/* A name in the help, with its declared unit if it has one. */
+static void lag_print_input(const char *name, const char *unit)
+{
+    if (unit[0] != '\0')
+        printf(" %s [%s]", name, unit);
+    else
+        printf(" %s", name);
+}
+
 /* --help: what the program takes. */
 static void lag_print_help(const char *program)
 {
     int i;
     printf("usage: %s [--batch] [NAME=VALUE ...] [--OPTION=VALUE ...] > out.csv\n"
            "Simulates %s (%s); the CSV goes to standard output, the run summary to standard error.\n"
-           "NAME is a parameter:", program, LAG_MODEL_NAME, LAG_SCENE_NAME);
+           "NAME is a parameter [in its declared unit]:", program, LAG_MODEL_NAME, LAG_SCENE_NAME);
     for (i = 0; i < LAG_NP; ++i)
-        printf(" %s", lag_parameter_names[i]);
-    printf("\n  or COORDINATE.start, COORDINATE.velocity (initial values), COORDINATE one of:");
+        lag_print_input(lag_parameter_names[i], lag_input_units[i].unit);
+    printf("\n  or COORDINATE.start, COORDINATE.velocity (initial values, in its unit and its unit per second),"
+           "\n  COORDINATE one of:");
     for (i = 0; i < LAG_NQ; ++i)
-        printf(" %s", lag_coordinate_names[i]);
+        lag_print_input(lag_coordinate_names[i], lag_input_units[LAG_NP + i].unit);
     printf("\n  or t.start, t.stop, t.interval (the output grid).\nOPTION is an option of %s:", LAG_INTEGRATOR_NAME);
     for (i = 0; i < LAG_NOPTIONS; ++i)
         printf(" --%s", lag_option_names[i]);
-    printf("\nVALUE is a decimal number (1e-12, -0.5; inf, nan).\n"
+    printf("\nVALUE is a decimal number (1e-12, -0.5; inf, nan) in the declared unit, as in the model file;\n"
+           "  a parameter's or initial value's number may carry that unit or its SI unit instead ('30 deg',\n"
+           "  30deg, '30 [deg]', 0.52rad; in --batch lines, without a space). t.start, t.stop, t.interval are\n"
+           "  in seconds.\n"
            "--batch reads one member a line of standard input: NAME=VALUE settings of parameters and initial\n"
            "values, on top of the command line's; the CSV's first column is the member's number.\n");
 }
@@ -2552,10 +2675,13 @@ static int lag_parse_arguments(int argc, char **argv, lag_member *given, real *g
                 return 0;
             continue;
         }
+        if ((known = lag_member_setting(argv[0], argv[i], given)) != 0) {
+            if (known < 0)
+                return 0;
+            continue;
+        }
         if ((equals = lag_split_setting(argv[0], argv[i], &value)) == NULL)
             return 0;
-        if (lag_member_setting(argv[i], equals, value, given))
-            continue;
         if (strncmp(argv[i], "t.start=", 8) == 0) {
             grid[0] = value;
         } else if (strncmp(argv[i], "t.stop=", 7) == 0) {

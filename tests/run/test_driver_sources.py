@@ -41,6 +41,9 @@ static const char *const lag_coordinate_names[] = { "q1", "q2" };
 #define LAG_NOPTIONS 1
 static const char *const lag_option_names[] = { "max-steps" };
 static const char *const lag_column_names[] = { "q1" };
+static const lag_input_unit lag_input_units[] = { { "", "", "", 1.0, 0.0 }, { "m", "m", "length", 1.0, 0.0 },
+    { "m", "m", "length", 1.0, 0.0 }, { "m/s", "m/s", "length/time", 1.0, 0.0 },
+    { "cm/s", "m/s", "length/time", 0.01, -2.0816681711721684e-19 } };
 static void lag_system_prepare(lag_system *sys) { (void)sys; }
 static void lag_default_parameters(real *par) { par[0] = 1; }
 static void lag_derive_parameters(real *par, const int *fixed) { (void)par; (void)fixed; }

@@ -76,6 +76,14 @@ typedef struct lag_options {
     stats_type stats;
 
 #ifndef LAG_FMU     /* an FMU reads and writes no text of numbers (codegen/fmu.py) */
+/* The declared unit of an input of the standalone program, in which NAME=VALUE reads a plain
+ * number (as lagc run --set does): as written, in SI, its dimension in words, and its factor to
+ * SI as scale + scale_low (the generated table lag_input_units, one a parameter, start, velocity). */
+typedef struct lag_input_unit {
+    const char *unit, *si, *dimension;
+    double scale, scale_low;
+} lag_input_unit;
+
 /* Reading and writing numbers in the working precision (the CSV and the command line). */
 #if defined(LAG_FLOAT128)
 #define r_strtod(text, end) strtoflt128((text), (end))
