@@ -34,7 +34,11 @@ def run(model, scene, backend):
 def test_c_and_numpy_agree(model, scene):
     c, py = run(model, scene, "c"), run(model, scene, "numpy")
     assert c.columns == py.columns
-    assert np.array_equal(c.t, py.t)
+    # the grid is the same; a scene's last row, where its stop condition held, is located by each
+    # backend to the integrator's accuracy (the ladder leaves the wall at 0.8154146717113... s)
+    last = len(c.t) - 1 if library_model(model).plan(None if scene == "default" else scene).stop else len(c.t)
+    assert len(c.t) == len(py.t) and np.array_equal(c.t[:last], py.t[:last])
+    assert np.allclose(c.t[last:], py.t[last:], rtol=1e-11, atol=0)
     scale = np.maximum(1.0, np.abs(py.values))
     # radau5 works to rtol' = 0.1 rtol^(2/3) = 1e-9 at rtol 1e-12 (as RADAU5 does; SciPy's Radau
     # to rtol itself): the velocities of the FPU chain's stiff springs agree to 2.5e-9 only

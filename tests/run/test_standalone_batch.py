@@ -56,10 +56,10 @@ def test_a_bad_line_of_batch_input_stops_the_batch_before_it_runs(tmp_path):
     model_path = tmp_path / "singular.lag"
     model_path.write_text(SINGULAR_LATER, encoding="utf-8")
     program = _strict_programs(model_path, tmp_path)[0]
-    for text, words in [("x.start=1\nx.start=one\n", "line 2: expected NAME=VALUE, got 'x.start=one'"),
+    for text, words in [("x.start=1\nx.start=one\n", "line 2: expected NAME=VALUE with a number (and a unit), got 'x.start=one'"),
                         ("\nx.start=1 t.stop=3\n", "line 2: 't.stop' is not a parameter or a coordinate's"),
                         ("x.start=inf\n", "line 1: the initial value of x is inf"),
-                        ("x.start=0x10\n", "line 1: expected NAME=VALUE, got 'x.start=0x10'"),
+                        ("x.start=0x10\n", "line 1: x.start: expected a plain number (the model declares no unit for it), got '0x10'"),
                         ("x.start=1\nx.start=2\0y.start=1\n", "line 2: holds a NUL byte"),
                         ("x.start=1\n" + "y.start=1 " * 410 + "\n", "line 2: longer than 4095 characters")]:
         done = subprocess.run([program, "--batch"], input=text, capture_output=True, text=True, timeout=30)
