@@ -20,7 +20,7 @@ from .run import plans
 from .run.output import Result
 from .run import sweep as batch
 from .run.loading import load as load_program
-from .run.runner import run
+from .run import runner
 from .run.sweep_job import SweepJob, progress_bar, stream_to_file
 from .scene import (RUN_OPTIONS, Overrides, ScenePlan, given_options, parameters_in_expressions,
                     scene_defaults)
@@ -30,6 +30,7 @@ from .source import SourceFile
 
 BACKENDS = ("c", "numpy")
 GRID_OVERRIDES = ("start", "stop", "interval", "integrator")
+QUICK_RUNS = 16         # prepared repeated runs a Model keeps (a fit varies its inputs: the last ones)
 
 
 class Model(LyapunovMethod):
@@ -42,6 +43,7 @@ class Model(LyapunovMethod):
         self.ir, self.equations = compile_model(source)
         self._programs: dict[tuple[str, str, str, bool], Program] = {}   # scene, integrator, backend, drawn
         self._quick_plans: dict[str | None, plans.StoredPlan] = {}     # by the scene asked for
+        self._quick_runs: dict[tuple, Callable] = {}                   # by scene, backend and overrides
         self._sensitivity_programs: dict[str, object] = {}             # sensitivity.run.Program by scene
 
     @property
@@ -127,7 +129,7 @@ class Model(LyapunovMethod):
         _check_backend(backend)
         quick = None if estimate_error or draw else self._quick_run(scene, backend, overrides)
         if quick is not None:
-            return _described(self.ir, run(quick[0], backend, quick[1].loaded, progress), quick[0].scene_name)
+            return quick(progress)
         scene_plan = self.plan(scene, overrides, draw)
         program = self._program(scene, scene_plan, backend, overrides)
         result = _execute(self.ir, program, scene_plan, progress)
@@ -241,13 +243,27 @@ class Model(LyapunovMethod):
         return linearize_model(self, scene, at, set, tuple(inputs), outputs, find)[0]
 
     def _quick_run(self, scene: str | None, backend: str, overrides: Overrides):
-        """(run plan, program) for a repeated run, planned without sympy from the scene's settings
-        and values (as a warm `lagc run` plans, run/plans.py), or None where that cannot serve: the
-        first run of a scene, a value computed from the overrides, code not yet generated."""
-        quick = self._quick_plans.get(scene)
-        run_plan = quick.resolve(overrides) if quick is not None else None
+        """A repeated run, planned without sympy from the scene's settings and values (as a warm
+        `lagc run` plans, run/plans.py) and prepared once for these overrides (the last
+        QUICK_RUNS kept): a function of `progress` that runs it and describes the result; None
+        where that cannot serve: the first run of a scene, a value computed from the overrides,
+        code not yet generated."""
+        key = (scene, backend, overrides)
+        quick = self._quick_runs.get(key)
+        if quick is not None:
+            return quick
+        stored = self._quick_plans.get(scene)
+        run_plan = stored.resolve(overrides) if stored is not None else None
         program = run_plan and self._programs.get((run_plan.scene_name, run_plan.integrator.name, backend, False))
-        return None if program is None else (run_plan, program)
+        if program is None:
+            return None
+        call = runner.prepared(run_plan, backend, program.loaded)
+        description = _description(self.ir, run_plan.scene_name, run_plan.columns)
+        quick = lambda progress=None: replace(call(progress), **description)    # noqa: E731
+        if len(self._quick_runs) >= QUICK_RUNS:
+            del self._quick_runs[next(iter(self._quick_runs))]
+        self._quick_runs[key] = quick
+        return quick
 
     def _keep_quick_plan(self, scene: str | None, scene_plan: ScenePlan) -> None:
         stored = self._quick_plans.get(scene) or _stored_plan(self, scene, scene_plan, None)
@@ -334,8 +350,12 @@ def load(path: str | Path) -> Model:
 
 def _described(model: ir.Model, result: Result, scene_name: str) -> Result:
     """`result` with its columns' units and what ran (the model and scene), for its plots."""
-    units = None if model.units is None else model.units.column_units(scene_name, result.columns)
-    return replace(result, units=units, origin=f"{model.name}, scene {scene_name}")
+    return replace(result, **_description(model, scene_name, result.columns))
+
+
+def _description(model: ir.Model, scene_name: str, columns: tuple[str, ...]) -> dict:
+    units = None if model.units is None else model.units.column_units(scene_name, columns)
+    return dict(units=units, origin=f"{model.name}, scene {scene_name}")
 
 
 def _times(start, stop, interval) -> tuple[float | None, ...]:

@@ -13,7 +13,7 @@ import numpy as np
 from ..abi import SummaryLayout, plan_summary, settings_vector
 from ..integrators import SWITCH_TIMES
 from ..settings import RunPlan
-from .interrupt import interruptible
+from .interrupt import interrupt_flag, interruptible
 from .loading import load
 from .output import Result, RunSummary, Stiffness, Stop, Switches, output_times
 from .scipy_steps import Progress
@@ -26,35 +26,50 @@ if TYPE_CHECKING:
 
 def run_c(kernel: Kernel, source: GeneratedSource, plan: RunPlan, progress: Progress | None = None,
           loaded: ctypes.CDLL | None = None) -> Result:
-    library = loaded if loaded is not None else load(source)
-    entry = library.lag_run
-    double_p = ctypes.POINTER(ctypes.c_double)
-    entry.argtypes = [double_p, double_p, double_p, double_p, ctypes.c_long, double_p]
-    entry.restype = ctypes.c_int
-    times = output_times(plan)
-    settings = settings_vector(plan)
-    parameters = np.array(plan.parameters or (0.0,), dtype=float)
-    initial = np.array(plan.initial_state, dtype=float)
-    rows = np.zeros((len(times), len(plan.columns) + 1))
-    layout = plan_summary(plan)
-    summary = np.zeros(layout.size)
-    # an array of doubles over the array's memory: ctypes passes it as a double*, in a fifth of
-    # the time of ndarray.ctypes.data_as, which a short run pays five times
-    pointer = lambda a: (ctypes.c_double * a.size).from_buffer(a)   # noqa: E731
-    reached = ctypes.c_double.in_dll(library, "lag_progress_t")
-    poll = None if progress is None else lambda: progress(reached.value, plan.time.start, plan.time.stop)
-    status, elapsed = interruptible(
-        library, lambda: entry(pointer(parameters), pointer(initial), pointer(settings), pointer(rows),
-                               len(times), pointer(summary)), poll)
-    values, at = summary.tolist(), layout.offsets      # a list reads faster than a record, field by field
-    used = int(values[at["rows"]])
-    result = Result(rows[:used, 0].copy(), plan.columns, rows[:used, 1:].copy(),
-                    _run_summary(plan, layout, values, elapsed))
-    if status != 0:
-        y_fail = values[at["y_fail"]:at["y_fail"] + len(plan.initial_state)]
-        raise simulation_error(plan, status, values[at["t_fail"]], y_fail, result, values[at["rcond_fail"]],
-                               values[at["forecast"]])
-    return result
+    return CRun(loaded if loaded is not None else load(source), plan)(progress)
+
+
+class CRun:
+    """A run of `plan` with the loaded library, its arrays and pointers made once: a repeated
+    simulate() with the same inputs (api.Model keeps it) pays only the call and its result."""
+
+    def __init__(self, library: ctypes.CDLL, plan: RunPlan):
+        self.plan = plan
+        self._entry = library.lag_run
+        double_p = ctypes.POINTER(ctypes.c_double)
+        self._entry.argtypes = [double_p, double_p, double_p, double_p, ctypes.c_long, double_p]
+        self._entry.restype = ctypes.c_int
+        self._layout = plan_summary(plan)
+        self._shape = (len(output_times(plan)), len(plan.columns) + 1)
+        # the inputs and the pointers over their memory, made once (a call only reads them; the
+        # rows and the summary are each call's own, as calls may come from several threads)
+        self._inputs = (np.array(plan.parameters or (0.0,), dtype=float), np.array(plan.initial_state, dtype=float),
+                        settings_vector(plan))
+        self._pointers = tuple(_doubles(a) for a in self._inputs)
+        self._interrupt = interrupt_flag(library)
+        self._reached = ctypes.c_double.in_dll(library, "lag_progress_t")
+
+    def __call__(self, progress: Progress | None = None) -> Result:
+        plan, entry, (capacity, width) = self.plan, self._entry, self._shape
+        rows, summary = np.empty((capacity, width)), np.empty(self._layout.size)
+        arguments = (*self._pointers, _doubles(rows), capacity, _doubles(summary))
+        poll = None if progress is None else lambda: progress(self._reached.value, plan.time.start, plan.time.stop)
+        status, elapsed = interruptible(self._interrupt, lambda: entry(*arguments), poll)
+        values, at = summary.tolist(), self._layout.offsets    # a list reads faster than a record, field by field
+        used = int(values[at["rows"]])
+        result = Result(rows[:used, 0].copy(), plan.columns, rows[:used, 1:].copy(),
+                        _run_summary(plan, self._layout, values, elapsed))
+        if status != 0:
+            y_fail = values[at["y_fail"]:at["y_fail"] + len(plan.initial_state)]
+            raise simulation_error(plan, status, values[at["t_fail"]], y_fail, result, values[at["rcond_fail"]],
+                                   values[at["forecast"]])
+        return result
+
+
+def _doubles(array: np.ndarray):
+    """An array of doubles over `array`'s memory: ctypes passes it as a double*, in a fifth of the
+    time of ndarray.ctypes.data_as."""
+    return (ctypes.c_double * array.size).from_buffer(array)
 
 
 def _run_summary(plan: RunPlan, layout: SummaryLayout, values: list[float], elapsed: float) -> RunSummary:

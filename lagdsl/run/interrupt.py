@@ -1,8 +1,10 @@
 """Ctrl-C during a run: never lost, and a C run stays interruptible while it holds no GIL.
 
-`interruptible` makes a foreign call in a worker thread, so that the main thread stays free for
-Ctrl-C and progress reports; `CtrlC` installs, during a run, a SIGINT handler that sets the run's
-stop flag before Python gets a chance to drop the KeyboardInterrupt.
+`interruptible` makes a foreign call in the calling thread when nothing is to be reported while
+it runs (a signal watcher sets the run's stop flag, `_InPlace`), else in a worker thread, so that
+the main thread stays free for Ctrl-C and progress reports; `CtrlC` installs, during a run, a
+SIGINT handler that sets the run's stop flag before Python gets a chance to drop the
+KeyboardInterrupt.
 """
 from __future__ import annotations
 
@@ -20,8 +22,13 @@ from ..errors import InternalError
 POLL_SECONDS = 0.1      # how often the main thread looks at a C run: Ctrl-C and progress
 
 
-def interruptible(library: ctypes.CDLL, call: Callable[[], int],
-                   poll: Callable[[], None] | None) -> tuple[int, float]:
+def interrupt_flag(library: ctypes.CDLL) -> ctypes.c_int:
+    """The library's lag_interrupt, which its driver reads after each step."""
+    return ctypes.c_int.in_dll(library, "lag_interrupt")
+
+
+def interruptible(interrupt: ctypes.c_int, call: Callable[[], int],
+                  poll: Callable[[], None] | None) -> tuple[int, float]:
     """Make the C call in a worker thread, so that the main thread stays free for Ctrl-C and
     `poll` (called every POLL_SECONDS: progress reports).
     Returns its status and its duration, timed in the worker: the main thread notices the end
@@ -32,8 +39,11 @@ def interruptible(library: ctypes.CDLL, call: Callable[[], int],
     which the driver reads after each step (status LAG_ERR_INTERRUPTED, the rows so far kept);
     further Ctrl-Cs while it winds down change nothing.
     """
-    interrupt = ctypes.c_int.in_dll(library, "lag_interrupt")
     interrupt.value = 0
+    if poll is None:
+        done = _InPlace.call(interrupt, call)
+        if done is not None:
+            return done
     outcome: list[tuple[int, float]] = []
     ended: list[bool] = []          # set before `finished` is released
     finished = _thread.allocate_lock()
@@ -68,6 +78,94 @@ def interruptible(library: ctypes.CDLL, call: Callable[[], int],
     if not outcome:
         raise InternalError("the C run ended without a status")
     return outcome[0]
+
+
+class _InPlace:
+    """A C call made in the calling thread, Ctrl-C still stopping it: no hand-over to a worker,
+    which costs a few microseconds idle and hundreds on a loaded machine, where a fit makes
+    thousands of short calls.
+
+    While the call runs, the main thread executes no Python, so no Python signal handler can set
+    the run's stop flag. Python's own C-level handler writes each signal's number to the wakeup
+    file descriptor (signal.set_wakeup_fd) at once, though: a watcher thread, blocked on reading
+    it (outside the GIL, which the foreign call released too), sets lag_interrupt, and the driver
+    stops after its step with the rows so far. Meanwhile SIGINT (and SIGTERM, where
+    terminate_as_interrupt made it an interrupt) only note the press, raising nothing, so that no
+    KeyboardInterrupt can fall between the call's end and its status being kept. A press that
+    came too late to stop the run is raised as KeyboardInterrupt after it.
+
+    Used where nothing else needs the signals: another thread (no signal reaches it; the main
+    thread's Ctrl-C does not stop it, as with a worker), or the main thread with Python's own
+    SIGINT handler and no wakeup descriptor of someone else's (asyncio's); otherwise None
+    (`interruptible` hands the call to a worker).
+    """
+
+    _watched: tuple[int, int] | None = None        # (pid, write end of the watcher's pipe)
+    _flag: ctypes.c_int | None = None              # lag_interrupt of the call running now
+    _pressed: list[int] = []                       # the signals noted during the call
+
+    @classmethod
+    def call(cls, interrupt: ctypes.c_int, call: Callable[[], int]) -> tuple[int, float] | None:
+        if _thread.get_ident() != threading.main_thread().ident:
+            started = clock.perf_counter()
+            status = call()
+            return status, clock.perf_counter() - started
+        handled = [number for number, ours in ((signal.SIGINT, signal.default_int_handler),
+                                                (signal.SIGTERM, _terminated)) if _signal.getsignal(number) is ours]
+        descriptor = cls._watcher() if signal.SIGINT in handled else None
+        if descriptor is None:
+            return None
+        cls._flag, cls._pressed = interrupt, []
+        previous = {number: _signal.signal(number, cls._note) for number in handled}
+        done, stopped = None, False
+        try:
+            replaced = _signal.set_wakeup_fd(descriptor, warn_on_full_buffer=False)
+            if replaced != -1:                  # someone else's (asyncio's): given back, the call made by a worker
+                _signal.set_wakeup_fd(replaced)
+            else:
+                try:
+                    started = clock.perf_counter()
+                    status = call()
+                    stopped = interrupt.value   # read before a late press is noted (which sets nothing)
+                    done = status, clock.perf_counter() - started
+                finally:
+                    _signal.set_wakeup_fd(-1)
+        finally:
+            for number, handler in previous.items():
+                _signal.signal(number, handler)
+            cls._flag = None
+        if cls._pressed and not stopped:
+            raise KeyboardInterrupt
+        return done
+
+    @classmethod
+    def _note(cls, signal_number, frame) -> None:
+        """SIGINT or SIGTERM during the call: noted (the watcher has set the flag already)."""
+        cls._pressed.append(signal_number)
+        if signal_number == signal.SIGTERM:
+            _terminated_note()
+
+    @classmethod
+    def _watcher(cls) -> int | None:
+        """The write end of the watcher's pipe (the watcher started once per process); None where
+        a pipe cannot be made."""
+        if cls._watched is None or cls._watched[0] != os.getpid():
+            try:
+                read_end, write_end = os.pipe()
+                os.set_blocking(write_end, False)       # set_wakeup_fd's requirement
+            except OSError:
+                return None
+            _thread.start_new_thread(cls._watch, (read_end,))
+            cls._watched = (os.getpid(), write_end)
+        return cls._watched[1]
+
+    @classmethod
+    def _watch(cls, read_end: int) -> None:
+        while True:
+            for number in os.read(read_end, 64):
+                flag = cls._flag
+                if flag is not None and number in (signal.SIGINT, signal.SIGTERM):
+                    flag.value = 1
 
 
 class _Worker:

@@ -11,10 +11,11 @@ POLL_SECONDS in the C backend, after every step of scipy's solvers in the NumPy 
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from ..settings import RunPlan, check_step_count, grid_rows
-from .c_backend import run_c
+from .c_backend import CRun, run_c
 from .memory import SMALL_RESULT, check_fits, run_bytes
 from .loading import load  # noqa: F401  (what runs a GeneratedSource: part of this module's interface)
 from .numpy_backend import run_numpy
@@ -29,6 +30,21 @@ def run(plan: RunPlan, language: str, loaded=None, progress: Progress | None = N
         source: GeneratedSource | None = None) -> Result:
     """Run `plan` with `loaded`, what load() returned (a shared library or a NumPy module), or
     else with `source`, loaded once the plan's step count has been checked."""
+    _check(plan, language)
+    return {"c": run_c, "numpy": run_numpy}[language](None, source, plan, progress, loaded)
+
+
+def prepared(plan: RunPlan, language: str, loaded) -> Callable[[Progress | None], Result]:
+    """`plan` checked and made ready to run with `loaded`: a function of `progress` that runs it,
+    as often as called (C: its arrays made once, c_backend.CRun)."""
+    _check(plan, language)
+    if language == "c":
+        return CRun(loaded, plan)
+    return lambda progress=None: run_numpy(None, None, plan, progress, loaded)
+
+
+def _check(plan: RunPlan, language: str) -> None:
+    """Refuse a fixed-step run over the step limit, and a result that would not fit in memory."""
     check_step_count(plan)
     rows = grid_rows(plan.time.start, plan.time.stop, plan.time.interval)
     size = run_bytes(rows, len(plan.columns), len(plan.coordinates), language)
@@ -36,4 +52,3 @@ def run(plan: RunPlan, language: str, loaded=None, progress: Progress | None = N
         check_fits(size, f"the result ({rows} rows of {len(plan.columns) + 1} columns)",
                    "choose a larger --interval or fewer outputs, or run the standalone program (lagc MODEL --emit "
                    "c), which writes its rows as it goes")
-    return {"c": run_c, "numpy": run_numpy}[language](None, source, plan, progress, loaded)

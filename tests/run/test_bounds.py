@@ -6,9 +6,14 @@ its frequency is a parameter, so a huge k makes the step size collapse at t = 0.
 from __future__ import annotations
 
 import _thread
+import ctypes
 import math
+import os
+import signal
 import sys
+import threading
 import warnings
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -245,6 +250,45 @@ def test_ctrl_c_stops_a_run_and_keeps_its_rows(oscillator, backend):
     assert 1 < len(partial.t) < 1000001 and partial.t[-1] <= stopped.value.time
     assert np.all(np.diff(partial.t) == 10.0)
     assert np.allclose(partial["x"], np.cos(partial.t), atol=1e-6)
+
+
+def _press_ctrl_c_when(reached: Callable[[], bool]) -> threading.Thread:
+    """A thread that sends SIGINT to this process, as Ctrl-C does, once `reached()` holds."""
+    def press() -> None:
+        while not reached():
+            threading.Event().wait(0.001)       # a short wait between looks: the condition decides
+        os.kill(os.getpid(), signal.SIGINT)
+    presser = threading.Thread(target=press, daemon=True)
+    presser.start()
+    return presser
+
+
+def test_ctrl_c_stops_a_c_run_made_in_the_calling_thread(oscillator):
+    """Without progress reports the C call is made in the main thread itself (run/interrupt.py,
+    _InPlace): a real SIGINT, sent once the run has passed PRESS_AT, still stops it with its rows,
+    and leaves Python's handlers as they were."""
+    long_run = Overrides(stop=1e7, interval=10.0, options=(("rtol", 1e-13), ("max_steps", 1e12)))
+    oscillator.simulate_plan(None, "c", Overrides(stop=1.0))        # builds and loads the code
+    library = oscillator._programs[(oscillator.plan().scene_name, "dop853", "c", False)].loaded
+    reached = ctypes.c_double.in_dll(library, "lag_progress_t")
+    reached.value = 0.0
+    presser = _press_ctrl_c_when(lambda: reached.value >= PRESS_AT)
+    with pytest.raises(SimulationInterrupted) as stopped:
+        oscillator.simulate_plan(None, "c", long_run)
+    presser.join()
+    partial = stopped.value.partial
+    assert PRESS_AT <= stopped.value.time < PRESS_AT + 1e5 and 1 < len(partial.t)
+    assert np.allclose(partial["x"], np.cos(partial.t), atol=1e-6)
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert signal.set_wakeup_fd(-1) == -1
+
+
+def test_a_c_run_in_another_thread_runs_there(oscillator):
+    results = []
+    worker = threading.Thread(target=lambda: results.append(oscillator.simulate(stop=2.0)))
+    worker.start()
+    worker.join()
+    assert np.allclose(results[0]["x"], np.cos(results[0].t), atol=1e-6)
 
 
 class _PressesCtrlCWhenFinalised:
