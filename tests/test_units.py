@@ -386,3 +386,19 @@ def test_times_take_a_unit_of_time(tmp_path):
     given = model.simulate(backend="numpy", stop="0.2 s", interval="50 ms")
     plain = model.simulate(backend="numpy", stop=0.2, interval=0.05)
     assert np.array_equal(given.t, plain.t) and np.array_equal(given["theta"], plain["theta"])
+
+
+def test_the_table_of_common_unit_names_says_what_pint_says():
+    """known_units.json spares a model of common units pint's import; pint stays the source:
+    the file is what `python -m lagdsl.frontend.known_units` writes from it now."""
+    from lagdsl.frontend import known_units
+    assert known_units.TABLE.read_text(encoding="utf-8") == known_units.text(known_units.entries())
+    assert {"m", "kg", "s", "N", "rad", "deg", "cm", "rpm"} <= set(known_units.entries())
+
+
+def test_a_model_of_common_units_is_checked_without_pint():
+    """The spring chain ([kg], [N/m], [m]) in a new process: pint is never imported."""
+    program = ("import sys; from lagdsl.pipeline import load_model; "
+               f"load_model({str(MODELS / 'spring_chain.lag')!r}); print('pint' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True, check=True)
+    assert done.stdout.strip() == "False"

@@ -19,6 +19,7 @@ from ..errors import InputError, LagError, Setting
 from ..ir import Unit
 from ..settings import SECONDS, InputUnit, scaled_to_si
 from ..source import SourceFile, Span
+from . import known_units
 
 BASE_DIMENSIONS = ("mass", "length", "time", "current", "temperature", "substance", "luminosity")
 SI_SYMBOLS = {"mass": "kg", "length": "m", "time": "s", "current": "A", "temperature": "K",
@@ -97,9 +98,19 @@ def _registry():
 
 @functools.cache
 def _named_unit(name: str) -> tuple[Dimension, Fraction, bool] | None:
-    """(dimension, factor to SI, is an angle) of a unit name such as `cm`, None if unknown.
+    """(dimension, factor to SI, is an angle) of a unit name such as `cm`, None if unknown: from
+    the table of the common names (known_units.py), else from pint.
 
     Raises ValueError for a unit with an offset (`degC`): it has no factor to SI."""
+    known = known_units.lookup(name)
+    if known is None:
+        return resolve_with_pint(name)
+    exponents, factor, angle = known
+    return Dimension.of(**{base: Fraction(power) for base, power in exponents.items()}), Fraction(factor), angle
+
+
+def resolve_with_pint(name: str) -> tuple[Dimension, Fraction, bool] | None:
+    """_named_unit's answer, asked of pint's registry."""
     registry = _registry()
     if not registry.parse_unit_name(name):
         return None
