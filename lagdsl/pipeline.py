@@ -25,9 +25,7 @@ from pathlib import Path
 
 from . import ir
 from .codegen import GeneratedSource
-from .codegen.c import render_c
 from .codegen.kernel import Kernel, lower_to_kernel
-from .codegen.numpy import render_numpy
 from .mechanics import Equations, derive_equations
 from .mechanics.families import LocalEquations, derive_local_equations
 from .frontend.parser import parse
@@ -59,6 +57,8 @@ def plan(model: ir.Model, equations: Equations, scene: str | None, overrides: Ov
 
 
 def generate(equations: Equations, scene_plan: ScenePlan, backend: str, source_name: str) -> tuple[Kernel, GeneratedSource]:
+    from .codegen.c import render_c             # the printers and templates, imported when first rendered
+    from .codegen.numpy import render_numpy
     kernel = lower_to_kernel(equations, scene_plan)                 # -> Kernel (CSE applied)
     render = {"c": render_c, "numpy": render_numpy}[backend]
     return kernel, render(kernel, source_name)                      # -> C or NumPy source

@@ -3,10 +3,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache
-
-import jinja2
+from typing import TYPE_CHECKING
 
 from .. import escape
+
+if TYPE_CHECKING:
+    import jinja2
 
 
 @dataclass(frozen=True)
@@ -22,8 +24,10 @@ def template_environment() -> jinja2.Environment:
 
     User text (paths, column names, descriptions, names) is written only through the filters
     `c_comment`, `c_string`, `py_string` and `py_docstring` (lagdsl/escape.py), one per context;
-    tests/codegen/test_escaping.py checks that every template does so.
+    tests/codegen/test_escaping.py checks that every template does so. (jinja2 is imported here:
+    loading a model, or running its stored code, renders nothing.)
     """
+    import jinja2
     environment = jinja2.Environment(
         loader=jinja2.PackageLoader("lagdsl.codegen", "templates"),
         undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True,

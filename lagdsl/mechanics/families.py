@@ -37,7 +37,6 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-import scipy.linalg
 import sympy
 
 from .. import ir
@@ -392,6 +391,7 @@ def _positive_definite(stencils, model: ir.Model, n: int, bandwidth: int) -> boo
                 return False                                    # derive_equations judge it
     if not np.all(np.isfinite(band)):
         return False
+    import scipy.linalg         # here: a model without families never needs scipy (a tenth of a second to import)
     try:
         scipy.linalg.cholesky_banded(band, lower=True)
     except (np.linalg.LinAlgError, ValueError):
