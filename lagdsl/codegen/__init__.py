@@ -25,13 +25,19 @@ def template_environment() -> jinja2.Environment:
     User text (paths, column names, descriptions, names) is written only through the filters
     `c_comment`, `c_string`, `py_string` and `py_docstring` (lagdsl/escape.py), one per context;
     tests/codegen/test_escaping.py checks that every template does so. (jinja2 is imported here:
-    loading a model, or running its stored code, renders nothing.)
+    loading a model, or running its stored code, renders nothing.) The templates' compiled code
+    is kept in the build cache (trusted as the builds are): compiling them costs a tenth of a
+    second a process.
     """
     import jinja2
+
+    from ..run.cache import helper_directory
+    directory = helper_directory("jinja2")
     environment = jinja2.Environment(
         loader=jinja2.PackageLoader("lagdsl.codegen", "templates"),
         undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True,
-        keep_trailing_newline=True, autoescape=False)
+        keep_trailing_newline=True, autoescape=False,
+        bytecode_cache=jinja2.FileSystemBytecodeCache(str(directory)) if directory is not None else None)
     environment.filters.update(ESCAPE_FILTERS)
     return environment
 

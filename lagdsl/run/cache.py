@@ -17,7 +17,7 @@ temporary cache is used for the rest of the process (removed at exit) and one wa
 `private_cache()` (`lagc run --no-cache`) does the same on purpose, without the warning.
 `find_entry` only looks an entry up (a warm `lagc run`, `plans.py`; a warm `lagc check`,
 `answers.py`); `clear` and `usage` serve `lagc cache clear` and `lagc cache info`. Beside the
-entries, the front end keeps its helpers in subdirectories (`helper_directory`, HELPERS), which
+entries, the front end and the code generator keep their helpers in subdirectories (`helper_directory`, HELPERS), which
 `clear` removes too.
 """
 from __future__ import annotations
@@ -50,7 +50,8 @@ STALE_BUILD_SECONDS = 3600      # a build directory this old was left by a proce
 MAX_NAME = 200                  # bytes of an entry's name: room for the manifest's suffix and the build's
 _fallbacks: dict[str, Path] = {}     # unusable cache root -> the private cache standing in for it
 PRIVATE = "private"                  # the _fallbacks key of private_cache()
-HELPERS = ("lark", "pint")           # the helper subdirectories: the parser's tables, pint's definitions
+HELPERS = ("lark", "pint", "jinja2")     # the helper subdirectories: the parser's tables, pint's definitions,
+                                         # the templates' compiled code
 PACKAGE_FILES = (".py", ".lark", ".j2", ".c", ".h")    # what lagdsl generates code, plans and answers from
 
 
@@ -90,8 +91,8 @@ def cache_directory() -> Path:
 
 
 def helper_directory(name: str) -> Path | None:
-    """A subdirectory of the cache for what the front end keeps between processes (the parser's
-    tables, pint's definitions), created if needed; None, silently, where the cache cannot be
+    """A subdirectory of the cache for what the front end and the code generator keep between
+    processes (the parser's tables, pint's definitions, the templates' compiled code), created if needed; None, silently, where the cache cannot be
     used or trusted: those are only slower to rebuild, and a command that builds nothing should
     not warn about the build cache."""
     root = _fallbacks.get(PRIVATE) or _fallbacks.get(cache_root()) or Path(cache_root())

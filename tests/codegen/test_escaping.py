@@ -25,7 +25,7 @@ import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-import lagdsl
+import lagdsl.api
 from lagdsl import escape
 from lagdsl.cli import main as lagc
 from lagdsl.codegen import ESCAPE_FILTERS, template_environment
