@@ -23,9 +23,14 @@ from .structure import MassLayout
 def factorisation_text(layout: MassLayout | None) -> dict:
     """Template variables: `tables` (static index arrays), `scale`, `columns` (the factor),
     `forward` and `backward` (the substitutions), each a list of C statements; empty unless the
-    layout is sparse."""
+    layout is sparse. `closed`: for a full 2 x 2 M (no constraints), the slots of its inverse in
+    closed form, which the template writes instead (one division; the factor takes two square
+    roots and four); None otherwise."""
     if layout is None or layout.kind != "sparse":
-        return {"tables": [], "scale": [], "columns": [], "forward": [], "backward": []}
+        return {"tables": [], "scale": [], "columns": [], "forward": [], "backward": [], "closed": None}
+    if layout.n == 2 and not layout.multipliers and (1, 0) in layout.original:
+        return {"tables": [], "scale": [], "columns": [], "forward": [], "backward": [],
+                "closed": _closed_form_2x2(layout)}
     slot, rows = layout.slots, layout.rows
     pivots = [slot[(p, p)] for p in range(layout.n)]
     tables = [f"static const int lag_order[LAG_NK] = {{ {_list(layout.order)} }};",
@@ -58,7 +63,15 @@ def factorisation_text(layout: MassLayout | None) -> dict:
                for i in range(layout.n) if rows[i]]
     backward = [f"x[{p}] -= {' + '.join(f'K[{slot[(i, p)]}] * x[{i}]' for i in layout.columns[p])};"
                 for p in reversed(range(layout.n)) if layout.columns[p]]
-    return {"tables": tables, "scale": scale, "columns": columns, "forward": forward, "backward": backward}
+    return {"tables": tables, "scale": scale, "columns": columns, "forward": forward, "backward": backward,
+            "closed": None}
+
+
+def _closed_form_2x2(layout: MassLayout) -> dict:
+    """Where K holds a full 2 x 2 M = [[a, c], [c, d]]: `diagonal` and `off` (its slots) and
+    `rows` (the coordinates of positions 0 and 1), for the inverse adj(M) / det M in place."""
+    slot = layout.slots
+    return {"a": slot[(0, 0)], "c": slot[(1, 0)], "d": slot[(1, 1)], "rows": layout.order}
 
 
 def _constraint_row_scales(layout: MassLayout, off_diagonal: list[tuple[int, int]]) -> list[str]:

@@ -263,54 +263,37 @@ static void lag_initial_state(const real *par, real *y0)
     memset(y0, 0, sizeof(real) * LAG_NY);
 }
 
-/* M is sparse: K holds its structurally nonzero entries, and the factor L D L^T with the fill of
- * the elimination order lag_order (minimum degree, chosen when this file was generated), column
- * by column: the pivot d_p at K[lag_pivots[p]], then the entries of L below it. */
-static const int lag_order[LAG_NK] = { 0, 1 };
-static const int lag_pivots[LAG_NK] = { 0, 2 };
-
-/* L D L^T of the equilibrated M in place (S M S, S = diag(M)^-1/2 in scale[], so that the
- * equilibrated M has unit diagonal). *rcond receives min d_p / max d_p, the reciprocal condition
- * estimate (min l_pp / max l_pp)^2 of its Cholesky factor; LAG_ERR_SINGULAR with *rcond = 0
- * when a pivot is not positive. */
+/* M is 2 x 2, [[a, c], [c, d]]: its factor is its inverse in closed form, adj(M) / det M, in
+ * place (one division, where the L D L^T of the equilibrated M takes two square roots and four).
+ * *rcond receives that L D L^T's estimate all the same, min d_p / max d_p = det M / (a d): its
+ * pivots are 1 and 1 - c^2 / (a d). LAG_ERR_SINGULAR with *rcond = 0 when a, d or det M is not
+ * positive. */
 static int lag_factor(real *K, real *scale, real *rcond)
 {
-    real smallest, largest;
-    int p;
+    const real a = K[0], c = K[1], d = K[2];
+    real det, inverse;
+    (void)scale;
     *rcond = 0;
-    for (p = 0; p < LAG_NQ; ++p) {
-        real d = K[lag_pivots[p]];
-        if (!(d > 0 && r_isfinite(d)))
-            return LAG_ERR_SINGULAR;
-        scale[p] = 1 / r_sqrt(d);
-    }
-    K[1] *= scale[1] * scale[0];
-    K[0] = 1;
-    K[2] = 1 - K[1] * K[1] * K[0];
-    if (!(K[2] > 0))
+    if (!(a > 0 && d > 0 && r_isfinite(a) && r_isfinite(d)))
         return LAG_ERR_SINGULAR;
-    smallest = largest = r_fabs(K[lag_pivots[0]]);
-    for (p = 1; p < LAG_NK; ++p) {
-        smallest = r_fmin(smallest, r_fabs(K[lag_pivots[p]]));
-        largest = r_fmax(largest, r_fabs(K[lag_pivots[p]]));
-    }
-    *rcond = smallest / largest;
+    det = a * d - c * c;
+    if (!(det > 0))
+        return LAG_ERR_SINGULAR;
+    *rcond = det / (a * d);
+    inverse = 1 / det;
+    K[0] = d * inverse;
+    K[1] = -c * inverse;
+    K[2] = a * inverse;
     return LAG_OK;
 }
 
-/* x = M^-1 b from the factor of lag_factor, overwriting b: L z = S b, D w = z, L^T v = w, x = S v. */
+/* x = M^-1 b from the inverse of lag_factor, overwriting b. */
 static void lag_substitute(const real *K, const real *scale, real *b)
 {
-    real x[LAG_NK];
-    int p;
-    for (p = 0; p < LAG_NK; ++p)
-        x[p] = b[lag_order[p]] * scale[p];
-    x[1] -= K[1] * x[0];
-    for (p = 0; p < LAG_NK; ++p)
-        x[p] /= K[lag_pivots[p]];
-    x[0] -= K[1] * x[1];
-    for (p = 0; p < LAG_NK; ++p)
-        b[lag_order[p]] = x[p] * scale[p];
+    const real b0 = b[0], b1 = b[1];
+    (void)scale;
+    b[0] = K[0] * b0 + K[1] * b1;
+    b[1] = K[1] * b0 + K[2] * b1;
 }
 
 /* Solve M x = b in place (K as lag_assemble stores it, destroyed; n = LAG_NK). *rcond receives

@@ -106,6 +106,7 @@ def test_kepler_orbit_from_keplers_equation(tmp_path):
     assert np.max(np.abs(result["theta"] - theta)) < 1e-12
 
 
+@pytest.mark.slow      # 44,000 steps of order 18: 0.1 s of integration, 7 s with the derivation and the build
 def test_kepler_at_eccentricity_06_keeps_its_energy_over_1000_orbits(tmp_path):
     """Issue 34's criterion: 1000 orbits at rtol 1e-15 (raised to the floor, 10 eps), energy
     error below 1e-13 (E = -1/(2a) = -0.2)."""
