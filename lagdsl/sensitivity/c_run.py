@@ -15,7 +15,6 @@ import time as clock
 import numpy as np
 
 from ..abi import SETTINGS, settings_vector
-from ..errors import LagError, Setting
 from ..codegen.c_sensitivity import SUMMARY_FIELDS, sensitivity_source
 from ..integrators import registry
 from ..run.loading import load
@@ -37,10 +36,6 @@ def integrate_c(program: Program, plan, chosen: Directions, times: np.ndarray | 
 
 
 def _run(program: Program, loaded, plan, chosen: Directions, times) -> SensitivityResult:
-    if plan.atol_vector(plan.coordinates) is not None:
-        raise LagError("sensitivities on the C backend take one atol for every component; "
-                       "run them with backend='numpy' (--backend numpy) to keep atol per component",
-                       Setting("--atol"))
     start = prepare(program, plan, chosen, times)
     n, m = len(plan.coordinates), len(chosen.names)
     width = 2 * n * (1 + m)
@@ -49,6 +44,8 @@ def _run(program: Program, loaded, plan, chosen: Directions, times) -> Sensitivi
     settings = settings_vector(plan.run_plan())
     for name in ("rtol", "atol"):
         settings[SETTINGS.index(name)] = options[name]
+    atol_each = plan.atol_vector(plan.coordinates)      # the state's own per component; the sensitivities keep atol
+    settings[len(SETTINGS):] = options["atol"] if atol_each is None else atol_each
     values = np.zeros((len(start.times), width))
     summary = np.zeros(len(SUMMARY_FIELDS) - 1 + width)
     double_p = ctypes.POINTER(ctypes.c_double)
