@@ -18,7 +18,9 @@ def add(commands) -> None:
                          "equations",
         description="Integrate tangent vectors with the state through the generated variational equations "
                     "(NumPy backend) and re-orthonormalise them at a fixed interval (Benettin's method). "
-                    "Prints the exponents in 1/s; for a Hamiltonian model with --all, the pair sums "
+                    "Prints the exponents in 1/s, each with the fit log|v| = a + b log t + lambda t of its record, "
+                    "which tells exponential from algebraic growth (docs/numerics.md); for a Hamiltonian "
+                    "model with --all, the pair sums "
                     "lambda_i + lambda_(2n+1-i) and the two exponents nearest zero. Exit status 2 for bad input, "
                     "1 for a numerical failure.")
     parser.usage_exit = BAD_INPUT_EXIT

@@ -14,7 +14,9 @@ re-orthonormalised at a fixed interval τ (t_j = t_0 + j τ) before the vectors 
 collapse onto the most unstable direction (G. Benettin, L. Galgani, A. Giorgilli, J.-M.
 Strelcyn, Meccanica 15, 9-30, 1980; the method of docs/numerics.md). One vector (k = 1) gives the
 largest exponent (QR is then a renormalisation to length 1), k = 2n the whole spectrum.
-The exponents are in 1/s: time is in seconds everywhere in lagdsl.
+The exponents are in 1/s: time is in seconds everywhere in lagdsl. Each exponent's record
+Σ_j log|R_ii^(j)| against t_j is also fitted as a + b log t + λ t (growth.py), which tells
+exponential from algebraic growth where the finite-time value decays only as log(T)/T.
 
 The growth is measured in canonical coordinates (q, p), p = ∂L/∂q' (`Legendre`,
 `_canonical_estimates`), from the frame (e_q1 .. e_qn, e_pn .. e_p1), vector 2n+1-i being J times
@@ -42,6 +44,7 @@ from ..errors import LagError, Setting, SimulationError
 from ..integrators import registry
 from ..mechanics.families import expanded
 from ..mechanics.probe import evaluate_at, to_float
+from .growth import MIN_POINTS, Growth, growth_fits
 from .variational import VariationalSystem
 
 DEFAULT_RENORMALISATION = 1.0           # s: the interval τ between two re-orthonormalisations
@@ -66,8 +69,10 @@ class HamiltonianCheck:
 @dataclass(frozen=True)
 class Spectrum:
     """Lyapunov exponents (in the order of the QR factors: descending once converged, in 1/s), the
-    running estimates `running[j]` at the re-orthonormalisation times `times[j]`, and the
-    Hamiltonian check (None when the model is not Hamiltonian or only the largest was computed)."""
+    running estimates `running[j]` at the re-orthonormalisation times `times[j]`, the fit of each
+    exponent's growth that separates exponential from algebraic growth (growth.py; None for a
+    record too short), and the Hamiltonian check (None when the model is not Hamiltonian or only
+    the largest was computed)."""
 
     title: str
     start: float
@@ -76,6 +81,7 @@ class Spectrum:
     running: np.ndarray
     interval: float
     solver: str
+    growth: tuple[Growth, ...] | None
     hamiltonian: HamiltonianCheck | None
 
     @property
@@ -86,6 +92,7 @@ class Spectrum:
         lines = [f"Lyapunov exponents of {self.title}: {self.times[-1] - self.start:g} s, re-orthonormalised "
                  f"every {self.interval:g} s, {self.solver}"]
         lines += [f"  lambda_{i} = {value: .6e} {UNIT}" for i, value in enumerate(self.exponents, 1)]
+        lines += self._growth_lines()
         if self.hamiltonian is not None:
             check = self.hamiltonian
             k = len(self.exponents)
@@ -97,6 +104,16 @@ class Spectrum:
             lines.append(f"  largest deviation {check.deviation:.3e} {UNIT} (the pairs sum to zero to the "
                          "integration's error; the two nearest zero shrink as 1/T)")
         return "\n".join(lines) + "\n"
+
+    def _growth_lines(self) -> list[str]:
+        if self.growth is None:
+            return [f"growth not fitted: fewer than {MIN_POINTS} re-orthonormalisations after the first tenth "
+                    "of the run (shorten --renormalise)"]
+        window = self.growth[0].window
+        lines = [f"growth fitted as log|v| = a + b log t + lambda t over t = {window[0]:g} .. {window[1]:g} s "
+                 f"from the start ({self.growth[0].points} points; the finite-time value tends to lambda only as "
+                 "log(t)/t where |v| grows as a power of t):"]
+        return lines + [f"  lambda_{i}: {fit.describe()}" for i, fit in enumerate(self.growth, 1)]
 
     def to_csv(self) -> str:
         """The convergence record: t, then each exponent's running estimate."""
@@ -127,7 +144,7 @@ def lyapunov(model, program, plan, all: bool = False, renormalise: float | None 
     exponents = tuple(float(value) for value in running[-1])
     hamiltonian = _hamiltonian_check(exponents) if all and _is_hamiltonian(model) else None
     return Spectrum(f"{model.name}, scene {plan.scene_name}", start, exponents, times, running, interval,
-                    solver.describe(), hamiltonian)
+                    solver.describe(), growth_fits(times - start, running), hamiltonian)
 
 
 class Legendre:

@@ -16,8 +16,8 @@ class LyapunovMethod:
         every `renormalise` seconds (default 1); `set`, `integrator` and `options` (rtol, atol,
         max_step) as in simulate; `progress(t reached, start, stop)` is called at each
         re-orthonormalisation (a lagdsl.progress.TimeProgress draws a bar). Returns a
-        sensitivity.lyapunov.Spectrum (.exponents in 1/s, .running against .times, .hamiltonian,
-        .render(), .to_csv())."""
+        sensitivity.lyapunov.Spectrum (.exponents in 1/s, .running against .times, .growth: the
+        fit that separates exponential from algebraic growth, .hamiltonian, .render(), .to_csv())."""
         from ..api import single_number
         from ..errors import LagError
         from ..frontend.units import time_in_seconds
