@@ -124,6 +124,9 @@ def test_a_per_component_atol_holds_for_the_state_on_the_c_backend():
         assert np.max(np.abs(run.sensitivity("theta2", name) - expected)) <= 1e-6 * np.max(np.abs(expected))
     state = ["theta1", "der(theta1)", "theta2", "der(theta2)"]
     loose = dict(stop=2.0, rtol=1e-10, sensitivities=names, sensitivity_error_control=False)
-    steps = lambda atol: dict(subject.simulate(backend="c", atol=atol, **loose).summary.counters)["accepted"]  # noqa: E731
+
+    def steps(atol) -> int:
+        return dict(subject.simulate(backend="c", atol=atol, **loose).summary.counters)["accepted"]
+
     assert steps([1e-10, *((name, 1e-10) for name in state)]) == steps(1e-10)
     assert steps([1e-10, *((name, 1e-2) for name in state)]) < steps(1e-10) / 2

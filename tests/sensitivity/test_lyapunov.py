@@ -9,6 +9,27 @@ import lagdsl
 from lagdsl.errors import LagError
 from tests.conftest import MODELS, lagc_in_process, library_model
 
+CARTESIAN_DOUBLE_PENDULUM = """model CartesianDouble
+  parameter m1 = 1.0 [kg];
+  parameter m2 = 1.0 [kg];
+  parameter l1 = 1.0 [m];
+  parameter l2 = 1.0 [m];
+  parameter g = 9.81 [m/s^2];
+  coordinate x1(start = l1*sin(1.0)) [m];
+  coordinate y1(start = l1*cos(1.0)) [m]   "down";
+  coordinate x2(start = l1*sin(1.0) + l2*sin(2.0)) [m];
+  coordinate y2(start = l1*cos(1.0) + l2*cos(2.0)) [m];
+  T = m1/2*(der(x1)^2 + der(y1)^2) + m2/2*(der(x2)^2 + der(y2)^2);
+  U = -m1*g*y1 - m2*g*y2;
+  constraint rod1: x1^2 + y1^2 = l1^2;
+  constraint rod2: (x2 - x1)^2 + (y2 - y1)^2 = l2^2;
+  scene chaos
+    time(stop = 20, interval = 0.01);
+    integrator dop853(rtol = 1e-10, atol = 1e-12);
+  end chaos;
+end CartesianDouble;
+"""
+
 SPRING = """model {name}
   parameter m = 1.0 [kg];
   parameter k = 4.0 [N/m];
@@ -141,11 +162,82 @@ def test_bad_options_exit_2_without_a_traceback(springs, arguments, message):
     assert "Traceback" not in done.stderr
 
 
-def test_a_constrained_model_is_refused_at_its_constraint():
-    done = lagc_in_process("lyapunov", MODELS / "atwood.lag", "--stop", "1")
-    assert done.returncode == 2
-    assert "atwood.lag:18:3: error: lyapunov: constraint 'string' is active" in done.stderr
-    assert "Traceback" not in done.stderr
+INVERTED_ON_A_LINE = """model OnALine
+  parameter m = 1.0 [kg];
+  parameter k = 4.0 [N/m];
+  coordinate x(start = 0.3) [m];
+  coordinate y(start = 0.3) [m];
+  T = m/2*(der(x)^2 + der(y)^2);
+  U = -k/2*(x^2 + y^2);
+  constraint line: y = x;
+  scene run
+    time(stop = 10, interval = 0.1);
+    integrator dop853(rtol = 1e-10, atol = 1e-12);
+  end run;
+end OnALine;
+"""
+
+
+@pytest.fixture(scope="module")
+def on_a_line(tmp_path_factory):
+    """The inverted oscillator in Cartesian coordinates, held to the line y = x by a constraint:
+    along it s'' = (k/m) s, so the exponents are ±sqrt(k/m) = ±2 1/s, two of them (2n - h - m = 2)."""
+    path = tmp_path_factory.mktemp("line") / "on_a_line.lag"
+    path.write_text(INVERTED_ON_A_LINE)
+    return lagdsl.load(path)
+
+
+@pytest.mark.parametrize("backend", ["numpy", "c"])
+def test_a_constrained_model_has_the_exponents_of_its_motion_on_the_constraint(on_a_line, backend):
+    spectrum = on_a_line.lyapunov(all=True, backend=backend)
+    assert len(spectrum.exponents) == 2
+    assert spectrum.exponents[0] == pytest.approx(2.0, abs=0.03)
+    assert spectrum.exponents[1] == pytest.approx(-2.0, abs=0.03)
+    assert spectrum.growth[0].kind == "exponential"
+    assert spectrum.hamiltonian is None         # measured in (q, q'): the pairs hold in the limit only
+
+
+def test_the_c_backend_carries_the_same_tangent_vectors(on_a_line):
+    numpy, c = (library_model("double_pendulum").lyapunov(stop=5, all=True, backend=b) for b in ("numpy", "c"))
+    np.testing.assert_allclose(c.running, numpy.running, atol=1e-8)
+    assert c.solver.startswith("dop853 (C, rtol 1e-10")
+    numpy, c = (on_a_line.lyapunov(stop=4, backend=b) for b in ("numpy", "c"))
+    np.testing.assert_allclose(c.running, numpy.running, atol=1e-8)
+
+
+def test_the_c_backend_stands_dop853_in_for_gauss():
+    spectrum = library_model("kepler").lyapunov("symplectic", stop=3, backend="c")
+    assert "dop853 (C" in spectrum.solver and "in place of the scene's gauss, which has no error control" \
+        in spectrum.solver
+
+
+@pytest.mark.slow
+def test_the_double_pendulum_in_cartesian_coordinates_has_the_angles_exponents(tmp_path):
+    """The same motion written in (x1, y1, x2, y2) with two rod constraints: the spectrum has
+    2n - h - m = 4 exponents, as in angles; the finite-time estimates differ by the change of
+    metric and of starting vectors, O(1)/T: 0.008 1/s for the largest after 20 s."""
+    path = tmp_path / "cartesian_double.lag"
+    path.write_text(CARTESIAN_DOUBLE_PENDULUM)
+    cartesian = lagdsl.load(path).lyapunov(stop=20, all=True, backend="c")
+    angles = library_model("double_pendulum").lyapunov(stop=20, all=True)
+    assert len(cartesian.exponents) == 4
+    assert cartesian.largest == pytest.approx(angles.largest, abs=0.03)
+    assert abs(sum(cartesian.exponents)) < 0.1           # volume kept on the manifold, up to O(1)/T
+
+
+def test_a_nonholonomic_model_has_2n_minus_m_exponents_and_no_exponential_growth():
+    # the rolling penny (n = 4, two rolling constraints) is integrable: six exponents, none growing exponentially
+    spectrum = library_model("rolling_penny").lyapunov(stop=50, all=True)
+    assert len(spectrum.exponents) == 6
+    assert all(fit.kind != "exponential" for fit in spectrum.growth), spectrum.growth
+
+
+def test_lagc_lyapunov_runs_a_constrained_model_on_c():
+    done = lagc_in_process("lyapunov", MODELS / "atwood.lag", "--all", "--stop", "0.6", "--renormalise", "0.1",
+                           "--backend", "c")
+    assert done.returncode == 0, done.stderr
+    assert "lambda_2 =" in done.stdout and "lambda_3" not in done.stdout       # 2n - h - m = 2
+    assert "dop853 (C, rtol 1e-10" in done.stdout
 
 
 def test_a_model_with_nothing_to_integrate_is_refused(tmp_path):
@@ -165,9 +257,9 @@ def test_the_api_refuses_an_unknown_option(springs):
 def test_qr_factors_of_a_symplectic_map_pair_from_the_lagrangian_frame(n):
     # the property the Hamiltonian check rests on (module docstring): exact at any T, not in the limit
     import scipy.linalg
-    from lagdsl.sensitivity.lyapunov import _lagrangian_frame
+    from lagdsl.sensitivity.tangent import lagrangian_frame
     J = np.block([[np.zeros((n, n)), np.eye(n)], [-np.eye(n), np.zeros((n, n))]])
     H = np.random.default_rng(n).standard_normal((2 * n, 2 * n))
     S = scipy.linalg.expm(J @ (H + H.T))
-    logs = np.log(np.abs(np.diag(np.linalg.qr(S @ _lagrangian_frame(n), mode="r"))))
+    logs = np.log(np.abs(np.diag(np.linalg.qr(S @ lagrangian_frame(n), mode="r"))))
     np.testing.assert_allclose(logs + logs[::-1], 0.0, atol=1e-10)
