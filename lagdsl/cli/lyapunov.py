@@ -1,7 +1,7 @@
 """`lagc lyapunov`: Lyapunov exponents of a scene's motion (sensitivity/lyapunov.py).
 
-Bad input (a model's error, an unknown scene, a stop time not after the start, a constrained
-model, a model with nothing to integrate) exits 2, a numerical failure 1, as `lagc modes` does.
+Bad input (a model's error, an unknown scene, a stop time not after the start, a model with
+nothing to integrate) exits 2, a numerical failure 1, as `lagc modes` does.
 """
 from __future__ import annotations
 
@@ -17,8 +17,11 @@ def add(commands) -> None:
         "lyapunov", help="the largest Lyapunov exponent, or the whole spectrum (--all), from the variational "
                          "equations",
         description="Integrate tangent vectors with the state through the generated variational equations "
-                    "(NumPy backend) and re-orthonormalise them at a fixed interval (Benettin's method). "
-                    "Prints the exponents in 1/s; for a Hamiltonian model with --all, the pair sums "
+                    "(NumPy or C backend; on the constraint manifold of a constrained model) and "
+                    "re-orthonormalise them at a fixed interval (Benettin's method). "
+                    "Prints the exponents in 1/s, each with the fit log|v| = a + b log t + lambda t of its record, "
+                    "which tells exponential from algebraic growth (docs/numerics.md); for a Hamiltonian "
+                    "model with --all, the pair sums "
                     "lambda_i + lambda_(2n+1-i) and the two exponents nearest zero. Exit status 2 for bad input, "
                     "1 for a numerical failure.")
     parser.usage_exit = BAD_INPUT_EXIT
@@ -36,6 +39,8 @@ def add(commands) -> None:
                         help="override a parameter or a start value (q.start, q.velocity); a number in SI, or "
                              "with a unit ('30 deg')")
     common.integrator_options(parser)
+    parser.add_argument("--backend", choices=("c", "numpy"), default="numpy",
+                        help="generated code that carries the state and the tangent vectors (default: numpy)")
     parser.add_argument("-o", metavar="CONV.csv", dest="file",
                         help="write the convergence record: t and each exponent's running estimate")
     parser.add_argument("--plot", metavar="CONV.png", help="plot the running estimates against t (matplotlib)")
@@ -50,7 +55,7 @@ def run(arguments) -> int:
         spectrum = model.lyapunov(arguments.scene, start=arguments.start, stop=arguments.stop, all=arguments.all,
                                   renormalise=arguments.renormalise,
                                   set=dict(common.set_values(arguments.set, with_units=True)),
-                                  integrator=arguments.integrator, progress=progress,
+                                  integrator=arguments.integrator, backend=arguments.backend, progress=progress,
                                   **dict(given_options(vars(arguments))))
     finally:
         progress.close()

@@ -68,12 +68,17 @@ def dependent_entries(rows: np.ndarray) -> list[int]:
     return sorted(pivots[:int(np.sum(diagonal > RANK_TOLERANCE * diagonal[0]))])
 
 
+def linearized_constraints(holonomic_rows: np.ndarray, rate_jacobian: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """N = [[A_h, 0], [C_q, A]]: the derivative by y = (q, q') of (g, c), whose null space is the
+    tangent space of the constraint manifold."""
+    return np.vstack([np.hstack([holonomic_rows, np.zeros_like(holonomic_rows)]), np.hstack([rate_jacobian, rows])])
+
+
 def tangent_basis(holonomic_rows: np.ndarray, rate_jacobian: np.ndarray, rows: np.ndarray):
     """(T, dependent state entries) of the module docstring, rows [[A_h, 0], [C_q, A]]: the
     holonomic rows take dependent coordinates, every row a dependent velocity (so a rolling
     constraint eliminates a velocity, never a position)."""
     n = rows.shape[1]
-    stacked = np.vstack([np.hstack([holonomic_rows, np.zeros_like(holonomic_rows)]),
-                         np.hstack([rate_jacobian, rows])])
+    stacked = linearized_constraints(holonomic_rows, rate_jacobian, rows)
     dependent = dependent_entries(holonomic_rows) + [n + k for k in dependent_entries(rows)]
     return null_basis(stacked, dependent)

@@ -71,9 +71,15 @@ def rate_jacobian(model, plan, state) -> np.ndarray:
     """∂c/∂q of the active constraints (holonomic rows first, as the kernel orders them) at `state`."""
     equations = expanded(model.equations)
     calculus = equations.calculus()
+    exprs = rate_jacobian_entries(equations, calculus)
+    return _evaluate(calculus, exprs, model.ir, equations, plan, state).reshape(-1, equations.size)
+
+
+def rate_jacobian_entries(equations, calculus: Differentiator) -> list[sympy.Expr]:
+    """The entries of ∂c/∂q, c = A q' + b the velocity residuals of the active constraints in the
+    kernel's order (holonomic rows first), row by row (the expanded `equations`)."""
     active = sorted(equations.active_constraints, key=lambda c: c.kind != "holonomic")
-    exprs = [_partial(calculus, c.velocity_residual, q) for c in active for q in equations.coordinates]
-    return _evaluate(calculus, exprs, model.ir, equations, plan, state).reshape(len(active), equations.size)
+    return [_partial(calculus, c.velocity_residual, q) for c in active for q in equations.coordinates]
 
 
 def constraint_parameter_jacobian(model, plan, state) -> tuple[np.ndarray, np.ndarray]:

@@ -14,7 +14,7 @@ so `abs(der(x)) = 1` passes as linear in the velocities.
 from __future__ import annotations
 
 import random
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import mpmath
 import numpy as np
@@ -120,8 +120,15 @@ def evaluate_at(calculus: Differentiator, exprs: Sequence[sympy.Expr], symbols: 
     """Values of `exprs` (over the intermediates of `calculus`) at each point, in DIGITS-digit
     arithmetic: a list (one per point) of mpmath numbers. A point gives the values of `symbols`
     in order; any other free symbol takes the value `fill`."""
+    at = compiled_at(calculus, exprs, symbols, fill)
+    return [at(point) for point in points]
+
+
+def compiled_at(calculus: Differentiator, exprs: Sequence[sympy.Expr], symbols: Sequence[sympy.Symbol],
+                fill=mpmath.nan) -> Callable[[Sequence], list]:
+    """evaluate_at's evaluation of one point, built once for points given one at a time."""
     if not exprs:
-        return [[] for _ in points]
+        return lambda point: []
     definitions = calculus.needed(exprs)
     stray = set().union(*(e.free_symbols for e in exprs)) | set().union(
         *(e.free_symbols for _, e in definitions))
@@ -136,17 +143,17 @@ def evaluate_at(calculus: Differentiator, exprs: Sequence[sympy.Expr], symbols: 
     except (ValueError, KeyError, TypeError, NotImplementedError):
         # Not printable for mpmath (an unevaluated Derivative, say): unknown, so never "zero".
         # derive_equations reports an underivable expression itself.
-        return [[mpmath.nan] * len(exprs) for _ in points]
-    results = []
-    with mpmath.workdps(DIGITS):
-        for point in points:
-            extra = [fill] * (len(symbols) - len(point))
+        return lambda point: [mpmath.nan] * len(exprs)
+
+    def at(point: Sequence) -> list:
+        extra = [fill] * (len(symbols) - len(point))
+        with mpmath.workdps(DIGITS):
             try:
-                results.append(function(*[mpmath.mpf(x) for x in point], *extra))
+                return function(*[mpmath.mpf(x) for x in point], *extra)
             except (ArithmeticError, ValueError, TypeError, AttributeError):   # a pole, an overflow, or
                 # a complex value where mpmath wants a real one (atan2 of sqrt(log(0.5)))
-                results.append([mpmath.nan] * len(exprs))
-    return results
+                return [mpmath.nan] * len(exprs)
+    return at
 
 
 def _is_tiny(value) -> bool:

@@ -15,55 +15,40 @@ import time as clock
 import numpy as np
 
 from ..abi import SETTINGS, settings_vector
-from ..errors import LagError, Setting
 from ..codegen.c_sensitivity import SUMMARY_FIELDS, sensitivity_source
 from ..integrators import registry
 from ..run.loading import load
 from ..run.output import Result
 from ..run.status import simulation_error
 from .run import Directions, Program, SensitivityResult, prepare, result
+from .variational import VariationalSystem
 
 
 def integrate_c(program: Program, plan, chosen: Directions, times: np.ndarray | None = None,
                 error_control: bool = True) -> SensitivityResult:
-    """As run.integrate, the augmented system integrated by the generated C program, which
-    `program.libraries` keeps by (integrator, directions, error control): built and compiled on
-    first use (and cached by its text, run/cache.py)."""
-    key = (plan.integrator.name, len(chosen.names), error_control)
+    """As run.integrate, the augmented system integrated by the generated C program."""
+    return _run(program, library(program, plan.integrator, len(chosen.names), error_control), plan, chosen, times)
+
+
+def library(program: Program, integrator, directions: int, error_control: bool = True):
+    """The loaded C program for `directions` directions with `integrator` (an ir.IntegratorChoice),
+    which `program.libraries` keeps by (integrator, directions, error control): built and compiled
+    on first use (and cached by its text, run/cache.py)."""
+    key = (integrator.name, directions, error_control)
     if key not in program.libraries:
-        program.libraries[key] = load(sensitivity_source(program.kernel, plan.integrator, len(chosen.names),
+        program.libraries[key] = load(sensitivity_source(program.kernel, integrator, directions,
                                                          program.model.source.name, error_control))
-    return _run(program, program.libraries[key], plan, chosen, times)
+    return program.libraries[key]
 
 
 def _run(program: Program, loaded, plan, chosen: Directions, times) -> SensitivityResult:
-    if plan.atol_vector(plan.coordinates) is not None:
-        raise LagError("sensitivities on the C backend take one atol for every component; "
-                       "run them with backend='numpy' (--backend numpy) to keep atol per component",
-                       Setting("--atol"))
     start = prepare(program, plan, chosen, times)
     n, m = len(plan.coordinates), len(chosen.names)
-    width = 2 * n * (1 + m)
     record = registry.get(plan.integrator.name)
     options = {**dict(record.defaults), **dict(plan.integrator.options)}
-    settings = settings_vector(plan.run_plan())
-    for name in ("rtol", "atol"):
-        settings[SETTINGS.index(name)] = options[name]
-    values = np.zeros((len(start.times), width))
-    summary = np.zeros(len(SUMMARY_FIELDS) - 1 + width)
-    double_p = ctypes.POINTER(ctypes.c_double)
-    entry = loaded.lag_sensitivity_run
-    entry.argtypes = [double_p] * 5 + [ctypes.c_long, double_p, double_p, ctypes.c_void_p]
-    entry.restype = ctypes.c_int
-    loaded.lag_sensitivity_workspace.restype = ctypes.c_long
-    # the stepper holds reals (double: the library is built in double precision), ints and longs
-    workspace = np.zeros(loaded.lag_sensitivity_workspace() // 8 + 1)
-    arrays = [np.ascontiguousarray(a, dtype=float) for a in
-              (start.system.par if start.system.par.size else np.zeros(1), start.system.J,
-               augmented(start.y0, n, m), settings, start.times)]
-    pointer = lambda a: a.ctypes.data_as(double_p)     # noqa: E731
     began = clock.perf_counter()
-    status = entry(*map(pointer, arrays), len(start.times), pointer(values), pointer(summary), workspace.ctypes.data)
+    status, values, summary = call(loaded, start.system, augmented(start.y0, n, m), settings_of(plan, options),
+                                   start.times)
     seconds = clock.perf_counter() - began
     at = {name: i for i, name in enumerate(SUMMARY_FIELDS)}
     counters = tuple((name, int(summary[at[name]])) for name in ("accepted", "rejected", "rhs_evals"))
@@ -75,6 +60,39 @@ def _run(program: Program, loaded, plan, chosen: Directions, times) -> Sensitivi
                                partial, None)
     Y = first_order(values, n, m).T
     return result(program, plan, chosen, start.system, (start.times, Y), "c", counters, seconds, options)
+
+
+def settings_of(plan, options: dict) -> np.ndarray:
+    """The settings vector (abi.SETTINGS, then the atol of each state component) with `options`,
+    the integrator's defaults and the plan's own, for rtol and atol."""
+    settings = settings_vector(plan.run_plan())
+    for name in ("rtol", "atol"):
+        settings[SETTINGS.index(name)] = options[name]
+    atol_each = plan.atol_vector(plan.coordinates)      # the state's own per component; the sensitivities keep atol
+    settings[len(SETTINGS):] = options["atol"] if atol_each is None else atol_each
+    return settings
+
+
+def call(loaded, system: VariationalSystem, initial: np.ndarray, settings: np.ndarray,
+         times: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
+    """One run of lag_sensitivity_run from the augmented state `initial` at the settings' start
+    time to each of `times`, with the parameters and J of `system`: (status, the augmented state
+    at each time (rows, 2n(1 + m)), the summary (SUMMARY_FIELDS, then the state reached))."""
+    width = initial.size
+    values = np.zeros((len(times), width))
+    summary = np.zeros(len(SUMMARY_FIELDS) - 1 + width)
+    double_p = ctypes.POINTER(ctypes.c_double)
+    entry = loaded.lag_sensitivity_run
+    entry.argtypes = [double_p] * 5 + [ctypes.c_long, double_p, double_p, ctypes.c_void_p]
+    entry.restype = ctypes.c_int
+    loaded.lag_sensitivity_workspace.restype = ctypes.c_long
+    # the stepper holds reals (double: the library is built in double precision), ints and longs
+    workspace = np.zeros(loaded.lag_sensitivity_workspace() // 8 + 1)
+    arrays = [np.ascontiguousarray(a, dtype=float) for a in
+              (system.par if system.par.size else np.zeros(1), system.J, initial, settings, times)]
+    pointer = lambda a: a.ctypes.data_as(double_p)     # noqa: E731
+    status = entry(*map(pointer, arrays), len(times), pointer(values), pointer(summary), workspace.ctypes.data)
+    return int(status), values, summary
 
 
 def augmented(y0: np.ndarray, n: int, m: int) -> np.ndarray:

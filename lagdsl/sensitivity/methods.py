@@ -9,20 +9,22 @@ class LyapunovMethod:
 
     def lyapunov(self, scene: str | None = None, *, stop: float | None = None, all: bool = False,
                  renormalise: float | None = None, set: dict | None = None, start: float | None = None,
-                 integrator: str | None = None, progress=None, **options):
+                 integrator: str | None = None, backend: str = "numpy", progress=None, **options):
         """The largest Lyapunov exponent of a scene's motion, or with `all` the whole spectrum
-        (Benettin's QR method on the generated variational equations, NumPy backend), over the
+        (Benettin's QR method on the generated variational equations, on `backend`: "numpy", or
+        "c" for the scene's C integrator; a constrained model's on its constraint manifold), over the
         scene's time span (`start`, `stop` override it: seconds, or "2 min"), re-orthonormalised
         every `renormalise` seconds (default 1); `set`, `integrator` and `options` (rtol, atol,
         max_step) as in simulate; `progress(t reached, start, stop)` is called at each
         re-orthonormalisation (a lagdsl.progress.TimeProgress draws a bar). Returns a
-        sensitivity.lyapunov.Spectrum (.exponents in 1/s, .running against .times, .hamiltonian,
-        .render(), .to_csv())."""
-        from ..api import single_number
+        sensitivity.lyapunov.Spectrum (.exponents in 1/s, .running against .times, .growth: the
+        fit that separates exponential from algebraic growth, .hamiltonian, .render(), .to_csv())."""
+        from ..api import _check_backend, single_number
         from ..errors import LagError
         from ..frontend.units import time_in_seconds
         from ..settings import RUN_OPTIONS, Overrides, given_options
         from . import lyapunov, run as sensitivity
+        _check_backend(backend)
         unknown = [name for name in options if name not in RUN_OPTIONS]
         if unknown:
             raise LagError(f"lyapunov: unknown option '{unknown[0]}' (options: {', '.join(RUN_OPTIONS)})")
@@ -33,4 +35,4 @@ class LyapunovMethod:
         if scene_plan.scene_name not in self._sensitivity_programs:
             self._sensitivity_programs[scene_plan.scene_name] = sensitivity.build(self, scene)
         return lyapunov.lyapunov(self, self._sensitivity_programs[scene_plan.scene_name], scene_plan, all,
-                                 renormalise, progress)
+                                 renormalise, progress, backend)

@@ -78,3 +78,11 @@ def onto_constraints(model, plan, module, par: np.ndarray, y0: np.ndarray, S0: n
     residual = rate_jacobian(model, plan, y0) @ S[:n] + A @ S[n:] + c_p @ J
     S[n:] -= A.T @ np.linalg.solve(A @ A.T, residual)
     return S
+
+
+def named_state(module, y: np.ndarray) -> dict[str, float]:
+    """y = (q, q') by name ("q", "q.velocity"), for a failure's message; `module` the generated functions."""
+    names = module.COORDINATES
+    n = len(names)
+    return {**{q: float(y[k]) for k, q in enumerate(names)},
+            **{q + ".velocity": float(y[n + k]) for k, q in enumerate(names)}}

@@ -108,3 +108,25 @@ def test_a_fit_runs_on_the_c_backend():
     fit = subject.fit({"t": truth.t, "theta": truth["theta"]}, {"l": 1.0, "b": 0.5}, backend="c")
     assert fit.success
     assert fit.values["l"] == pytest.approx(1.3, rel=1e-6) and fit.values["b"] == pytest.approx(0.3, rel=1e-6)
+
+
+def test_a_per_component_atol_holds_for_the_state_on_the_c_backend():
+    # atol(x) weighs the state's own components (the sensitivities keep the scalar atol, as on
+    # NumPy): tight, the C run agrees with NumPy's; equal to the scalar, it changes nothing; loose
+    # on the state (the sensitivities out of the error control), it saves steps
+    subject, names = model("double_pendulum"), ["m2", "theta1.start"]
+    tight = dict(stop=2.0, rtol=1e-11, sensitivities=names)
+    each = {"theta1": 1e-13, "theta2": 1e-14, "der(theta1)": 1e-13, "der(theta2)": 1e-13}
+    run = subject.simulate(backend="c", atol=each, **tight)
+    reference = subject.simulate(backend="numpy", atol=each, **tight)
+    for name in names:
+        expected = reference.sensitivity("theta2", name)
+        assert np.max(np.abs(run.sensitivity("theta2", name) - expected)) <= 1e-6 * np.max(np.abs(expected))
+    state = ["theta1", "der(theta1)", "theta2", "der(theta2)"]
+    loose = dict(stop=2.0, rtol=1e-10, sensitivities=names, sensitivity_error_control=False)
+
+    def steps(atol) -> int:
+        return dict(subject.simulate(backend="c", atol=atol, **loose).summary.counters)["accepted"]
+
+    assert steps([1e-10, *((name, 1e-10) for name in state)]) == steps(1e-10)
+    assert steps([1e-10, *((name, 1e-2) for name in state)]) < steps(1e-10) / 2

@@ -21,9 +21,21 @@ long lag_sensitivity_workspace(void)
     return (long)sizeof(lag_aug_stepper);
 }
 
+/* The atol of each component of the augmented state: the state's own from the settings (after
+ * their LAG_SETTINGS entries, the LAG_NY of y = (q, q')), `atol` for every sensitivity, as on the
+ * NumPy backend (a sensitivity has the state's unit over the direction's, not the state's). */
+static void lag_sensitivity_atol(const double *settings, real atol, double *atol_each)
+{
+    int i;
+    for (i = 0; i < LAG_AUG_NQ; ++i) {
+        atol_each[i] = i < LAG_NQ ? settings[LAG_SETTINGS + i] : (double)atol;
+        atol_each[LAG_AUG_NQ + i] = i < LAG_NQ ? settings[LAG_SETTINGS + LAG_NQ + i] : (double)atol;
+    }
+}
+
 /* Integrate from Y(t0) = `initial` (LAG_AUG_NY: Q then Q') with `parameters` (LAG_NP) and
- * J = `directions` (LAG_NP x LAG_NS, row-major), on the options of `settings` (lagdsl.abi.SETTINGS;
- * its grid is ignored), to the `rows` increasing times `times` (times[0] >= t0 = the settings'
+ * J = `directions` (LAG_NP x LAG_NS, row-major), on the options of `settings` (lagdsl.abi.SETTINGS,
+ * then the atol of each component of y; its grid is ignored), to the `rows` increasing times `times` (times[0] >= t0 = the settings'
  * start); Y at each goes to values[k * LAG_AUG_NY ...]. The summary (LAG_SENSITIVITY_SUMMARY
  * doubles) receives the status, the rows delivered, the time reached, the work counters and, on
  * failure, Y there. Returns the status. */
@@ -35,10 +47,11 @@ int lag_sensitivity_run(const double *parameters, const double *directions, cons
     lag_options options;
     lag_aug_stepper *stepper = workspace;
     real Y[LAG_AUG_NY], t0 = settings[LAG_SET_T_START];
+    double atol_each[LAG_AUG_NY];
     long k = 0;
     int i, status;
     memset(&aug, 0, sizeof aug);
-    memset(&options, 0, sizeof options);      /* atol_each NULL: one atol for the whole augmented state */
+    memset(&options, 0, sizeof options);
     memset(summary, 0, sizeof(double) * LAG_SENSITIVITY_SUMMARY);
     for (i = 0; i < LAG_NP; ++i)
         aug.model.par[i] = parameters[i];
@@ -48,6 +61,8 @@ int lag_sensitivity_run(const double *parameters, const double *directions, cons
         Y[i] = initial[i];
     lag_system_prepare(&aug.model);
     lag_sensitivity_options(settings, &options);
+    lag_sensitivity_atol(settings, options.atol, atol_each);
+    options.atol_each = atol_each;
     options.max_steps = lag_step_limit(&options, t0, times[rows - 1], rows - 1);
     (void)lag_aug_stepper_restart;     /* the state is not projected, so never restarted */
     status = lag_aug_stepper_init(stepper, &aug, t0, Y, times[rows - 1], &options);
