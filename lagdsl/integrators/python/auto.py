@@ -76,7 +76,8 @@ class AutoSolver:
         elif self._back_to_explicit():
             self.patience = 2 * self.patience if self.patience > 0 else 2 * STIFF_STEPS
             self._switch()
-            self._start_explicit(self.last.t, self.last.y, self.last.t - self.last.t_old)
+            last = self.last
+            self._start_explicit(last.t, last.y, min(last.t - last.t_old, last.t_bound - last.t))
 
     # ---- the counters, over both solvers and their earlier runs ------------------------------
     nfev = property(lambda self: self._count("nfev"), lambda self, value: self._reset("nfev"))
