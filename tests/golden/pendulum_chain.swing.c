@@ -2627,7 +2627,9 @@ static void lag_print_verdict(FILE *file, const lag_report *report)
  * Pasted last into every generated C file (lagdsl/codegen/c.py), after driver.c, library.c and
  * what the code generator writes for the scene's command line: LAG_SCENE_T_START,
  * LAG_SCENE_T_STOP, LAG_SCENE_T_INTERVAL and LAG_SCENE_OPTIONS (the scene's grid and options),
- * lag_option_setting and lag_print_options (its integrator's options), lag_stop_text (with
+ * lag_option_setting and lag_print_options (its integrator's options), with LAG_HAS_TOLERANCES
+ * the tables of the atol per component (LAG_NATOL, lag_atol_names, lag_atol_inputs,
+ * lag_atol_family, lag_scene_atol_given), lag_stop_text (with
  * LAG_HAS_STOP), lag_counter_labels and lag_print_status (lagdsl/abi.py).
  */
 
