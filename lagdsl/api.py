@@ -71,16 +71,18 @@ class Model(LyapunovMethod):
 
     def simulate(self, scene: str | None = None, backend: str = "c", *, set: dict | None = None,
                  start: float | None = None, stop: float | None = None, interval: float | None = None,
-                 integrator: str | None = None, rtol: float | None = None, atol: float | dict[str, float] | None = None,
+                 integrator: str | None = None, rtol: float | None = None, atol: float | dict[str, float | str] | None = None,
                  step: float | None = None, stages: int | None = None, max_step: float | None = None,
                  max_steps: int | None = None, estimate_error: bool = False, draw: bool = False,
                  sensitivities=None, sensitivity_error_control: bool = True, **parameters: float) -> Result:
         """Run a scene and return its outputs.
 
-        `set` maps parameter names, "q.start" and "q.velocity" to values (numbers in SI, or texts
-        with a unit: "30 deg"); parameters may also be given as keyword arguments
+        `set` maps parameter names, "q.start" and "q.velocity" to values (numbers in the declared
+        unit, or texts with a unit: "30 deg"); parameters may also be given as keyword arguments
         (`simulate(m2=3)`). The other arguments override the scene's time grid (seconds, or
-        "0.8 ns") and integrator; `max_steps` bounds the steps (default: settings.step_limit,
+        "0.8 ns") and integrator; `atol` is one number for every component of the state, or a
+        dict of components ("x", "der(x)") to numbers in each one's declared unit or texts with a
+        unit (tolerances.py); `max_steps` bounds the steps (default: settings.step_limit,
         DEFAULT_MAX_STEPS or STEPS_PER_ROW per output row). `estimate_error` fills
         `result.summary.error` (an ErrorEstimate: `.value`, the largest absolute error over rows
         and columns, in `.column`; `.columns`, each column's largest, in its unit; against a 100x

@@ -17,7 +17,7 @@ from .errors import LagError, LagWarning, Setting, suggest
 from .integrators import registry
 from .integrators.registry import DEFAULT_MAX_STEPS, MAX_STEPS_CEILING, OPTION_ORDER, OPTIONS
 from .source import Span
-from .tolerances import atol_vector, check_atol_each, component_key
+from .tolerances import atol_vector, check_atol_each, check_component_name, component_input, component_key
 
 # Integrator settings that can be given outside the model file (`lagc run --rtol`, `simulate(rtol=)`).
 RUN_OPTIONS = OPTION_ORDER
@@ -158,10 +158,13 @@ def split_atol(atol) -> tuple[float | None, tuple[tuple[str, float], ...]]:
     return scalar, tuple(pairs)
 
 
-def single_atol(name, value) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise LagError(f"atol({name}) must be a number, got {value!r}", Setting("atol"))
-    return float(value)
+def single_atol(name, value) -> float | str:
+    """A value of atol(name): a number (in the component's declared unit), or a text of a number
+    and its unit."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+        raise LagError(f"atol({name}) must be a number, or a text of a number and its unit, got {value!r}",
+                       Setting("atol"))
+    return value if isinstance(value, str) else float(value)
 
 
 @dataclass(frozen=True)
@@ -179,7 +182,7 @@ class Overrides:
     interval: float | None = None
     integrator: str | None = None
     options: tuple[tuple[str, float], ...] = ()     # rtol, atol, step, stages, max_step, max_steps
-    atol_each: tuple[tuple[str, float], ...] = ()   # per component: ("x", 1e-18), ("der(x)", 1e-6)
+    atol_each: tuple[tuple[str, float | str], ...] = ()   # per component, as values: ("x", 1e-18), ("der(x)", "1 um/s")
 
 
 def grid_rows(start: float, stop: float, interval: float) -> int:
@@ -273,10 +276,10 @@ class SceneSettings:
         """The time grid, the integrator, the parameters set ({name: value}) and the initial values
         set ({coordinate: (start, velocity)}) with `overrides` applied on top of the scene's."""
         time = _time(self.time, overrides)
-        integrator = _integrator(self.integrator, overrides, self.coordinates)
+        units = dict(self.units)
+        integrator = _integrator(self.integrator, overrides, self.coordinates, units)
         set_values = dict(self.set_values)
         initial = {name: (start, velocity) for name, start, velocity in self.initial}
-        units = dict(self.units)
         for name, value in overrides.values:
             self._check_name(name)
             self._apply_override(name, input_in_si(name, value, units.get(name)), set_values, initial)
@@ -335,8 +338,10 @@ def _time(time: TimeGrid, overrides: Overrides) -> TimeGrid:
     return replace(time, start=start, stop=stop, interval=interval)
 
 
-def _integrator(choice: IntegratorChoice, overrides: Overrides, coordinates: tuple[str, ...]) -> IntegratorChoice:
-    """The scene's integrator with the overrides applied.
+def _integrator(choice: IntegratorChoice, overrides: Overrides, coordinates: tuple[str, ...],
+                units: dict[str, InputUnit]) -> IntegratorChoice:
+    """The scene's integrator with the overrides applied (an atol per component read in its
+    declared unit, `units`, and kept in SI).
 
     Another method (`--integrator`) keeps the scene's settings that it has too: the tolerances
     of dop853 carry over to radau5, the step of gauss to rk4. Errors in a value given as an
@@ -355,10 +360,11 @@ def _integrator(choice: IntegratorChoice, overrides: Overrides, coordinates: tup
         values[key] = value
     atol_each = dict(choice.atol_each) if "atol" in allowed else {}
     for key, value in overrides.atol_each:
-        origins[key] = Setting(f"--atol {key}={value:g}")
+        origins[key] = Setting(f"--atol {key}={value if isinstance(value, str) else format(value, 'g')}")
         if "atol" not in allowed:
             raise LagError(f"{name} has no option 'atol' (options: {', '.join(allowed)})", origins[key])
-        atol_each[key] = value
+        check_component_name(key, coordinates, origins[key])
+        atol_each[key] = input_in_si(f"atol({key})", value, units.get(component_input(key, coordinates)))
     check_atol_each(tuple(atol_each.items()), coordinates, registry.get(name).implicit, origins)
     validated = validate_integrator(name, values, chosen, origins)
     return _raise_rtol_to_floor(replace(validated, atol_each=tuple(sorted(atol_each.items()))))

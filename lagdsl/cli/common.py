@@ -68,7 +68,8 @@ def integrator_options(parser: argparse.ArgumentParser) -> None:
         if name == "atol":
             parser.add_argument("--atol", action="append", type=atol_item, metavar="[COMPONENT=]VALUE",
                                 help=f"{option.meaning}: {option.requirement}, for every component of the state, "
-                                     "or for one as x=1e-18 or der(x)=1e-6 (a coordinate or its velocity, in SI; "
+                                     "or for one as x=1e-18 or der(x)=1e-6 (a coordinate or its velocity, in its declared unit "
+                                     "like --set, or with a unit: 'x=1e-15 mm'; "
                                      f"repeat the option for more) ({users})")
             continue
         kind = int if option.c_cast else (lambda text, flag=option.flag: time_value(f"--{flag}", text)) \
@@ -77,14 +78,15 @@ def integrator_options(parser: argparse.ArgumentParser) -> None:
         parser.add_argument("--" + option.flag, type=kind, help=f"{option.meaning}: {option.requirement}{seconds} ({users})")
 
 
-def atol_item(text: str) -> float | tuple[str, float]:
-    """--atol VALUE, or --atol COMPONENT=VALUE (tolerances.py)."""
+def atol_item(text: str) -> float | tuple[str, float | str]:
+    """--atol VALUE, or --atol COMPONENT=VALUE (tolerances.py), whose VALUE is a number in the
+    component's declared unit or a text of a number and a unit (settings.input_in_si reads it)."""
     name, equals, number = text.rpartition("=")
     value = parse_number(number.strip())
-    if value is None or (equals and not name.strip()):
+    if (value is None and not (equals and number.strip())) or (equals and not name.strip()):
         raise LagError(f"--atol takes a number, or COMPONENT=NUMBER such as x=1e-18 or der(x)=1e-6, got '{text}'",
                        Setting("--atol"))
-    return (component_key(name), value) if equals else value
+    return (component_key(name), number.strip() if value is None else value) if equals else value
 
 
 def scene_options(parser: argparse.ArgumentParser) -> None:

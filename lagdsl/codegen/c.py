@@ -9,7 +9,7 @@ from ..frontend import units
 from ..abi import summary_layout
 from ..integrators import c_file, integrator_source, registry
 from ..integrators.registry import OPTION_ORDER, OPTIONS
-from ..tolerances import atol_vector
+from ..tolerances import component_input, component_names
 from . import GeneratedSource, template_environment
 from .c_abi import runtime_contract, runtime_header, status_printer, summary_packer, verdict_printer
 from .c_factor import factorisation_text
@@ -81,8 +81,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
         "verdict_printer": verdict_printer() if method.stiffness_test else "",
         "t_start": _literal(kernel.time.start), "t_stop": _literal(kernel.time.stop),
         "t_interval": _literal(kernel.time.interval),
-        "options_init": _options_initializer(options, "lag_scene_atol_each" if _scene_atol_each(kernel) else "NULL"),
-        "scene_atol_each": _scene_atol_each(kernel),
+        "options_init": _options_initializer(options), "atol": _atol_tables(kernel) if "atol" in method.options else None,
         "option_fields": _option_fields(method.options),
         "fmu": fmu, "sensitivity": sensitivity, "stop_text": kernel.stop_text, "stop": None, "constant_mass": None,      # blocks a scene may not have (below)
         **_gram_tables(kernel),
@@ -164,12 +163,19 @@ def _options_initializer(options: dict[str, float], atol_each: str = "NULL") -> 
     return ", ".join([_literal(v) for v in values] + counts + [atol_each])
 
 
-def _scene_atol_each(kernel: Kernel) -> list[str]:
-    """The scene's atol per component of y (tolerances.py) as the standalone program's default,
-    or nothing when one atol serves all."""
-    values = atol_vector(dict(kernel.integrator.options).get("atol", 0.0), kernel.integrator.atol_each,
-                         kernel.coordinates, kernel.time.stop - kernel.time.start)
-    return [] if values is None else [", ".join(repr(float(v)) for v in values)]
+def _atol_tables(kernel: Kernel) -> dict:
+    """The standalone program's tables of the atol per component (templates/c/model.c.j2): the
+    names (tolerances.component_names), the lag_input_units slot of each (parameters, starts,
+    velocities), each coordinate's family, the scene's values in SI (-1: not given)."""
+    coordinates, n = tuple(kernel.coordinates), kernel.n
+    names = component_names(coordinates)
+    slots = {f"{q}.{part}": len(kernel.parameters) + offset + i
+             for offset, part in ((0, "start"), (n, "velocity")) for i, q in enumerate(coordinates)}
+    given = dict(kernel.integrator.atol_each)
+    family = [names.index(q.partition("[")[0]) if "[" in q else -1 for q in coordinates]
+    return {"names": names, "inputs": [slots[component_input(name, coordinates)] for name in names],
+            "family": family, "positive": int(registry.get(kernel.integrator.name).implicit),
+            "given": [repr(float(given[name])) if name in given else "-1.0" for name in names]}
 
 
 def _input_unit_rows(kernel: Kernel) -> list[str]:

@@ -25,6 +25,7 @@ from ..escape import c_comment, c_string
 from ..integrators import c_file, registry
 from ..integrators.registry import OPTION_ORDER, OPTIONS
 from ..scene import ScenePlan
+from ..tolerances import atol_vector
 from .c import _literal, _options_initializer
 from .c_abi import status_formatter
 from .fmu_units import VariableUnits
@@ -165,7 +166,24 @@ def _option_variables(plan: ScenePlan, units: VariableUnits) -> list[FmuVariable
             f"integrator.{key}", "option", f"LAG_SET_{key.upper()}", "parameter", "fixed", "exact", given[key],
             units.time if key in ("step", "max_step") else "?",
             f"co-simulation with {record.name}: {option.meaning}{unset}", integer=bool(option.c_cast)))
-    return variables
+    return variables + (_tolerance_variables(plan, units) if "atol" in record.options else [])
+
+
+def _tolerance_variables(plan: ScenePlan, units: VariableUnits) -> list[FmuVariable]:
+    """The atol of each component of y (tolerances.py), fixed parameters of co-simulation named
+    integrator.atol.x and integrator.atol.'der(x)', in the unit of the state variable (as every
+    value of the FMU: SI); start: the scene's (its atol(x), atol(der(x)), and atol(x) / (stop -
+    start) for the velocity of a coordinate it names alone), 0 where the scene names none: 0
+    means integrator.atol."""
+    coordinates = plan.coordinates
+    given = atol_vector(0.0, plan.integrator.atol_each, coordinates, plan.time.stop - plan.time.start) \
+        or (0.0,) * (2 * len(coordinates))
+    names = [*coordinates, *(f"'der({q})'" for q in coordinates)]
+    return [FmuVariable(f"integrator.atol.{name}", "tolerance", str(k), "parameter", "fixed", "exact", given[k],
+                        units.of(coordinates[k % len(coordinates)]) if k < len(coordinates)
+                        else units.rate(coordinates[k % len(coordinates)], 1),
+                        f"co-simulation: the absolute tolerance of {name.strip(chr(39))}; 0: integrator.atol")
+            for k, name in enumerate(names)]
 
 
 def option_values(plan: ScenePlan) -> dict[str, float]:
@@ -214,6 +232,8 @@ def fmu_c_part(kernel, plan: ScenePlan, variables: tuple[FmuVariable, ...], kind
         f"#define LAG_FMU_T_STOP {_literal(kernel.time.stop)}",
         f"#define LAG_FMU_T_INTERVAL {_literal(kernel.time.interval)}",
         f"#define LAG_FMU_OPTIONS {{ {_options_initializer(option_values(plan))} }}",
+        "/* integrator.atol.<component>: the atol of each component of y, 0 for integrator.atol's. */",
+        f"#define LAG_FMU_ATOL_EACH {{ {_atol_starts(variables)} }}",
         f"#define LAG_FMU_STOP_TEXT {c_string(kernel.stop_text)}",
         "/* The variables (lagdsl/codegen/fmu.py), by value reference: reference, kind, type, index. */",
         f"#define LAG_FMU_NVARIABLES {len(variables)}",
@@ -222,6 +242,12 @@ def fmu_c_part(kernel, plan: ScenePlan, variables: tuple[FmuVariable, ...], kind
         "#define LAG_FMU_CATEGORIES { " + ", ".join(c_string(name) for name, _ in LOG_CATEGORIES) + " }",
         "", _option_refusal(plan), status_formatter(plan.integrator.name),
         *(c_file(name) for name in ("fmu.c", "fmu_values.c", "fmu_run.c", *FMI_FILES[version]))])
+
+
+def _atol_starts(variables: tuple[FmuVariable, ...]) -> str:
+    """The start values of integrator.atol.<component> in the order of y ("0": none exported)."""
+    tolerances = sorted((v for v in variables if v.kind == "tolerance"), key=lambda v: int(v.index))
+    return ", ".join(repr(float(v.start)) for v in tolerances) or "0"
 
 
 def _category_constant(name: str) -> str:

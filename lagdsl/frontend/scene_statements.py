@@ -16,7 +16,7 @@ from ..settings import DEFAULT_INTEGRATOR, DEFAULT_TIME, check_integrator_name, 
 from ..source import Span
 from . import units
 from .units import Dimension
-from ..tolerances import check_atol_each, component_key
+from ..tolerances import check_atol_each, component_input, component_key
 from .tree import call_arguments, expressions_of, subtree, subtrees, through, tokens, written
 from .values import PoisonedName
 
@@ -127,8 +127,12 @@ class SceneStatements:
 
     def atol_each(self, modifiers, name: str, takes_atol: bool) -> tuple[tuple[str, float], ...]:
         """`atol(x) = 1e-18`, `atol(der(x)) = 1e-6`: the atol of one component of y (tolerances.py), a
-        plain number in the coordinate's SI unit (per second for a velocity)."""
+        plain number in the coordinate's declared unit (per second for a velocity), as `set` reads
+        its start and velocity; in SI in the IR."""
         pairs, origins = {}, {}
+        names = tuple(c.name for c in self.coordinates)
+        declared = {key: unit for c in self.coordinates
+                    for key, unit in ((f"{c.name}.start", c.unit), (f"{c.name}.velocity", units.per_second(c.unit)))}
         for modifier in modifiers:
             key, component = modifier.children[0], modifier.children[2]
             if str(key) != "atol" or not takes_atol:
@@ -137,10 +141,10 @@ class SceneStatements:
             text = component_key(written(self.span(component)))
             if text in pairs:
                 raise LagError(f"atol({text}) is given twice", self.span(modifier))
-            pairs[text] = self.numbers.number(modifier.children[-1], f"atol({text})", self.scope)
+            pairs[text] = self.numbers.number(modifier.children[-1], f"atol({text})", self.scope,
+                                              declared.get(component_input(text, names)))
             origins[text] = self.span(modifier)
-        check_atol_each(tuple(pairs.items()), tuple(c.name for c in self.coordinates),
-                        registry.get(name).implicit, origins)
+        check_atol_each(tuple(pairs.items()), names, registry.get(name).implicit, origins)
         return tuple(sorted(pairs.items()))
 
     def scene_set(self, node):

@@ -199,8 +199,8 @@ for _record in (
     Integrator("auto", "auto", "dop853, switching to radau5 where the model is stiff, and back",
                counters=("accepted", "rejected", "rhs_evals", "jac_evals", "lu_decomps", "newton_iters"),
                implicit=True, parts=("dop853", "radau5"), scipy="LSODA", order=5,
-               numpy_constraints="auto on the NumPy backend is scipy's LSODA, which restarts at order 1 after "
-                                 "every projection onto the constraints and crawls; use --backend c, or "
-                                 "--integrator dop853 or radau5"),
+               numpy_constraints="auto on the NumPy backend restarts its scipy solver after every projection "
+                                 "onto the constraints, which would begin its stiffness test and its switches "
+                                 "anew each step; use --backend c, or --integrator dop853 or radau5"),
 ):
     register(_record)

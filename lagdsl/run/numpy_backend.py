@@ -91,9 +91,10 @@ def _integrate(module, par, times, y0, plan: RunPlan, progress: Progress | None,
         options["atol"] = np.array(atol_each)
     if record.scipy:
         jacobian = (lambda t, y: module.jacobian(t, y, par)) if plan.implicit else None
-        problem = ScipyProblem(record.scipy, ctrl_c.checked(lambda t, y: module.rhs(t, y, par)), jacobian,
+        problem = ScipyProblem("auto" if record.parts else record.scipy,
+                               ctrl_c.checked(lambda t, y: module.rhs(t, y, par)), jacobian,
                                options["rtol"], options["atol"], options.get("max_step"), plan.max_steps,
-                               constrained, stop)
+                               constrained, stop, parts=record.parts)
         return integrate_scipy(problem, times, y0, *(() if progress is None else (progress,)))
     module_name, function = record.python.split(":")
     stepper = getattr(importlib.import_module(f"lagdsl.integrators.python.{module_name}"), function)
@@ -172,7 +173,8 @@ def _numpy_result(module, par, times, states, plan, counts, elapsed, projection,
         residual = float(max(np.max(np.abs(g), initial=0.0), np.max(np.abs(c), initial=0.0)))
     record = registry.get(plan.integrator.name)
     kept = tuple((name, int(counts[name])) for name in record.counters if counts.get(name) is not None)
-    uncounted = tuple((name, f"not counted by scipy's {record.scipy}") for name in record.counters
+    solvers = " and ".join(registry.get(part).scipy for part in record.parts) if record.parts else record.scipy
+    uncounted = tuple((name, f"not counted by scipy's {solvers}") for name in record.counters
                       if counts.get(name) is None and record.scipy and counts)
     summary = RunSummary("numpy", plan.integrator.name, kept, elapsed, invariants, plan.constraints, residual,
                          projection if plan.constraints else None, plan.integrator.options,

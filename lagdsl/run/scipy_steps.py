@@ -9,13 +9,14 @@ as the C driver does: its row ends the run.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..abi import HOPELESS, INTERRUPTED, MAX_STEPS, NONFINITE, SINGULAR, STEP_TOO_SMALL
 from ..integrators.forecast import WorkForecast
-from ..integrators.python.stiffness import STABILITY_BOUNDARY, StiffnessTest, SwitchLog
+from ..integrators.python.auto import AutoSolver
+from ..integrators.python.stiffness import STABILITY_BOUNDARY, StiffnessTest
 from ..settings import START_STEP_FRACTION, min_step, start_step_floor
 from .output import Stiffness, Switches
 from .stop import StopCondition
@@ -23,7 +24,8 @@ from .stop import StopCondition
 SCIPY_RTOL_FLOOR = 100 * float(np.finfo(float).eps)    # scipy raises a smaller rtol itself, with a warning
 # scipy's explicit Runge-Kutta pairs evaluate the right-hand side n_stages times per attempted step
 # (the stages and the end point; dense output is extra, after the step), so the evaluations a
-# step() call made tell how many attempts it rejected. Radau and LSODA report no such count.
+# step() call made tell how many attempts it rejected. Radau (and auto, which steps Radau part of
+# the time) reports no such count.
 EXPLICIT_PAIRS = ("RK45", "DOP853")
 Progress = Callable[[float, float, float], None]     # (t reached, start, stop)
 # (status, last time reached, the state there), and after HOPELESS the steps forecast
@@ -34,7 +36,7 @@ Failure = tuple[int, float, np.ndarray] | tuple[int, float, np.ndarray, float]
 class ScipyProblem:
     """y' = fun(t, y) for scipy solver `method`, with what the loop checks after each step."""
 
-    method: str                                         # "DOP853", "RK45", "Radau", "LSODA"
+    method: str                                         # "DOP853", "RK45", "Radau"; "auto": AutoSolver over `parts`
     fun: Callable[[float, np.ndarray], np.ndarray]
     jac: Callable[[float, np.ndarray], np.ndarray] | None
     rtol: float
@@ -43,7 +45,8 @@ class ScipyProblem:
     max_steps: int
     project: Callable[[float, np.ndarray], np.ndarray] | None = None   # onto the constraints
     stop: StopCondition | None = None
-    watch: bool = True                                  # the stiffness test or LSODA's switches
+    watch: bool = True                                  # the stiffness test or auto's switches
+    parts: tuple[str, ...] = ()                         # auto: the methods it switches between (registry names)
 
 
 def _no_progress(t: float, start: float, stop: float) -> None:
@@ -90,32 +93,23 @@ def _start(problem: ScipyProblem, t: float, y: np.ndarray, t_end: float, first_s
     if first_step is not None:
         return solver
     floor = start_step_floor(t, t_end - t)
-    chosen, probe_evaluations = _chosen_first_step(solver, t, floor)
+    chosen = solver.h_abs
     if np.isfinite(chosen) and chosen >= floor:
-        solver = solver if probe_evaluations == 0 else _solver(problem, t, y, t_end, None)
-    else:
-        # scipy's choice of the first step divides by atol + rtol |y|, which is 0 for a
-        # component at 0 under pure relative error control (atol = 0): h is NaN, and the
-        # step loop, which stops when h falls below a floor, never ends. Hairer's fallback.
-        first = floor if np.isfinite(chosen) else max(floor, START_STEP_FRACTION * (t_end - t))
-        solver = _solver(problem, t, y, t_end, min(first, t_end - t))
-    solver.nfev += probe_evaluations
-    return solver
-
-
-def _chosen_first_step(solver, t: float, floor: float) -> tuple[float, int]:
-    """The first step `solver` chose, and the evaluations it cost to find out: LSODA chooses it
-    inside its first step, so that step is taken (on a solver to be discarded)."""
-    if hasattr(solver, "h_abs"):
-        return solver.h_abs, 0
-    solver.step()
-    return (solver.t - t if solver.status != "failed" else floor), solver.nfev
+        return solver
+    # scipy's choice of the first step divides by atol + rtol |y|, which is 0 for a component at 0
+    # under pure relative error control (atol = 0): h is NaN, and the step loop, which stops when h
+    # falls below a floor, never ends. Hairer's fallback.
+    first = floor if np.isfinite(chosen) else max(floor, START_STEP_FRACTION * (t_end - t))
+    return _solver(problem, t, y, t_end, min(first, t_end - t))
 
 
 def _solver(problem: ScipyProblem, t: float, y: np.ndarray, t_end: float, first_step: float | None):
+    if problem.method == "auto":
+        return AutoSolver(problem.parts, lambda method, t, y, first: _solver(replace(problem, method=method), t, y,
+                                                                             t_end, first), t, y, first_step)
     from scipy import integrate
     method = getattr(integrate, problem.method)
-    extra = {"jac": problem.jac} if problem.jac is not None else {}
+    extra = {"jac": problem.jac} if problem.jac is not None and problem.method not in EXPLICIT_PAIRS else {}
     if problem.max_step:
         extra["max_step"] = problem.max_step
     return method(problem.fun, t, y, t_end, rtol=problem.rtol, atol=problem.atol, first_step=first_step, **extra)
@@ -172,20 +166,22 @@ def _restart_projected(problem: ScipyProblem, solver, counts: dict, t_end: float
 
 class _StepWatch:
     """What the summary reports beyond the counts: the stiffness test of the explicit pairs
-    (with the counts when it fired) or LSODA's switches. `method` None watches nothing."""
+    (with the counts when it fired) or auto's switches (AutoSolver's record). `method` None
+    watches nothing."""
 
     def __init__(self, method: str | None, counts: dict):
         self.counts = counts
         self.stiffness = StiffnessTest(method) if method in STABILITY_BOUNDARY else None
-        self.switches = SwitchLog() if method == "LSODA" else None
+        self.auto = method == "auto"
+        self.switches: AutoSolver | None = None
         self.at_detection: tuple[int, int, int] | None = None
 
     def record(self, solver) -> None:
         if self.stiffness is not None and self.stiffness.record(solver):
             counts = self.counts
             self.at_detection = (counts["accepted"], counts["rejected"], counts["rhs_evals"] + solver.nfev)
-        if self.switches is not None:
-            self.switches.record(solver)
+        if self.auto:
+            self.switches = solver
 
     def finish(self, counts: dict) -> dict:
         if self.at_detection is not None:
@@ -196,7 +192,7 @@ class _StepWatch:
                                             counts["rhs_evals"] - rhs_evals, counts["rhs_evals"])
         if self.switches is not None:
             log = self.switches
-            counts["switches"] = Switches(SwitchLog.METHODS, len(log.times), tuple(log.times), tuple(log.spans))
+            counts["switches"] = Switches(log.parts, log.count, tuple(log.times), tuple(log.spans))
         return counts
 
 

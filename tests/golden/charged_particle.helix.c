@@ -2011,6 +2011,17 @@ void lag_run_batch(long members, const double *parameters, const double *initial
 #define LAG_SCENE_T_START LAG_LIT(0.0)
 #define LAG_SCENE_T_STOP LAG_LIT(15.707963267948966)
 #define LAG_SCENE_T_INTERVAL LAG_LIT(0.01)
+/* The components an atol may be given for (lagdsl/tolerances.py, standalone.c's --atol=NAME=VALUE):
+ * each coordinate and each family, then der() of each in the same order; the slot of
+ * lag_input_units whose unit a value of each is in; the family of each coordinate (its name's
+ * index, -1 for none); the scene's atol of each in SI (-1: not given). */
+#define LAG_NATOL 6
+#define LAG_NATOL_PLAIN 3
+#define LAG_ATOL_POSITIVE 1     /* an implicit method: atol > 0 */
+static const char *const lag_atol_names[LAG_NATOL] = { "x", "y", "z", "der(x)", "der(y)", "der(z)" };
+static const int lag_atol_inputs[LAG_NATOL] = { 3, 4, 5, 6, 7, 8 };
+static const int lag_atol_family[LAG_NQ] = { -1, -1, -1 };
+static const double lag_scene_atol_given[LAG_NATOL] = { -1.0, -1.0, -1.0, -1.0, -1.0, -1.0 };
 #define LAG_SCENE_OPTIONS { LAG_LIT(1e-10), LAG_LIT(1e-12), LAG_LIT(0.0), LAG_LIT(0.0), 0, 0L, NULL }
 
 /* The declared unit of each input (runtime.h): the parameters, each coordinate's start, each
@@ -2046,7 +2057,6 @@ static int lag_option_setting(const char *program, const char *text, const char 
             return -1;
         }
         options->atol = value;
-        options->atol_each = NULL;    /* one atol for every component */
         return 1;
     }
     if (strncmp(text, "max-step=", 9) == 0) {
@@ -2123,7 +2133,9 @@ static void lag_print_status(FILE *file, int status, long max_steps, double rcon
  * Pasted last into every generated C file (lagdsl/codegen/c.py), after driver.c, library.c and
  * what the code generator writes for the scene's command line: LAG_SCENE_T_START,
  * LAG_SCENE_T_STOP, LAG_SCENE_T_INTERVAL and LAG_SCENE_OPTIONS (the scene's grid and options),
- * lag_option_setting and lag_print_options (its integrator's options), lag_stop_text (with
+ * lag_option_setting and lag_print_options (its integrator's options), with LAG_HAS_TOLERANCES
+ * the tables of the atol per component (LAG_NATOL, lag_atol_names, lag_atol_inputs,
+ * lag_atol_family, lag_scene_atol_given), lag_stop_text (with
  * LAG_HAS_STOP), lag_counter_labels and lag_print_status (lagdsl/abi.py).
  */
 
@@ -2338,6 +2350,60 @@ static int lag_member_setting(const char *prefix, const char *text, lag_member *
     lag_set_input(member, slot, value);
     return 1;
 }
+
+#if LAG_HAS_TOLERANCES
+/* ---- atol per component (lagdsl/tolerances.py): --atol=NAME=VALUE, NAME one of lag_atol_names ---- */
+static double lag_atol_given[LAG_NATOL];     /* in SI; negative: not given (the scene's, then the command line's) */
+static double lag_atol_values[LAG_NY];       /* the atol of each component of y, when one is named */
+
+/* --atol=NAME=VALUE (`text` is NAME=VALUE): VALUE in the declared unit of the component, or with
+ * a unit, as a coordinate's start (its velocity's for der(NAME)) takes it. Returns 0 after saying
+ * what is wrong. */
+static int lag_atol_setting(const char *program, const char *text)
+{
+    const char *equals = strchr(text, '=');
+    int k = lag_index_of(lag_atol_names, LAG_NATOL, text, (size_t)(equals - text));
+    real value;
+    if (k < 0) {
+        fprintf(stderr, "%s: --atol=%s: '%.*s' is not a coordinate nor der() of one (run %s --help)\n", program,
+                text, (int)(equals - text), text, program);
+        return 0;
+    }
+    if (!lag_input_value(program, text, equals, lag_atol_inputs[k], &value))
+        return 0;
+    if (!(r_isfinite(value) && (LAG_ATOL_POSITIVE ? value > 0 : value >= 0))) {
+        fprintf(stderr, "%s: --atol=%s: atol(%s) must be a finite number %s\n", program, text, lag_atol_names[k],
+                LAG_ATOL_POSITIVE ? "> 0 for an implicit method" : ">= 0");
+        return 0;
+    }
+    lag_atol_given[k] = (double)value;
+    return 1;
+}
+
+/* The given atol of name `member`, else of name `family` (-1: none); negative when neither is. */
+static double lag_atol_named(int family, int member)
+{
+    return lag_atol_given[member] >= 0 || family < 0 ? lag_atol_given[member] : lag_atol_given[family];
+}
+
+/* options->atol_each for a run from t0 to t1 (tolerances.atol_vector): NULL when no component is
+ * named; else a named one's atol, the velocity of a coordinate named alone atol(q) / (t1 - t0),
+ * the others options->atol. */
+static void lag_atol_apply(lag_options *options, real t0, real t1)
+{
+    int i, named = 0;
+    for (i = 0; i < LAG_NATOL; ++i)
+        named |= lag_atol_given[i] >= 0;
+    options->atol_each = named ? lag_atol_values : NULL;
+    for (i = 0; i < LAG_NQ; ++i) {
+        int family = lag_atol_family[i];
+        double q = lag_atol_named(family, i);
+        double v = lag_atol_named(family < 0 ? -1 : LAG_NATOL_PLAIN + family, LAG_NATOL_PLAIN + i);
+        lag_atol_values[i] = q >= 0 ? q : (double)options->atol;
+        lag_atol_values[LAG_NQ + i] = v >= 0 ? v : q >= 0 ? q / ((double)t1 - (double)t0) : (double)options->atol;
+    }
+}
+#endif
 
 static void lag_on_interrupt(int signal_number)
 {
@@ -2688,6 +2754,12 @@ static void lag_print_help(const char *program)
     printf("\n  or t.start, t.stop, t.interval (the output grid).\nOPTION is an option of %s:", LAG_INTEGRATOR_NAME);
     for (i = 0; i < LAG_NOPTIONS; ++i)
         printf(" --%s", lag_option_names[i]);
+#if LAG_HAS_TOLERANCES
+    printf("\n  --atol=COMPONENT=VALUE sets the atol of one component of the state, in its declared unit (or"
+           "\n  with a unit, as COMPONENT.start and .velocity take it), COMPONENT one of:");
+    for (i = 0; i < LAG_NATOL; ++i)
+        printf(" %s", lag_atol_names[i]);
+#endif
     printf("\nVALUE is a decimal number (1e-12, -0.5; inf, nan) in the declared unit, as in the model file;\n"
            "  a parameter's or initial value's number may carry that unit or its SI unit instead ('30 deg',\n"
            "  30deg, '30 [deg]', 0.52rad; in --batch lines, without a space). t.start, t.stop, t.interval are\n"
@@ -2719,6 +2791,13 @@ static int lag_parse_arguments(int argc, char **argv, lag_member *given, real *g
                 fprintf(stderr, "%s: an argument longer than %d characters\n", argv[0], LAG_LINE_MAX - 1);
                 return 0;
             }
+#if LAG_HAS_TOLERANCES
+            if (strncmp(option, "atol=", 5) == 0 && strchr(option + 5, '=') != NULL) {    /* --atol=x=1e-18 */
+                if (!lag_atol_setting(argv[0], option + 5))
+                    return 0;
+                continue;
+            }
+#endif
             if ((equals = lag_split_setting(argv[0], option, &value)) == NULL)
                 return 0;
             if ((known = lag_option_setting(argv[0], option, equals, value, options)) == 0)
@@ -2761,6 +2840,11 @@ static void lag_print_work(const lag_report *report, const lag_options *options,
         counts[i] = (long)summary[LAG_SUMMARY_COUNTERS + i];
     fprintf(stderr, "integrator %s(", LAG_INTEGRATOR_NAME);    /* the options as used, as in a scene */
     lag_print_options(stderr, options);
+#if LAG_HAS_TOLERANCES
+    for (i = 0; i < LAG_NATOL; ++i)
+        if (lag_atol_given[i] >= 0)
+            fprintf(stderr, ", atol(%s) = %g", lag_atol_names[i], lag_atol_given[i]);
+#endif
     fputs("): ", stderr);
     lag_print_counters(stderr, counts);
     fprintf(stderr, ", %.3g s CPU\n", seconds);
@@ -2829,8 +2913,14 @@ int main(int argc, char **argv)
     clock_t clock_start;
     memset(&given, 0, sizeof given);
     lag_default_parameters(given.par);
+#if LAG_HAS_TOLERANCES
+    memcpy(lag_atol_given, lag_scene_atol_given, sizeof lag_atol_given);
+#endif
     if (!lag_parse_arguments(argc, argv, &given, grid, &options, &batch))
         return 2;
+#if LAG_HAS_TOLERANCES
+    lag_atol_apply(&options, grid[0], grid[1]);
+#endif
     if (batch)
         return lag_batch_main(argv[0], &given, grid[0], grid[1], grid[2], &options);
     if (!lag_member_state(argv[0], &given, y0))

@@ -1932,6 +1932,17 @@ void lag_run_batch(long members, const double *parameters, const double *initial
 #define LAG_SCENE_T_START LAG_LIT(0.0)
 #define LAG_SCENE_T_STOP LAG_LIT(10.0)
 #define LAG_SCENE_T_INTERVAL LAG_LIT(0.1)
+/* The components an atol may be given for (lagdsl/tolerances.py, standalone.c's --atol=NAME=VALUE):
+ * each coordinate and each family, then der() of each in the same order; the slot of
+ * lag_input_units whose unit a value of each is in; the family of each coordinate (its name's
+ * index, -1 for none); the scene's atol of each in SI (-1: not given). */
+#define LAG_NATOL 402
+#define LAG_NATOL_PLAIN 201
+#define LAG_ATOL_POSITIVE 0     /* an implicit method: atol > 0 */
+static const char *const lag_atol_names[LAG_NATOL] = { "q[1]", "q[2]", "q[3]", "q[4]", "q[5]", "q[6]", "q[7]", "q[8]", "q[9]", "q[10]", "q[11]", "q[12]", "q[13]", "q[14]", "q[15]", "q[16]", "q[17]", "q[18]", "q[19]", "q[20]", "q[21]", "q[22]", "q[23]", "q[24]", "q[25]", "q[26]", "q[27]", "q[28]", "q[29]", "q[30]", "q[31]", "q[32]", "q[33]", "q[34]", "q[35]", "q[36]", "q[37]", "q[38]", "q[39]", "q[40]", "q[41]", "q[42]", "q[43]", "q[44]", "q[45]", "q[46]", "q[47]", "q[48]", "q[49]", "q[50]", "q[51]", "q[52]", "q[53]", "q[54]", "q[55]", "q[56]", "q[57]", "q[58]", "q[59]", "q[60]", "q[61]", "q[62]", "q[63]", "q[64]", "q[65]", "q[66]", "q[67]", "q[68]", "q[69]", "q[70]", "q[71]", "q[72]", "q[73]", "q[74]", "q[75]", "q[76]", "q[77]", "q[78]", "q[79]", "q[80]", "q[81]", "q[82]", "q[83]", "q[84]", "q[85]", "q[86]", "q[87]", "q[88]", "q[89]", "q[90]", "q[91]", "q[92]", "q[93]", "q[94]", "q[95]", "q[96]", "q[97]", "q[98]", "q[99]", "q[100]", "q[101]", "q[102]", "q[103]", "q[104]", "q[105]", "q[106]", "q[107]", "q[108]", "q[109]", "q[110]", "q[111]", "q[112]", "q[113]", "q[114]", "q[115]", "q[116]", "q[117]", "q[118]", "q[119]", "q[120]", "q[121]", "q[122]", "q[123]", "q[124]", "q[125]", "q[126]", "q[127]", "q[128]", "q[129]", "q[130]", "q[131]", "q[132]", "q[133]", "q[134]", "q[135]", "q[136]", "q[137]", "q[138]", "q[139]", "q[140]", "q[141]", "q[142]", "q[143]", "q[144]", "q[145]", "q[146]", "q[147]", "q[148]", "q[149]", "q[150]", "q[151]", "q[152]", "q[153]", "q[154]", "q[155]", "q[156]", "q[157]", "q[158]", "q[159]", "q[160]", "q[161]", "q[162]", "q[163]", "q[164]", "q[165]", "q[166]", "q[167]", "q[168]", "q[169]", "q[170]", "q[171]", "q[172]", "q[173]", "q[174]", "q[175]", "q[176]", "q[177]", "q[178]", "q[179]", "q[180]", "q[181]", "q[182]", "q[183]", "q[184]", "q[185]", "q[186]", "q[187]", "q[188]", "q[189]", "q[190]", "q[191]", "q[192]", "q[193]", "q[194]", "q[195]", "q[196]", "q[197]", "q[198]", "q[199]", "q[200]", "q", "der(q[1])", "der(q[2])", "der(q[3])", "der(q[4])", "der(q[5])", "der(q[6])", "der(q[7])", "der(q[8])", "der(q[9])", "der(q[10])", "der(q[11])", "der(q[12])", "der(q[13])", "der(q[14])", "der(q[15])", "der(q[16])", "der(q[17])", "der(q[18])", "der(q[19])", "der(q[20])", "der(q[21])", "der(q[22])", "der(q[23])", "der(q[24])", "der(q[25])", "der(q[26])", "der(q[27])", "der(q[28])", "der(q[29])", "der(q[30])", "der(q[31])", "der(q[32])", "der(q[33])", "der(q[34])", "der(q[35])", "der(q[36])", "der(q[37])", "der(q[38])", "der(q[39])", "der(q[40])", "der(q[41])", "der(q[42])", "der(q[43])", "der(q[44])", "der(q[45])", "der(q[46])", "der(q[47])", "der(q[48])", "der(q[49])", "der(q[50])", "der(q[51])", "der(q[52])", "der(q[53])", "der(q[54])", "der(q[55])", "der(q[56])", "der(q[57])", "der(q[58])", "der(q[59])", "der(q[60])", "der(q[61])", "der(q[62])", "der(q[63])", "der(q[64])", "der(q[65])", "der(q[66])", "der(q[67])", "der(q[68])", "der(q[69])", "der(q[70])", "der(q[71])", "der(q[72])", "der(q[73])", "der(q[74])", "der(q[75])", "der(q[76])", "der(q[77])", "der(q[78])", "der(q[79])", "der(q[80])", "der(q[81])", "der(q[82])", "der(q[83])", "der(q[84])", "der(q[85])", "der(q[86])", "der(q[87])", "der(q[88])", "der(q[89])", "der(q[90])", "der(q[91])", "der(q[92])", "der(q[93])", "der(q[94])", "der(q[95])", "der(q[96])", "der(q[97])", "der(q[98])", "der(q[99])", "der(q[100])", "der(q[101])", "der(q[102])", "der(q[103])", "der(q[104])", "der(q[105])", "der(q[106])", "der(q[107])", "der(q[108])", "der(q[109])", "der(q[110])", "der(q[111])", "der(q[112])", "der(q[113])", "der(q[114])", "der(q[115])", "der(q[116])", "der(q[117])", "der(q[118])", "der(q[119])", "der(q[120])", "der(q[121])", "der(q[122])", "der(q[123])", "der(q[124])", "der(q[125])", "der(q[126])", "der(q[127])", "der(q[128])", "der(q[129])", "der(q[130])", "der(q[131])", "der(q[132])", "der(q[133])", "der(q[134])", "der(q[135])", "der(q[136])", "der(q[137])", "der(q[138])", "der(q[139])", "der(q[140])", "der(q[141])", "der(q[142])", "der(q[143])", "der(q[144])", "der(q[145])", "der(q[146])", "der(q[147])", "der(q[148])", "der(q[149])", "der(q[150])", "der(q[151])", "der(q[152])", "der(q[153])", "der(q[154])", "der(q[155])", "der(q[156])", "der(q[157])", "der(q[158])", "der(q[159])", "der(q[160])", "der(q[161])", "der(q[162])", "der(q[163])", "der(q[164])", "der(q[165])", "der(q[166])", "der(q[167])", "der(q[168])", "der(q[169])", "der(q[170])", "der(q[171])", "der(q[172])", "der(q[173])", "der(q[174])", "der(q[175])", "der(q[176])", "der(q[177])", "der(q[178])", "der(q[179])", "der(q[180])", "der(q[181])", "der(q[182])", "der(q[183])", "der(q[184])", "der(q[185])", "der(q[186])", "der(q[187])", "der(q[188])", "der(q[189])", "der(q[190])", "der(q[191])", "der(q[192])", "der(q[193])", "der(q[194])", "der(q[195])", "der(q[196])", "der(q[197])", "der(q[198])", "der(q[199])", "der(q[200])", "der(q)" };
+static const int lag_atol_inputs[LAG_NATOL] = { 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31, 32, 33, 34, 35, 36, 37, 38, 39, 40, 41, 42, 43, 44, 45, 46, 47, 48, 49, 50, 51, 52, 53, 54, 55, 56, 57, 58, 59, 60, 61, 62, 63, 64, 65, 66, 67, 68, 69, 70, 71, 72, 73, 74, 75, 76, 77, 78, 79, 80, 81, 82, 83, 84, 85, 86, 87, 88, 89, 90, 91, 92, 93, 94, 95, 96, 97, 98, 99, 100, 101, 102, 103, 104, 105, 106, 107, 108, 109, 110, 111, 112, 113, 114, 115, 116, 117, 118, 119, 120, 121, 122, 123, 124, 125, 126, 127, 128, 129, 130, 131, 132, 133, 134, 135, 136, 137, 138, 139, 140, 141, 142, 143, 144, 145, 146, 147, 148, 149, 150, 151, 152, 153, 154, 155, 156, 157, 158, 159, 160, 161, 162, 163, 164, 165, 166, 167, 168, 169, 170, 171, 172, 173, 174, 175, 176, 177, 178, 179, 180, 181, 182, 183, 184, 185, 186, 187, 188, 189, 190, 191, 192, 193, 194, 195, 196, 197, 198, 199, 200, 201, 202, 203, 204, 205, 6, 206, 207, 208, 209, 210, 211, 212, 213, 214, 215, 216, 217, 218, 219, 220, 221, 222, 223, 224, 225, 226, 227, 228, 229, 230, 231, 232, 233, 234, 235, 236, 237, 238, 239, 240, 241, 242, 243, 244, 245, 246, 247, 248, 249, 250, 251, 252, 253, 254, 255, 256, 257, 258, 259, 260, 261, 262, 263, 264, 265, 266, 267, 268, 269, 270, 271, 272, 273, 274, 275, 276, 277, 278, 279, 280, 281, 282, 283, 284, 285, 286, 287, 288, 289, 290, 291, 292, 293, 294, 295, 296, 297, 298, 299, 300, 301, 302, 303, 304, 305, 306, 307, 308, 309, 310, 311, 312, 313, 314, 315, 316, 317, 318, 319, 320, 321, 322, 323, 324, 325, 326, 327, 328, 329, 330, 331, 332, 333, 334, 335, 336, 337, 338, 339, 340, 341, 342, 343, 344, 345, 346, 347, 348, 349, 350, 351, 352, 353, 354, 355, 356, 357, 358, 359, 360, 361, 362, 363, 364, 365, 366, 367, 368, 369, 370, 371, 372, 373, 374, 375, 376, 377, 378, 379, 380, 381, 382, 383, 384, 385, 386, 387, 388, 389, 390, 391, 392, 393, 394, 395, 396, 397, 398, 399, 400, 401, 402, 403, 404, 405, 206 };
+static const int lag_atol_family[LAG_NQ] = { 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200, 200 };
+static const double lag_scene_atol_given[LAG_NATOL] = { -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0 };
 #define LAG_SCENE_OPTIONS { LAG_LIT(1e-10), LAG_LIT(1e-12), LAG_LIT(0.0), LAG_LIT(0.0), 0, 0L, NULL }
 
 /* The declared unit of each input (runtime.h): the parameters, each coordinate's start, each
@@ -2364,7 +2375,6 @@ static int lag_option_setting(const char *program, const char *text, const char 
             return -1;
         }
         options->atol = value;
-        options->atol_each = NULL;    /* one atol for every component */
         return 1;
     }
     if (strncmp(text, "max-step=", 9) == 0) {
@@ -2456,7 +2466,9 @@ static void lag_print_verdict(FILE *file, const lag_report *report)
  * Pasted last into every generated C file (lagdsl/codegen/c.py), after driver.c, library.c and
  * what the code generator writes for the scene's command line: LAG_SCENE_T_START,
  * LAG_SCENE_T_STOP, LAG_SCENE_T_INTERVAL and LAG_SCENE_OPTIONS (the scene's grid and options),
- * lag_option_setting and lag_print_options (its integrator's options), lag_stop_text (with
+ * lag_option_setting and lag_print_options (its integrator's options), with LAG_HAS_TOLERANCES
+ * the tables of the atol per component (LAG_NATOL, lag_atol_names, lag_atol_inputs,
+ * lag_atol_family, lag_scene_atol_given), lag_stop_text (with
  * LAG_HAS_STOP), lag_counter_labels and lag_print_status (lagdsl/abi.py).
  */
 
@@ -2671,6 +2683,60 @@ static int lag_member_setting(const char *prefix, const char *text, lag_member *
     lag_set_input(member, slot, value);
     return 1;
 }
+
+#if LAG_HAS_TOLERANCES
+/* ---- atol per component (lagdsl/tolerances.py): --atol=NAME=VALUE, NAME one of lag_atol_names ---- */
+static double lag_atol_given[LAG_NATOL];     /* in SI; negative: not given (the scene's, then the command line's) */
+static double lag_atol_values[LAG_NY];       /* the atol of each component of y, when one is named */
+
+/* --atol=NAME=VALUE (`text` is NAME=VALUE): VALUE in the declared unit of the component, or with
+ * a unit, as a coordinate's start (its velocity's for der(NAME)) takes it. Returns 0 after saying
+ * what is wrong. */
+static int lag_atol_setting(const char *program, const char *text)
+{
+    const char *equals = strchr(text, '=');
+    int k = lag_index_of(lag_atol_names, LAG_NATOL, text, (size_t)(equals - text));
+    real value;
+    if (k < 0) {
+        fprintf(stderr, "%s: --atol=%s: '%.*s' is not a coordinate nor der() of one (run %s --help)\n", program,
+                text, (int)(equals - text), text, program);
+        return 0;
+    }
+    if (!lag_input_value(program, text, equals, lag_atol_inputs[k], &value))
+        return 0;
+    if (!(r_isfinite(value) && (LAG_ATOL_POSITIVE ? value > 0 : value >= 0))) {
+        fprintf(stderr, "%s: --atol=%s: atol(%s) must be a finite number %s\n", program, text, lag_atol_names[k],
+                LAG_ATOL_POSITIVE ? "> 0 for an implicit method" : ">= 0");
+        return 0;
+    }
+    lag_atol_given[k] = (double)value;
+    return 1;
+}
+
+/* The given atol of name `member`, else of name `family` (-1: none); negative when neither is. */
+static double lag_atol_named(int family, int member)
+{
+    return lag_atol_given[member] >= 0 || family < 0 ? lag_atol_given[member] : lag_atol_given[family];
+}
+
+/* options->atol_each for a run from t0 to t1 (tolerances.atol_vector): NULL when no component is
+ * named; else a named one's atol, the velocity of a coordinate named alone atol(q) / (t1 - t0),
+ * the others options->atol. */
+static void lag_atol_apply(lag_options *options, real t0, real t1)
+{
+    int i, named = 0;
+    for (i = 0; i < LAG_NATOL; ++i)
+        named |= lag_atol_given[i] >= 0;
+    options->atol_each = named ? lag_atol_values : NULL;
+    for (i = 0; i < LAG_NQ; ++i) {
+        int family = lag_atol_family[i];
+        double q = lag_atol_named(family, i);
+        double v = lag_atol_named(family < 0 ? -1 : LAG_NATOL_PLAIN + family, LAG_NATOL_PLAIN + i);
+        lag_atol_values[i] = q >= 0 ? q : (double)options->atol;
+        lag_atol_values[LAG_NQ + i] = v >= 0 ? v : q >= 0 ? q / ((double)t1 - (double)t0) : (double)options->atol;
+    }
+}
+#endif
 
 static void lag_on_interrupt(int signal_number)
 {
@@ -3021,6 +3087,12 @@ static void lag_print_help(const char *program)
     printf("\n  or t.start, t.stop, t.interval (the output grid).\nOPTION is an option of %s:", LAG_INTEGRATOR_NAME);
     for (i = 0; i < LAG_NOPTIONS; ++i)
         printf(" --%s", lag_option_names[i]);
+#if LAG_HAS_TOLERANCES
+    printf("\n  --atol=COMPONENT=VALUE sets the atol of one component of the state, in its declared unit (or"
+           "\n  with a unit, as COMPONENT.start and .velocity take it), COMPONENT one of:");
+    for (i = 0; i < LAG_NATOL; ++i)
+        printf(" %s", lag_atol_names[i]);
+#endif
     printf("\nVALUE is a decimal number (1e-12, -0.5; inf, nan) in the declared unit, as in the model file;\n"
            "  a parameter's or initial value's number may carry that unit or its SI unit instead ('30 deg',\n"
            "  30deg, '30 [deg]', 0.52rad; in --batch lines, without a space). t.start, t.stop, t.interval are\n"
@@ -3052,6 +3124,13 @@ static int lag_parse_arguments(int argc, char **argv, lag_member *given, real *g
                 fprintf(stderr, "%s: an argument longer than %d characters\n", argv[0], LAG_LINE_MAX - 1);
                 return 0;
             }
+#if LAG_HAS_TOLERANCES
+            if (strncmp(option, "atol=", 5) == 0 && strchr(option + 5, '=') != NULL) {    /* --atol=x=1e-18 */
+                if (!lag_atol_setting(argv[0], option + 5))
+                    return 0;
+                continue;
+            }
+#endif
             if ((equals = lag_split_setting(argv[0], option, &value)) == NULL)
                 return 0;
             if ((known = lag_option_setting(argv[0], option, equals, value, options)) == 0)
@@ -3094,6 +3173,11 @@ static void lag_print_work(const lag_report *report, const lag_options *options,
         counts[i] = (long)summary[LAG_SUMMARY_COUNTERS + i];
     fprintf(stderr, "integrator %s(", LAG_INTEGRATOR_NAME);    /* the options as used, as in a scene */
     lag_print_options(stderr, options);
+#if LAG_HAS_TOLERANCES
+    for (i = 0; i < LAG_NATOL; ++i)
+        if (lag_atol_given[i] >= 0)
+            fprintf(stderr, ", atol(%s) = %g", lag_atol_names[i], lag_atol_given[i]);
+#endif
     fputs("): ", stderr);
     lag_print_counters(stderr, counts);
     fprintf(stderr, ", %.3g s CPU\n", seconds);
@@ -3162,8 +3246,14 @@ int main(int argc, char **argv)
     clock_t clock_start;
     memset(&given, 0, sizeof given);
     lag_default_parameters(given.par);
+#if LAG_HAS_TOLERANCES
+    memcpy(lag_atol_given, lag_scene_atol_given, sizeof lag_atol_given);
+#endif
     if (!lag_parse_arguments(argc, argv, &given, grid, &options, &batch))
         return 2;
+#if LAG_HAS_TOLERANCES
+    lag_atol_apply(&options, grid[0], grid[1]);
+#endif
     if (batch)
         return lag_batch_main(argv[0], &given, grid[0], grid[1], grid[2], &options);
     if (!lag_member_state(argv[0], &given, y0))

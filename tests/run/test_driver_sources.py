@@ -44,6 +44,15 @@ static const char *const lag_column_names[] = { "q1" };
 static const lag_input_unit lag_input_units[] = { { "", "", "", 1.0, 0.0 }, { "m", "m", "length", 1.0, 0.0 },
     { "m", "m", "length", 1.0, 0.0 }, { "m/s", "m/s", "length/time", 1.0, 0.0 },
     { "cm/s", "m/s", "length/time", 0.01, -2.0816681711721684e-19 } };
+#if LAG_HAS_TOLERANCES
+#define LAG_NATOL 4
+#define LAG_NATOL_PLAIN 2
+#define LAG_ATOL_POSITIVE 0
+static const char *const lag_atol_names[] = { "q1", "q2", "der(q1)", "der(q2)" };
+static const int lag_atol_inputs[] = { 1, 2, 3, 4 };
+static const int lag_atol_family[] = { -1, -1 };
+static const double lag_scene_atol_given[] = { -1.0, -1.0, -1.0, -1.0 };
+#endif
 static void lag_system_prepare(lag_system *sys) { (void)sys; }
 static void lag_default_parameters(real *par) { par[0] = 1; }
 static void lag_derive_parameters(real *par, const int *fixed) { (void)par; (void)fixed; }

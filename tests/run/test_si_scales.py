@@ -182,4 +182,6 @@ def test_a_bad_atol_in_the_api_is_a_lag_error():
     with pytest.raises(LagError, match="'w' is not a coordinate"):
         model.simulate(atol={"w": 1e-18})
     with pytest.raises(LagError, match="atol.x. must be a number"):
+        model.simulate(atol={"x": [1e-18]})
+    with pytest.raises(LagError, match="atol.x.: expected a number, or a number and a unit"):
         model.simulate(atol={"x": "small"})

@@ -71,8 +71,8 @@ end Rod;
 LADDER_S0, LADDER_K = np.sin(1.2), 3 * 9.81 / 4
 LEAVES_WALL = quad(lambda w: 2 / np.sqrt(LADDER_K * (1 - (LADDER_S0 - w * w)**2)), 0, np.sqrt(LADDER_S0 / 3),
                    epsabs=0, epsrel=1e-13)[0]
-# The integrators that handle constraints on each backend (the NumPy backend's auto is scipy's
-# LSODA, refused with constraints; taylor is C only), and the ladder's located stop time with each
+# The integrators that handle constraints on each backend (the NumPy backend refuses auto with
+# constraints; taylor is C only), and the ladder's located stop time with each
 # (measured: 1e-13 s, radau5 1.1e-11 s).
 CONSTRAINED_INTEGRATORS = {"c": ("dop853", "dopri5", "radau5", "auto", "rk4", "taylor"),
                            "numpy": ("dop853", "dopri5", "radau5", "rk4")}

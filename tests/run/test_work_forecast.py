@@ -143,7 +143,7 @@ def test_long_runs_finish_with_their_defaults_on_the_c_backend(path, scene):
 @pytest.mark.slow
 @pytest.mark.parametrize("path, scene", [
     (LONG_RUNS / "chaotic_pendulum.lag", None),       # scipy's DOP853: about a minute
-    (LONG_RUNS / "driven_cart.lag", None),            # scipy's LSODA: 1.6e5 steps, about two minutes
+    (LONG_RUNS / "driven_cart.lag", None),            # auto: stays with scipy's DOP853, as the C auto stays with dop853
 ])
 def test_long_runs_finish_with_their_defaults_on_the_numpy_backend(path, scene):
     finished(path, scene, "numpy")
@@ -159,7 +159,7 @@ def forecast_failure(model, scene, backend, **settings) -> SimulationError:
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])
 def test_the_backends_stop_the_cart_by_one_rule(backend):
-    """The cart needs more than 2e4 steps on either backend (2.7e4 in C, 1.6e5 in LSODA): with that
+    """The cart needs more than 2e4 steps on either backend (2.7e4 in C; auto stays with dop853 on both): with that
     limit both stop on the forecast, early, with the forecast in the message; with the default
     both go on (test_long_runs_finish_...)."""
     cart = lagdsl.load(LONG_RUNS / "driven_cart.lag")

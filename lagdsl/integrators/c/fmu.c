@@ -38,10 +38,11 @@ enum lag_fmu_kind { LAG_FMU_ME, LAG_FMU_CS };
 
 /* What a value reference stands for: time, a parameter (par[index]), an integrator option
  * (index: its LAG_SET_ position), an entry of the state y, an acceleration (entry index of
- * dy/dt), an output column, or the stop condition's event indicator. */
+ * dy/dt), an output column, the stop condition's event indicator, or the atol of entry index
+ * of y (co-simulation). */
 enum lag_fmu_variable_kind {
     LAG_FMU_TIME, LAG_FMU_PARAMETER, LAG_FMU_OPTION, LAG_FMU_STATE, LAG_FMU_ACCELERATION, LAG_FMU_OUTPUT,
-    LAG_FMU_INDICATOR
+    LAG_FMU_INDICATOR, LAG_FMU_TOLERANCE
 };
 enum lag_fmu_type { LAG_FMU_REAL, LAG_FMU_INTEGER };
 typedef struct lag_fmu_variable {
@@ -75,6 +76,8 @@ struct lag_fmu {
     int crossed;                            /* in event mode: entered from continuous time */
     real dydt[LAG_NY], out[LAG_NOUT];
     lag_options options;
+    double atol_each[LAG_NY];               /* integrator.atol.<component>; 0: options.atol */
+    double atol_used[LAG_NY];               /* what options.atol_each points to when one is not 0 */
     lag_stepper *stepper;
     lag_report report;                      /* the stop condition's: stopped, t_stop */
     real e_old, t_end;                      /* the stop function at the last step, the stepper's end */
@@ -201,6 +204,7 @@ static void lag_fmu_start_values(lag_fmu *fmu)
 static void lag_fmu_defaults(lag_fmu *fmu)
 {
     lag_options options = LAG_FMU_OPTIONS;
+    static const double atol_each[LAG_NY] = LAG_FMU_ATOL_EACH;
     memset(&fmu->sys, 0, sizeof fmu->sys);    /* a model without parameters still has par[0] */
     lag_default_parameters(fmu->sys.par);
     memset(fmu->fixed, 0, sizeof fmu->fixed);
@@ -210,6 +214,7 @@ static void lag_fmu_defaults(lag_fmu *fmu)
     fmu->stop_defined = 0;
     fmu->crossed = 0;
     fmu->options = options;
+    memcpy(fmu->atol_each, atol_each, sizeof fmu->atol_each);
     fmu->prepared = 0;
     lag_fmu_start_values(fmu);
     fmu->restart = fmu->terminated = 0;

@@ -46,6 +46,18 @@ static int lag_fmu_ignore_row(void *context, real t, const real *out)
     return 0;
 }
 
+/* The atol of each component of y for the stepper (lag_options.atol_each): NULL when every
+ * integrator.atol.<component> is 0, else each one's, options.atol where it is 0. */
+static const double *lag_fmu_atol_each(lag_fmu *fmu)
+{
+    int i, named = 0;
+    for (i = 0; i < LAG_NY; ++i) {
+        named |= fmu->atol_each[i] > 0;
+        fmu->atol_used[i] = fmu->atol_each[i] > 0 ? fmu->atol_each[i] : (double)fmu->options.atol;
+    }
+    return named ? fmu->atol_used : NULL;
+}
+
 /* Begin the integration at (t, y) as lag_integrate begins a run: the state projected onto the
  * constraints, the stop condition tested there, the stepper started with the options and a step
  * limit for a run to t_end, the end it never steps beyond. */
@@ -59,6 +71,7 @@ static int lag_fmu_begin(lag_fmu *fmu)
     fmu->stepper->t = fmu->t;
     memcpy(fmu->stepper->y, fmu->y, sizeof fmu->stepper->y);
     limited.max_steps = fmu->step_limit = lag_step_limit(&fmu->options, fmu->t, fmu->t_end, last);
+    limited.atol_each = lag_fmu_atol_each(fmu);
     lag_fmu_prepare(fmu);
     fmu->fresh = 0;
     status = lag_start(&fmu->sys, fmu->t, fmu->y, &fmu->e_old, &last, lag_fmu_ignore_row, NULL, &fmu->report);

@@ -113,6 +113,18 @@ static int lag_fmu_set_option(lag_fmu *fmu, const char *function, const lag_fmu_
     return LAG_FMU_OK;
 }
 
+/* The atol of one component of y (co-simulation), before the run: a finite number >= 0 (0: integrator.atol). */
+static int lag_fmu_set_tolerance(lag_fmu *fmu, const char *function, const lag_fmu_variable *variable, double value)
+{
+    if (!lag_fmu_settable(fmu, function, variable->reference, LAG_FMU_INSTANTIATED | LAG_FMU_INITIALIZATION))
+        return LAG_FMU_ERROR;
+    if (!(r_isfinite(value) && value >= 0))
+        return lag_fmu_error(fmu, "%s: the atol of value reference %lu must be a finite number >= 0 (0: "
+                             "integrator.atol), got %g", function, variable->reference, value);
+    fmu->atol_each[variable->index] = value;
+    return LAG_FMU_OK;
+}
+
 /* fmi2SetReal, fmi3SetFloat64 (one value): parameters, initial values and integrator options. */
 static int lag_fmu_set_real(lag_fmu *fmu, const char *function, unsigned long reference, double value)
 {
@@ -126,6 +138,8 @@ static int lag_fmu_set_real(lag_fmu *fmu, const char *function, unsigned long re
         return lag_fmu_set_start(fmu, function, variable, value);
     case LAG_FMU_OPTION:
         return lag_fmu_set_option(fmu, function, variable, value);
+    case LAG_FMU_TOLERANCE:
+        return lag_fmu_set_tolerance(fmu, function, variable, value);
     default:
         return lag_fmu_error(fmu, "%s: the variable of value reference %lu is computed by the FMU; it cannot be set",
                              function, reference);
@@ -238,6 +252,9 @@ static int lag_fmu_get_real(lag_fmu *fmu, const char *function, unsigned long re
         break;
     case LAG_FMU_OPTION:
         *value = (double)*lag_fmu_real_option(&fmu->options, variable->index);
+        break;
+    case LAG_FMU_TOLERANCE:
+        *value = fmu->atol_each[variable->index];
         break;
     case LAG_FMU_STATE:
         *value = (double)fmu->y[variable->index];

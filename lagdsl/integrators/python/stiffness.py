@@ -18,7 +18,7 @@ test calls for the next verdict after twice as many stiff steps.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -38,19 +38,22 @@ class FastMode:
     time: float
     rate: float
     amplitude: float
+    step: float = 0.0           # the mean step (per trial) over the steps that made the verdict
 
 
 class StiffnessTest:
-    """Feed it every accepted step (`record(solver)`); `verdict` is the verdict the summary keeps."""
+    """Feed it every accepted step (`record(solver, trials)`); `verdict` is the verdict the summary keeps."""
 
     def __init__(self, method: str):
         self.boundary = STABILITY_BOUNDARY[method]
         self.stiff_steps = self.calm_steps = 0
         self.patience = STIFF_STEPS
         self.verdict: FastMode | None = None
+        self.window = (0.0, 0)          # (t, trials) at the first stiff step of the count
 
-    def record(self, solver) -> bool:
-        """Count the step the solver has just accepted; True when it gives the verdict to keep."""
+    def record(self, solver, trials: int = 0) -> bool:
+        """Count the step the solver has just accepted (`trials`: its attempts so far, accepted or
+        rejected, for the verdict's mean step); True when it gives the verdict to keep."""
         if self.verdict is not None and self.verdict.kind == VERDICT_STIFF:
             return False
         if self.h_lambda(solver) <= self.boundary:
@@ -59,6 +62,8 @@ class StiffnessTest:
                 self.stiff_steps = 0
             return False
         self.calm_steps = 0
+        if self.stiff_steps == 0:
+            self.window = (float(solver.t), trials)
         self.stiff_steps += 1
         if self.stiff_steps < self.patience:
             return False
@@ -68,7 +73,8 @@ class StiffnessTest:
             self.patience *= 2
         if mode is None or (self.verdict is not None and mode.kind == VERDICT_OSCILLATION):
             return False
-        self.verdict = mode
+        start, before = self.window
+        self.verdict = replace(mode, step=(mode.time - start) / max(trials - before, 1))
         return True
 
     @staticmethod
@@ -88,7 +94,7 @@ def fast_mode(solver) -> FastMode | None:
         v, rho2 = f, 0.0
         for _ in range(FAST_ITERATIONS):
             before = np.linalg.norm(v)
-            v = _jacobian_product(solver, _jacobian_product(solver, v))
+            v = jacobian_product(solver, jacobian_product(solver, v))
             size = np.linalg.norm(v)
             if not (size > 0 and np.isfinite(size)):
                 return None
@@ -97,7 +103,7 @@ def fast_mode(solver) -> FastMode | None:
         d = FAST_PROBE / rho
         second = (solver.fun(t + d, y + d * f) - f) / d
         scale = solver.atol + solver.rtol * np.abs(y)
-        turned = _jacobian_product(solver, second) / rho      # a quarter period on
+        turned = jacobian_product(solver, second) / rho      # a quarter period on
         amplitude = float(np.sqrt(np.mean((second / scale) ** 2 + (turned / scale) ** 2) / 2) / rho2)
     if not np.isfinite(amplitude):
         return None
@@ -105,32 +111,7 @@ def fast_mode(solver) -> FastMode | None:
     return FastMode(kind, float(t), float(rho), amplitude)
 
 
-def _jacobian_product(solver, u: np.ndarray) -> np.ndarray:
+def jacobian_product(solver, u: np.ndarray) -> np.ndarray:
     """J u ~ (f(t, y + delta u) - f) / delta, delta = sqrt(eps) (1 + |y|) / |u|."""
     delta = np.sqrt(np.finfo(float).eps) * (1 + np.linalg.norm(solver.y)) / np.linalg.norm(u)
     return (solver.fun(solver.t, solver.y + delta * u) - solver.f) / delta
-
-
-class SwitchLog:
-    """The method switches of scipy's LSODA (Adams while non-stiff, BDF while stiff), read from
-    its work array after every step (ODEPACK's MUSED, the method of the last step)."""
-
-    METHODS = ("Adams", "BDF")
-
-    def __init__(self):
-        self.times: list[float] = []
-        self.spans = [0.0, 0.0]
-        self.method = 0
-
-    def record(self, solver) -> None:
-        used = self._method_used(solver)
-        if used != self.method:
-            self.times.append(float(solver.t_old))
-            self.method = used
-        self.spans[used] += float(solver.t - solver.t_old)
-
-    @staticmethod
-    def _method_used(solver) -> int:
-        integrator = getattr(getattr(solver, "_lsoda_solver", None), "_integrator", None)
-        work = getattr(integrator, "iwork", None)
-        return 1 if work is not None and work[19] == 2 else 0
