@@ -99,11 +99,9 @@ class _Tree:
     def __init__(self, model: ir.Model):
         self.model = model
         self.index = {c.symbol: k for k, c in enumerate(model.coordinates)}
-        self.velocity = {c.symbol: c.velocity_symbol for c in model.coordinates}
         self.lets = {let.symbol: let for let in model.lets}
-        self.state = {*self.index, *self.velocity.values(), ir.TIME}
         self.joints = frozenset(self.index)
-        self.moving = frozenset(self.state - self.joints)        # velocities and t
+        self.moving = frozenset({*(c.velocity_symbol for c in model.coordinates), ir.TIME})
         self.let_symbols = frozenset(self.lets)
         self._parts: dict[sympy.Symbol, dict[int, sympy.Expr] | None] = {}
         self._joints: dict[sympy.Expr, int | None] = {}
