@@ -1,7 +1,7 @@
 """Large systems: how generation, compilation and integration grow with the number of coordinates.
 
     python benchmarks/large_systems.py [--fpu 50 200 1000 5000] [--accuracy 200] [--chain 8 16 32 64]
-                                       [--implicit 50 200 1000] [--kane-max 12] [--limit 900]
+                                       [--implicit 50 200 1000] [--kane-max 12] [--dense-max 32] [--limit 900]
 
 Two families, each size measured in its own process (so that peak memory is that size's own):
 
@@ -16,16 +16,22 @@ Two families, each size measured in its own process (so that peak memory is that
   implicit    the FPU chain with radau5 (rtol 1e-6, atol 1e-8), whose Newton matrices are banded
               (radau5.c), against scipy's Radau given the sparsity of the Jacobian (jac_sparsity,
               so that it estimates J by grouped differences and factors it with sparse LU).
-  n-link      models/pendulum_chain.lag with n links: a dense mass matrix. lagdsl against
-              sympy.physics.mechanics.KanesMethod + lambdify + scipy DOP853 (numpy.linalg.solve
-              of M q'' = F in each call), up to --kane-max links (Kane's derivation grows fast).
+  n-link      models/pendulum_chain.lag with n links and unequal masses (`m[n] = {1 + 1/i}`):
+              a dense mass matrix in the joint angles, which lagdsl solves by the tree form
+              (mechanics/trees.py, the articulated-body recursion in O(n)). Against the dense
+              path (the same model's expanded equations, up to --dense-max links), against
+              Pinocchio's `aba` called from Python (the optional dependency `pin`; the same
+              planar chain of revolute joints and point masses, per call, its binding overhead
+              measured on a 1-link model and subtracted), and against
+              sympy.physics.mechanics.KanesMethod + lambdify + scipy DOP853 up to --kane-max
+              links (Kane's derivation grows fast). Also the whole cold `lagc run` (10 s).
 
 For each: CPU seconds to generate (parse, derive, lower, print the C), to compile it (cc -O2,
 the flags of the build cache), one right-hand side (integration time / evaluations), one
 simulated second (the fastest of 3 calls of `simulate`, CPU seconds of the whole call, the
 Python around the C included; SciPy's the same way, CPU seconds of `solve_ivp`), the peak
 resident memory of the process, and the difference of q[1] at t = 10 from scipy's; for the FPU
-chain also the whole cold `lagc run` (an empty build cache, the compiler included). Growth exponents are fitted between the two largest sizes measured.
+chain and the n-link chain also the whole cold `lagc run` (an empty build cache, the compiler included). Growth exponents are fitted between the two largest sizes measured.
 """
 from __future__ import annotations
 
@@ -98,17 +104,14 @@ def measure_lagdsl(path: Path, scene: str) -> dict:
     integration time for the run."""
     from lagdsl.codegen.c import render_c
     from lagdsl.codegen.kernel import lower_to_kernel
-    from lagdsl.pipeline import model_from_source, plan
-    from lagdsl.mechanics import derive_equations
-    from lagdsl.mechanics.families import derive_local_equations
+    from lagdsl.pipeline import compile_model, plan
     from lagdsl.run.toolchain import LIBRARY_FLAGS, find_compiler
     from lagdsl.scene import Overrides
     from lagdsl.source import SourceFile
     import lagdsl
 
     started = benchtools.cpu_seconds()
-    model = model_from_source(SourceFile.read(path))
-    equations = derive_local_equations(model) or derive_equations(model)      # as lagc does
+    model, equations = compile_model(SourceFile.read(path))                   # as lagc does
     derived = benchtools.cpu_seconds()
     kernel = lower_to_kernel(equations, plan(model, equations, scene, Overrides()))
     source = render_c(kernel, path.name).text
@@ -257,15 +260,76 @@ def one_fpu_implicit(n: int) -> dict:
     return row
 
 
-def one_chain(n: int, kane: bool) -> dict:
+def chain_text(n: int) -> str:
+    """models/pendulum_chain.lag with n links of unequal masses m[i] = 1 + 1/i."""
     source = (benchtools.MODELS / "pendulum_chain.lag").read_text()
+    return (source.replace('parameter n = 12 ', f'parameter n = {n} ')
+            .replace('parameter m = 1.0 [kg]      "mass of each bob";',
+                     'parameter m[n] = {1 + 1/i, i in 1:n} [kg] "mass of each bob";')
+            .replace("m/2*", "m[i]/2*").replace("m*g*y", "m[i]*g*y"))
+
+
+def one_chain(n: int, kane: bool, dense: bool) -> dict:
     with tempfile.TemporaryDirectory() as work:
         path = Path(work) / "chain.lag"
-        path.write_text(source.replace('parameter n = 12 ', f'parameter n = {n} '))
+        path.write_text(chain_text(n))
         row = measure_lagdsl(path, "swing")
+        row["cold_cpu"], row["cold_wall"] = cold_run(path)
+        if dense:
+            row["dense"] = measure_dense(path, "swing")
+    row.update(pinocchio_chain(n))
     if kane:
         row.update(kane_chain(n))
     return row
+
+
+def measure_dense(path: Path, scene: str) -> dict:
+    """The same scene through the expanded equations (derive_equations, the dense M): CPU
+    seconds to generate and per right-hand side."""
+    from lagdsl.mechanics import derive_equations
+    from lagdsl.pipeline import execute, generate, load_model, plan
+    from lagdsl.scene import Overrides
+    started = benchtools.cpu_seconds()
+    model = load_model(path)
+    equations = derive_equations(model)
+    scene_plan = plan(model, equations, scene, Overrides())
+    kernel, source = generate(equations, scene_plan, "c", path.name)
+    generated = benchtools.cpu_seconds() - started
+    execute(kernel, source, scene_plan)                         # compiles
+    seconds, result = min((cpu_call(execute, kernel, source, scene_plan) for _ in range(REPEAT)),
+                          key=lambda run: run[0])
+    return {"generate": generated, "rhs": seconds / result.summary.count("rhs_evals"),
+            "final": float(result.values[-1, 0])}
+
+
+def pinocchio_chain(n: int) -> dict:
+    """Pinocchio's aba on the same chain (revolute joints about z, point masses m_i = 1 + 1/i
+    at the ends of unit links, gravity -9.81 y), seconds per call from Python less the call
+    overhead (a 1-link model's); {} when pinocchio is not installed."""
+    try:
+        import pinocchio
+    except ImportError:
+        return {}
+    import timeit
+    import numpy as np
+
+    def per_call(links: int) -> float:
+        model = pinocchio.Model()
+        model.gravity.linear = np.array([0.0, -9.81, 0.0])
+        parent, offset = 0, np.zeros(3)
+        for i in range(1, links + 1):
+            parent = model.addJoint(parent, pinocchio.JointModelRZ(), pinocchio.SE3(np.eye(3), offset), f"j{i}")
+            model.appendBodyToJoint(parent, pinocchio.Inertia(1 + 1 / i, np.array([0.0, -1.0, 0.0]), np.zeros((3, 3))),
+                                    pinocchio.SE3.Identity())
+            offset = np.array([0.0, -1.0, 0.0])
+        data = model.createData()
+        q, v, tau = np.full(links, 0.5), np.full(links, 0.1), np.zeros(links)
+        calls = max(200, 200000 // links)
+        return min(timeit.repeat(lambda: pinocchio.aba(model, data, q, v, tau), number=calls, repeat=5,
+                                 timer=time.process_time)) / calls
+
+    overhead = per_call(1)
+    return {"aba": per_call(n) - overhead, "aba_overhead": overhead}
 
 
 def kane_chain(n: int) -> dict:
@@ -301,15 +365,16 @@ def kane_chain(n: int) -> dict:
     return {"kane_generate": generated, "kane_run": seconds, "kane_rhs": solution.nfev}
 
 
-def child(kind: str, n: int, kane: bool) -> None:
+def child(kind: str, n: int, kane: bool, dense: bool) -> None:
     row = {"fpu": one_fpu, "accuracy": one_fpu_accuracy, "implicit": one_fpu_implicit}.get(
-        kind, lambda n: one_chain(n, kane))(n)
+        kind, lambda n: one_chain(n, kane, dense))(n)
     row["peak_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(json.dumps(row))
 
 
-def measure(kind: str, n: int, kane: bool, limit: float) -> dict | str:
-    command = [sys.executable, __file__, "--child", kind, str(n)] + (["--kane"] if kane else [])
+def measure(kind: str, n: int, kane: bool, limit: float, dense: bool = False) -> dict | str:
+    command = [sys.executable, __file__, "--child", kind, str(n)] + (["--kane"] if kane else []) \
+        + (["--dense"] if dense else [])
     try:
         done = subprocess.run(command, capture_output=True, text=True, timeout=limit)
     except subprocess.TimeoutExpired:
@@ -335,7 +400,8 @@ def report(kind: str, sizes, rows) -> None:
     if kind != "chain":
         headers += ["scipy per sim. s", "speed-up", "|q1 - scipy|", "cold lagc run"]
     else:
-        headers += ["Kane generate", "Kane per sim. s"]
+        headers += ["cold lagc run", "dense generate", "dense per rhs", "Pinocchio aba", "aba / rhs",
+                    "Kane generate", "Kane per sim. s"]
     table = []
     for n, r, rhs in zip(sizes, rows, per_rhs):
         if not isinstance(r, dict):
@@ -349,8 +415,14 @@ def report(kind: str, sizes, rows) -> None:
                      f"{r['difference']:.1e}",
                      f"{benchtools.seconds(r['cold_cpu'])} CPU, {benchtools.seconds(r['cold_wall'])} wall"]
         else:
-            line += [benchtools.seconds(r.get("kane_generate")), benchtools.seconds(
-                r["kane_run"] / 10 if "kane_run" in r else None)]
+            dense = r.get("dense", {})
+            line += [f"{benchtools.seconds(r['cold_cpu'])} CPU, {benchtools.seconds(r['cold_wall'])} wall",
+                     benchtools.seconds(dense.get("generate")),
+                     f"{dense['rhs'] * 1e6:.3g} us" if dense else "n/a",
+                     f"{r['aba'] * 1e6:.3g} us (+{r['aba_overhead'] * 1e6:.2g})" if "aba" in r else "n/a",
+                     f"{r['aba'] / rhs:.2f}" if "aba" in r and rhs else "n/a",
+                     benchtools.seconds(r.get("kane_generate")), benchtools.seconds(
+                         r["kane_run"] / 10 if "kane_run" in r else None)]
         table.append(line)
     print(benchtools.markdown_table(headers, table))
     print(f"growth exponents ({kind}): generate {exponent(sizes, [r.get('generate') for r in ok])}, "
@@ -365,12 +437,14 @@ def main() -> None:
     parser.add_argument("--accuracy", type=int, nargs="*", default=[200])
     parser.add_argument("--implicit", type=int, nargs="*", default=[50, 200, 1000])
     parser.add_argument("--kane-max", type=int, default=12)
+    parser.add_argument("--dense-max", type=int, default=32, help="largest chain also run through the dense M")
     parser.add_argument("--limit", type=float, default=900, help="seconds allowed for one size")
     parser.add_argument("--child", nargs=2, help=argparse.SUPPRESS)
     parser.add_argument("--kane", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--dense", action="store_true", help=argparse.SUPPRESS)
     arguments = parser.parse_args()
     if arguments.child:
-        child(arguments.child[0], int(arguments.child[1]), arguments.kane)
+        child(arguments.child[0], int(arguments.child[1]), arguments.kane, arguments.dense)
         return
     print(benchtools.machine_description())
     if arguments.fpu:
@@ -382,8 +456,8 @@ def main() -> None:
         report("implicit", arguments.implicit, [measure("implicit", n, False, arguments.limit)
                                                 for n in arguments.implicit])
     if arguments.chain:
-        report("chain", arguments.chain, [measure("chain", n, n <= arguments.kane_max, arguments.limit)
-                                          for n in arguments.chain])
+        report("chain", arguments.chain, [measure("chain", n, n <= arguments.kane_max, arguments.limit,
+                                                  n <= arguments.dense_max) for n in arguments.chain])
 
 
 if __name__ == "__main__":

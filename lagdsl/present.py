@@ -19,6 +19,7 @@ from .frontend import units
 from .calculus import Differentiator, tree_size
 from .escape import visible
 from .mechanics import Equations
+from .mechanics.families import expanded
 from .tidying import reduced, written
 from .typeset import typeset
 
@@ -235,7 +236,9 @@ def equation_rows(equations: Equations, display: Display) -> list[tuple[str, sym
 
 
 def format_equations(equations: Equations, latex: bool = False) -> str:
-    """The report of `lagc eom`: the equations, then the intermediates they are shown with."""
+    """The report of `lagc eom`: the equations, then the intermediates they are shown with
+    (always of the expanded equations, whichever form the run uses)."""
+    equations = expanded(equations)
     display = Display(equations.calculus())
     rows = equation_rows(equations, display)
     where = display.where(side for _, lhs, rhs in rows for side in (lhs, rhs))

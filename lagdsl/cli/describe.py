@@ -42,10 +42,9 @@ def _check_answer(source: SourceFile) -> dict[str, str]:
 
 
 def eom(arguments) -> int:
-    from ..mechanics.families import expanded
     from ..present import format_equations
     model = common.load_model(SourceFile.read(arguments.model))
-    common.deliver(format_equations(expanded(model.equations), latex=arguments.latex) + "\n", None)
+    common.deliver(format_equations(model.equations, latex=arguments.latex) + "\n", None)
     return 0
 
 

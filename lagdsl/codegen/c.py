@@ -64,7 +64,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
         "derived": [f"if (!fixed[{i}])\n        par[{i}] = {printer.doprint(expr)};"
                     for i, expr in kernel.derived_parameters],
         "solver": kernel.solver, "jacobian": kernel.jacobian is not None, "implicit": method.implicit, "jac": kernel.jacobian_layout,
-        "layout": layout_kind(kernel), "bandwidth": kernel.layout.bandwidth if kernel.layout else 0, "stored": kernel.layout.size if kernel.layout else kernel.size ** 2,
+        "layout": layout_kind(kernel), "bandwidth": kernel.layout.bandwidth if kernel.layout else 0, "tree": kernel.layout, "stored": kernel.layout.size if kernel.layout else kernel.size ** 2,
         "factor": factorisation_text(kernel.layout),
         "canonical": kernel.momenta is not None,
         "outputs_need_multipliers": kernel.outputs_need_multipliers,
@@ -249,10 +249,13 @@ def _print_loop(loop: Loop, kernel: Kernel, printer: CPrinter) -> dict:
 
 def _band_position(index, kernel: Kernel) -> tuple[int, int]:
     """(offset, stride) of entry (row, column) of M over the members: K[row] when M is diagonal,
-    K[row (w + 1) + row - column] in the band of half-width w."""
+    K[row (w + 1) + row - column] in the band of half-width w; of field `column` of link `row`'s
+    record in the tree layout."""
     (row, stride), (column, _) = index
     if kernel.layout.kind == "diagonal":
         return row, stride
+    if kernel.layout.kind == "tree":
+        return row * kernel.layout.record + column, stride * kernel.layout.record
     width = kernel.layout.bandwidth + 1
     return row * width + row - column, stride * width
 

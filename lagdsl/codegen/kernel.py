@@ -47,6 +47,7 @@ from ..calculus import Differentiator
 from ..errors import InternalError, LagError
 from ..mechanics import Equations
 from ..mechanics.families import LocalEquations
+from ..mechanics.trees import TreeEquations
 from ..scene import ScenePlan, declared_inputs
 from .cse import eliminate_common_subexpressions
 from .naming import NameTable, check_target_names
@@ -127,9 +128,15 @@ class Kernel:
         return self.n + len(self.constraints)
 
 
-def lower_to_kernel(equations: Equations | LocalEquations, plan: ScenePlan) -> Kernel:
-    """Build every block the scene needs (see the module docstring): from the local form of the
-    equations (loops over stencils) where the scene allows it, else from the expanded equations."""
+def lower_to_kernel(equations: Equations | LocalEquations | TreeEquations, plan: ScenePlan) -> Kernel:
+    """Build every block the scene needs (see the module docstring): from the tree form (loops
+    over links) or the local form of the equations (loops over stencils) where the scene allows
+    it, else from the expanded equations."""
+    if isinstance(equations, TreeEquations):
+        from .tree_loops import TreeLowering
+        if local_form_serves(plan, False):
+            return TreeLowering(equations, plan).kernel()
+        equations = equations.expanded
     if isinstance(equations, LocalEquations):
         from .loops import LocalLowering, mass_is_constant
         if local_form_serves(plan, mass_is_constant(equations)):

@@ -11,7 +11,10 @@ derived expressions. A natural system (M positive definite, no constraints) is s
   dense     the Cholesky loops over the full n x n array, where the pattern is (nearly) full;
   banded    the loops of a banded LDLᵀ, for the local form of a large model (codegen/loops.py):
             M_ij is stored at i·(w + 1) + (i - j) for i - w <= j <= i, w the half-bandwidth, and
-            a band factors without fill.
+            a band factors without fill;
+  tree      M is never formed: K holds each link's record (m, s, w, g, d reals each, at
+            j·4d) of a tree of point masses (mechanics/trees.py) and b the joint torques τ; the
+            articulated-body recursion, the LDLᵀ of M eliminating leaves first, solves in O(n d²).
 
 A large system with constraints solves the saddle-point system [[M, -Aᵀ], [A, 0]] by the sparse
 form too, with every multiplier eliminated after the coordinates (`kkt_layout`); a small one
@@ -19,7 +22,7 @@ keeps the dense LU with partial pivoting.
 
 All three work on the equilibrated matrix (unit diagonal, see docs/numerics.md) and report the
 same reciprocal condition estimate: min d_j / max d_j over the pivots of LDLᵀ, which is
-(min l_jj / max l_jj)² of the Cholesky factor.
+(min l_jj / max l_jj)² of the Cholesky factor (the tree's pivots are D_j / M_jj).
 """
 from __future__ import annotations
 
@@ -45,13 +48,15 @@ class MassLayout:
     positions i > p where column p of L is not structurally zero (fill included). Storage:
     column by column, the pivot d_p first, then L_ip for i in columns[p]; `slot` finds an entry.
     """
-    kind: str                                   # "diagonal", "sparse", "dense" or "banded"
+    kind: str                                   # "diagonal", "sparse", "dense", "banded" or "tree"
     n: int
     order: tuple[int, ...]
     columns: tuple[tuple[int, ...], ...]
     original: frozenset[tuple[int, int]]        # positions (i, p), i >= p, that M itself fills
     bandwidth: int = 0                          # of the banded layout
     multipliers: int = 0                        # the last positions that are constraint rows (kkt_layout)
+    parents: tuple[int, ...] = ()               # of the tree layout: each link's parent link, -1 at the root
+    axes: int = 0                               # of the tree layout: the components of a body, d
 
     @property
     def coordinates(self) -> int:
@@ -63,7 +68,14 @@ class MassLayout:
         """How many reals hold M (and then its factor)."""
         if self.kind == "banded":
             return self.n * (self.bandwidth + 1)
+        if self.kind == "tree":
+            return self.n * self.record
         return self.n * self.n if self.kind == "dense" else self.n + sum(len(c) for c in self.columns)
+
+    @property
+    def record(self) -> int:
+        """Reals of one link's record in the tree layout: m, s, w and g."""
+        return TREE_RECORD * self.axes
 
     @property
     def compact(self) -> bool:
@@ -114,6 +126,15 @@ def local_layout(n: int, bandwidth: int) -> MassLayout:
     """The layout of the local form's M (mechanics/families.py): diagonal, or a band."""
     kind = "banded" if bandwidth else "diagonal"
     return MassLayout(kind, n, tuple(range(n)), ((),) * n, frozenset((p, p) for p in range(n)), bandwidth)
+
+
+TREE_RECORD = 4         # vectors of a link's record in the tree layout: m, s, w, g
+
+
+def tree_layout(parents: tuple[int, ...], axes: int) -> MassLayout:
+    """The layout of the tree form (mechanics/trees.py): link records, no M."""
+    n = len(parents)
+    return MassLayout("tree", n, tuple(range(n)), ((),) * n, frozenset(), parents=parents, axes=axes)
 
 
 def mass_layout(mass_matrix: tuple[tuple[sympy.Expr, ...], ...]) -> MassLayout:

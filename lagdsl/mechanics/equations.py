@@ -50,6 +50,8 @@ class ConstraintEquation:
     gamma: sympy.Expr
     span: object
 
+ENERGY_CONSERVED = "L does not depend on t and no work is done on the system"     # why h is conserved
+
 
 @dataclass(frozen=True)
 class ConservedQuantity:

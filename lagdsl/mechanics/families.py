@@ -41,7 +41,7 @@ import sympy
 
 from .. import ir
 from ..calculus import Differentiator
-from .equations import ConservedQuantity
+from .equations import ENERGY_CONSERVED, ConservedQuantity
 
 FAMILY_MIN_COORDINATES = 16     # smaller models are unrolled: their code is small anyway
 LOCAL_WIDTH = 8                 # most coordinates one term may touch
@@ -117,7 +117,7 @@ class LocalEquations:
         self.coordinates = tuple(c.symbol for c in model.coordinates)
         self.velocities = tuple(c.velocity_symbol for c in model.coordinates)
         self.energy = ENERGY           # computed by the loops (codegen/loops.py)
-        self.conserved = (ConservedQuantity("energy", ENERGY, "L does not depend on t and no work is done on the system"),
+        self.conserved = (ConservedQuantity("energy", ENERGY, ENERGY_CONSERVED),
                           ) if energy_conserved else ()
 
     @property
@@ -193,7 +193,7 @@ class _Terms:
         for k, c in enumerate(model.coordinates):
             self.coordinate_index[c.symbol] = (k, POSITION)
             self.coordinate_index[c.velocity_symbol] = (k, VELOCITY)
-        self.member_index = {p.symbol: j for j, p in enumerate(model.parameters) if _ARRAY_MEMBER.match(p.name)}
+        self.member_index = parameter_members(model)
         self.lets = {let.symbol: let.expression for let in model.lets}
         self.calculus = Differentiator(((let.symbol, let.expression) for let in model.lets),
                                        tuple(self.coordinate_index) + (ir.TIME,))
@@ -260,6 +260,11 @@ class _Terms:
 
 
 _ARRAY_MEMBER = re.compile(r"^.+\[\d+\]$")
+
+
+def parameter_members(model: ir.Model) -> dict[sympy.Symbol, int]:
+    """The members of parameter arrays (m[3]) -> their index among the model's parameters."""
+    return {p.symbol: j for j, p in enumerate(model.parameters) if _ARRAY_MEMBER.match(p.name)}
 
 
 def additive_terms(expression: sympy.Expr, constant) -> list[sympy.Expr]:

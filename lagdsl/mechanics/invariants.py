@@ -13,7 +13,7 @@ import sympy
 
 from .. import ir
 from ..calculus import Differentiator
-from .equations import ConservedQuantity, ConstraintEquation
+from .equations import ENERGY_CONSERVED, ConservedQuantity, ConstraintEquation
 from .probe import Probe
 
 
@@ -35,7 +35,7 @@ def conserved_quantities(model: ir.Model, calculus: Differentiator, probe: Probe
         found.append(ConservedQuantity(f"momentum({coordinate.name})", momenta[k],
                                        f"{coordinate.name} is cyclic"))
     if _energy_conserved(model, calculus, probe, lagrangian, active):
-        found.append(ConservedQuantity("energy", energy, "L does not depend on t and no work is done on the system"))
+        found.append(ConservedQuantity("energy", energy, ENERGY_CONSERVED))
     return tuple(found)
 
 

@@ -206,73 +206,12 @@ enum lag_status {
 enum lag_setting { LAG_SET_T_START, LAG_SET_T_STOP, LAG_SET_T_INTERVAL, LAG_SET_RTOL, LAG_SET_ATOL, LAG_SET_STEP, LAG_SET_MAX_STEP, LAG_SET_STAGES, LAG_SET_MAX_STEPS, LAG_SETTINGS };
 
 /* ---- dense linear algebra ---- */
-/* Cholesky factorisation for the symmetric positive definite mass matrix of a natural
- * system, row-major, in place. Golub & Van Loan, Matrix Computations, 4th ed., algorithm 4.2.1.
- */
-
-/* A = L L^T; L overwrites the lower triangle of a.  Returns 0, or k+1 when the k-th pivot is
- * not positive (A is not positive definite to working precision). */
-static int lag_cholesky_factor(int n, real *a)
-{
-    int i, j, k;
-    for (j = 0; j < n; ++j) {
-        real d = a[j * n + j];
-        for (k = 0; k < j; ++k)
-            d -= a[j * n + k] * a[j * n + k];
-        if (!(d > 0))
-            return j + 1;
-        d = r_sqrt(d);
-        a[j * n + j] = d;
-        for (i = j + 1; i < n; ++i) {
-            real s = a[i * n + j];
-            for (k = 0; k < j; ++k)
-                s -= a[i * n + k] * a[j * n + k];
-            a[i * n + j] = s / d;
-        }
-    }
-    return 0;
-}
-
-/* Solve L L^T x = b with the factor from lag_cholesky_factor; x overwrites b. */
-static void lag_cholesky_solve(int n, const real *l, real *b)
-{
-    int i, k;
-    for (i = 0; i < n; ++i) {
-        real s = b[i];
-        for (k = 0; k < i; ++k)
-            s -= l[i * n + k] * b[k];
-        b[i] = s / l[i * n + i];
-    }
-    for (i = n - 1; i >= 0; --i) {
-        real s = b[i];
-        for (k = i + 1; k < n; ++k)
-            s -= l[k * n + i] * b[k];
-        b[i] = s / l[i * n + i];
-    }
-}
-
-/* Reciprocal condition estimate of A = L L^T from its factor: (min_j l_jj / max_j l_jj)^2.
- * Since cond_2(A) = cond_2(L)^2 >= (max_j l_jj / min_j l_jj)^2, the estimate is never below the
- * true 1/cond_2(A): a well-conditioned A is never reported as ill-conditioned.  For A with unit
- * diagonal, l_jj^2 is the part of column j that the columns before it do not explain, so nearly
- * dependent coordinates show up as a vanishing pivot. */
-static real lag_cholesky_rcond(int n, const real *l)
-{
-    real smallest = l[0], largest = l[0];
-    int j;
-    for (j = 1; j < n; ++j) {
-        smallest = r_fmin(smallest, l[j * n + j]);
-        largest = r_fmax(largest, l[j * n + j]);
-    }
-    return (smallest / largest) * (smallest / largest);
-}
-
 
 /* ---- the model: PendulumChain ---- */
 #define LAG_NQ 12     /* generalized coordinates */
 #define LAG_NY 24     /* state y = (q, q') */
 #define LAG_NK 12     /* order of the linear system for q'' */
-#define LAG_NM 144     /* reals that hold K */
+#define LAG_NM 96     /* reals that hold K */
 #define LAG_NP 4     /* parameters */
 #define LAG_NOUT 3     /* output columns */
 #define LAG_NINV 1     /* conserved quantities watched */
@@ -338,45 +277,82 @@ static void lag_initial_state(const real *par, real *y0)
     y0[11] = 0.5;
 }
 
-/* Symmetric equilibration K' = S K S, b' = S b (the solution is then x = S x'): unit diagonal
- * for the mass matrix, and for a row whose diagonal is zero (a constraint's) a largest scaled
- * entry of 1, so that the condition of K' measures dependence, not units. */
-static void lag_equilibrate(int n, real *K, real *b, real *scale)
-{
-    int i, j;
-    for (i = 0; i < n; ++i)
-        scale[i] = K[i * n + i] > 0 && r_isfinite(K[i * n + i]) ? 1 / r_sqrt(K[i * n + i]) : 0;
-    for (i = 0; i < n; ++i)
-        if (scale[i] == 0) {
-            real largest = 0;
-            for (j = 0; j < n; ++j)
-                largest = r_fmax(largest, r_fabs(K[i * n + j] * scale[j]));
-            scale[i] = largest > 0 && r_isfinite(largest) ? 1 / largest : 1;
-        }
-    for (i = 0; i < n; ++i) {
-        for (j = 0; j < n; ++j)
-            K[i * n + j] *= scale[i] * scale[j];
-        b[i] *= scale[i];
-    }
-}
+#define LAG_AXES 2     /* components of a body's position */
+#define LAG_RECORD 8     /* reals of a link's record in K: m, s, w, g */
 
-/* Solve K x = b in place (K of order n <= LAG_NK, destroyed), equilibrated, by Cholesky
- * (K is positive definite). *rcond receives the reciprocal condition estimate of the equilibrated K; LAG_ERR_SINGULAR when
- * it is below LAG_RCOND_MIN or a pivot vanishes (then *rcond is 0). */
+/* The parent of each link (-1: at the root); a parent precedes its children. */
+static const int lag_parent[LAG_NQ] = { -1, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10 };
+
+/* Solve M x = b for x = q'' by the articulated-body recursion, without forming M (K holds the
+ * links' records m_j, s_j, w_j, g_j at j * LAG_RECORD and is destroyed, b the torques tau_j;
+ * mechanics/trees.py). Leaves to root: A_hat = diag(m_j) + the children's A, c_hat = g_j + the
+ * children's c, D_j = s^T A_hat s, u_j = tau_j - s^T (A_hat w + c_hat), and the subtree seen
+ * from its parent's point A = A_hat - (A_hat s)(A_hat s)^T / D_j, c = A_hat w + c_hat
+ * + (A_hat s) u_j / D_j. Root to leaves: q''_j = (u_j - (A_hat s)^T a_parent) / D_j and
+ * a_j = a_parent + s q''_j + w. The D_j are the pivots of the LDL^T of M that eliminates leaves
+ * first; *rcond receives min / max of D_j / M_jj, those of the equilibrated M, with
+ * M_jj = s^T diag(the subtree's masses) s; LAG_ERR_SINGULAR when it is below LAG_RCOND_MIN or a
+ * pivot is not positive (then *rcond is 0). */
 static int lag_solve(int n, real *K, real *b, real *rcond)
 {
-    real scale[LAG_NK];
-    int i;
+    real inertia[LAG_NQ][LAG_AXES][LAG_AXES], bias[LAG_NQ][LAG_AXES], mass[LAG_NQ][LAG_AXES];
+    real pivot[LAG_NQ], acc[LAG_NQ][LAG_AXES], at_root[LAG_AXES] = { 0 }, smallest = 0, largest = 0;
+    int j, a, c;
+    (void)n;
     *rcond = 0;
-    lag_equilibrate(n, K, b, scale);
-    if (lag_cholesky_factor(n, K) != 0)
+    for (j = 0; j < LAG_NQ; ++j)
+        for (a = 0; a < LAG_AXES; ++a) {
+            for (c = 0; c < LAG_AXES; ++c)
+                inertia[j][a][c] = a == c ? K[j * LAG_RECORD + a] : 0;
+            mass[j][a] = K[j * LAG_RECORD + a];
+            bias[j][a] = K[j * LAG_RECORD + 3 * LAG_AXES + a];
+        }
+    for (j = LAG_NQ - 1; j >= 0; --j) {
+        real *link = K + j * LAG_RECORD;        /* m, s, w, g; m becomes A_hat s */
+        const real *s = link + LAG_AXES, *w = link + 2 * LAG_AXES;
+        real d = 0, u = b[j], diagonal = 0;
+        const int parent = lag_parent[j];
+        for (a = 0; a < LAG_AXES; ++a) {
+            link[a] = 0;
+            for (c = 0; c < LAG_AXES; ++c) {
+                link[a] += inertia[j][a][c] * s[c];
+                bias[j][a] += inertia[j][a][c] * w[c];     /* c_hat + A_hat w */
+            }
+        }
+        for (a = 0; a < LAG_AXES; ++a) {
+            d += s[a] * link[a];
+            u -= s[a] * bias[j][a];
+            diagonal += mass[j][a] * s[a] * s[a];
+        }
+        if (!(d > 0 && r_isfinite(d)))
+            return LAG_ERR_SINGULAR;
+        smallest = j == LAG_NQ - 1 ? d / diagonal : r_fmin(smallest, d / diagonal);
+        largest = r_fmax(largest, d / diagonal);
+        pivot[j] = d;
+        b[j] = u;
+        if (parent < 0)
+            continue;
+        for (a = 0; a < LAG_AXES; ++a) {
+            for (c = 0; c < LAG_AXES; ++c)
+                inertia[parent][a][c] += inertia[j][a][c] - link[a] * link[c] / d;
+            bias[parent][a] += bias[j][a] + link[a] * u / d;
+            mass[parent][a] += mass[j][a];
+        }
+    }
+    if (!(smallest / largest >= LAG_RCOND_MIN))
         return LAG_ERR_SINGULAR;
-    *rcond = lag_cholesky_rcond(n, K);
-    if (!(*rcond >= LAG_RCOND_MIN))
-        return LAG_ERR_SINGULAR;
-    lag_cholesky_solve(n, K, b);
-    for (i = 0; i < n; ++i)
-        b[i] *= scale[i];
+    *rcond = smallest / largest;
+    for (j = 0; j < LAG_NQ; ++j) {
+        const real *link = K + j * LAG_RECORD, *s = link + LAG_AXES, *w = link + 2 * LAG_AXES;
+        const real *above = lag_parent[j] < 0 ? at_root : acc[lag_parent[j]];
+        real x = b[j];
+        for (a = 0; a < LAG_AXES; ++a)
+            x -= link[a] * above[a];
+        x /= pivot[j];
+        b[j] = x;
+        for (a = 0; a < LAG_AXES; ++a)
+            acc[j][a] = above[a] + s[a] * x + w[a];
+    }
     return LAG_OK;
 }
 
@@ -388,402 +364,22 @@ static void lag_assemble(const real *par, real t, const real *y, real *K, real *
     const real p_m = par[1];
     const real p_l = par[2];
     const real p_g = par[3];
-    const real q_theta_1 = y[0];
-    const real q_theta_2 = y[1];
-    const real q_theta_3 = y[2];
-    const real q_theta_4 = y[3];
-    const real q_theta_5 = y[4];
-    const real q_theta_6 = y[5];
-    const real q_theta_7 = y[6];
-    const real q_theta_8 = y[7];
-    const real q_theta_9 = y[8];
-    const real q_theta_10 = y[9];
-    const real q_theta_11 = y[10];
-    const real q_theta_12 = y[11];
-    const real v_theta_1 = y[12];
-    const real v_theta_2 = y[13];
-    const real v_theta_3 = y[14];
-    const real v_theta_4 = y[15];
-    const real v_theta_5 = y[16];
-    const real v_theta_6 = y[17];
-    const real v_theta_7 = y[18];
-    const real v_theta_8 = y[19];
-    const real v_theta_9 = y[20];
-    const real v_theta_10 = y[21];
-    const real v_theta_11 = y[22];
-    const real v_theta_12 = y[23];
-    const real c5 = r_cos(q_theta_1);
-    const real c56 = (c5*c5);
-    const real c0 = r_sin(q_theta_1);
-    const real c59 = (c0*c0);
-    const real c57 = (p_l*p_l);
-    const real c73 = c57*p_m;
-    const real c74 = 11*c73;
-    const real c58 = 2*c57;
-    const real w82 = 0.5*p_m*(c56*c58 + c58*c59);
-    const real c2 = r_sin(q_theta_2);
-    const real c6 = r_cos(q_theta_2);
-    const real c75 = c0*c2*c74 + c5*c6*c74;
-    const real c11 = r_cos(q_theta_3);
-    const real c76 = 10*c73;
-    const real c77 = c11*c76;
-    const real c8 = r_sin(q_theta_3);
-    const real c78 = c76*c8;
-    const real c79 = c0*c78 + c5*c77;
-    const real c16 = r_cos(q_theta_4);
-    const real c80 = 9*c73;
-    const real c81 = c16*c80;
-    const real c13 = r_sin(q_theta_4);
-    const real c82 = c13*c80;
-    const real c83 = c0*c82 + c5*c81;
-    const real c21 = r_cos(q_theta_5);
-    const real c84 = 8*c73;
-    const real c85 = c21*c84;
-    const real c18 = r_sin(q_theta_5);
-    const real c86 = c18*c84;
-    const real c87 = c0*c86 + c5*c85;
-    const real c26 = r_cos(q_theta_6);
-    const real c88 = 7*c73;
-    const real c89 = c26*c88;
-    const real c23 = r_sin(q_theta_6);
-    const real c90 = c23*c88;
-    const real c91 = c0*c90 + c5*c89;
-    const real c31 = r_cos(q_theta_7);
-    const real c92 = 6*c73;
-    const real c93 = c31*c92;
-    const real c28 = r_sin(q_theta_7);
-    const real c94 = c28*c92;
-    const real c95 = c0*c94 + c5*c93;
-    const real c36 = r_cos(q_theta_8);
-    const real c96 = 5*c73;
-    const real c97 = c36*c96;
-    const real c33 = r_sin(q_theta_8);
-    const real c98 = c33*c96;
-    const real c99 = c0*c98 + c5*c97;
-    const real c100 = 4*c73;
-    const real c41 = r_cos(q_theta_9);
-    const real c101 = c100*c41;
-    const real c38 = r_sin(q_theta_9);
-    const real c102 = c100*c38;
-    const real c103 = c0*c102 + c101*c5;
-    const real c104 = 3*c73;
-    const real c46 = r_cos(q_theta_10);
-    const real c105 = c104*c46;
-    const real c43 = r_sin(q_theta_10);
-    const real c106 = c104*c43;
-    const real c107 = c0*c106 + c105*c5;
-    const real c108 = c58*p_m;
-    const real c51 = r_cos(q_theta_11);
-    const real c109 = c108*c51;
-    const real c48 = r_sin(q_theta_11);
-    const real c110 = c108*c48;
-    const real c111 = c0*c110 + c109*c5;
-    const real c55 = r_cos(q_theta_12);
-    const real c112 = c55*c73;
-    const real c53 = r_sin(q_theta_12);
-    const real c113 = c53*c73;
-    const real c114 = c0*c113 + c112*c5;
-    const real c115 = c2*c78 + c6*c77;
-    const real c116 = c2*c82 + c6*c81;
-    const real c117 = c2*c86 + c6*c85;
-    const real c118 = c2*c90 + c6*c89;
-    const real c119 = c2*c94 + c6*c93;
-    const real c120 = c2*c98 + c6*c97;
-    const real c121 = c101*c6 + c102*c2;
-    const real c122 = c105*c6 + c106*c2;
-    const real c123 = c109*c6 + c110*c2;
-    const real c124 = c112*c6 + c113*c2;
-    const real c125 = c11*c81 + c8*c82;
-    const real c126 = c11*c85 + c8*c86;
-    const real c127 = c11*c89 + c8*c90;
-    const real c128 = c11*c93 + c8*c94;
-    const real c129 = c11*c97 + c8*c98;
-    const real c130 = c101*c11 + c102*c8;
-    const real c131 = c105*c11 + c106*c8;
-    const real c132 = c109*c11 + c110*c8;
-    const real c133 = c11*c112 + c113*c8;
-    const real c134 = c13*c86 + c16*c85;
-    const real c135 = c13*c90 + c16*c89;
-    const real c136 = c13*c94 + c16*c93;
-    const real c137 = c13*c98 + c16*c97;
-    const real c138 = c101*c16 + c102*c13;
-    const real c139 = c105*c16 + c106*c13;
-    const real c140 = c109*c16 + c110*c13;
-    const real c141 = c112*c16 + c113*c13;
-    const real c142 = c18*c90 + c21*c89;
-    const real c143 = c18*c94 + c21*c93;
-    const real c144 = c18*c98 + c21*c97;
-    const real c145 = c101*c21 + c102*c18;
-    const real c146 = c105*c21 + c106*c18;
-    const real c147 = c109*c21 + c110*c18;
-    const real c148 = c112*c21 + c113*c18;
-    const real c149 = c23*c94 + c26*c93;
-    const real c150 = c23*c98 + c26*c97;
-    const real c151 = c101*c26 + c102*c23;
-    const real c152 = c105*c26 + c106*c23;
-    const real c153 = c109*c26 + c110*c23;
-    const real c154 = c112*c26 + c113*c23;
-    const real c155 = c28*c98 + c31*c97;
-    const real c156 = c101*c31 + c102*c28;
-    const real c157 = c105*c31 + c106*c28;
-    const real c158 = c109*c31 + c110*c28;
-    const real c159 = c112*c31 + c113*c28;
-    const real c160 = c101*c36 + c102*c33;
-    const real c161 = c105*c36 + c106*c33;
-    const real c162 = c109*c36 + c110*c33;
-    const real c163 = c112*c36 + c113*c33;
-    const real c164 = c105*c41 + c106*c38;
-    const real c165 = c109*c41 + c110*c38;
-    const real c166 = c112*c41 + c113*c38;
-    const real c167 = c109*c46 + c110*c43;
-    const real c168 = c112*c46 + c113*c43;
-    const real c169 = c112*c51 + c113*c48;
-    const real c60 = p_l*p_m;
-    const real c170 = c5*c60;
-    const real c61 = c0*c60;
-    const real c1 = p_l*(v_theta_1*v_theta_1);
-    const real c3 = p_l*(v_theta_2*v_theta_2);
-    const real c4 = c0*c1 + c2*c3;
-    const real c9 = p_l*(v_theta_3*v_theta_3);
-    const real c10 = c4 + c8*c9;
-    const real c14 = p_l*(v_theta_4*v_theta_4);
-    const real c15 = c10 + c13*c14;
-    const real c19 = p_l*(v_theta_5*v_theta_5);
-    const real c20 = c15 + c18*c19;
-    const real c24 = p_l*(v_theta_6*v_theta_6);
-    const real c25 = c20 + c23*c24;
-    const real c29 = p_l*(v_theta_7*v_theta_7);
-    const real c30 = c25 + c28*c29;
-    const real c34 = p_l*(v_theta_8*v_theta_8);
-    const real c35 = c30 + c33*c34;
-    const real c39 = p_l*(v_theta_9*v_theta_9);
-    const real c40 = c35 + c38*c39;
-    const real c44 = p_l*(v_theta_10*v_theta_10);
-    const real c45 = c40 + c43*c44;
-    const real w63 = -c45;
-    const real c49 = p_l*(v_theta_11*v_theta_11);
-    const real c50 = c45 + c48*c49;
-    const real w65 = -c50;
-    const real c54 = p_l*(v_theta_12*v_theta_12);
-    const real w67 = -c50 - c53*c54;
-    const real w47 = -c4;
-    const real w49 = -c10;
-    const real w51 = -c15;
-    const real w53 = -c20;
-    const real w55 = -c25;
-    const real w57 = -c30;
-    const real w59 = -c35;
-    const real w61 = -c40;
-    const real c7 = c1*c5 + c3*c6;
-    const real c12 = c11*c9 + c7;
-    const real c17 = c12 + c14*c16;
-    const real c22 = c17 + c19*c21;
-    const real c27 = c22 + c24*c26;
-    const real c32 = c27 + c29*c31;
-    const real c37 = c32 + c34*c36;
-    const real c42 = c37 + c39*c41;
-    const real c47 = c42 + c44*c46;
-    const real w64 = c47;
-    const real c52 = c47 + c49*c51;
-    const real w66 = c52;
-    const real w68 = c52 + c54*c55;
-    const real w48 = c7;
-    const real w50 = c12;
-    const real w52 = c17;
-    const real w54 = c22;
-    const real w56 = c27;
-    const real w58 = c32;
-    const real w60 = c37;
-    const real w62 = c42;
-    const real w83 = -12*c61*p_g;
-    const real c171 = c6*c60;
-    const real c62 = c2*c60;
-    const real w84 = -11*c62*p_g;
-    const real c172 = c11*c60;
-    const real c63 = c60*c8;
-    const real w85 = -10*c63*p_g;
-    const real c173 = c16*c60;
-    const real c64 = c13*c60;
-    const real w86 = -9*c64*p_g;
-    const real c174 = c21*c60;
-    const real c65 = c18*c60;
-    const real w87 = -8*c65*p_g;
-    const real c175 = c26*c60;
-    const real c66 = c23*c60;
-    const real w88 = -7*c66*p_g;
-    const real c176 = c31*c60;
-    const real c67 = c28*c60;
-    const real w89 = -6*c67*p_g;
-    const real c177 = c36*c60;
-    const real c68 = c33*c60;
-    const real w90 = -5*c68*p_g;
-    const real c178 = c41*c60;
-    const real c69 = c38*c60;
-    const real w91 = -4*c69*p_g;
-    const real c179 = c46*c60;
-    const real c70 = c43*c60;
-    const real w92 = -3*c70*p_g;
-    const real c180 = c51*c60;
-    const real c71 = c48*c60;
-    const real w93 = -2*c71*p_g;
-    const real c72 = c53*c60;
-    const real w94 = -c72*p_g;
-    K[0] = c56*c74 + c59*c74 + w82;
-    K[1] = c75;
-    K[2] = c79;
-    K[3] = c83;
-    K[4] = c87;
-    K[5] = c91;
-    K[6] = c95;
-    K[7] = c99;
-    K[8] = c103;
-    K[9] = c107;
-    K[10] = c111;
-    K[11] = c114;
-    K[12] = c75;
-    K[13] = (c2*c2)*c74 + (c6*c6)*c74;
-    K[14] = c115;
-    K[15] = c116;
-    K[16] = c117;
-    K[17] = c118;
-    K[18] = c119;
-    K[19] = c120;
-    K[20] = c121;
-    K[21] = c122;
-    K[22] = c123;
-    K[23] = c124;
-    K[24] = c79;
-    K[25] = c115;
-    K[26] = (c11*c11)*c76 + c76*(c8*c8);
-    K[27] = c125;
-    K[28] = c126;
-    K[29] = c127;
-    K[30] = c128;
-    K[31] = c129;
-    K[32] = c130;
-    K[33] = c131;
-    K[34] = c132;
-    K[35] = c133;
-    K[36] = c83;
-    K[37] = c116;
-    K[38] = c125;
-    K[39] = (c13*c13)*c80 + (c16*c16)*c80;
-    K[40] = c134;
-    K[41] = c135;
-    K[42] = c136;
-    K[43] = c137;
-    K[44] = c138;
-    K[45] = c139;
-    K[46] = c140;
-    K[47] = c141;
-    K[48] = c87;
-    K[49] = c117;
-    K[50] = c126;
-    K[51] = c134;
-    K[52] = (c18*c18)*c84 + (c21*c21)*c84;
-    K[53] = c142;
-    K[54] = c143;
-    K[55] = c144;
-    K[56] = c145;
-    K[57] = c146;
-    K[58] = c147;
-    K[59] = c148;
-    K[60] = c91;
-    K[61] = c118;
-    K[62] = c127;
-    K[63] = c135;
-    K[64] = c142;
-    K[65] = (c23*c23)*c88 + (c26*c26)*c88;
-    K[66] = c149;
-    K[67] = c150;
-    K[68] = c151;
-    K[69] = c152;
-    K[70] = c153;
-    K[71] = c154;
-    K[72] = c95;
-    K[73] = c119;
-    K[74] = c128;
-    K[75] = c136;
-    K[76] = c143;
-    K[77] = c149;
-    K[78] = (c28*c28)*c92 + (c31*c31)*c92;
-    K[79] = c155;
-    K[80] = c156;
-    K[81] = c157;
-    K[82] = c158;
-    K[83] = c159;
-    K[84] = c99;
-    K[85] = c120;
-    K[86] = c129;
-    K[87] = c137;
-    K[88] = c144;
-    K[89] = c150;
-    K[90] = c155;
-    K[91] = (c33*c33)*c96 + (c36*c36)*c96;
-    K[92] = c160;
-    K[93] = c161;
-    K[94] = c162;
-    K[95] = c163;
-    K[96] = c103;
-    K[97] = c121;
-    K[98] = c130;
-    K[99] = c138;
-    K[100] = c145;
-    K[101] = c151;
-    K[102] = c156;
-    K[103] = c160;
-    K[104] = c100*(c38*c38) + c100*(c41*c41);
-    K[105] = c164;
-    K[106] = c165;
-    K[107] = c166;
-    K[108] = c107;
-    K[109] = c122;
-    K[110] = c131;
-    K[111] = c139;
-    K[112] = c146;
-    K[113] = c152;
-    K[114] = c157;
-    K[115] = c161;
-    K[116] = c164;
-    K[117] = c104*(c43*c43) + c104*(c46*c46);
-    K[118] = c167;
-    K[119] = c168;
-    K[120] = c111;
-    K[121] = c123;
-    K[122] = c132;
-    K[123] = c140;
-    K[124] = c147;
-    K[125] = c153;
-    K[126] = c158;
-    K[127] = c162;
-    K[128] = c165;
-    K[129] = c167;
-    K[130] = c108*(c48*c48) + c108*(c51*c51);
-    K[131] = c169;
-    K[132] = c114;
-    K[133] = c124;
-    K[134] = c133;
-    K[135] = c141;
-    K[136] = c148;
-    K[137] = c154;
-    K[138] = c159;
-    K[139] = c163;
-    K[140] = c166;
-    K[141] = c168;
-    K[142] = c169;
-    K[143] = (c53*c53)*c73 + (c55*c55)*c73;
-    b[0] = -c170*w47 - c170*w49 - c170*w51 - c170*w53 - c170*w55 - c170*w57 - c170*w59 - c170*w61 - c170*w63 - c170*w65 - c170*w67 - c61*w48 - c61*w50 - c61*w52 - c61*w54 - c61*w56 - c61*w58 - c61*w60 - c61*w62 - c61*w64 - c61*w66 - c61*w68 + w83;
-    b[1] = -c171*w47 - c171*w49 - c171*w51 - c171*w53 - c171*w55 - c171*w57 - c171*w59 - c171*w61 - c171*w63 - c171*w65 - c171*w67 - c62*w48 - c62*w50 - c62*w52 - c62*w54 - c62*w56 - c62*w58 - c62*w60 - c62*w62 - c62*w64 - c62*w66 - c62*w68 + w84;
-    b[2] = -c172*w49 - c172*w51 - c172*w53 - c172*w55 - c172*w57 - c172*w59 - c172*w61 - c172*w63 - c172*w65 - c172*w67 - c63*w50 - c63*w52 - c63*w54 - c63*w56 - c63*w58 - c63*w60 - c63*w62 - c63*w64 - c63*w66 - c63*w68 + w85;
-    b[3] = -c173*w51 - c173*w53 - c173*w55 - c173*w57 - c173*w59 - c173*w61 - c173*w63 - c173*w65 - c173*w67 - c64*w52 - c64*w54 - c64*w56 - c64*w58 - c64*w60 - c64*w62 - c64*w64 - c64*w66 - c64*w68 + w86;
-    b[4] = -c174*w53 - c174*w55 - c174*w57 - c174*w59 - c174*w61 - c174*w63 - c174*w65 - c174*w67 - c65*w54 - c65*w56 - c65*w58 - c65*w60 - c65*w62 - c65*w64 - c65*w66 - c65*w68 + w87;
-    b[5] = -c175*w55 - c175*w57 - c175*w59 - c175*w61 - c175*w63 - c175*w65 - c175*w67 - c66*w56 - c66*w58 - c66*w60 - c66*w62 - c66*w64 - c66*w66 - c66*w68 + w88;
-    b[6] = -c176*w57 - c176*w59 - c176*w61 - c176*w63 - c176*w65 - c176*w67 - c67*w58 - c67*w60 - c67*w62 - c67*w64 - c67*w66 - c67*w68 + w89;
-    b[7] = -c177*w59 - c177*w61 - c177*w63 - c177*w65 - c177*w67 - c68*w60 - c68*w62 - c68*w64 - c68*w66 - c68*w68 + w90;
-    b[8] = -c178*w61 - c178*w63 - c178*w65 - c178*w67 - c69*w62 - c69*w64 - c69*w66 - c69*w68 + w91;
-    b[9] = -c179*w63 - c179*w65 - c179*w67 - c70*w64 - c70*w66 - c70*w68 + w92;
-    b[10] = -c180*w65 - c180*w67 - c71*w66 - c71*w68 + w93;
-    b[11] = -c55*c60*w67 - c72*w68 + w94;
+    memset(K, 0, sizeof(real) * LAG_NM);
+    memset(b, 0, sizeof(real) * LAG_NK);
+    for (int i = 0; i < 12; ++i) {
+        const real x0 = y[i];
+        const real v0 = y[i + 12];
+        const real s0 = p_l*r_cos(x0);
+        const real s1 = p_l*r_sin(x0);
+        const real s2 = (v0*v0);
+        K[8 * i] += p_m;
+        K[8 * i + 1] += p_m;
+        K[8 * i + 2] += s0;
+        K[8 * i + 3] += s1;
+        K[8 * i + 4] += -s1*s2;
+        K[8 * i + 5] += s0*s2;
+        K[8 * i + 7] += p_g*p_m;
+    }
 }
 
 /* q'' at (t, y): assemble K and b, and solve. */
@@ -853,133 +449,61 @@ static int lag_outputs(const lag_system *sys, real t, const real *y, real *out, 
     const real v_theta_10 = y[21];
     const real v_theta_11 = y[22];
     const real v_theta_12 = y[23];
-    const real c0 = r_cos(q_theta_1);
-    const real c56 = (c0*c0);
-    const real c57 = (p_l*p_l);
-    const real c58 = c57*(v_theta_1*v_theta_1);
-    const real c24 = r_sin(q_theta_1);
-    const real c59 = (c24*c24);
-    const real c60 = p_g*p_m;
-    const real c18 = p_l*r_cos(q_theta_10);
-    const real c16 = p_l*r_cos(q_theta_9);
-    const real c14 = p_l*r_cos(q_theta_8);
-    const real c12 = p_l*r_cos(q_theta_7);
-    const real c10 = p_l*r_cos(q_theta_6);
-    const real c1 = c0*p_l;
-    const real c2 = p_l*r_cos(q_theta_2);
-    const real c23 = c1*v_theta_1 + c2*v_theta_2;
-    const real c4 = p_l*r_cos(q_theta_3);
-    const real c28 = c23 + c4*v_theta_3;
-    const real c6 = p_l*r_cos(q_theta_4);
-    const real c31 = c28 + c6*v_theta_4;
-    const real c8 = p_l*r_cos(q_theta_5);
-    const real c34 = c31 + c8*v_theta_5;
-    const real c37 = c10*v_theta_6 + c34;
-    const real c40 = c12*v_theta_7 + c37;
-    const real c43 = c14*v_theta_8 + c40;
-    const real c46 = c16*v_theta_9 + c43;
-    const real c49 = c18*v_theta_10 + c46;
-    const real der_x_10 = c49;
-    const real c20 = p_l*r_cos(q_theta_11);
-    const real c52 = c20*v_theta_11 + c49;
-    const real der_x_11 = c52;
-    const real c22 = p_l*r_cos(q_theta_12);
-    const real der_x_12 = c22*v_theta_12 + c52;
-    const real der_x_2 = c23;
-    const real der_x_3 = c28;
-    const real der_x_4 = c31;
-    const real der_x_5 = c34;
-    const real der_x_6 = c37;
-    const real der_x_7 = c40;
-    const real der_x_8 = c43;
-    const real der_x_9 = c46;
-    const real c25 = c24*p_l;
-    const real c26 = p_l*r_sin(q_theta_2);
-    const real c27 = c25*v_theta_1 + c26*v_theta_2;
-    const real c29 = p_l*r_sin(q_theta_3);
-    const real c30 = c27 + c29*v_theta_3;
-    const real c32 = p_l*r_sin(q_theta_4);
-    const real c33 = c30 + c32*v_theta_4;
-    const real c35 = p_l*r_sin(q_theta_5);
-    const real c36 = c33 + c35*v_theta_5;
-    const real c38 = p_l*r_sin(q_theta_6);
-    const real c39 = c36 + c38*v_theta_6;
-    const real c41 = p_l*r_sin(q_theta_7);
-    const real c42 = c39 + c41*v_theta_7;
-    const real c44 = p_l*r_sin(q_theta_8);
-    const real c45 = c42 + c44*v_theta_8;
-    const real c47 = p_l*r_sin(q_theta_9);
-    const real c48 = c45 + c47*v_theta_9;
-    const real c50 = p_l*r_sin(q_theta_10);
-    const real c51 = c48 + c50*v_theta_10;
-    const real der_y_10 = c51;
-    const real c53 = p_l*r_sin(q_theta_11);
-    const real c54 = c51 + c53*v_theta_11;
-    const real der_y_11 = c54;
-    const real c55 = p_l*r_sin(q_theta_12);
-    const real der_y_12 = c54 + c55*v_theta_12;
-    const real der_y_2 = c27;
-    const real der_y_3 = c30;
-    const real der_y_4 = c33;
-    const real der_y_5 = c36;
-    const real der_y_6 = c39;
-    const real der_y_7 = c42;
-    const real der_y_8 = c45;
-    const real der_y_9 = c48;
-    const real c3 = c1 + c2;
-    const real c5 = c3 + c4;
-    const real c7 = c5 + c6;
-    const real c9 = c7 + c8;
-    const real c11 = c10 + c9;
-    const real c13 = c11 + c12;
-    const real c15 = c13 + c14;
-    const real c17 = c15 + c16;
-    const real c19 = c17 + c18;
-    const real let_y_10 = -c19;
-    const real c21 = c19 + c20;
-    const real let_y_11 = -c21;
-    const real let_y_12 = -c21 - c22;
-    const real let_y_1 = -c1;
-    const real let_y_2 = -c3;
-    const real let_y_3 = -c5;
-    const real let_y_4 = -c7;
-    const real let_y_5 = -c9;
-    const real let_y_6 = -c11;
-    const real let_y_7 = -c13;
-    const real let_y_8 = -c15;
-    const real let_y_9 = -c17;
-    const real w46 = -c60*let_y_1 - c60*let_y_10 - c60*let_y_11 - c60*let_y_12 - c60*let_y_2 - c60*let_y_3 - c60*let_y_4 - c60*let_y_5 - c60*let_y_6 - c60*let_y_7 - c60*let_y_8 - c60*let_y_9 + 0.5*p_m*((der_x_10*der_x_10) + (der_y_10*der_y_10)) + 0.5*p_m*((der_x_11*der_x_11) + (der_y_11*der_y_11)) + 0.5*p_m*((der_x_12*der_x_12) + (der_y_12*der_y_12)) + 0.5*p_m*((der_x_2*der_x_2) + (der_y_2*der_y_2)) + 0.5*p_m*((der_x_3*der_x_3) + (der_y_3*der_y_3)) + 0.5*p_m*((der_x_4*der_x_4) + (der_y_4*der_y_4)) + 0.5*p_m*((der_x_5*der_x_5) + (der_y_5*der_y_5)) + 0.5*p_m*((der_x_6*der_x_6) + (der_y_6*der_y_6)) + 0.5*p_m*((der_x_7*der_x_7) + (der_y_7*der_y_7)) + 0.5*p_m*((der_x_8*der_x_8) + (der_y_8*der_y_8)) + 0.5*p_m*((der_x_9*der_x_9) + (der_y_9*der_y_9)) + 0.5*p_m*(c56*c58 + c58*c59);
-    const real c62 = c18*p_m;
-    const real c63 = c50*p_m;
-    const real c64 = c20*p_m;
-    const real c65 = c53*p_m;
-    const real c66 = der_x_12*p_m;
-    const real c67 = der_y_12*p_m;
-    const real c68 = c1*p_m;
-    const real c69 = c25*p_m;
-    const real c70 = c2*p_m;
-    const real c71 = c26*p_m;
-    const real c72 = c4*p_m;
-    const real c73 = c29*p_m;
-    const real c74 = c6*p_m;
-    const real c75 = c32*p_m;
-    const real c76 = c8*p_m;
-    const real c77 = c35*p_m;
-    const real c78 = c10*p_m;
-    const real c79 = c38*p_m;
-    const real c80 = c12*p_m;
-    const real c81 = c41*p_m;
-    const real c82 = c14*p_m;
-    const real c83 = c44*p_m;
-    const real c84 = c16*p_m;
-    const real c85 = c47*p_m;
-    const real c61 = 2*c57*v_theta_1;
-    const real w81 = 0.5*p_m*(c56*c61 + c59*c61);
-    const real c86 = v_theta_1*(c1*c66 + c25*c67 + c68*der_x_10 + c68*der_x_11 + c68*der_x_2 + c68*der_x_3 + c68*der_x_4 + c68*der_x_5 + c68*der_x_6 + c68*der_x_7 + c68*der_x_8 + c68*der_x_9 + c69*der_y_10 + c69*der_y_11 + c69*der_y_2 + c69*der_y_3 + c69*der_y_4 + c69*der_y_5 + c69*der_y_6 + c69*der_y_7 + c69*der_y_8 + c69*der_y_9 + w81) + v_theta_10*(c62*der_x_10 + c62*der_x_11 + c62*der_x_12 + c63*der_y_10 + c63*der_y_11 + c63*der_y_12) + v_theta_11*(c64*der_x_11 + c64*der_x_12 + c65*der_y_11 + c65*der_y_12) + v_theta_12*(c22*c66 + c55*c67) + v_theta_2*(c2*c66 + c26*c67 + c70*der_x_10 + c70*der_x_11 + c70*der_x_2 + c70*der_x_3 + c70*der_x_4 + c70*der_x_5 + c70*der_x_6 + c70*der_x_7 + c70*der_x_8 + c70*der_x_9 + c71*der_y_10 + c71*der_y_11 + c71*der_y_2 + c71*der_y_3 + c71*der_y_4 + c71*der_y_5 + c71*der_y_6 + c71*der_y_7 + c71*der_y_8 + c71*der_y_9) + v_theta_3*(c29*c67 + c4*c66 + c72*der_x_10 + c72*der_x_11 + c72*der_x_3 + c72*der_x_4 + c72*der_x_5 + c72*der_x_6 + c72*der_x_7 + c72*der_x_8 + c72*der_x_9 + c73*der_y_10 + c73*der_y_11 + c73*der_y_3 + c73*der_y_4 + c73*der_y_5 + c73*der_y_6 + c73*der_y_7 + c73*der_y_8 + c73*der_y_9) + v_theta_4*(c32*c67 + c6*c66 + c74*der_x_10 + c74*der_x_11 + c74*der_x_4 + c74*der_x_5 + c74*der_x_6 + c74*der_x_7 + c74*der_x_8 + c74*der_x_9 + c75*der_y_10 + c75*der_y_11 + c75*der_y_4 + c75*der_y_5 + c75*der_y_6 + c75*der_y_7 + c75*der_y_8 + c75*der_y_9) + v_theta_5*(c35*c67 + c66*c8 + c76*der_x_10 + c76*der_x_11 + c76*der_x_5 + c76*der_x_6 + c76*der_x_7 + c76*der_x_8 + c76*der_x_9 + c77*der_y_10 + c77*der_y_11 + c77*der_y_5 + c77*der_y_6 + c77*der_y_7 + c77*der_y_8 + c77*der_y_9) + v_theta_6*(c10*c66 + c38*c67 + c78*der_x_10 + c78*der_x_11 + c78*der_x_6 + c78*der_x_7 + c78*der_x_8 + c78*der_x_9 + c79*der_y_10 + c79*der_y_11 + c79*der_y_6 + c79*der_y_7 + c79*der_y_8 + c79*der_y_9) + v_theta_7*(c12*c66 + c41*c67 + c80*der_x_10 + c80*der_x_11 + c80*der_x_7 + c80*der_x_8 + c80*der_x_9 + c81*der_y_10 + c81*der_y_11 + c81*der_y_7 + c81*der_y_8 + c81*der_y_9) + v_theta_8*(c14*c66 + c44*c67 + c82*der_x_10 + c82*der_x_11 + c82*der_x_8 + c82*der_x_9 + c83*der_y_10 + c83*der_y_11 + c83*der_y_8 + c83*der_y_9) + v_theta_9*(c16*c66 + c47*c67 + c84*der_x_10 + c84*der_x_11 + c84*der_x_9 + c85*der_y_10 + c85*der_y_11 + c85*der_y_9) - w46;
+    const real c12 = 0.5*p_m;
+    const real c13 = p_g*p_m;
+    const real c9 = p_l*r_cos(q_theta_10);
+    const real c8 = p_l*r_cos(q_theta_9);
+    const real c7 = p_l*r_cos(q_theta_8);
+    const real c6 = p_l*r_cos(q_theta_7);
+    const real c5 = p_l*r_cos(q_theta_6);
+    const real c4 = p_l*r_cos(q_theta_5);
+    const real c3 = p_l*r_cos(q_theta_4);
+    const real c2 = p_l*r_cos(q_theta_3);
+    const real c1 = p_l*r_cos(q_theta_2);
+    const real c0 = p_l*r_cos(q_theta_1);
+    const real der_x_1 = c0*v_theta_1;
+    const real der_x_2 = c1*v_theta_2 + der_x_1;
+    const real der_x_3 = c2*v_theta_3 + der_x_2;
+    const real der_x_4 = c3*v_theta_4 + der_x_3;
+    const real der_x_5 = c4*v_theta_5 + der_x_4;
+    const real der_x_6 = c5*v_theta_6 + der_x_5;
+    const real der_x_7 = c6*v_theta_7 + der_x_6;
+    const real der_x_8 = c7*v_theta_8 + der_x_7;
+    const real der_x_9 = c8*v_theta_9 + der_x_8;
+    const real der_x_10 = c9*v_theta_10 + der_x_9;
+    const real c10 = p_l*r_cos(q_theta_11);
+    const real der_x_11 = c10*v_theta_11 + der_x_10;
+    const real c11 = p_l*r_cos(q_theta_12);
+    const real der_x_12 = c11*v_theta_12 + der_x_11;
+    const real der_y_1 = p_l*v_theta_1*r_sin(q_theta_1);
+    const real der_y_2 = der_y_1 + p_l*v_theta_2*r_sin(q_theta_2);
+    const real der_y_3 = der_y_2 + p_l*v_theta_3*r_sin(q_theta_3);
+    const real der_y_4 = der_y_3 + p_l*v_theta_4*r_sin(q_theta_4);
+    const real der_y_5 = der_y_4 + p_l*v_theta_5*r_sin(q_theta_5);
+    const real der_y_6 = der_y_5 + p_l*v_theta_6*r_sin(q_theta_6);
+    const real der_y_7 = der_y_6 + p_l*v_theta_7*r_sin(q_theta_7);
+    const real der_y_8 = der_y_7 + p_l*v_theta_8*r_sin(q_theta_8);
+    const real der_y_9 = der_y_8 + p_l*v_theta_9*r_sin(q_theta_9);
+    const real der_y_10 = der_y_9 + p_l*v_theta_10*r_sin(q_theta_10);
+    const real der_y_11 = der_y_10 + p_l*v_theta_11*r_sin(q_theta_11);
+    const real der_y_12 = der_y_11 + p_l*v_theta_12*r_sin(q_theta_12);
+    const real let_y_1 = -c0;
+    const real let_y_2 = -c1 + let_y_1;
+    const real let_y_3 = -c2 + let_y_2;
+    const real let_y_4 = -c3 + let_y_3;
+    const real let_y_5 = -c4 + let_y_4;
+    const real let_y_6 = -c5 + let_y_5;
+    const real let_y_7 = -c6 + let_y_6;
+    const real let_y_8 = -c7 + let_y_7;
+    const real let_y_9 = -c8 + let_y_8;
+    const real let_y_10 = -c9 + let_y_9;
+    const real let_y_11 = -c10 + let_y_10;
+    const real let_y_12 = -c11 + let_y_11;
+    const real c14 = c12*(der_x_1*der_x_1) + c12*(der_x_10*der_x_10) + c12*(der_x_11*der_x_11) + c12*(der_x_12*der_x_12) + c12*(der_x_2*der_x_2) + c12*(der_x_3*der_x_3) + c12*(der_x_4*der_x_4) + c12*(der_x_5*der_x_5) + c12*(der_x_6*der_x_6) + c12*(der_x_7*der_x_7) + c12*(der_x_8*der_x_8) + c12*(der_x_9*der_x_9) + c12*(der_y_1*der_y_1) + c12*(der_y_10*der_y_10) + c12*(der_y_11*der_y_11) + c12*(der_y_12*der_y_12) + c12*(der_y_2*der_y_2) + c12*(der_y_3*der_y_3) + c12*(der_y_4*der_y_4) + c12*(der_y_5*der_y_5) + c12*(der_y_6*der_y_6) + c12*(der_y_7*der_y_7) + c12*(der_y_8*der_y_8) + c12*(der_y_9*der_y_9) + c13*let_y_1 + c13*let_y_10 + c13*let_y_11 + c13*let_y_12 + c13*let_y_2 + c13*let_y_3 + c13*let_y_4 + c13*let_y_5 + c13*let_y_6 + c13*let_y_7 + c13*let_y_8 + c13*let_y_9;
     out[0] = q_theta_1;
     out[1] = q_theta_12;
-    out[2] = c86;
-    inv[0] = c86;
+    out[2] = c14;
+    inv[0] = c14;
     return LAG_OK;
 }
 

@@ -1,0 +1,303 @@
+"""Model -> TreeEquations: point masses on a tree of rigid links in joint coordinates (pendulum
+chains, ropes, trees of pendulums), whose accelerations the generated code finds in O(n)
+without forming the dense mass matrix.
+
+A body is a point P_j whose components (lets x, y, z) are sums of joint terms,
+
+    P_j = P_parent(j) + r_j(q_j),
+
+each r_j depending on its own coordinate q_j alone: the lets write the sums out (as
+`sum(l*sin(theta[j]), j in 1:i)` builds them) or refer to earlier lets. With s_j = ∂r_j/∂q_j,
+w_j = (∂²r_j/∂q_j²) q_j'², the kinetic energy T = Σ_j Σ_a m_ja/2 (P_ja')² and the potential
+U = Σ_j g_j·P_j + Σ_j V_j(q_j) (g_j free of the state: a uniform field such as gravity), the
+Euler-Lagrange equation of q_j is the balance along its joint of the forces on its subtree:
+
+    s_jᵀ F_j = τ_j = -V_j'(q_j),   F_j = Σ_{k in the subtree of j} (m_k P_k'' + g_k),
+    P_j'' = P_parent(j)'' + s_j q_j'' + w_j,
+
+solved by the articulated-body recursion (the tree layout of codegen/structure.py): leaves to
+root, F_j = A_j P_parent'' + c_j with the articulated inertia A_j = Â - (Â s)(Â s)ᵀ/D,
+D = sᵀ Â s, Â = diag(m_j) + Σ_children A; then root to leaves,
+q_j'' = (τ_j - sᵀ(Â (P_parent'' + w_j) + ĉ_j)) / D. Each link's record (m_j, s_j, w_j, g_j and
+τ_j) is derived once per shape of link, in slot symbols as the local form's stencils are
+(mechanics/families.py), and the generated code loops over the links.
+
+The tree form is used for a natural system without constraints, forces or dissipation, with at
+least TREE_MIN_COORDINATES coordinates, each the joint of one body, every body with a mass on
+each of its parent's components, and T and U exactly of the forms above. Everything else, and
+what the tree form does not provide (`lagc eom`, implicit and symplectic integrators, momenta),
+takes the expanded Equations of derive_equations, derived on first use.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy
+
+from .. import ir
+from ..calculus import Differentiator
+from .equations import ENERGY_CONSERVED, ConservedQuantity
+from .families import PARAMETER, POSITION, VELOCITY, LocalEquations, Stencil, additive_terms, \
+    parameter_members, slot, _runs
+
+TREE_MIN_COORDINATES = 8        # smaller chains are cheap in the dense form
+
+
+@dataclass(frozen=True)
+class Links:
+    """Bodies of one shape: `placement` is a one-slot Stencil whose members are the bodies
+    (count, first body, step, parameter members) and whose forcing is their τ; `record` is each
+    body's m (d entries), s, w and g, in the slot symbols §x0, §v0 and §p<b> of
+    mechanics/families.py."""
+
+    placement: Stencil
+    record: tuple[sympy.Expr, ...]
+
+
+class TreeEquations(LocalEquations):
+    """The tree form of a model's equations (see the module docstring); the expanded Equations
+    are derived on first use for everything else."""
+
+    def __init__(self, model: ir.Model, parents: tuple[int, ...], axes: int, links: tuple[Links, ...],
+                 definitions: tuple[tuple[sympy.Symbol, sympy.Expr], ...], energy: sympy.Expr):
+        super().__init__(model, (), 0, True)
+        self.parents, self.axes, self.links = parents, axes, links
+        self.definitions = definitions          # the bodies' components and velocities, link by link
+        self.energy = energy
+        self.conserved = (ConservedQuantity("energy", energy, ENERGY_CONSERVED),)
+
+    @property
+    def velocity_in_accelerations(self) -> str:
+        return f"der({self.model.coordinates[0].name})"        # w_j = r_j'' q_j'²
+
+    def calculus(self) -> Differentiator:
+        """The components as P_parent + r_j and their velocities as P_parent' + s_j q_j': each
+        let costs one link's terms, so that the outputs and the energy stay linear in n."""
+        return Differentiator(self.definitions, (*self.coordinates, *self.velocities, ir.TIME))
+
+
+def derive_tree_equations(model: ir.Model) -> TreeEquations | None:
+    """The tree form of `model`'s equations, or None where it does not apply (module docstring)."""
+    n = len(model.coordinates)
+    if (n < TREE_MIN_COORDINATES or model.constraints or model.forces or model.dissipation is not None
+            or not model.lagrangian.is_natural):
+        return None
+    tree = _Tree(model)
+    bodies = tree.bodies()
+    if bodies is None:
+        return None
+    potential = tree.potential(bodies)
+    if potential is None:
+        return None
+    fields, torques = potential
+    return tree.equations(bodies, fields, torques)
+
+
+class _Tree:
+    """The recognition of the bodies, their joints and their energies."""
+
+    def __init__(self, model: ir.Model):
+        self.model = model
+        self.index = {c.symbol: k for k, c in enumerate(model.coordinates)}
+        self.lets = {let.symbol: let for let in model.lets}
+        self.joints = frozenset(self.index)
+        self.moving = frozenset({*(c.velocity_symbol for c in model.coordinates), ir.TIME})
+        self.let_symbols = frozenset(self.lets)
+        self._parts: dict[sympy.Symbol, dict[int, sympy.Expr] | None] = {}
+        self._joints: dict[sympy.Expr, int | None] = {}
+
+    def constant(self, expression: sympy.Expr) -> bool:
+        """Free of the state and of the lets (which may hold it)."""
+        return not expression.free_symbols & (self.let_symbols | self.joints | self.moving)
+
+    def parts(self, symbol: sympy.Symbol) -> dict[int, sympy.Expr] | None:
+        """A position let as {joint: r(q_joint)}, or None when it is not a sum of joint terms."""
+        if symbol not in self._parts:
+            self._parts[symbol] = self._split(self.lets[symbol].expression)
+        return self._parts[symbol]
+
+    def _split(self, expression: sympy.Expr) -> dict[int, sympy.Expr] | None:
+        found: dict[int, sympy.Expr] = {}
+        for term in sympy.Add.make_args(expression):
+            if term in self.lets and self.lets[term].derivative_of is None:
+                inner = self.parts(term)
+                if inner is None or found.keys() & inner.keys():
+                    return None
+                found.update(inner)
+                continue
+            joint = self.joint_of(term)
+            if joint is None:
+                return None
+            found[joint] = found[joint] + term if joint in found else term
+        return found or None
+
+    def joint_of(self, term: sympy.Expr) -> int | None:
+        """The one coordinate a term of a position depends on (and no let, velocity or t), or
+        None; memoised: a prefix sum repeats each link's term in every later let."""
+        if term not in self._joints:
+            free = term.free_symbols
+            joints = free & self.joints
+            alone = len(joints) == 1 and not free & (self.let_symbols | self.moving)
+            self._joints[term] = self.index[next(iter(joints))] if alone else None
+        return self._joints[term]
+
+    def masses(self) -> dict[sympy.Symbol, sympy.Expr] | None:
+        """Position let -> its mass m, from T = Σ m/2 (der X)², or None."""
+        masses: dict[sympy.Symbol, sympy.Expr] = {}
+        for term in additive_terms(self.model.lagrangian.kinetic, self.constant):
+            found = self._kinetic_term(term)
+            if found is None:
+                return None
+            masses[found[0]] = masses.get(found[0], sympy.S.Zero) + found[1]
+        return masses
+
+    def _kinetic_term(self, term: sympy.Expr) -> tuple[sympy.Symbol, sympy.Expr] | None:
+        """(X, m) for a term m/2 (der X)², written with der(X) or with it inlined."""
+        rates = [s for s in term.free_symbols if s in self.lets and self.lets[s].derivative_of is not None]
+        if len(rates) == 1:
+            factor, rest = term.as_independent(rates[0], as_Add=False)
+            if rest == rates[0] ** 2 and self.constant(factor):
+                return self.lets[rates[0]].derivative_of, 2 * factor
+            return None
+        joints = term.free_symbols & self.joints
+        if rates or len(joints) != 1 or term.free_symbols & self.let_symbols:
+            return None
+        joint = self.index[next(iter(joints))]
+        for symbol, let in self.lets.items():        # der X inlined: X of one joint term
+            parts = self.parts(symbol) if let.derivative_of is None else None
+            if parts and set(parts) == {joint}:
+                q = self.model.coordinates[joint]
+                rate = sympy.diff(parts[joint], q.symbol) * q.velocity_symbol
+                ratio = sympy.cancel(term / rate ** 2)
+                if self.constant(ratio) and ratio != 0:
+                    return symbol, 2 * ratio
+        return None
+
+    def bodies(self) -> list[list[tuple[sympy.Symbol, sympy.Expr]]] | None:
+        """Body j (of joint q_j) -> its components (X, m), in the order of its parent's; sets
+        self.parents (the parent body of each, -1 at the root)."""
+        masses = self.masses()
+        if not masses or any(self.parts(x) is None for x in masses):
+            return None
+        n = len(self.model.coordinates)
+        own: list[list[sympy.Symbol]] = [[] for _ in range(n)]
+        parents = [-2] * n
+        for x in masses:
+            joints = sorted(self.parts(x))
+            parent = joints[-2] if len(joints) > 1 else -1
+            if parents[joints[-1]] not in (-2, parent):
+                return None
+            parents[joints[-1]] = parent
+            own[joints[-1]].append(x)
+        if -2 in parents or not self._paths_agree(masses, parents):
+            return None
+        self.parents = tuple(parents)
+        ordered = self._order(own, parents)
+        if ordered is None:
+            return None
+        return [[(x, masses[x]) for x in body] for body in ordered]
+
+    def _paths_agree(self, masses, parents) -> bool:
+        """Every component's joints are its body's path to the root."""
+        for x in masses:
+            joints = sorted(self.parts(x))
+            path, j = [], joints[-1]
+            while j >= 0:
+                path.append(j)
+                j = parents[j]
+            if sorted(path) != joints:
+                return False
+        return True
+
+    def _order(self, own, parents) -> list[list[sympy.Symbol]] | None:
+        """Each body's components in the order of their parent components (X - r_j = X_parent)."""
+        ordered: list[list[sympy.Symbol]] = []
+        for j, body in enumerate(own):
+            if parents[j] < 0:
+                ordered.append(sorted(body, key=lambda x: list(self.lets).index(x)))
+                continue
+            above = ordered[parents[j]]
+            inner = {frozenset(self.parts(x).items()): x for x in above}
+            mine = {frozenset((k, r) for k, r in self.parts(x).items() if k != j): x for x in body}
+            if len(body) != len(above) or set(mine) != set(inner):
+                return None
+            ordered.append([mine[frozenset(self.parts(x).items())] for x in above])
+        axes = {len(body) for body in ordered}
+        return ordered if len(axes) == 1 else None
+
+    def potential(self, bodies) -> tuple[dict[sympy.Symbol, sympy.Expr], list[sympy.Expr]] | None:
+        """(component -> g, the field's constant gradient; joint -> V_j), or None."""
+        components = {x for body in bodies for x, _ in body}
+        fields: dict[sympy.Symbol, sympy.Expr] = {}
+        torques = [sympy.S.Zero] * len(bodies)
+        potential = self.model.lagrangian.potential
+        for term in additive_terms(potential, self.constant) if potential is not None else ():
+            if self.constant(term):
+                continue                # shifts the energy only
+            lets = term.free_symbols & self.let_symbols
+            if len(lets) == 1 and lets <= components:
+                x = next(iter(lets))
+                factor, rest = term.as_independent(x, as_Add=False)
+                if rest != x or not self.constant(factor):
+                    return None
+                fields[x] = fields.get(x, sympy.S.Zero) + factor
+                continue
+            joints = term.free_symbols & self.joints
+            if lets or len(joints) != 1 or term.free_symbols & self.moving:
+                return None
+            torques[self.index[next(iter(joints))]] += term
+        return fields, torques
+
+    def equations(self, bodies, fields, torques) -> TreeEquations:
+        shapes: dict[tuple, list[tuple[int, int]]] = {}
+        for j, body in enumerate(bodies):
+            q = self.model.coordinates[j]
+            record = [m for _, m in body] + [self.parts(x)[j] for x, _ in body] + \
+                     [fields.get(x, sympy.S.Zero) for x, _ in body] + [torques[j]]
+            renamed, parameter_base = self._in_slots(record, q)
+            shapes.setdefault(tuple(renamed), []).append((j, parameter_base))
+        links = tuple(_links(shape, run, len(bodies[0])) for shape, members in shapes.items() for run in _runs(members))
+        definitions, energy = self._recursive(bodies, fields)
+        return TreeEquations(self.model, self.parents, len(bodies[0]), links, definitions, energy)
+
+    def _in_slots(self, record, q: ir.Coordinate) -> tuple[list[sympy.Expr], int]:
+        members = parameter_members(self.model)
+        used = sorted({members[s] for e in record for s in e.free_symbols if s in members})
+        base = used[0] if used else 0
+        rename = {q.symbol: slot(POSITION, 0), q.velocity_symbol: slot(VELOCITY, 0)}
+        rename.update({p: slot(PARAMETER, k - base) for p, k in members.items() if k in used})
+        return [e.xreplace(rename) for e in record], base
+
+    def _recursive(self, bodies, fields) -> tuple[tuple[tuple[sympy.Symbol, sympy.Expr], ...], sympy.Expr]:
+        """The components P_ja = P_parent,a + r_ja and their velocities, link by link, and the
+        energy h = Σ m/2 (P')² + U in terms of them."""
+        rates = {let.derivative_of: let.symbol for let in self.model.lets if let.derivative_of is not None}
+        definitions, kinetic, defined = [], [], set()
+        for j, body in enumerate(bodies):
+            q = self.model.coordinates[j]
+            for a, (x, m) in enumerate(body):
+                above = bodies[self.parents[j]][a][0] if self.parents[j] >= 0 else None
+                rate = rates.setdefault(x, sympy.Symbol(f"der({x.name})", real=True))
+                r = self.parts(x)[j]
+                definitions.append((x, r + (above if above is not None else 0)))
+                slope = sympy.diff(r, q.symbol) * q.velocity_symbol
+                definitions.append((rate, slope + (rates[above] if above is not None else 0)))
+                defined |= {x, rate}
+                kinetic.append(m / 2 * rate ** 2)
+        others = [(let.symbol, let.expression) for let in self.model.lets if let.symbol not in defined]
+        return tuple(definitions + others), sympy.Add(*kinetic, self.model.lagrangian.potential or sympy.S.Zero)
+
+
+def _links(shape: tuple, run: list[tuple[int, int]], axes: int) -> Links:
+    """The Links of one run of bodies of one shape: its record, with s and w derived from r."""
+    (first, parameter_first), count = run[0], len(run)
+    step, parameter_step = (run[1][0] - first, run[1][1] - parameter_first) if count > 1 else (0, 0)
+    masses, joints, gradient, potential = shape[:axes], shape[axes:2 * axes], shape[2 * axes:3 * axes], shape[-1]
+    x, v = slot(POSITION, 0), slot(VELOCITY, 0)
+    slopes = [sympy.diff(r, x) for r in joints]
+    bias = [sympy.diff(s, x) * v ** 2 for s in slopes]
+    members = sorted({int(s.name[len(PARAMETER):]) for e in shape for s in e.free_symbols
+                      if s.name.startswith(PARAMETER)})
+    placement = Stencil("lagrangian", (0,), count, first, step, (0,), parameter_first, parameter_step,
+                        tuple(members), (), (-sympy.diff(potential, x),), sympy.S.Zero)
+    return Links(placement, (*masses, *slopes, *bias, *gradient))

@@ -1,0 +1,146 @@
+"""The tree form (mechanics/trees.py, codegen/tree_loops.py): point masses on rigid links in
+joint coordinates, solved by the articulated-body recursion in O(n).
+
+Checked against the expanded equations (derive_equations, the dense M q'' = f, itself checked
+against the textbook in test_textbook_systems.py): the same scene's trajectory from both to
+1e-10, for chains of unequal masses and lengths, a branched tree and links that swing in tilted
+planes (bodies in 3-D); the generated code must not grow faster than the number of links; and
+what the tree form does not serve falls back to the expanded equations.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from lagdsl.mechanics import derive_equations, trees
+from lagdsl.mechanics.trees import TreeEquations, derive_tree_equations
+from lagdsl.pipeline import execute, generate, model_from_source, plan
+from lagdsl.scene import Overrides
+from lagdsl.source import SourceFile
+
+
+def chain_text(n: int, seconds: float = 10) -> str:
+    """The n-link planar chain of unequal masses and lengths (prefix sums, as in
+    models/pendulum_chain.lag)."""
+    return f"""model Chain
+  parameter n = {n};
+  parameter m[n] = {{1 + 1/i, i in 1:n}};
+  parameter l[n] = {{1 - i/(3*n), i in 1:n}};
+  parameter g = 9.81;
+  coordinate theta[n](start = {{0.5 + 0.1*sin(i), i in 1:n}}, velocity = 0);
+  let x[i] = sum(l[j]*sin(theta[j]), j in 1:i), i in 1:n;
+  let y[i] = -sum(l[j]*cos(theta[j]), j in 1:i), i in 1:n;
+  T = sum(m[i]/2*(der(x[i])^2 + der(y[i])^2), i in 1:n);
+  U = sum(m[i]*g*y[i], i in 1:n);
+  scene swing
+    time(stop = {seconds}, interval = 0.05);
+    integrator dop853(rtol = 1e-10, atol = 1e-12);
+    output theta[1], theta[n], x[n], energy;
+  end swing;
+end Chain;
+"""
+
+
+# A branched tree (two chains hang from the first bob) with torsion springs at the joints.
+FORK = """model Fork
+  parameter g = 9.81;  parameter k = 3;
+  coordinate a[3](start = {0.4, -0.7, 1.1}, velocity = {0.2, 0, -0.3});
+  let x1 = sin(a[1]);  let y1 = -cos(a[1]);
+  let x2 = x1 + 0.8*sin(a[2]);  let y2 = y1 - 0.8*cos(a[2]);
+  let x3 = x1 + 1.3*sin(a[3]);  let y3 = y1 - 1.3*cos(a[3]);
+  T = 2/2*(der(x1)^2 + der(y1)^2) + 0.5/2*(der(x2)^2 + der(y2)^2) + 1.5/2*(der(x3)^2 + der(y3)^2);
+  U = g*(2*y1 + 0.5*y2 + 1.5*y3) + k/2*a[2]^2 + k/2*(1 - cos(a[3]));
+  scene swing
+    time(stop = 5, interval = 0.05);
+    integrator dop853(rtol = 1e-10, atol = 1e-12);
+    output a[1], a[2], a[3], energy;
+  end swing;
+end Fork;
+"""
+
+# Bodies in 3-D: link j swings in a plane tilted by alpha[j] about the x axis.
+TILTED = """model Tilted
+  parameter n = 4;  parameter g = 9.81;
+  parameter alpha[n] = {0.3*i, i in 1:n};
+  coordinate q[n](start = {0.3*i, i in 1:n}, velocity = 0.1);
+  let x[i] = sum(sin(q[j]), j in 1:i), i in 1:n;
+  let y[i] = -sum(cos(q[j])*cos(alpha[j]), j in 1:i), i in 1:n;
+  let z[i] = sum(cos(q[j])*sin(alpha[j]), j in 1:i), i in 1:n;
+  T = sum((der(x[i])^2 + der(y[i])^2 + der(z[i])^2)/2, i in 1:n);
+  U = sum(g*y[i], i in 1:n);
+  scene swing
+    time(stop = 5, interval = 0.05);
+    integrator dop853(rtol = 1e-10, atol = 1e-12);
+    output q[1], q[n], energy;
+  end swing;
+end Tilted;
+"""
+
+
+def trajectories(text: str, scene: str = "swing"):
+    """The scene's outputs from the tree form and from the expanded equations (C backend)."""
+    model = model_from_source(SourceFile("tree.lag", text))
+    tree = derive_tree_equations(model)
+    assert isinstance(tree, TreeEquations)
+    results = []
+    for equations in (tree, derive_equations(model)):
+        scene_plan = plan(model, equations, scene, Overrides())
+        kernel, source = generate(equations, scene_plan, "c", "tree.lag")
+        results.append((kernel, execute(kernel, source, scene_plan).values))
+    (tree_kernel, tree_values), (dense_kernel, dense_values) = results
+    assert tree_kernel.layout.kind == "tree" and dense_kernel.layout.kind != "tree"
+    return tree, tree_values, dense_values
+
+
+@pytest.fixture
+def small_trees(monkeypatch):
+    """The tree form for a few links too (it starts at TREE_MIN_COORDINATES)."""
+    monkeypatch.setattr(trees, "TREE_MIN_COORDINATES", 2)
+
+
+# The chain is chaotic: rounding differences of the two solves grow with time and with n, so
+# the longer chains are compared over fewer seconds. Each column agrees to 1e-10 of its size
+# (the energy of the 32-link chain is about 4e3: its rounding alone is 1e-12).
+@pytest.mark.parametrize("n, seconds", [(8, 10), pytest.param(32, 4, marks=pytest.mark.slow),
+                                        pytest.param(64, 2, marks=pytest.mark.slow)])
+def test_chain_of_unequal_links_follows_the_dense_trajectory(n, seconds):
+    tree, looped, dense = trajectories(chain_text(n, seconds))
+    assert tree.parents == (-1, *range(n - 1)) and tree.axes == 2
+    assert [links.placement.count for links in tree.links] == [n]      # one shape: one loop
+    assert np.all(np.abs(looped - dense) <= 1e-10 * np.maximum(1, np.abs(dense)))
+
+
+@pytest.mark.parametrize("text, parents, axes", [(chain_text(3, seconds=5), (-1, 0, 1), 2),
+                                                 (FORK, (-1, 0, 0), 2), (TILTED, (-1, 0, 1, 2), 3)])
+def test_small_trees_follow_the_dense_trajectory(small_trees, text, parents, axes):
+    tree, looped, dense = trajectories(text)
+    assert tree.parents == parents and tree.axes == axes
+    assert np.max(np.abs(looped - dense)) <= 1e-10
+
+
+def test_generated_code_grows_linearly_with_the_links():
+    sizes = []
+    for n in (8, 16, 32):
+        model = model_from_source(SourceFile("chain.lag", chain_text(n)))
+        tree = derive_tree_equations(model)
+        scene_plan = plan(model, tree, "swing", Overrides())
+        sizes.append(len(generate(tree, scene_plan, "c", "chain.lag")[1].text))
+    assert sizes[2] - sizes[1] <= 2.2 * (sizes[1] - sizes[0])
+
+
+@pytest.mark.parametrize("text", [
+    chain_text(8).replace("U = sum(m[i]*g*y[i], i in 1:n);", "U = sum(m[i]*g*y[i]^2, i in 1:n);"),
+    chain_text(8).replace("T = sum(m[i]/2*", "T = der(x[1])*der(x[2]) + sum(m[i]/2*"),
+    chain_text(8).replace("let y[i] = -sum(l[j]*cos(theta[j])", "let y[i] = -sum(l[j]*cos(theta[j] + theta[1])"),
+], ids=["potential not linear in the positions", "kinetic term across bodies", "link term of two joints"])
+def test_what_is_not_a_tree_of_point_masses_takes_the_expanded_equations(text):
+    assert derive_tree_equations(model_from_source(SourceFile("chain.lag", text))) is None
+
+
+@pytest.mark.parametrize("overrides, backend", [({"integrator": "radau5"}, "c"), ({}, "numpy")])
+def test_scenes_the_tree_form_does_not_serve_fall_back(overrides, backend):
+    model = model_from_source(SourceFile("chain.lag", chain_text(8, seconds=0.5)))
+    tree = derive_tree_equations(model)
+    scene_plan = plan(model, tree, "swing", Overrides(**overrides))
+    kernel, _ = generate(tree, scene_plan, backend, "chain.lag")
+    assert kernel.layout is None or kernel.layout.kind != "tree"
