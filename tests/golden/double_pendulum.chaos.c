@@ -2250,7 +2250,6 @@ static void lag_lane_begin(lag_lanes *lanes, int l, const lag_lane_batch *batch,
     lag_system_prepare(&lane->sys);
     status = lag_begin(&lane->sys, &lanes->stepper[l], y0, lane->t0, lane->t1, lane->dt, &options, &lane->limited,
                        lag_grid_row, &lane->rows, &lane->report, &e_old, &lane->last);
-    lanes->stepper[l].sys = &lane->sys;
     for (i = 0; i < LAG_NP; ++i)
         lanes->par[i][l] = lane->sys.par[i];
     if (status != LAG_OK)
