@@ -266,17 +266,21 @@ static void lag_lanes_stages(lag_lanes *lanes)
         const dp8_lane_stage *stage = &dp8_lane_stages[s];
         for (i = 0; i < LAG_NY; ++i) {
             const real a0 = *stage->a[0];
+            LAG_SIMD
             for (l = 0; l < LAG_LANES; ++l)
                 lanes->acc[l] = a0 * lanes->k[stage->from[0] - 1][i][l];
             for (j = 1; j < stage->count; ++j) {
                 const real a = *stage->a[j];
                 const real *kj = lanes->k[stage->from[j] - 1][i];
+                LAG_SIMD
                 for (l = 0; l < LAG_LANES; ++l)
                     lanes->acc[l] += a * kj[l];
             }
+            LAG_SIMD
             for (l = 0; l < LAG_LANES; ++l)
                 lanes->y_stage[i][l] = lanes->y[i][l] + lanes->h[l] * lanes->acc[l];
         }
+        LAG_SIMD
         for (l = 0; l < LAG_LANES; ++l)
             lanes->t_stage[l] = stage->c != NULL ? lanes->t[l] + *stage->c * lanes->h[l] : lanes->lane[l].t_new;
         lag_lanes_rhs(lanes, lanes->k[s + 1]);
