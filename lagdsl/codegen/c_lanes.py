@@ -34,7 +34,7 @@ class LaneGroup:
 def lane_groups(block: Block, printed: dict) -> tuple[tuple[str, ...], tuple[LaneGroup, ...]]:
     """(the temporaries kept across groups, the groups) of a block without loops, `printed` being
     its printed form (codegen.c._print_block: assignments and stores as C text)."""
-    inputs = {"t": "t[l]", **{name: _lane_source(source) for name, source in block.inputs}}
+    inputs = {"t": "t_lanes[l]", **{name: _lane_source(source) for name, source in block.inputs}}
     statements = [(name, text, {s.name for s in value.free_symbols})
                   for (name, text), (_, value) in zip(printed["assignments"], block.assignments)]
     statements += [(_lane_source(target), text, {s.name for s in store.value.free_symbols})

@@ -842,7 +842,7 @@ static int lag_rhs(const lag_system *sys, real t, const real *y, real *dydt)
 
 /* lag_assemble of LAG_LANES members, entry [i][l] of member l: each statement as there, in loops
  * over the lanes; the libm calls in loops of their own, the arithmetic in loops that vectorise. */
-static void lag_lane_system(const real (*par)[LAG_LANES], const real *t, const real (*y)[LAG_LANES],
+static void lag_lane_system(const real (*par)[LAG_LANES], const real *t_lanes, const real (*y)[LAG_LANES],
                             real (*K)[LAG_LANES], real (*b)[LAG_LANES])
 {
     real c5_lanes[LAG_LANES];
@@ -894,7 +894,7 @@ static void lag_lane_system(const real (*par)[LAG_LANES], const real *t, const r
     real c44_lanes[LAG_LANES];
     real c49_lanes[LAG_LANES];
     real c54_lanes[LAG_LANES];
-    (void)t;
+    (void)t_lanes;
     LAG_SIMD
     for (int l = 0; l < LAG_LANES; ++l) {
         const real p_m = par[1][l];

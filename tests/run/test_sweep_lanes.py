@@ -26,6 +26,7 @@ LANE_MODELS = {
     "elastic_pendulum": ("soft", {"phi.start": (-1, 1), "k": (5, 50)}, 3.0),
     "heavy_top": ("nutation", {"theta.start": (0.3, 1.2)}, 2.0),
     "cart_pole": ("fall", {"theta.start": (-1, 1), "m": (0.1, 1)}, 2.0),
+    "damped_driven_pendulum": ("driven", {"theta.start": (-1, 1)}, 3.0),        # f reads t
 }
 DEFAULT_SET = ("double_pendulum", "pendulum")
 MEMBERS = 100
