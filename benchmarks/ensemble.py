@@ -13,7 +13,11 @@ theta1, theta2 in [-pi, pi] (at rest), 10^4 for side = 100. Measured in one run:
   (c) a loop of scipy's solve_ivp(DOP853) on the hand-written right-hand side (the textbook
       accelerations, math.sin/cos) over --scipy-sample members, scaled;
   (d) a loop of CyRK's nbsolve_ivp (DOP853, numba right-hand side) over --loop-sample members,
-      scaled, if CyRK is installed.
+      scaled, if CyRK is installed;
+  (e) at matched accuracy (ensemble_heyoka.py): the sweep against heyoka's batch mode
+      (taylor_adaptive_batch, one thread) and ensemble_propagate_until_batch (all threads), each at
+      the loosest tolerance whose error at t = 10 is at most 1e-6 on --error-sample random members
+      against lagdsl's extended-precision reference; heyoka optional (--no-matched skips it).
 
 The loops run on one core; the sweep on --workers cores. Times are compared as CPU seconds of
 the process (all its threads), which a loaded machine does not inflate; wall-clock times are
@@ -35,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
+import ensemble_heyoka
 import lagdsl
 from benchtools import MODELS, machine_description, markdown_table
 
@@ -138,6 +143,8 @@ def main() -> int:
     parser.add_argument("--scipy-sample", type=int, default=20)
     parser.add_argument("--loop-sample", type=int, default=200)
     parser.add_argument("--picture", type=Path, default=Path(__file__).resolve().parent / "ensemble_basin.png")
+    parser.add_argument("--error-sample", type=int, default=20, help="random members whose error is measured (e)")
+    parser.add_argument("--no-matched", action="store_true", help="leave out (e), the comparison at matched accuracy")
     args = parser.parse_args()
     model = lagdsl.load(MODELS / "double_pendulum.lag")
     varied = members(args.side)
@@ -172,7 +179,36 @@ def main() -> int:
           "(its CPU time over the threads; the members are independent).")
     print(f"\n{sweep.summary.render()}")
     print(f"every sampled simulate() member equals its sweep member bit for bit; {draw_basin(sweep, args.side, args.picture)}")
+    if not args.no_matched:
+        print_matched(model, varied, args)
     return 0
+
+
+def print_matched(model, varied, args) -> None:
+    """(e): the sweep and heyoka's batch mode at matched accuracy on all members."""
+    total = len(varied["theta1.start"])
+    chosen = np.sort(np.random.default_rng(35).choice(total, min(args.error_sample, total), replace=False))
+    load_before = os.getloadavg()
+    rows, note = ensemble_heyoka.matched_rows(model, varied, chosen, args.workers)
+    load_after = os.getloadavg()
+    print(f"\n(e) {total} members at matched accuracy: error at t = 10 at most {ensemble_heyoka.TARGET:g} on "
+          f"{len(chosen)} random members (against lagdsl's extended-precision reference); lagdsl's lanes hold "
+          f"{lane_width(model)} members; load average before {load_before[0]:.1f}, after {load_after[0]:.1f}\n")
+    print(markdown_table(("what", "tol", "sampled error", "wall-clock", "CPU time", "CPU / the least"),
+                         ensemble_heyoka.table_rows(rows)))
+    if note:
+        print(note)
+
+
+def lane_width(model) -> str:
+    """LAG_LANES as the compiler of the sweep's library chose it (the widest vector register)."""
+    import subprocess
+    from lagdsl.run.toolchain import LIBRARY_FLAGS, find_compiler
+    flags = [flag for flag in LIBRARY_FLAGS if flag.startswith("-m")]
+    macros = subprocess.run([find_compiler(), *flags, "-dM", "-E", "-x", "c", "/dev/null"], capture_output=True,
+                            text=True).stdout
+    width = 8 if "__AVX512F__" in macros else 4 if "__AVX__" in macros else 2
+    return f"{width} (LAG_LANES, {width * 64}-bit vectors of doubles)"
 
 
 if __name__ == "__main__":

@@ -13,6 +13,7 @@ from ..tolerances import component_input, component_names
 from . import GeneratedSource, template_environment
 from .c_abi import runtime_contract, runtime_header, status_printer, summary_packer, verdict_printer
 from .c_factor import factorisation_text
+from .c_lanes import lane_groups
 from .c_taylor import series_text
 from .kernel import Block, Kernel, Loop, Store
 from .printers import CPrinter
@@ -46,6 +47,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
               for name in FUNCTION_PARAMETERS if getattr(kernel, name) is not None}
     options = dict(kernel.integrator.options)
     method = registry.get(kernel.integrator.name)
+    lanes = _lanes(kernel, method, blocks, fmu is not None or sensitivity is not None)
     context = {
         "title": f"{kernel.model_name}, scene {kernel.scene_name}: generated C simulation",
         "version": __version__, "source_name": source_name, "scene": kernel.scene_name,
@@ -72,7 +74,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
         "integrator_source": integrator_source(kernel.integrator.name),
         "taylor_series": series_text(kernel, printer, [_position(s, kernel) for s in kernel.system.stores
                                                        if s.array == "K"]) if method.series else "",
-        "contract": runtime_contract(), "flags": _driver_flags(kernel, method),
+        "contract": runtime_contract(), "flags": _driver_flags(kernel, method, lanes is not None), "lanes": lanes,
         "driver": c_file("forecast.c") + "\n" + c_file("driver.c"), "library": c_file("library.c"),
         "standalone": c_file("standalone.c"),
         "summary_packer": summary_packer(summary_layout(method.name, len(kernel.invariant_names), 2 * kernel.n,
@@ -104,14 +106,28 @@ def layout_kind(kernel: Kernel) -> str:
     return kernel.layout.kind if kernel.layout else "dense"
 
 
-def _driver_flags(kernel: Kernel, method: registry.Integrator) -> list[tuple[str, int, str]]:
+def _lanes(kernel: Kernel, method: registry.Integrator, blocks: dict, elsewhere: bool) -> dict | None:
+    """The sweep's path in SIMD lanes (c_lanes.py, the integrator's lanes file), or None where the
+    scene has none: an integrator without one, a program that is not the shared library's
+    (`elsewhere`: an FMU, sensitivities), constraints, a stop condition, or a system block with
+    stencil loops (a large chain, whose loops over its members already vectorise)."""
+    system = kernel.system
+    if (not method.lanes or elsewhere or kernel.constraints or kernel.stop is not None or system is None
+            or system.loops or system.cleared or system.accumulators):
+        return None
+    kept, groups = lane_groups(system, blocks["system"])
+    return {"kept": kept, "groups": groups, "source": c_file(method.lanes)}
+
+
+def _driver_flags(kernel: Kernel, method: registry.Integrator, lanes: bool) -> list[tuple[str, int, str]]:
     """The LAG_HAS_* switches of driver.c and standalone.c: what this scene has."""
     return [("LAG_HAS_CONSTRAINTS", int(bool(kernel.constraints)), "project onto constraints, watch their residual"),
             ("LAG_HAS_INVARIANTS", int(bool(kernel.invariant_names)), "watch conserved quantities"),
             ("LAG_HAS_STOP", int(kernel.stop is not None), "a stop condition may end the run"),
             ("LAG_HAS_STIFFNESS_TEST", int(method.stiffness_test), "report the integrator's stiffness test"),
             ("LAG_HAS_SWITCHES", int(bool(method.parts)), "report the composite integrator's switches"),
-            ("LAG_HAS_TOLERANCES", int("rtol" in method.options), "the integrator takes rtol and atol")]
+            ("LAG_HAS_TOLERANCES", int("rtol" in method.options), "the integrator takes rtol and atol"),
+            ("LAG_HAS_LANES", int(lanes), "the sweep runs its members in SIMD lanes (lag_run_lanes)")]
 
 
 def _linear_algebra(kernel: Kernel) -> str:

@@ -100,6 +100,7 @@ class Integrator:
     numpy: str | None = None                    # why the NumPy backend refuses it at all
     series: bool = False                        # steps by the Taylor series of the equations (codegen/c_taylor.py)
     stacks_in_sweeps: bool = False              # NumPy sweeps integrate chunks of members as one system
+    lanes: str = ""                             # its C file that runs a sweep's members in SIMD lanes, if any
     source: str = ""                            # its C file, if not NAME.c
     order: int = 0                              # the order of the method (per stage if stage_order)
     stage_order: bool = False                   # gauss: order = order x stages
@@ -176,7 +177,7 @@ for _record in (
     Integrator("dop853", "the Dormand-Prince pair dop853",
                "Dormand-Prince 8(5,3), adaptive, dense output of order 7 (the default)",
                stability_boundary=6.1, c_fragments=_DORMAND_PRINCE, c_protocol=_DORMAND_PRINCE_STEP, scipy="DOP853",
-               stacks_in_sweeps=True, order=8),
+               stacks_in_sweeps=True, lanes="dop853_lanes.c", order=8),
     Integrator("rkn8", "the Nystrom integrator rkn8",
                "Runge-Kutta-Nystrom 8(6) for q'' = a(t, q), adaptive (no velocity-dependent forces)",
                second_order=True, constraints="use dop853 or radau5", c_fragments=("explicit_control.c",),

@@ -222,6 +222,7 @@ enum lag_setting { LAG_SET_T_START, LAG_SET_T_STOP, LAG_SET_T_INTERVAL, LAG_SET_
 #define LAG_HAS_STIFFNESS_TEST 0     /* report the integrator's stiffness test */
 #define LAG_HAS_SWITCHES 0     /* report the composite integrator's switches */
 #define LAG_HAS_TOLERANCES 0     /* the integrator takes rtol and atol */
+#define LAG_HAS_LANES 0     /* the sweep runs its members in SIMD lanes (lag_run_lanes) */
 
 typedef struct lag_system {
     real par[3];
@@ -1175,32 +1176,46 @@ static void lag_finish(lag_system *sys, const lag_stepper *stepper, int status, 
     }
 }
 
+/* The start of a run on the grid of lag_last_row, *last its final row: the first row, and the
+ * stepper (zeroed here) at (t0, y0) with the step limit in *limited (the options it keeps). */
+static int lag_begin(lag_system *sys, lag_stepper *stepper, const real *y0, real t0, real t1, real dt,
+                     const lag_options *options, lag_options *limited, lag_sink sink, void *context,
+                     lag_report *report, real *e_old, long *last)
+{
+    real y[LAG_NY];
+    int status;
+    memcpy(y, y0, sizeof y);
+    memset(stepper, 0, sizeof *stepper);
+    stepper->t = t0;           /* where a failure before the first step (projecting y0) is reported */
+    memcpy(stepper->y, y, sizeof stepper->y);
+    *last = lag_last_row(t0, t1, dt);
+    *limited = *options;
+    limited->max_steps = lag_step_limit(options, t0, t1, *last);
+    report->forecast.start = t0;
+    report->forecast.stop = t1;
+    report->forecast.budget = options->step > 0 ? 0 : limited->max_steps;     /* a fixed step's count is known */
+    lag_progress_t = (double)t0;
+    status = lag_start(sys, t0, y, e_old, last, sink, context, report);
+    if (status == LAG_OK)
+        status = lag_stepper_init(stepper, sys, t0, y, t1, limited);
+    return status;
+}
+
 /* Integrate from (t0, y0) to t1 and deliver the outputs on the grid of lag_last_row. The caller
  * has checked the grid (finite, t1 > t0, dt > 0, at most LAG_MAX_ROWS rows) and set sys->par. */
 static int lag_integrate(lag_system *sys, const real *y0, real t0, real t1, real dt,
                          const lag_options *options, lag_sink sink, void *context, lag_report *report)
 {
     lag_stepper *stepper = malloc(sizeof *stepper);
-    lag_options limited = *options;
-    real y[LAG_NY], e_old = 0;
-    long k, last = lag_last_row(t0, t1, dt);
+    lag_options limited;
+    real e_old = 0;
+    long k, last;
     int status;
     memset(report, 0, sizeof *report);
-    memcpy(y, y0, sizeof y);
     lag_system_prepare(sys);
     if (stepper == NULL)
         return report->status = LAG_ERR_MAX_STEPS;
-    memset(stepper, 0, sizeof *stepper);
-    stepper->t = t0;           /* where a failure before the first step (projecting y0) is reported */
-    memcpy(stepper->y, y, sizeof stepper->y);
-    limited.max_steps = lag_step_limit(options, t0, t1, last);
-    report->forecast.start = t0;
-    report->forecast.stop = t1;
-    report->forecast.budget = options->step > 0 ? 0 : limited.max_steps;     /* a fixed step's count is known */
-    lag_progress_t = (double)t0;
-    status = lag_start(sys, t0, y, &e_old, &last, sink, context, report);
-    if (status == LAG_OK)
-        status = lag_stepper_init(stepper, sys, t0, y, t1, &limited);
+    status = lag_begin(sys, stepper, y0, t0, t1, dt, options, &limited, sink, context, report, &e_old, &last);
     for (k = 1; k <= last && status == LAG_OK; ++k) {
         real tk = k == last ? t1 : t0 + k * dt;
         if ((status = lag_advance(sys, stepper, tk, &e_old, report)) != LAG_OK)
@@ -1280,6 +1295,26 @@ static int lag_buffer_row(void *context, real t, const real *out)
     return 0;
 }
 
+/* The inputs of one run: `parameters` (LAG_NP) into sys (zeroed here), `initial` (LAG_NY) into y0
+ * and the options of `settings`. */
+static void lag_member_inputs(const double *parameters, const double *initial, const double *settings,
+                              lag_system *sys, lag_options *options, real *y0)
+{
+    int i;
+    memset(sys, 0, sizeof *sys);    /* a model without parameters still has the placeholder par[0] */
+    for (i = 0; i < LAG_NP; ++i)
+        sys->par[i] = parameters[i];
+    for (i = 0; i < LAG_NY; ++i)
+        y0[i] = initial[i];
+    options->rtol = settings[LAG_SET_RTOL];
+    options->atol = settings[LAG_SET_ATOL];
+    options->step = settings[LAG_SET_STEP];
+    options->max_step = settings[LAG_SET_MAX_STEP];
+    options->stages = (int)settings[LAG_SET_STAGES];
+    options->max_steps = (long)settings[LAG_SET_MAX_STEPS];
+    options->atol_each = settings + LAG_SETTINGS;
+}
+
 /* One run of the model with `parameters` (LAG_NP) from `initial` (LAG_NY) on `settings`; its
  * rows go to `sink`, its summary to `summary`. */
 static int lag_run_member(const double *parameters, const double *initial, const double *settings,
@@ -1289,19 +1324,7 @@ static int lag_run_member(const double *parameters, const double *initial, const
     lag_options options;
     lag_report report;
     real y0[LAG_NY];
-    int i;
-    memset(&sys, 0, sizeof sys);    /* a model without parameters still has the placeholder par[0] */
-    for (i = 0; i < LAG_NP; ++i)
-        sys.par[i] = parameters[i];
-    for (i = 0; i < LAG_NY; ++i)
-        y0[i] = initial[i];
-    options.rtol = settings[LAG_SET_RTOL];
-    options.atol = settings[LAG_SET_ATOL];
-    options.step = settings[LAG_SET_STEP];
-    options.max_step = settings[LAG_SET_MAX_STEP];
-    options.stages = (int)settings[LAG_SET_STAGES];
-    options.max_steps = (long)settings[LAG_SET_MAX_STEPS];
-    options.atol_each = settings + LAG_SETTINGS;
+    lag_member_inputs(parameters, initial, settings, &sys, &options, y0);
     lag_integrate(&sys, y0, settings[LAG_SET_T_START], settings[LAG_SET_T_STOP], settings[LAG_SET_T_INTERVAL],
                   &options, sink, context, &report);
     lag_pack_summary(&report, summary);
@@ -1336,6 +1359,14 @@ static int lag_grid_row(void *context, real t, const real *out)
     return 0;
 }
 
+/* The summary of a member not begun because lag_interrupt was set: interrupted at t0, no rows. */
+static void lag_summary_interrupted(const double *settings, double *summary)
+{
+    memset(summary, 0, sizeof(double) * LAG_SUMMARY_SIZE);
+    summary[LAG_SUMMARY_STATUS] = LAG_ERR_INTERRUPTED;
+    summary[LAG_SUMMARY_T_FAIL] = settings[LAG_SET_T_START];
+}
+
 /* The loop of lag_run_batch, for any sink of the layout of lag_buffer: member b's rows, `width`
  * doubles each, go to values[b * capacity * width ...]. A member not begun when lag_interrupt is
  * set has the status LAG_ERR_INTERRUPTED at t0 and no rows. */
@@ -1357,9 +1388,7 @@ static void lag_run_members(long members, const double *parameters, const double
         buffer.capacity = capacity;
         buffer.used = 0;
         if (lag_interrupt) {
-            memset(summary, 0, sizeof(double) * LAG_SUMMARY_SIZE);
-            summary[LAG_SUMMARY_STATUS] = LAG_ERR_INTERRUPTED;
-            summary[LAG_SUMMARY_T_FAIL] = settings[LAG_SET_T_START];
+            lag_summary_interrupted(settings, summary);
         } else {
             lag_run_member(parameters + b * LAG_NP, initial + b * LAG_NY, settings, sink, &buffer, summary);
         }
@@ -1377,11 +1406,20 @@ static void lag_run_members(long members, const double *parameters, const double
  * they run in parallel on `threads` OpenMP threads when the library is built with OpenMP, and
  * one after another otherwise, with the same results bit for bit. After lag_interrupt is set,
  * members not yet begun are not begun (status LAG_ERR_INTERRUPTED, no rows). */
+#if LAG_HAS_LANES
+static void lag_run_lanes(long members, const double *parameters, const double *initial, const double *settings,
+                          double *values, long capacity, double *summaries, long stride, int threads);
+#endif
+
 void lag_run_batch(long members, const double *parameters, const double *initial, const double *settings,
                    double *values, long capacity, double *summaries, long stride, int threads)
 {
+#if LAG_HAS_LANES      /* dop853_lanes.c, pasted after this file: the same results bit for bit */
+    lag_run_lanes(members, parameters, initial, settings, values, capacity, summaries, stride, threads);
+#else
     lag_run_members(members, parameters, initial, settings, lag_grid_row, LAG_NOUT, values, capacity, summaries,
                     stride, threads);
+#endif
 }
 
 /* ---- the standalone program: the scene's grid and options ---- */

@@ -222,6 +222,7 @@ enum lag_setting { LAG_SET_T_START, LAG_SET_T_STOP, LAG_SET_T_INTERVAL, LAG_SET_
 #define LAG_HAS_STIFFNESS_TEST 1     /* report the integrator's stiffness test */
 #define LAG_HAS_SWITCHES 0     /* report the composite integrator's switches */
 #define LAG_HAS_TOLERANCES 1     /* the integrator takes rtol and atol */
+#define LAG_HAS_LANES 1     /* the sweep runs its members in SIMD lanes (lag_run_lanes) */
 
 typedef struct lag_system {
     real par[4];
@@ -382,12 +383,11 @@ static void lag_assemble(const real *par, real t, const real *y, real *K, real *
     }
 }
 
-/* q'' at (t, y): assemble K and b, and solve. */
-static int lag_accelerations(const lag_system *sys, real t, const real *y, real *acc)
+/* q'' from K and b as lag_assemble leaves them (both overwritten). */
+static int lag_solved_accelerations(real *K, real *b, real *acc)
 {
-    real K[LAG_NM], b[LAG_NK], rcond;
+    real rcond;
     int i, status;
-    lag_assemble(sys->par, t, y, K, b);
     if ((status = lag_solve(LAG_NK, K, b, &rcond)) != LAG_OK)
         return status;
     for (i = 0; i < LAG_NQ; ++i)
@@ -398,6 +398,14 @@ static int lag_accelerations(const lag_system *sys, real t, const real *y, real 
     return LAG_OK;
 }
 
+/* q'' at (t, y): assemble K and b, and solve. */
+static int lag_accelerations(const lag_system *sys, real t, const real *y, real *acc)
+{
+    real K[LAG_NM], b[LAG_NK];
+    lag_assemble(sys->par, t, y, K, b);
+    return lag_solved_accelerations(K, b, acc);
+}
+
 /* dy/dt = (q', q''). */
 static int lag_rhs(const lag_system *sys, real t, const real *y, real *dydt)
 {
@@ -405,6 +413,616 @@ static int lag_rhs(const lag_system *sys, real t, const real *y, real *dydt)
     for (i = 0; i < LAG_NQ; ++i)
         dydt[i] = y[LAG_NQ + i];
     return lag_accelerations(sys, t, y, dydt + LAG_NQ);
+}
+
+/* ---- the right-hand side in SIMD lanes, for the sweep (dop853_lanes.c, codegen/c_lanes.py) ---- */
+/* Members side by side: as many as the widest vector register the compiler builds for holds doubles. */
+#ifndef LAG_LANES
+#if defined(__AVX512F__)
+#define LAG_LANES 8
+#elif defined(__AVX__)
+#define LAG_LANES 4
+#else
+#define LAG_LANES 2     /* SSE2, NEON */
+#endif
+#endif
+/* Before a loop over the lanes: vectorise it. Without it gcc unrolls a loop of LAG_LANES
+ * iterations whole before its loop vectoriser sees it, and the library is built without the SLP
+ * vectoriser (run/toolchain.py), so the unrolled loop stays scalar. Each lane's operations and
+ * their order are unchanged (no reduction, no fma contraction in C99). */
+#ifdef _OPENMP
+#define LAG_SIMD _Pragma("omp simd")
+#else
+#define LAG_SIMD
+#endif
+
+/* lag_assemble of LAG_LANES members, entry [i][l] of member l: each statement as there, in loops
+ * over the lanes; the libm calls in loops of their own, the arithmetic in loops that vectorise. */
+static void lag_lane_system(const real (*par)[LAG_LANES], const real *t_lanes, const real (*y)[LAG_LANES],
+                            real (*K)[LAG_LANES], real (*b)[LAG_LANES])
+{
+    real c5_lanes[LAG_LANES];
+    real c0_lanes[LAG_LANES];
+    real c73_lanes[LAG_LANES];
+    real c74_lanes[LAG_LANES];
+    real c58_lanes[LAG_LANES];
+    real c2_lanes[LAG_LANES];
+    real c6_lanes[LAG_LANES];
+    real c11_lanes[LAG_LANES];
+    real c76_lanes[LAG_LANES];
+    real c8_lanes[LAG_LANES];
+    real c16_lanes[LAG_LANES];
+    real c80_lanes[LAG_LANES];
+    real c13_lanes[LAG_LANES];
+    real c21_lanes[LAG_LANES];
+    real c84_lanes[LAG_LANES];
+    real c18_lanes[LAG_LANES];
+    real c26_lanes[LAG_LANES];
+    real c88_lanes[LAG_LANES];
+    real c23_lanes[LAG_LANES];
+    real c31_lanes[LAG_LANES];
+    real c92_lanes[LAG_LANES];
+    real c28_lanes[LAG_LANES];
+    real c36_lanes[LAG_LANES];
+    real c96_lanes[LAG_LANES];
+    real c33_lanes[LAG_LANES];
+    real c100_lanes[LAG_LANES];
+    real c41_lanes[LAG_LANES];
+    real c38_lanes[LAG_LANES];
+    real c104_lanes[LAG_LANES];
+    real c46_lanes[LAG_LANES];
+    real c43_lanes[LAG_LANES];
+    real c108_lanes[LAG_LANES];
+    real c51_lanes[LAG_LANES];
+    real c48_lanes[LAG_LANES];
+    real c55_lanes[LAG_LANES];
+    real c53_lanes[LAG_LANES];
+    real c60_lanes[LAG_LANES];
+    real c1_lanes[LAG_LANES];
+    real c3_lanes[LAG_LANES];
+    real c9_lanes[LAG_LANES];
+    real c14_lanes[LAG_LANES];
+    real c19_lanes[LAG_LANES];
+    real c24_lanes[LAG_LANES];
+    real c29_lanes[LAG_LANES];
+    real c34_lanes[LAG_LANES];
+    real c39_lanes[LAG_LANES];
+    real c44_lanes[LAG_LANES];
+    real c49_lanes[LAG_LANES];
+    real c54_lanes[LAG_LANES];
+    (void)t_lanes;
+    LAG_SIMD
+    for (int l = 0; l < LAG_LANES; ++l) {
+        const real p_m = par[1][l];
+        const real p_l = par[2][l];
+        const real v_theta_1 = y[12][l];
+        const real v_theta_2 = y[13][l];
+        const real v_theta_3 = y[14][l];
+        const real v_theta_4 = y[15][l];
+        const real v_theta_5 = y[16][l];
+        const real v_theta_6 = y[17][l];
+        const real v_theta_7 = y[18][l];
+        const real v_theta_8 = y[19][l];
+        const real v_theta_9 = y[20][l];
+        const real v_theta_10 = y[21][l];
+        const real v_theta_11 = y[22][l];
+        const real v_theta_12 = y[23][l];
+        const real c57 = (p_l*p_l);
+        const real c73 = c57*p_m;
+        const real c74 = 11*c73;
+        const real c58 = 2*c57;
+        const real c76 = 10*c73;
+        const real c80 = 9*c73;
+        const real c84 = 8*c73;
+        const real c88 = 7*c73;
+        const real c92 = 6*c73;
+        const real c96 = 5*c73;
+        const real c100 = 4*c73;
+        const real c104 = 3*c73;
+        const real c108 = c58*p_m;
+        const real c60 = p_l*p_m;
+        const real c1 = p_l*(v_theta_1*v_theta_1);
+        const real c3 = p_l*(v_theta_2*v_theta_2);
+        const real c9 = p_l*(v_theta_3*v_theta_3);
+        const real c14 = p_l*(v_theta_4*v_theta_4);
+        const real c19 = p_l*(v_theta_5*v_theta_5);
+        const real c24 = p_l*(v_theta_6*v_theta_6);
+        const real c29 = p_l*(v_theta_7*v_theta_7);
+        const real c34 = p_l*(v_theta_8*v_theta_8);
+        const real c39 = p_l*(v_theta_9*v_theta_9);
+        const real c44 = p_l*(v_theta_10*v_theta_10);
+        const real c49 = p_l*(v_theta_11*v_theta_11);
+        const real c54 = p_l*(v_theta_12*v_theta_12);
+        c73_lanes[l] = c73;
+        c74_lanes[l] = c74;
+        c58_lanes[l] = c58;
+        c76_lanes[l] = c76;
+        c80_lanes[l] = c80;
+        c84_lanes[l] = c84;
+        c88_lanes[l] = c88;
+        c92_lanes[l] = c92;
+        c96_lanes[l] = c96;
+        c100_lanes[l] = c100;
+        c104_lanes[l] = c104;
+        c108_lanes[l] = c108;
+        c60_lanes[l] = c60;
+        c1_lanes[l] = c1;
+        c3_lanes[l] = c3;
+        c9_lanes[l] = c9;
+        c14_lanes[l] = c14;
+        c19_lanes[l] = c19;
+        c24_lanes[l] = c24;
+        c29_lanes[l] = c29;
+        c34_lanes[l] = c34;
+        c39_lanes[l] = c39;
+        c44_lanes[l] = c44;
+        c49_lanes[l] = c49;
+        c54_lanes[l] = c54;
+    }
+    for (int l = 0; l < LAG_LANES; ++l) {
+        const real q_theta_1 = y[0][l];
+        const real q_theta_2 = y[1][l];
+        const real q_theta_3 = y[2][l];
+        const real q_theta_4 = y[3][l];
+        const real q_theta_5 = y[4][l];
+        const real q_theta_6 = y[5][l];
+        const real q_theta_7 = y[6][l];
+        const real q_theta_8 = y[7][l];
+        const real q_theta_9 = y[8][l];
+        const real q_theta_10 = y[9][l];
+        const real q_theta_11 = y[10][l];
+        const real q_theta_12 = y[11][l];
+        const real c5 = r_cos(q_theta_1);
+        const real c0 = r_sin(q_theta_1);
+        const real c2 = r_sin(q_theta_2);
+        const real c6 = r_cos(q_theta_2);
+        const real c11 = r_cos(q_theta_3);
+        const real c8 = r_sin(q_theta_3);
+        const real c16 = r_cos(q_theta_4);
+        const real c13 = r_sin(q_theta_4);
+        const real c21 = r_cos(q_theta_5);
+        const real c18 = r_sin(q_theta_5);
+        const real c26 = r_cos(q_theta_6);
+        const real c23 = r_sin(q_theta_6);
+        const real c31 = r_cos(q_theta_7);
+        const real c28 = r_sin(q_theta_7);
+        const real c36 = r_cos(q_theta_8);
+        const real c33 = r_sin(q_theta_8);
+        const real c41 = r_cos(q_theta_9);
+        const real c38 = r_sin(q_theta_9);
+        const real c46 = r_cos(q_theta_10);
+        const real c43 = r_sin(q_theta_10);
+        const real c51 = r_cos(q_theta_11);
+        const real c48 = r_sin(q_theta_11);
+        const real c55 = r_cos(q_theta_12);
+        const real c53 = r_sin(q_theta_12);
+        c5_lanes[l] = c5;
+        c0_lanes[l] = c0;
+        c2_lanes[l] = c2;
+        c6_lanes[l] = c6;
+        c11_lanes[l] = c11;
+        c8_lanes[l] = c8;
+        c16_lanes[l] = c16;
+        c13_lanes[l] = c13;
+        c21_lanes[l] = c21;
+        c18_lanes[l] = c18;
+        c26_lanes[l] = c26;
+        c23_lanes[l] = c23;
+        c31_lanes[l] = c31;
+        c28_lanes[l] = c28;
+        c36_lanes[l] = c36;
+        c33_lanes[l] = c33;
+        c41_lanes[l] = c41;
+        c38_lanes[l] = c38;
+        c46_lanes[l] = c46;
+        c43_lanes[l] = c43;
+        c51_lanes[l] = c51;
+        c48_lanes[l] = c48;
+        c55_lanes[l] = c55;
+        c53_lanes[l] = c53;
+    }
+    LAG_SIMD
+    for (int l = 0; l < LAG_LANES; ++l) {
+        const real p_m = par[1][l];
+        const real p_g = par[3][l];
+        const real c5 = c5_lanes[l];
+        const real c0 = c0_lanes[l];
+        const real c73 = c73_lanes[l];
+        const real c74 = c74_lanes[l];
+        const real c58 = c58_lanes[l];
+        const real c2 = c2_lanes[l];
+        const real c6 = c6_lanes[l];
+        const real c11 = c11_lanes[l];
+        const real c76 = c76_lanes[l];
+        const real c8 = c8_lanes[l];
+        const real c16 = c16_lanes[l];
+        const real c80 = c80_lanes[l];
+        const real c13 = c13_lanes[l];
+        const real c21 = c21_lanes[l];
+        const real c84 = c84_lanes[l];
+        const real c18 = c18_lanes[l];
+        const real c26 = c26_lanes[l];
+        const real c88 = c88_lanes[l];
+        const real c23 = c23_lanes[l];
+        const real c31 = c31_lanes[l];
+        const real c92 = c92_lanes[l];
+        const real c28 = c28_lanes[l];
+        const real c36 = c36_lanes[l];
+        const real c96 = c96_lanes[l];
+        const real c33 = c33_lanes[l];
+        const real c100 = c100_lanes[l];
+        const real c41 = c41_lanes[l];
+        const real c38 = c38_lanes[l];
+        const real c104 = c104_lanes[l];
+        const real c46 = c46_lanes[l];
+        const real c43 = c43_lanes[l];
+        const real c108 = c108_lanes[l];
+        const real c51 = c51_lanes[l];
+        const real c48 = c48_lanes[l];
+        const real c55 = c55_lanes[l];
+        const real c53 = c53_lanes[l];
+        const real c60 = c60_lanes[l];
+        const real c1 = c1_lanes[l];
+        const real c3 = c3_lanes[l];
+        const real c9 = c9_lanes[l];
+        const real c14 = c14_lanes[l];
+        const real c19 = c19_lanes[l];
+        const real c24 = c24_lanes[l];
+        const real c29 = c29_lanes[l];
+        const real c34 = c34_lanes[l];
+        const real c39 = c39_lanes[l];
+        const real c44 = c44_lanes[l];
+        const real c49 = c49_lanes[l];
+        const real c54 = c54_lanes[l];
+        const real c56 = (c5*c5);
+        const real c59 = (c0*c0);
+        const real w82 = 0.5*p_m*(c56*c58 + c58*c59);
+        const real c75 = c0*c2*c74 + c5*c6*c74;
+        const real c77 = c11*c76;
+        const real c78 = c76*c8;
+        const real c79 = c0*c78 + c5*c77;
+        const real c81 = c16*c80;
+        const real c82 = c13*c80;
+        const real c83 = c0*c82 + c5*c81;
+        const real c85 = c21*c84;
+        const real c86 = c18*c84;
+        const real c87 = c0*c86 + c5*c85;
+        const real c89 = c26*c88;
+        const real c90 = c23*c88;
+        const real c91 = c0*c90 + c5*c89;
+        const real c93 = c31*c92;
+        const real c94 = c28*c92;
+        const real c95 = c0*c94 + c5*c93;
+        const real c97 = c36*c96;
+        const real c98 = c33*c96;
+        const real c99 = c0*c98 + c5*c97;
+        const real c101 = c100*c41;
+        const real c102 = c100*c38;
+        const real c103 = c0*c102 + c101*c5;
+        const real c105 = c104*c46;
+        const real c106 = c104*c43;
+        const real c107 = c0*c106 + c105*c5;
+        const real c109 = c108*c51;
+        const real c110 = c108*c48;
+        const real c111 = c0*c110 + c109*c5;
+        const real c112 = c55*c73;
+        const real c113 = c53*c73;
+        const real c114 = c0*c113 + c112*c5;
+        const real c115 = c2*c78 + c6*c77;
+        const real c116 = c2*c82 + c6*c81;
+        const real c117 = c2*c86 + c6*c85;
+        const real c118 = c2*c90 + c6*c89;
+        const real c119 = c2*c94 + c6*c93;
+        const real c120 = c2*c98 + c6*c97;
+        const real c121 = c101*c6 + c102*c2;
+        const real c122 = c105*c6 + c106*c2;
+        const real c123 = c109*c6 + c110*c2;
+        const real c124 = c112*c6 + c113*c2;
+        const real c125 = c11*c81 + c8*c82;
+        const real c126 = c11*c85 + c8*c86;
+        const real c127 = c11*c89 + c8*c90;
+        const real c128 = c11*c93 + c8*c94;
+        const real c129 = c11*c97 + c8*c98;
+        const real c130 = c101*c11 + c102*c8;
+        const real c131 = c105*c11 + c106*c8;
+        const real c132 = c109*c11 + c110*c8;
+        const real c133 = c11*c112 + c113*c8;
+        const real c134 = c13*c86 + c16*c85;
+        const real c135 = c13*c90 + c16*c89;
+        const real c136 = c13*c94 + c16*c93;
+        const real c137 = c13*c98 + c16*c97;
+        const real c138 = c101*c16 + c102*c13;
+        const real c139 = c105*c16 + c106*c13;
+        const real c140 = c109*c16 + c110*c13;
+        const real c141 = c112*c16 + c113*c13;
+        const real c142 = c18*c90 + c21*c89;
+        const real c143 = c18*c94 + c21*c93;
+        const real c144 = c18*c98 + c21*c97;
+        const real c145 = c101*c21 + c102*c18;
+        const real c146 = c105*c21 + c106*c18;
+        const real c147 = c109*c21 + c110*c18;
+        const real c148 = c112*c21 + c113*c18;
+        const real c149 = c23*c94 + c26*c93;
+        const real c150 = c23*c98 + c26*c97;
+        const real c151 = c101*c26 + c102*c23;
+        const real c152 = c105*c26 + c106*c23;
+        const real c153 = c109*c26 + c110*c23;
+        const real c154 = c112*c26 + c113*c23;
+        const real c155 = c28*c98 + c31*c97;
+        const real c156 = c101*c31 + c102*c28;
+        const real c157 = c105*c31 + c106*c28;
+        const real c158 = c109*c31 + c110*c28;
+        const real c159 = c112*c31 + c113*c28;
+        const real c160 = c101*c36 + c102*c33;
+        const real c161 = c105*c36 + c106*c33;
+        const real c162 = c109*c36 + c110*c33;
+        const real c163 = c112*c36 + c113*c33;
+        const real c164 = c105*c41 + c106*c38;
+        const real c165 = c109*c41 + c110*c38;
+        const real c166 = c112*c41 + c113*c38;
+        const real c167 = c109*c46 + c110*c43;
+        const real c168 = c112*c46 + c113*c43;
+        const real c169 = c112*c51 + c113*c48;
+        const real c170 = c5*c60;
+        const real c61 = c0*c60;
+        const real c4 = c0*c1 + c2*c3;
+        const real c10 = c4 + c8*c9;
+        const real c15 = c10 + c13*c14;
+        const real c20 = c15 + c18*c19;
+        const real c25 = c20 + c23*c24;
+        const real c30 = c25 + c28*c29;
+        const real c35 = c30 + c33*c34;
+        const real c40 = c35 + c38*c39;
+        const real c45 = c40 + c43*c44;
+        const real w63 = -c45;
+        const real c50 = c45 + c48*c49;
+        const real w65 = -c50;
+        const real w67 = -c50 - c53*c54;
+        const real w47 = -c4;
+        const real w49 = -c10;
+        const real w51 = -c15;
+        const real w53 = -c20;
+        const real w55 = -c25;
+        const real w57 = -c30;
+        const real w59 = -c35;
+        const real w61 = -c40;
+        const real c7 = c1*c5 + c3*c6;
+        const real c12 = c11*c9 + c7;
+        const real c17 = c12 + c14*c16;
+        const real c22 = c17 + c19*c21;
+        const real c27 = c22 + c24*c26;
+        const real c32 = c27 + c29*c31;
+        const real c37 = c32 + c34*c36;
+        const real c42 = c37 + c39*c41;
+        const real c47 = c42 + c44*c46;
+        const real w64 = c47;
+        const real c52 = c47 + c49*c51;
+        const real w66 = c52;
+        const real w68 = c52 + c54*c55;
+        const real w48 = c7;
+        const real w50 = c12;
+        const real w52 = c17;
+        const real w54 = c22;
+        const real w56 = c27;
+        const real w58 = c32;
+        const real w60 = c37;
+        const real w62 = c42;
+        const real w83 = -12*c61*p_g;
+        const real c171 = c6*c60;
+        const real c62 = c2*c60;
+        const real w84 = -11*c62*p_g;
+        const real c172 = c11*c60;
+        const real c63 = c60*c8;
+        const real w85 = -10*c63*p_g;
+        const real c173 = c16*c60;
+        const real c64 = c13*c60;
+        const real w86 = -9*c64*p_g;
+        const real c174 = c21*c60;
+        const real c65 = c18*c60;
+        const real w87 = -8*c65*p_g;
+        const real c175 = c26*c60;
+        const real c66 = c23*c60;
+        const real w88 = -7*c66*p_g;
+        const real c176 = c31*c60;
+        const real c67 = c28*c60;
+        const real w89 = -6*c67*p_g;
+        const real c177 = c36*c60;
+        const real c68 = c33*c60;
+        const real w90 = -5*c68*p_g;
+        const real c178 = c41*c60;
+        const real c69 = c38*c60;
+        const real w91 = -4*c69*p_g;
+        const real c179 = c46*c60;
+        const real c70 = c43*c60;
+        const real w92 = -3*c70*p_g;
+        const real c180 = c51*c60;
+        const real c71 = c48*c60;
+        const real w93 = -2*c71*p_g;
+        const real c72 = c53*c60;
+        const real w94 = -c72*p_g;
+        K[0][l] = c56*c74 + c59*c74 + w82;
+        K[1][l] = c75;
+        K[2][l] = c79;
+        K[3][l] = c83;
+        K[4][l] = c87;
+        K[5][l] = c91;
+        K[6][l] = c95;
+        K[7][l] = c99;
+        K[8][l] = c103;
+        K[9][l] = c107;
+        K[10][l] = c111;
+        K[11][l] = c114;
+        K[12][l] = c75;
+        K[13][l] = (c2*c2)*c74 + (c6*c6)*c74;
+        K[14][l] = c115;
+        K[15][l] = c116;
+        K[16][l] = c117;
+        K[17][l] = c118;
+        K[18][l] = c119;
+        K[19][l] = c120;
+        K[20][l] = c121;
+        K[21][l] = c122;
+        K[22][l] = c123;
+        K[23][l] = c124;
+        K[24][l] = c79;
+        K[25][l] = c115;
+        K[26][l] = (c11*c11)*c76 + c76*(c8*c8);
+        K[27][l] = c125;
+        K[28][l] = c126;
+        K[29][l] = c127;
+        K[30][l] = c128;
+        K[31][l] = c129;
+        K[32][l] = c130;
+        K[33][l] = c131;
+        K[34][l] = c132;
+        K[35][l] = c133;
+        K[36][l] = c83;
+        K[37][l] = c116;
+        K[38][l] = c125;
+        K[39][l] = (c13*c13)*c80 + (c16*c16)*c80;
+        K[40][l] = c134;
+        K[41][l] = c135;
+        K[42][l] = c136;
+        K[43][l] = c137;
+        K[44][l] = c138;
+        K[45][l] = c139;
+        K[46][l] = c140;
+        K[47][l] = c141;
+        K[48][l] = c87;
+        K[49][l] = c117;
+        K[50][l] = c126;
+        K[51][l] = c134;
+        K[52][l] = (c18*c18)*c84 + (c21*c21)*c84;
+        K[53][l] = c142;
+        K[54][l] = c143;
+        K[55][l] = c144;
+        K[56][l] = c145;
+        K[57][l] = c146;
+        K[58][l] = c147;
+        K[59][l] = c148;
+        K[60][l] = c91;
+        K[61][l] = c118;
+        K[62][l] = c127;
+        K[63][l] = c135;
+        K[64][l] = c142;
+        K[65][l] = (c23*c23)*c88 + (c26*c26)*c88;
+        K[66][l] = c149;
+        K[67][l] = c150;
+        K[68][l] = c151;
+        K[69][l] = c152;
+        K[70][l] = c153;
+        K[71][l] = c154;
+        K[72][l] = c95;
+        K[73][l] = c119;
+        K[74][l] = c128;
+        K[75][l] = c136;
+        K[76][l] = c143;
+        K[77][l] = c149;
+        K[78][l] = (c28*c28)*c92 + (c31*c31)*c92;
+        K[79][l] = c155;
+        K[80][l] = c156;
+        K[81][l] = c157;
+        K[82][l] = c158;
+        K[83][l] = c159;
+        K[84][l] = c99;
+        K[85][l] = c120;
+        K[86][l] = c129;
+        K[87][l] = c137;
+        K[88][l] = c144;
+        K[89][l] = c150;
+        K[90][l] = c155;
+        K[91][l] = (c33*c33)*c96 + (c36*c36)*c96;
+        K[92][l] = c160;
+        K[93][l] = c161;
+        K[94][l] = c162;
+        K[95][l] = c163;
+        K[96][l] = c103;
+        K[97][l] = c121;
+        K[98][l] = c130;
+        K[99][l] = c138;
+        K[100][l] = c145;
+        K[101][l] = c151;
+        K[102][l] = c156;
+        K[103][l] = c160;
+        K[104][l] = c100*(c38*c38) + c100*(c41*c41);
+        K[105][l] = c164;
+        K[106][l] = c165;
+        K[107][l] = c166;
+        K[108][l] = c107;
+        K[109][l] = c122;
+        K[110][l] = c131;
+        K[111][l] = c139;
+        K[112][l] = c146;
+        K[113][l] = c152;
+        K[114][l] = c157;
+        K[115][l] = c161;
+        K[116][l] = c164;
+        K[117][l] = c104*(c43*c43) + c104*(c46*c46);
+        K[118][l] = c167;
+        K[119][l] = c168;
+        K[120][l] = c111;
+        K[121][l] = c123;
+        K[122][l] = c132;
+        K[123][l] = c140;
+        K[124][l] = c147;
+        K[125][l] = c153;
+        K[126][l] = c158;
+        K[127][l] = c162;
+        K[128][l] = c165;
+        K[129][l] = c167;
+        K[130][l] = c108*(c48*c48) + c108*(c51*c51);
+        K[131][l] = c169;
+        K[132][l] = c114;
+        K[133][l] = c124;
+        K[134][l] = c133;
+        K[135][l] = c141;
+        K[136][l] = c148;
+        K[137][l] = c154;
+        K[138][l] = c159;
+        K[139][l] = c163;
+        K[140][l] = c166;
+        K[141][l] = c168;
+        K[142][l] = c169;
+        K[143][l] = (c53*c53)*c73 + (c55*c55)*c73;
+        b[0][l] = -c170*w47 - c170*w49 - c170*w51 - c170*w53 - c170*w55 - c170*w57 - c170*w59 - c170*w61 - c170*w63 - c170*w65 - c170*w67 - c61*w48 - c61*w50 - c61*w52 - c61*w54 - c61*w56 - c61*w58 - c61*w60 - c61*w62 - c61*w64 - c61*w66 - c61*w68 + w83;
+        b[1][l] = -c171*w47 - c171*w49 - c171*w51 - c171*w53 - c171*w55 - c171*w57 - c171*w59 - c171*w61 - c171*w63 - c171*w65 - c171*w67 - c62*w48 - c62*w50 - c62*w52 - c62*w54 - c62*w56 - c62*w58 - c62*w60 - c62*w62 - c62*w64 - c62*w66 - c62*w68 + w84;
+        b[2][l] = -c172*w49 - c172*w51 - c172*w53 - c172*w55 - c172*w57 - c172*w59 - c172*w61 - c172*w63 - c172*w65 - c172*w67 - c63*w50 - c63*w52 - c63*w54 - c63*w56 - c63*w58 - c63*w60 - c63*w62 - c63*w64 - c63*w66 - c63*w68 + w85;
+        b[3][l] = -c173*w51 - c173*w53 - c173*w55 - c173*w57 - c173*w59 - c173*w61 - c173*w63 - c173*w65 - c173*w67 - c64*w52 - c64*w54 - c64*w56 - c64*w58 - c64*w60 - c64*w62 - c64*w64 - c64*w66 - c64*w68 + w86;
+        b[4][l] = -c174*w53 - c174*w55 - c174*w57 - c174*w59 - c174*w61 - c174*w63 - c174*w65 - c174*w67 - c65*w54 - c65*w56 - c65*w58 - c65*w60 - c65*w62 - c65*w64 - c65*w66 - c65*w68 + w87;
+        b[5][l] = -c175*w55 - c175*w57 - c175*w59 - c175*w61 - c175*w63 - c175*w65 - c175*w67 - c66*w56 - c66*w58 - c66*w60 - c66*w62 - c66*w64 - c66*w66 - c66*w68 + w88;
+        b[6][l] = -c176*w57 - c176*w59 - c176*w61 - c176*w63 - c176*w65 - c176*w67 - c67*w58 - c67*w60 - c67*w62 - c67*w64 - c67*w66 - c67*w68 + w89;
+        b[7][l] = -c177*w59 - c177*w61 - c177*w63 - c177*w65 - c177*w67 - c68*w60 - c68*w62 - c68*w64 - c68*w66 - c68*w68 + w90;
+        b[8][l] = -c178*w61 - c178*w63 - c178*w65 - c178*w67 - c69*w62 - c69*w64 - c69*w66 - c69*w68 + w91;
+        b[9][l] = -c179*w63 - c179*w65 - c179*w67 - c70*w64 - c70*w66 - c70*w68 + w92;
+        b[10][l] = -c180*w65 - c180*w67 - c71*w66 - c71*w68 + w93;
+        b[11][l] = -c55*c60*w67 - c72*w68 + w94;
+    }
+}
+
+/* dy/dt = (q', q'') of LAG_LANES members, each with its own system (parameters also side by side
+ * in par), and each member's status as lag_rhs would return it: the system in lanes, then M
+ * solved member by member with the factorisation of the scalar path. */
+static void lag_lane_rhs(const lag_system *const *sys, const real (*par)[LAG_LANES], const real *t,
+                         const real (*y)[LAG_LANES], real (*dydt)[LAG_LANES], int *status)
+{
+    real K[LAG_NM][LAG_LANES], b[LAG_NK][LAG_LANES], K_member[LAG_NM], b_member[LAG_NK], acc[LAG_NQ];
+    int i, l;
+    memset(acc, 0, sizeof acc);     /* what a member whose solve fails leaves in its lane */
+    for (i = 0; i < LAG_NQ; ++i)
+        LAG_SIMD
+        for (l = 0; l < LAG_LANES; ++l)
+            dydt[i][l] = y[LAG_NQ + i][l];
+    (void)sys;
+    lag_lane_system(par, t, y, K, b);
+    for (l = 0; l < LAG_LANES; ++l) {
+        for (i = 0; i < LAG_NM; ++i)
+            K_member[i] = K[i][l];
+        for (i = 0; i < LAG_NK; ++i)
+            b_member[i] = b[i][l];
+        status[l] = lag_solved_accelerations(K_member, b_member, acc);
+        for (i = 0; i < LAG_NQ; ++i)
+            dydt[LAG_NQ + i][l] = acc[i];
+    }
 }
 
 /* The reciprocal condition estimate of K at (t, y), reported when a run fails. */
@@ -1775,32 +2393,46 @@ static void lag_finish(lag_system *sys, const lag_stepper *stepper, int status, 
     }
 }
 
+/* The start of a run on the grid of lag_last_row, *last its final row: the first row, and the
+ * stepper (zeroed here) at (t0, y0) with the step limit in *limited (the options it keeps). */
+static int lag_begin(lag_system *sys, lag_stepper *stepper, const real *y0, real t0, real t1, real dt,
+                     const lag_options *options, lag_options *limited, lag_sink sink, void *context,
+                     lag_report *report, real *e_old, long *last)
+{
+    real y[LAG_NY];
+    int status;
+    memcpy(y, y0, sizeof y);
+    memset(stepper, 0, sizeof *stepper);
+    stepper->t = t0;           /* where a failure before the first step (projecting y0) is reported */
+    memcpy(stepper->y, y, sizeof stepper->y);
+    *last = lag_last_row(t0, t1, dt);
+    *limited = *options;
+    limited->max_steps = lag_step_limit(options, t0, t1, *last);
+    report->forecast.start = t0;
+    report->forecast.stop = t1;
+    report->forecast.budget = options->step > 0 ? 0 : limited->max_steps;     /* a fixed step's count is known */
+    lag_progress_t = (double)t0;
+    status = lag_start(sys, t0, y, e_old, last, sink, context, report);
+    if (status == LAG_OK)
+        status = lag_stepper_init(stepper, sys, t0, y, t1, limited);
+    return status;
+}
+
 /* Integrate from (t0, y0) to t1 and deliver the outputs on the grid of lag_last_row. The caller
  * has checked the grid (finite, t1 > t0, dt > 0, at most LAG_MAX_ROWS rows) and set sys->par. */
 static int lag_integrate(lag_system *sys, const real *y0, real t0, real t1, real dt,
                          const lag_options *options, lag_sink sink, void *context, lag_report *report)
 {
     lag_stepper *stepper = malloc(sizeof *stepper);
-    lag_options limited = *options;
-    real y[LAG_NY], e_old = 0;
-    long k, last = lag_last_row(t0, t1, dt);
+    lag_options limited;
+    real e_old = 0;
+    long k, last;
     int status;
     memset(report, 0, sizeof *report);
-    memcpy(y, y0, sizeof y);
     lag_system_prepare(sys);
     if (stepper == NULL)
         return report->status = LAG_ERR_MAX_STEPS;
-    memset(stepper, 0, sizeof *stepper);
-    stepper->t = t0;           /* where a failure before the first step (projecting y0) is reported */
-    memcpy(stepper->y, y, sizeof stepper->y);
-    limited.max_steps = lag_step_limit(options, t0, t1, last);
-    report->forecast.start = t0;
-    report->forecast.stop = t1;
-    report->forecast.budget = options->step > 0 ? 0 : limited.max_steps;     /* a fixed step's count is known */
-    lag_progress_t = (double)t0;
-    status = lag_start(sys, t0, y, &e_old, &last, sink, context, report);
-    if (status == LAG_OK)
-        status = lag_stepper_init(stepper, sys, t0, y, t1, &limited);
+    status = lag_begin(sys, stepper, y0, t0, t1, dt, options, &limited, sink, context, report, &e_old, &last);
     for (k = 1; k <= last && status == LAG_OK; ++k) {
         real tk = k == last ? t1 : t0 + k * dt;
         if ((status = lag_advance(sys, stepper, tk, &e_old, report)) != LAG_OK)
@@ -1887,6 +2519,26 @@ static int lag_buffer_row(void *context, real t, const real *out)
     return 0;
 }
 
+/* The inputs of one run: `parameters` (LAG_NP) into sys (zeroed here), `initial` (LAG_NY) into y0
+ * and the options of `settings`. */
+static void lag_member_inputs(const double *parameters, const double *initial, const double *settings,
+                              lag_system *sys, lag_options *options, real *y0)
+{
+    int i;
+    memset(sys, 0, sizeof *sys);    /* a model without parameters still has the placeholder par[0] */
+    for (i = 0; i < LAG_NP; ++i)
+        sys->par[i] = parameters[i];
+    for (i = 0; i < LAG_NY; ++i)
+        y0[i] = initial[i];
+    options->rtol = settings[LAG_SET_RTOL];
+    options->atol = settings[LAG_SET_ATOL];
+    options->step = settings[LAG_SET_STEP];
+    options->max_step = settings[LAG_SET_MAX_STEP];
+    options->stages = (int)settings[LAG_SET_STAGES];
+    options->max_steps = (long)settings[LAG_SET_MAX_STEPS];
+    options->atol_each = settings + LAG_SETTINGS;
+}
+
 /* One run of the model with `parameters` (LAG_NP) from `initial` (LAG_NY) on `settings`; its
  * rows go to `sink`, its summary to `summary`. */
 static int lag_run_member(const double *parameters, const double *initial, const double *settings,
@@ -1896,19 +2548,7 @@ static int lag_run_member(const double *parameters, const double *initial, const
     lag_options options;
     lag_report report;
     real y0[LAG_NY];
-    int i;
-    memset(&sys, 0, sizeof sys);    /* a model without parameters still has the placeholder par[0] */
-    for (i = 0; i < LAG_NP; ++i)
-        sys.par[i] = parameters[i];
-    for (i = 0; i < LAG_NY; ++i)
-        y0[i] = initial[i];
-    options.rtol = settings[LAG_SET_RTOL];
-    options.atol = settings[LAG_SET_ATOL];
-    options.step = settings[LAG_SET_STEP];
-    options.max_step = settings[LAG_SET_MAX_STEP];
-    options.stages = (int)settings[LAG_SET_STAGES];
-    options.max_steps = (long)settings[LAG_SET_MAX_STEPS];
-    options.atol_each = settings + LAG_SETTINGS;
+    lag_member_inputs(parameters, initial, settings, &sys, &options, y0);
     lag_integrate(&sys, y0, settings[LAG_SET_T_START], settings[LAG_SET_T_STOP], settings[LAG_SET_T_INTERVAL],
                   &options, sink, context, &report);
     lag_pack_summary(&report, summary);
@@ -1943,6 +2583,14 @@ static int lag_grid_row(void *context, real t, const real *out)
     return 0;
 }
 
+/* The summary of a member not begun because lag_interrupt was set: interrupted at t0, no rows. */
+static void lag_summary_interrupted(const double *settings, double *summary)
+{
+    memset(summary, 0, sizeof(double) * LAG_SUMMARY_SIZE);
+    summary[LAG_SUMMARY_STATUS] = LAG_ERR_INTERRUPTED;
+    summary[LAG_SUMMARY_T_FAIL] = settings[LAG_SET_T_START];
+}
+
 /* The loop of lag_run_batch, for any sink of the layout of lag_buffer: member b's rows, `width`
  * doubles each, go to values[b * capacity * width ...]. A member not begun when lag_interrupt is
  * set has the status LAG_ERR_INTERRUPTED at t0 and no rows. */
@@ -1964,9 +2612,7 @@ static void lag_run_members(long members, const double *parameters, const double
         buffer.capacity = capacity;
         buffer.used = 0;
         if (lag_interrupt) {
-            memset(summary, 0, sizeof(double) * LAG_SUMMARY_SIZE);
-            summary[LAG_SUMMARY_STATUS] = LAG_ERR_INTERRUPTED;
-            summary[LAG_SUMMARY_T_FAIL] = settings[LAG_SET_T_START];
+            lag_summary_interrupted(settings, summary);
         } else {
             lag_run_member(parameters + b * LAG_NP, initial + b * LAG_NY, settings, sink, &buffer, summary);
         }
@@ -1984,11 +2630,429 @@ static void lag_run_members(long members, const double *parameters, const double
  * they run in parallel on `threads` OpenMP threads when the library is built with OpenMP, and
  * one after another otherwise, with the same results bit for bit. After lag_interrupt is set,
  * members not yet begun are not begun (status LAG_ERR_INTERRUPTED, no rows). */
+#if LAG_HAS_LANES
+static void lag_run_lanes(long members, const double *parameters, const double *initial, const double *settings,
+                          double *values, long capacity, double *summaries, long stride, int threads);
+#endif
+
 void lag_run_batch(long members, const double *parameters, const double *initial, const double *settings,
                    double *values, long capacity, double *summaries, long stride, int threads)
 {
+#if LAG_HAS_LANES      /* dop853_lanes.c, pasted after this file: the same results bit for bit */
+    lag_run_lanes(members, parameters, initial, settings, values, capacity, summaries, stride, threads);
+#else
     lag_run_members(members, parameters, initial, settings, lag_grid_row, LAG_NOUT, values, capacity, summaries,
                     stride, threads);
+#endif
+}
+
+/* ---- the sweep in SIMD lanes ---- */
+/* The sweep in SIMD lanes for dop853: LAG_LANES members integrated side by side, so that the
+ * stages of their trial steps (the stage arguments and the model's right-hand side, lag_lane_rhs)
+ * run as loops over the lanes that the compiler vectorises, entry [i][l] of every array being
+ * component i of lane l (structure of arrays).
+ *
+ * Each lane is one member with its own scalar lag_stepper, report and output rows: its own t,
+ * step size, error norm, accept or reject and step limit. Only the stages 2..12 of a trial and
+ * f at its new point are computed in lanes; everything else (the trial's size, the order-8
+ * solution and its error, the step-size control, the stiffness test, the dense output and the
+ * driver's rows and work forecast) is the scalar code of dop853.c, explicit_control.c,
+ * dormand_prince.c and driver.c, applied lane by lane. The lanes compute what the scalar path
+ * computes, operation for operation and in the same order (C99 does not contract a*b + c into
+ * an fma, and nothing is reassociated), so a member's rows, counters and summary equal those of
+ * its lag_run bit for bit. A lane whose member has finished or failed is refilled with the next
+ * member not yet begun, so a slow member holds up no other.
+ *
+ * Pasted after library.c (it reads lag_buffer, lag_grid_row, lag_member_inputs, lag_begin and
+ * lag_pack_summary), for a scene without constraints or stop condition whose model gives
+ * lag_lane_rhs (lagdsl/codegen/c_lanes.py).
+ */
+
+/* The stages 2..12 of a trial: each one's node c (NULL for stage 12, which is at t_new) and its
+ * coefficients a_sj, nonzero for the stages `from` (HNW I, II.10; the constants of dop853.c). */
+typedef struct dp8_lane_stage {
+    const real *c;
+    int count;
+    int from[10];
+    const real *a[10];
+} dp8_lane_stage;
+
+static const dp8_lane_stage dp8_lane_stages[11] = {
+    { &dp8_c2, 1, { 1 }, { &dp8_a2_1 } },
+    { &dp8_c3, 2, { 1, 2 }, { &dp8_a3_1, &dp8_a3_2 } },
+    { &dp8_c4, 2, { 1, 3 }, { &dp8_a4_1, &dp8_a4_3 } },
+    { &dp8_c5, 3, { 1, 3, 4 }, { &dp8_a5_1, &dp8_a5_3, &dp8_a5_4 } },
+    { &dp8_c6, 3, { 1, 4, 5 }, { &dp8_a6_1, &dp8_a6_4, &dp8_a6_5 } },
+    { &dp8_c7, 4, { 1, 4, 5, 6 }, { &dp8_a7_1, &dp8_a7_4, &dp8_a7_5, &dp8_a7_6 } },
+    { &dp8_c8, 5, { 1, 4, 5, 6, 7 }, { &dp8_a8_1, &dp8_a8_4, &dp8_a8_5, &dp8_a8_6, &dp8_a8_7 } },
+    { &dp8_c9, 6, { 1, 4, 5, 6, 7, 8 }, { &dp8_a9_1, &dp8_a9_4, &dp8_a9_5, &dp8_a9_6, &dp8_a9_7, &dp8_a9_8 } },
+    { &dp8_c10, 7, { 1, 4, 5, 6, 7, 8, 9 },
+      { &dp8_a10_1, &dp8_a10_4, &dp8_a10_5, &dp8_a10_6, &dp8_a10_7, &dp8_a10_8, &dp8_a10_9 } },
+    { &dp8_c11, 8, { 1, 4, 5, 6, 7, 8, 9, 10 },
+      { &dp8_a11_1, &dp8_a11_4, &dp8_a11_5, &dp8_a11_6, &dp8_a11_7, &dp8_a11_8, &dp8_a11_9, &dp8_a11_10 } },
+    { NULL, 9, { 1, 4, 5, 6, 7, 8, 9, 10, 11 },
+      { &dp8_a12_1, &dp8_a12_4, &dp8_a12_5, &dp8_a12_6, &dp8_a12_7, &dp8_a12_8, &dp8_a12_9, &dp8_a12_10,
+        &dp8_a12_11 } }
+};
+
+/* One lane: its member (-1: empty), the member's run as lag_integrate keeps it, and the trial in
+ * progress. */
+typedef struct lag_lane {
+    long member;
+    lag_system sys;
+    lag_options limited;           /* the options with the step limit, which the stepper keeps */
+    lag_report report;
+    lag_buffer rows;
+    double *summary;
+    real t0, t1, dt;
+    long k, last;                  /* the next row to deliver, the final one */
+    real h, t_new, err;            /* the trial: its size, its end, its scaled error */
+    int trying;                    /* it takes a trial this round */
+    int evaluating;                /* it counts the evaluation of the stage in progress */
+    int status;                    /* of the trial so far */
+} lag_lane;
+
+/* The lanes of one thread: each lane's run, and the stages of the current trials side by side. */
+typedef struct lag_lanes {
+    lag_lane lane[LAG_LANES];
+    lag_stepper stepper[LAG_LANES];
+    const lag_system *sys[LAG_LANES];
+    real par[LAG_NP > 0 ? LAG_NP : 1][LAG_LANES];
+    real t[LAG_LANES], h[LAG_LANES], t_stage[LAG_LANES], acc[LAG_LANES];
+    real y[LAG_NY][LAG_LANES], y_stage[LAG_NY][LAG_LANES];
+    real k[13][LAG_NY][LAG_LANES];          /* k[s - 1]: stage s */
+    int rhs_status[LAG_LANES];
+} lag_lanes;
+
+/* What every lane of a thread shares: the batch's inputs and outputs, and the next member. */
+typedef struct lag_lane_batch {
+    long members;
+    const double *parameters, *initial, *settings;
+    double *values, *summaries;
+    long capacity, stride;
+    long *next;                    /* the next member not yet begun, shared by the threads */
+} lag_lane_batch;
+
+/* The lane's member is done (status, at the stepper's place): its summary, and the lane empties. */
+static void lag_lane_end(lag_lanes *lanes, int l, int status)
+{
+    lag_lane *lane = &lanes->lane[l];
+    lag_finish(&lane->sys, &lanes->stepper[l], status, &lane->report);
+    lag_pack_summary(&lane->report, lane->summary);
+    lane->member = -1;
+    lane->trying = 0;
+#ifdef _OPENMP
+#pragma omp atomic
+#endif
+    lag_batch_done += 1;
+}
+
+/* After the lane's stepper moved to t (or began there): the work forecast and Ctrl-C after a
+ * step, then the rows it has reached, as lag_advance and lag_integrate deliver them; the member
+ * ends when the last row is out or the run fails. */
+static void lag_lane_rows(lag_lanes *lanes, int l, int stepped)
+{
+    lag_lane *lane = &lanes->lane[l];
+    lag_stepper *s = &lanes->stepper[l];
+    int status = LAG_OK;
+    if (stepped) {
+        status = lag_forecast_step(&lane->report.forecast, s->t - s->t_old, s->t);
+        if (status == LAG_OK && lag_interrupt)
+            status = LAG_ERR_INTERRUPTED;
+    }
+    while (status == LAG_OK && lane->k <= lane->last) {
+        real tk = lane->k == lane->last ? lane->t1 : lane->t0 + lane->k * lane->dt;
+        if (s->t < tk)
+            return;
+        status = lag_deliver_at(&lane->sys, s, tk, lag_grid_row, &lane->rows, &lane->report);
+        lane->k += 1;
+    }
+    lag_lane_end(lanes, l, status);
+}
+
+/* Begin member b in lane l (as lag_run_member and lag_integrate begin it). */
+static void lag_lane_begin(lag_lanes *lanes, int l, const lag_lane_batch *batch, long b)
+{
+    lag_lane *lane = &lanes->lane[l];
+    const double *settings = batch->settings;
+    lag_options options;
+    real y0[LAG_NY], e_old = 0;
+    int i, status;
+    lane->member = b;
+    lane->summary = batch->summaries + b * batch->stride;
+    lane->rows.rows = batch->values + b * batch->capacity * LAG_NOUT;
+    lane->rows.capacity = batch->capacity;
+    lane->rows.used = 0;
+    lane->t0 = settings[LAG_SET_T_START];
+    lane->t1 = settings[LAG_SET_T_STOP];
+    lane->dt = settings[LAG_SET_T_INTERVAL];
+    lane->k = 1;
+    lag_member_inputs(batch->parameters + b * LAG_NP, batch->initial + b * LAG_NY, settings, &lane->sys, &options, y0);
+    memset(&lane->report, 0, sizeof lane->report);
+    lag_system_prepare(&lane->sys);
+    status = lag_begin(&lane->sys, &lanes->stepper[l], y0, lane->t0, lane->t1, lane->dt, &options, &lane->limited,
+                       lag_grid_row, &lane->rows, &lane->report, &e_old, &lane->last);
+    for (i = 0; i < LAG_NP; ++i)
+        lanes->par[i][l] = lane->sys.par[i];
+    if (status != LAG_OK)
+        lag_lane_end(lanes, l, status);
+    else
+        lag_lane_rows(lanes, l, 0);
+}
+
+/* The next member not yet begun (members when none is left), taken by one thread only. */
+static long lag_lanes_take(const lag_lane_batch *batch)
+{
+    long b;
+#ifdef _OPENMP
+#pragma omp atomic capture
+#endif
+    b = (*batch->next)++;
+    return b < batch->members ? b : batch->members;
+}
+
+/* A member not begun because of Ctrl-C (lag_run_members marks it so). */
+static void lag_lanes_skip(const lag_lane_batch *batch, long b)
+{
+    lag_summary_interrupted(batch->settings, batch->summaries + b * batch->stride);
+#ifdef _OPENMP
+#pragma omp atomic
+#endif
+    lag_batch_done += 1;
+}
+
+/* Fill the empty lanes with the next members; after Ctrl-C, members not begun are marked so. */
+static void lag_lanes_fill(lag_lanes *lanes, const lag_lane_batch *batch)
+{
+    int l;
+    for (l = 0; l < LAG_LANES; ++l) {
+        while (lanes->lane[l].member < 0) {
+            long b = lag_lanes_take(batch);
+            if (b == batch->members)
+                return;
+            if (lag_interrupt)
+                lag_lanes_skip(batch, b);
+            else
+                lag_lane_begin(lanes, l, batch, b);
+        }
+    }
+}
+
+/* Members one at a time (lag_run_member), for a thread whose lanes could not be allocated. */
+static void lag_lanes_one_by_one(const lag_lane_batch *batch)
+{
+    long b;
+    while ((b = lag_lanes_take(batch)) < batch->members) {
+        lag_buffer rows;
+        rows.rows = batch->values + b * batch->capacity * LAG_NOUT;
+        rows.capacity = batch->capacity;
+        rows.used = 0;
+        if (lag_interrupt) {
+            lag_lanes_skip(batch, b);
+            continue;
+        }
+        lag_run_member(batch->parameters + b * LAG_NP, batch->initial + b * LAG_NY, batch->settings, lag_grid_row,
+                       &rows, batch->summaries + b * batch->stride);
+#ifdef _OPENMP
+#pragma omp atomic
+#endif
+        lag_batch_done += 1;
+    }
+}
+
+/* The size and end of each lane's next trial (lag_control_trial), and its state and first stage
+ * side by side; a lane whose trial cannot be taken (step limit, collapse) ends. Returns the
+ * number of lanes that take a trial. */
+static int lag_lanes_plan(lag_lanes *lanes)
+{
+    int i, l, trying = 0;
+    for (l = 0; l < LAG_LANES; ++l) {
+        lag_lane *lane = &lanes->lane[l];
+        lag_stepper *s = &lanes->stepper[l];
+        lane->trying = lane->evaluating = 0;
+        if (lane->member < 0)
+            continue;
+        lane->status = lag_control_trial(&s->control, &s->stats, s->t, s->h, &lane->h, &lane->t_new);
+        if (lane->status != LAG_OK) {
+            lag_lane_end(lanes, l, lane->status);
+            continue;
+        }
+        lane->trying = lane->evaluating = 1;
+        lanes->t[l] = s->t;
+        lanes->h[l] = lane->h;
+        for (i = 0; i < LAG_NY; ++i) {
+            lanes->y[i][l] = s->y[i];
+            lanes->k[0][i][l] = s->k1[i];
+        }
+        ++trying;
+    }
+    return trying;
+}
+
+/* f(t_stage, y_stage) of every lane into k; an evaluating lane counts the evaluation and takes
+ * its status, unless an earlier stage of its trial failed (then, as dop853_stages returns early,
+ * neither). */
+static void lag_lanes_rhs(lag_lanes *lanes, real (*k)[LAG_LANES])
+{
+    int l;
+    lag_lane_rhs(lanes->sys, (const real (*)[LAG_LANES])lanes->par, lanes->t_stage,
+                 (const real (*)[LAG_LANES])lanes->y_stage, k, lanes->rhs_status);
+    for (l = 0; l < LAG_LANES; ++l) {
+        lag_lane *lane = &lanes->lane[l];
+        if (lane->evaluating && lane->status == LAG_OK) {
+            ++lanes->stepper[l].stats.rhs_evals;
+            lane->status = lanes->rhs_status[l];
+        }
+    }
+}
+
+/* Stages 2..12 of every lane's trial (dop853_stages), side by side: y_stage = y + h sum_j a_sj k_j,
+ * summed in the order of dop853.c. */
+static void lag_lanes_stages(lag_lanes *lanes)
+{
+    int s, i, j, l;
+    for (s = 0; s < 11; ++s) {
+        const dp8_lane_stage *stage = &dp8_lane_stages[s];
+        for (i = 0; i < LAG_NY; ++i) {
+            const real a0 = *stage->a[0];
+            LAG_SIMD
+            for (l = 0; l < LAG_LANES; ++l)
+                lanes->acc[l] = a0 * lanes->k[stage->from[0] - 1][i][l];
+            for (j = 1; j < stage->count; ++j) {
+                const real a = *stage->a[j];
+                const real *kj = lanes->k[stage->from[j] - 1][i];
+                LAG_SIMD
+                for (l = 0; l < LAG_LANES; ++l)
+                    lanes->acc[l] += a * kj[l];
+            }
+            LAG_SIMD
+            for (l = 0; l < LAG_LANES; ++l)
+                lanes->y_stage[i][l] = lanes->y[i][l] + lanes->h[l] * lanes->acc[l];
+        }
+        LAG_SIMD
+        for (l = 0; l < LAG_LANES; ++l)
+            lanes->t_stage[l] = stage->c != NULL ? lanes->t[l] + *stage->c * lanes->h[l] : lanes->lane[l].t_new;
+        lag_lanes_rhs(lanes, lanes->k[s + 1]);
+    }
+}
+
+/* Each trying lane's stages into its stepper, its order-8 solution and scaled error
+ * (dop853_solution); a lane that passes the error test evaluates f at its new point next (its
+ * new state in y_stage). Returns the number of lanes that passed. */
+static int lag_lanes_solutions(lag_lanes *lanes)
+{
+    int i, l, s, passed = 0;
+    for (l = 0; l < LAG_LANES; ++l) {
+        lag_lane *lane = &lanes->lane[l];
+        lag_stepper *st = &lanes->stepper[l];
+        real *stages[7] = { st->k6, st->k7, st->k8, st->k9, st->k10, st->k11, st->k12 };
+        lane->evaluating = 0;
+        if (!lane->trying || lane->status != LAG_OK)
+            continue;
+        for (i = 0; i < LAG_NY; ++i) {
+            for (s = 0; s < 7; ++s)
+                stages[s][i] = lanes->k[5 + s][i][l];
+            st->y_stage[i] = lanes->y_stage[i][l];
+        }
+        lane->err = dop853_solution(st, lane->h);
+        if (lane->err <= 1) {
+            for (i = 0; i < LAG_NY; ++i)
+                lanes->y_stage[i][l] = st->y_new[i];
+            lanes->t_stage[l] = lane->t_new;
+            lane->evaluating = 1;
+            ++passed;
+        }
+    }
+    return passed;
+}
+
+/* f at the new point of the lanes that passed (dop853_finish), and every trying lane's verdict
+ * (lag_control_update): an accepted step moves the lane's stepper and delivers its rows. */
+static void lag_lanes_finish(lag_lanes *lanes, int passed)
+{
+    int i, l;
+    if (passed > 0)
+        lag_lanes_rhs(lanes, lanes->k[12]);
+    for (l = 0; l < LAG_LANES; ++l) {
+        lag_lane *lane = &lanes->lane[l];
+        lag_stepper *s = &lanes->stepper[l];
+        if (!lane->trying)
+            continue;
+        if (lane->evaluating && lane->status == LAG_OK) {
+            for (i = 0; i < LAG_NY; ++i)
+                s->k13[i] = lanes->k[12][i][l];
+            lag_stiffness_measure(&s->stiffness, lane->h, s->y_new, s->y_stage, s->k13, s->k12);
+        }
+        if (lag_control_update(&s->control, &s->stats, lane->status, lane->h, lane->err, &s->h)) {
+            dormand_prince_accept(s, lane->h, lane->t_new);
+            memcpy(s->y, s->y_new, sizeof s->y);
+            s->t_old = s->t;
+            s->t = lane->t_new;
+            lag_lane_rows(lanes, l, 1);
+        }
+    }
+}
+
+/* Whether a lane still holds a member. */
+static int lag_lanes_busy(const lag_lanes *lanes)
+{
+    int l, busy = 0;
+    for (l = 0; l < LAG_LANES; ++l)
+        busy |= lanes->lane[l].member >= 0;
+    return busy;
+}
+
+/* One thread's share of the batch: rounds of one trial in every lane, refilling the lanes as
+ * their members end, until no member is left. */
+static void lag_lanes_run(lag_lanes *lanes, const lag_lane_batch *batch)
+{
+    int l;
+    memset(lanes, 0, sizeof *lanes);     /* an empty lane computes on zeros, and nothing reads it */
+    for (l = 0; l < LAG_LANES; ++l) {
+        lanes->lane[l].member = -1;
+        lanes->sys[l] = &lanes->lane[l].sys;
+    }
+    for (;;) {
+        lag_lanes_fill(lanes, batch);
+        if (!lag_lanes_busy(lanes))
+            return;
+        if (lag_lanes_plan(lanes) > 0) {
+            lag_lanes_stages(lanes);
+            lag_lanes_finish(lanes, lag_lanes_solutions(lanes));
+        }
+    }
+}
+
+/* lag_run_batch in lanes: each thread runs LAG_LANES members at a time and takes the next member
+ * not yet begun as one ends (one at a time, as lag_run_members, if its lanes cannot be allocated). */
+static void lag_run_lanes(long members, const double *parameters, const double *initial, const double *settings,
+                          double *values, long capacity, double *summaries, long stride, int threads)
+{
+    long next = 0;
+    lag_lane_batch batch;
+    batch.members = members;
+    batch.parameters = parameters;
+    batch.initial = initial;
+    batch.settings = settings;
+    batch.values = values;
+    batch.summaries = summaries;
+    batch.capacity = capacity;
+    batch.stride = stride;
+    batch.next = &next;
+    lag_batch_done = 0;
+#ifdef _OPENMP
+#pragma omp parallel num_threads(threads > 0 ? threads : 1)
+#else
+    (void)threads;
+#endif
+    {
+        lag_lanes *lanes = malloc(sizeof *lanes);
+        if (lanes != NULL)
+            lag_lanes_run(lanes, &batch);
+        else
+            lag_lanes_one_by_one(&batch);
+        free(lanes);
+    }
 }
 
 /* ---- the standalone program: the scene's grid and options ---- */

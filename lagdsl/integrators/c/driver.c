@@ -337,32 +337,46 @@ static void lag_finish(lag_system *sys, const lag_stepper *stepper, int status, 
     }
 }
 
+/* The start of a run on the grid of lag_last_row, *last its final row: the first row, and the
+ * stepper (zeroed here) at (t0, y0) with the step limit in *limited (the options it keeps). */
+static int lag_begin(lag_system *sys, lag_stepper *stepper, const real *y0, real t0, real t1, real dt,
+                     const lag_options *options, lag_options *limited, lag_sink sink, void *context,
+                     lag_report *report, real *e_old, long *last)
+{
+    real y[LAG_NY];
+    int status;
+    memcpy(y, y0, sizeof y);
+    memset(stepper, 0, sizeof *stepper);
+    stepper->t = t0;           /* where a failure before the first step (projecting y0) is reported */
+    memcpy(stepper->y, y, sizeof stepper->y);
+    *last = lag_last_row(t0, t1, dt);
+    *limited = *options;
+    limited->max_steps = lag_step_limit(options, t0, t1, *last);
+    report->forecast.start = t0;
+    report->forecast.stop = t1;
+    report->forecast.budget = options->step > 0 ? 0 : limited->max_steps;     /* a fixed step's count is known */
+    lag_progress_t = (double)t0;
+    status = lag_start(sys, t0, y, e_old, last, sink, context, report);
+    if (status == LAG_OK)
+        status = lag_stepper_init(stepper, sys, t0, y, t1, limited);
+    return status;
+}
+
 /* Integrate from (t0, y0) to t1 and deliver the outputs on the grid of lag_last_row. The caller
  * has checked the grid (finite, t1 > t0, dt > 0, at most LAG_MAX_ROWS rows) and set sys->par. */
 static int lag_integrate(lag_system *sys, const real *y0, real t0, real t1, real dt,
                          const lag_options *options, lag_sink sink, void *context, lag_report *report)
 {
     lag_stepper *stepper = malloc(sizeof *stepper);
-    lag_options limited = *options;
-    real y[LAG_NY], e_old = 0;
-    long k, last = lag_last_row(t0, t1, dt);
+    lag_options limited;
+    real e_old = 0;
+    long k, last;
     int status;
     memset(report, 0, sizeof *report);
-    memcpy(y, y0, sizeof y);
     lag_system_prepare(sys);
     if (stepper == NULL)
         return report->status = LAG_ERR_MAX_STEPS;
-    memset(stepper, 0, sizeof *stepper);
-    stepper->t = t0;           /* where a failure before the first step (projecting y0) is reported */
-    memcpy(stepper->y, y, sizeof stepper->y);
-    limited.max_steps = lag_step_limit(options, t0, t1, last);
-    report->forecast.start = t0;
-    report->forecast.stop = t1;
-    report->forecast.budget = options->step > 0 ? 0 : limited.max_steps;     /* a fixed step's count is known */
-    lag_progress_t = (double)t0;
-    status = lag_start(sys, t0, y, &e_old, &last, sink, context, report);
-    if (status == LAG_OK)
-        status = lag_stepper_init(stepper, sys, t0, y, t1, &limited);
+    status = lag_begin(sys, stepper, y0, t0, t1, dt, options, &limited, sink, context, report, &e_old, &last);
     for (k = 1; k <= last && status == LAG_OK; ++k) {
         real tk = k == last ? t1 : t0 + k * dt;
         if ((status = lag_advance(sys, stepper, tk, &e_old, report)) != LAG_OK)

@@ -28,6 +28,26 @@ static int lag_buffer_row(void *context, real t, const real *out)
     return 0;
 }
 
+/* The inputs of one run: `parameters` (LAG_NP) into sys (zeroed here), `initial` (LAG_NY) into y0
+ * and the options of `settings`. */
+static void lag_member_inputs(const double *parameters, const double *initial, const double *settings,
+                              lag_system *sys, lag_options *options, real *y0)
+{
+    int i;
+    memset(sys, 0, sizeof *sys);    /* a model without parameters still has the placeholder par[0] */
+    for (i = 0; i < LAG_NP; ++i)
+        sys->par[i] = parameters[i];
+    for (i = 0; i < LAG_NY; ++i)
+        y0[i] = initial[i];
+    options->rtol = settings[LAG_SET_RTOL];
+    options->atol = settings[LAG_SET_ATOL];
+    options->step = settings[LAG_SET_STEP];
+    options->max_step = settings[LAG_SET_MAX_STEP];
+    options->stages = (int)settings[LAG_SET_STAGES];
+    options->max_steps = (long)settings[LAG_SET_MAX_STEPS];
+    options->atol_each = settings + LAG_SETTINGS;
+}
+
 /* One run of the model with `parameters` (LAG_NP) from `initial` (LAG_NY) on `settings`; its
  * rows go to `sink`, its summary to `summary`. */
 static int lag_run_member(const double *parameters, const double *initial, const double *settings,
@@ -37,19 +57,7 @@ static int lag_run_member(const double *parameters, const double *initial, const
     lag_options options;
     lag_report report;
     real y0[LAG_NY];
-    int i;
-    memset(&sys, 0, sizeof sys);    /* a model without parameters still has the placeholder par[0] */
-    for (i = 0; i < LAG_NP; ++i)
-        sys.par[i] = parameters[i];
-    for (i = 0; i < LAG_NY; ++i)
-        y0[i] = initial[i];
-    options.rtol = settings[LAG_SET_RTOL];
-    options.atol = settings[LAG_SET_ATOL];
-    options.step = settings[LAG_SET_STEP];
-    options.max_step = settings[LAG_SET_MAX_STEP];
-    options.stages = (int)settings[LAG_SET_STAGES];
-    options.max_steps = (long)settings[LAG_SET_MAX_STEPS];
-    options.atol_each = settings + LAG_SETTINGS;
+    lag_member_inputs(parameters, initial, settings, &sys, &options, y0);
     lag_integrate(&sys, y0, settings[LAG_SET_T_START], settings[LAG_SET_T_STOP], settings[LAG_SET_T_INTERVAL],
                   &options, sink, context, &report);
     lag_pack_summary(&report, summary);
@@ -84,6 +92,14 @@ static int lag_grid_row(void *context, real t, const real *out)
     return 0;
 }
 
+/* The summary of a member not begun because lag_interrupt was set: interrupted at t0, no rows. */
+static void lag_summary_interrupted(const double *settings, double *summary)
+{
+    memset(summary, 0, sizeof(double) * LAG_SUMMARY_SIZE);
+    summary[LAG_SUMMARY_STATUS] = LAG_ERR_INTERRUPTED;
+    summary[LAG_SUMMARY_T_FAIL] = settings[LAG_SET_T_START];
+}
+
 /* The loop of lag_run_batch, for any sink of the layout of lag_buffer: member b's rows, `width`
  * doubles each, go to values[b * capacity * width ...]. A member not begun when lag_interrupt is
  * set has the status LAG_ERR_INTERRUPTED at t0 and no rows. */
@@ -105,9 +121,7 @@ static void lag_run_members(long members, const double *parameters, const double
         buffer.capacity = capacity;
         buffer.used = 0;
         if (lag_interrupt) {
-            memset(summary, 0, sizeof(double) * LAG_SUMMARY_SIZE);
-            summary[LAG_SUMMARY_STATUS] = LAG_ERR_INTERRUPTED;
-            summary[LAG_SUMMARY_T_FAIL] = settings[LAG_SET_T_START];
+            lag_summary_interrupted(settings, summary);
         } else {
             lag_run_member(parameters + b * LAG_NP, initial + b * LAG_NY, settings, sink, &buffer, summary);
         }
@@ -125,9 +139,18 @@ static void lag_run_members(long members, const double *parameters, const double
  * they run in parallel on `threads` OpenMP threads when the library is built with OpenMP, and
  * one after another otherwise, with the same results bit for bit. After lag_interrupt is set,
  * members not yet begun are not begun (status LAG_ERR_INTERRUPTED, no rows). */
+#if LAG_HAS_LANES
+static void lag_run_lanes(long members, const double *parameters, const double *initial, const double *settings,
+                          double *values, long capacity, double *summaries, long stride, int threads);
+#endif
+
 void lag_run_batch(long members, const double *parameters, const double *initial, const double *settings,
                    double *values, long capacity, double *summaries, long stride, int threads)
 {
+#if LAG_HAS_LANES      /* dop853_lanes.c, pasted after this file: the same results bit for bit */
+    lag_run_lanes(members, parameters, initial, settings, values, capacity, summaries, stride, threads);
+#else
     lag_run_members(members, parameters, initial, settings, lag_grid_row, LAG_NOUT, values, capacity, summaries,
                     stride, threads);
+#endif
 }
