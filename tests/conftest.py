@@ -13,6 +13,7 @@ import functools
 import io
 import os
 import re
+import resource
 import shutil
 import tempfile
 import traceback
@@ -45,10 +46,13 @@ def library_model(name: str):
 @functools.cache
 def library_scenes() -> tuple[tuple[str, str | None], ...]:
     """(model, scene) for every scene of every library model (None for a model without scenes),
-    read from the checked models without deriving them: cheap enough for collection."""
-    from lagdsl.pipeline import load_model
+    read from the parse trees alone (a scene is `scene NAME ... end NAME;`): collection neither
+    derives nor checks a model, which costs a few seconds in every xdist worker."""
+    from lagdsl.frontend.parser import parse
+    from lagdsl.source import SourceFile
     return tuple((path.stem, scene) for path in sorted(MODELS.glob("*.lag"))
-                 for scene in (tuple(s.name for s in load_model(path).scenes) or (None,)))
+                 for scene in (tuple(str(node.children[1]) for node in parse(SourceFile.read(path)).find_data("scene"))
+                               or (None,)))
 
 
 @dataclass(frozen=True)
@@ -81,6 +85,9 @@ def pytest_addoption(parser):
                      help="rewrite tests/golden/ from the current code generator")
     parser.addoption("--slow", action="store_true", default=False,
                      help="run the tests marked slow too (the whole suite)")
+    parser.addoption("--cpu-report", type=int, default=None, metavar="N",
+                     help="report the N tests that took most CPU (this process and the compilers "
+                          "it started), and the total over all tests")
 
 
 def pytest_configure(config):
@@ -133,3 +140,45 @@ def _node_id(config, argument: str) -> str:
 @pytest.fixture
 def update_golden(request) -> bool:
     return request.config.getoption("--update-golden")
+
+
+def _cpu_seconds() -> float:
+    """CPU time of this process and of its finished children (the C compiler runs as a child)."""
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
+_CPU_MARK: list[float] = []     # the CPU time when the phase now running began, with --cpu-report
+_CPU_BY_TEST: dict[str, float] = {}
+
+
+def pytest_runtest_logstart(nodeid, location):
+    _CPU_MARK[:] = [_cpu_seconds()]
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    """With --cpu-report, each phase's report carries its CPU seconds in its user properties
+    (which reach xdist's controller with the report)."""
+    outcome = yield
+    if item.config.getoption("--cpu-report") is None or not _CPU_MARK:
+        return
+    now = _cpu_seconds()
+    outcome.get_result().user_properties.append(("cpu_seconds", now - _CPU_MARK[0]))
+    _CPU_MARK[:] = [now]
+
+
+def pytest_runtest_logreport(report):
+    for key, value in getattr(report, "user_properties", ()):
+        if key == "cpu_seconds":
+            _CPU_BY_TEST[report.nodeid] = _CPU_BY_TEST.get(report.nodeid, 0.0) + value
+
+
+def pytest_terminal_summary(terminalreporter, config):
+    count = config.getoption("--cpu-report")
+    if count is None or not _CPU_BY_TEST:
+        return
+    ranked = sorted(_CPU_BY_TEST.items(), key=lambda entry: -entry[1])
+    terminalreporter.section(f"CPU seconds: {sum(_CPU_BY_TEST.values()):.1f} over {len(ranked)} tests (collection aside)")
+    for nodeid, seconds in ranked[:count]:
+        terminalreporter.write_line(f"{seconds:8.2f}  {nodeid}")
