@@ -55,6 +55,14 @@ def library_scenes() -> tuple[tuple[str, str | None], ...]:
                                or (None,)))
 
 
+def slow_unless_kept(cases, kept) -> list:
+    """`cases` for pytest.mark.parametrize, those not in `kept` marked slow: the default run keeps
+    the representatives of a matrix, --slow runs all of it."""
+    return [case if case in kept else pytest.param(*(case if isinstance(case, tuple) else (case,)),
+                                                   marks=pytest.mark.slow)
+            for case in cases]
+
+
 @dataclass(frozen=True)
 class Ran:
     """What `lagc` gave: its exit code and its two streams (as subprocess.CompletedProcess names them)."""
