@@ -5,6 +5,32 @@ The default run leaves out the tests marked `slow` (the exhaustive matrices: eve
 every integrator on both backends, every scene compiled strictly four ways, the fuzz slice, Dask,
 the test set); `--slow` runs them too, `-m slow` only them, and a test named by its node id
 (`tests/x.py::test_y`) runs whatever its marker.
+
+What the default run keeps of each kind (issue 28), and where; a matrix's other cases are slow:
+- mass-matrix layout, strict compile: dense Cholesky pendulum_chain.swing, sparse saddle point of
+  many constraints cartesian_chain.swing, local form with the banded Jacobian fpu_chain.implicit
+  (codegen/test_strict_compile.py's DEFAULT_SCENES); dense small and constant M in the goldens
+  (codegen/test_golden.py compiles every C golden strictly: double_pendulum.chaos, fpu_chain.spread,
+  fem_string.mode2). Closed form: mechanics/test_textbook_systems.py
+  (test_pendulum_chain_mass_matrix, test_double_pendulum_matches_the_worksheet_not_the_notes).
+- constraint kind, strict compile: holonomic wedge.slide, nonholonomic rolling_penny.roll, a stop on
+  a multiplier ladder.slide (goldens), rheonomic car_axis.bumps (test_strict_compile.py) and
+  codegen/test_kernel_names.py's [rheonomic-radau5]. Closed form: holonomic
+  test_cartesian_pendulum_multiplier_is_the_rod_force and test_wedge_accelerations, nonholonomic
+  models/test_constrained.py::test_rolling_penny_follows_the_corrected_closed_form, unilateral
+  run/test_stop_condition.py::test_the_ladder_leaves_the_wall_where_its_multiplier_turns_negative.
+- Jacobian kind, strict compile: dense (kernel_names [everything-radau5]), banded
+  (fpu_chain.implicit), augmented with constraints (sensitivity/test_c_sensitivities.py's
+  [cartesian_pendulum-radau5]). Agreement with an independent solution:
+  run/test_all_models.py [double_pendulum-radau5-c], run/test_backends.py (C radau5 against scipy's Radau).
+- integrator family, strict compile: explicit RK (goldens wedge, rolling_penny), rkn8 (pleiades.nystrom),
+  gauss (kepler.symplectic), radau5 (fpu_chain.implicit), taylor (run/test_taylor.py).
+  Closed form: run/test_stop_condition.py::test_the_flight_ends_where_it_comes_down (every
+  integrator but auto, whose two methods it runs, on both backends) and, for the Taylor method,
+  run/test_si_scales.py's cyclotron [c-taylor] and the ladder [c-taylor].
+
+`--cpu-report N` lists the N tests that took most CPU, the C compilers they started included: the
+figure to watch when a test joins the default run.
 """
 from __future__ import annotations
 
