@@ -5,6 +5,32 @@ The default run leaves out the tests marked `slow` (the exhaustive matrices: eve
 every integrator on both backends, every scene compiled strictly four ways, the fuzz slice, Dask,
 the test set); `--slow` runs them too, `-m slow` only them, and a test named by its node id
 (`tests/x.py::test_y`) runs whatever its marker.
+
+What the default run keeps of each kind (issue 28), and where; a matrix's other cases are slow:
+- mass-matrix layout, strict compile: dense Cholesky pendulum_chain.swing, sparse saddle point of
+  many constraints cartesian_chain.swing, local form with the banded Jacobian fpu_chain.implicit
+  (codegen/test_strict_compile.py's DEFAULT_SCENES); dense small and constant M in the goldens
+  (codegen/test_golden.py compiles every C golden strictly: double_pendulum.chaos, fpu_chain.spread,
+  fem_string.mode2). Closed form: mechanics/test_textbook_systems.py
+  (test_pendulum_chain_mass_matrix, test_double_pendulum_matches_the_worksheet_not_the_notes).
+- constraint kind, strict compile: holonomic wedge.slide, nonholonomic rolling_penny.roll, a stop on
+  a multiplier ladder.slide (goldens), rheonomic car_axis.bumps (test_strict_compile.py) and
+  codegen/test_kernel_names.py's [rheonomic-radau5]. Closed form: holonomic
+  test_cartesian_pendulum_multiplier_is_the_rod_force and test_wedge_accelerations, nonholonomic
+  models/test_constrained.py::test_rolling_penny_follows_the_corrected_closed_form, unilateral
+  run/test_stop_condition.py::test_the_ladder_leaves_the_wall_where_its_multiplier_turns_negative.
+- Jacobian kind, strict compile: dense (kernel_names [everything-radau5]), banded
+  (fpu_chain.implicit), augmented with constraints (sensitivity/test_c_sensitivities.py's
+  [cartesian_pendulum-radau5]). Agreement with an independent solution:
+  run/test_all_models.py [double_pendulum-radau5-c], run/test_backends.py (C radau5 against scipy's Radau).
+- integrator family, strict compile: explicit RK (goldens wedge, rolling_penny), rkn8 (pleiades.nystrom),
+  gauss (kepler.symplectic), radau5 (fpu_chain.implicit), taylor (run/test_taylor.py).
+  Closed form: run/test_stop_condition.py::test_the_flight_ends_where_it_comes_down (every
+  integrator but auto, whose two methods it runs, on both backends) and, for the Taylor method,
+  run/test_si_scales.py's cyclotron [c-taylor] and the ladder [c-taylor].
+
+`--cpu-report N` lists the N tests that took most CPU, the C compilers they started included: the
+figure to watch when a test joins the default run.
 """
 from __future__ import annotations
 
@@ -13,6 +39,7 @@ import functools
 import io
 import os
 import re
+import resource
 import shutil
 import tempfile
 import traceback
@@ -45,10 +72,21 @@ def library_model(name: str):
 @functools.cache
 def library_scenes() -> tuple[tuple[str, str | None], ...]:
     """(model, scene) for every scene of every library model (None for a model without scenes),
-    read from the checked models without deriving them: cheap enough for collection."""
-    from lagdsl.pipeline import load_model
+    read from the parse trees alone (a scene is `scene NAME ... end NAME;`): collection neither
+    derives nor checks a model, which costs a few seconds in every xdist worker."""
+    from lagdsl.frontend.parser import parse
+    from lagdsl.source import SourceFile
     return tuple((path.stem, scene) for path in sorted(MODELS.glob("*.lag"))
-                 for scene in (tuple(s.name for s in load_model(path).scenes) or (None,)))
+                 for scene in (tuple(str(node.children[1]) for node in parse(SourceFile.read(path)).find_data("scene"))
+                               or (None,)))
+
+
+def slow_unless_kept(cases, kept) -> list:
+    """`cases` for pytest.mark.parametrize, those not in `kept` marked slow: the default run keeps
+    the representatives of a matrix, --slow runs all of it."""
+    return [case if case in kept else pytest.param(*(case if isinstance(case, tuple) else (case,)),
+                                                   marks=pytest.mark.slow)
+            for case in cases]
 
 
 @dataclass(frozen=True)
@@ -81,6 +119,9 @@ def pytest_addoption(parser):
                      help="rewrite tests/golden/ from the current code generator")
     parser.addoption("--slow", action="store_true", default=False,
                      help="run the tests marked slow too (the whole suite)")
+    parser.addoption("--cpu-report", type=int, default=None, metavar="N",
+                     help="report the N tests that took most CPU (this process and the compilers "
+                          "it started), and the total over all tests")
 
 
 def pytest_configure(config):
@@ -133,3 +174,45 @@ def _node_id(config, argument: str) -> str:
 @pytest.fixture
 def update_golden(request) -> bool:
     return request.config.getoption("--update-golden")
+
+
+def _cpu_seconds() -> float:
+    """CPU time of this process and of its finished children (the C compiler runs as a child)."""
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
+_CPU_MARK: list[float] = []     # the CPU time when the phase now running began, with --cpu-report
+_CPU_BY_TEST: dict[str, float] = {}
+
+
+def pytest_runtest_logstart(nodeid, location):
+    _CPU_MARK[:] = [_cpu_seconds()]
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    """With --cpu-report, each phase's report carries its CPU seconds in its user properties
+    (which reach xdist's controller with the report)."""
+    outcome = yield
+    if item.config.getoption("--cpu-report") is None or not _CPU_MARK:
+        return
+    now = _cpu_seconds()
+    outcome.get_result().user_properties.append(("cpu_seconds", now - _CPU_MARK[0]))
+    _CPU_MARK[:] = [now]
+
+
+def pytest_runtest_logreport(report):
+    for key, value in getattr(report, "user_properties", ()):
+        if key == "cpu_seconds":
+            _CPU_BY_TEST[report.nodeid] = _CPU_BY_TEST.get(report.nodeid, 0.0) + value
+
+
+def pytest_terminal_summary(terminalreporter, config):
+    count = config.getoption("--cpu-report")
+    if count is None or not _CPU_BY_TEST:
+        return
+    ranked = sorted(_CPU_BY_TEST.items(), key=lambda entry: -entry[1])
+    terminalreporter.section(f"CPU seconds: {sum(_CPU_BY_TEST.values()):.1f} over {len(ranked)} tests (collection aside)")
+    for nodeid, seconds in ranked[:count]:
+        terminalreporter.write_line(f"{seconds:8.2f}  {nodeid}")

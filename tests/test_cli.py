@@ -1,6 +1,7 @@
 """The command line end to end: exit codes, output formats, no output file on failure."""
 from __future__ import annotations
 
+import contextlib
 import io
 import math
 import os
@@ -18,17 +19,20 @@ import pytest
 
 from lagdsl.cli import main
 from lagdsl.progress import TimeProgress
-from tests.conftest import MODELS
+from tests.conftest import MODELS, lagc_in_process
 from tests.run.test_bounds import OSCILLATOR
 
 
 def lagc(*arguments, cwd=None):
-    return subprocess.run([sys.executable, "-m", "lagdsl", *map(str, arguments)], capture_output=True,
-                          text=True, cwd=cwd)
+    """`lagc` run in this process (in `cwd` if given): no interpreter to start for each command."""
+    with contextlib.chdir(cwd or os.getcwd()):
+        return lagc_in_process(*arguments)
 
 
 def test_check_reports_the_double_pendulum():
-    done = lagc("check", MODELS / "double_pendulum.lag")
+    """The console script itself, in a process of its own: `python -m lagdsl`."""
+    done = subprocess.run([sys.executable, "-m", "lagdsl", "check", MODELS / "double_pendulum.lag"],
+                          capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     assert "degrees of freedom: 2" in done.stdout
     assert "rod1: holonomic, identically satisfied by the coordinates: dropped" in done.stdout

@@ -3,8 +3,6 @@ the dimensional analysis of models, values converted to SI, units in `lagc check
 from __future__ import annotations
 
 import math
-import subprocess
-import sys
 from fractions import Fraction
 
 import numpy as np
@@ -17,7 +15,7 @@ from lagdsl.pipeline import load_model, model_from_source
 from lagdsl.scene import Overrides
 from lagdsl.source import SourceFile, Span
 from lagdsl.frontend.units import Dimension, dimension, parse_unit
-from tests.conftest import MODELS
+from tests.conftest import MODELS, lagc_in_process
 
 
 def unit_span(unit: str) -> Span:
@@ -127,7 +125,7 @@ def test_a_model_without_units_passes_silently(tmp_path):
     path = tmp_path / "plain.lag"
     path.write_text("model Plain\n  parameter k = 4;\n  coordinate x(start = 1);\n"
                     "  T = der(x)^2/2;\n  U = k/2*x^2 + 1 + cos(x*k);\nend Plain;\n")
-    done = subprocess.run([sys.executable, "-m", "lagdsl", "check", str(path)], capture_output=True, text=True)
+    done = lagc_in_process("check", str(path))
     assert done.returncode == 0 and done.stderr == ""
     assert "[" not in done.stdout.split("parameters:")[1].splitlines()[0]
     assert load_model(path).units is None
@@ -184,10 +182,10 @@ def test_every_library_model_carries_units_and_passes_the_check():
 def test_run_units_names_the_units_in_the_csv_header(tmp_path):
     path = tmp_path / "pendulum.lag"
     path.write_text(PENDULUM_PREFIXED)
-    command = [sys.executable, "-m", "lagdsl", "run", str(path), "--backend", "numpy"]
-    with_units = subprocess.run([*command, "--units"], capture_output=True, text=True)
+    command = ["run", str(path), "--backend", "numpy"]
+    with_units = lagc_in_process(*command, "--units")
     assert with_units.stdout.splitlines()[0] == "t [s],theta [rad],x [cm],energy [J]"
-    plain = subprocess.run(command, capture_output=True, text=True)
+    plain = lagc_in_process(*command)
     assert plain.stdout.splitlines()[0] == "t,theta,x,energy"
     assert with_units.stdout.splitlines()[1:] == plain.stdout.splitlines()[1:]
 
@@ -195,7 +193,7 @@ def test_run_units_names_the_units_in_the_csv_header(tmp_path):
 def test_check_shows_each_quantity_with_its_unit(tmp_path):
     path = tmp_path / "pendulum.lag"
     path.write_text(PENDULUM_PREFIXED)
-    done = subprocess.run([sys.executable, "-m", "lagdsl", "check", str(path)], capture_output=True, text=True)
+    done = lagc_in_process("check", str(path))
     assert "  theta [deg] (= 0.0174532925199 rad)" in done.stdout        # as declared, SI beside
     assert ("parameters: m = 500 [g] (= 0.5 kg), l = 40 [cm] (= 0.4 m), g = 9.81 [m/s^2], "
             "b = 2 [mN*m*s] (= 0.002 kg*m^2/s)") in done.stdout
@@ -354,19 +352,19 @@ def test_a_value_with_a_unit_of_another_dimension_is_refused(name, value, words)
 def test_run_set_takes_a_unit(tmp_path):
     path = tmp_path / "pendulum.lag"
     path.write_text(PENDULUM_PREFIXED)
-    command = [sys.executable, "-m", "lagdsl", "run", str(path), "--backend", "numpy", "--stop", "0.2"]
-    plain = subprocess.run(command, capture_output=True, text=True)
-    given = subprocess.run([*command, "--set", "theta.start=30 deg", "--set", "m=500g"], capture_output=True, text=True)
+    command = ["run", str(path), "--backend", "numpy", "--stop", "0.2"]
+    plain = lagc_in_process(*command)
+    given = lagc_in_process(*command, "--set", "theta.start=30 deg", "--set", "m=500g")
     assert given.returncode == 0 and given.stdout == plain.stdout
-    wrong = subprocess.run([*command, "--set", "m=2 s"], capture_output=True, text=True)
+    wrong = lagc_in_process(*command, "--set", "m=2 s")
     assert wrong.returncode == 1 and "lagc: error: m: '2 s' is a time, but this value is declared in [g]" in wrong.stderr
 
 
 def test_a_sweep_refuses_a_value_with_a_unit_clearly(tmp_path):
     path = tmp_path / "pendulum.lag"
     path.write_text(PENDULUM_PREFIXED)
-    done = subprocess.run([sys.executable, "-m", "lagdsl", "sweep", str(path), "--backend", "numpy", "--set", "m=500g",
-                           "--vary", "l=0.3:0.5:2", "-o", str(tmp_path / "out.csv")], capture_output=True, text=True)
+    done = lagc_in_process("sweep", str(path), "--backend", "numpy", "--set", "m=500g",
+                           "--vary", "l=0.3:0.5:2", "-o", str(tmp_path / "out.csv"))
     assert done.returncode == 1 and "Traceback" not in done.stderr
     assert "lagc: error: sweep: the values of 'm' are numbers, each in its declared unit; '500g'" in done.stderr
 
@@ -375,11 +373,11 @@ def test_times_take_a_unit_of_time(tmp_path):
     """--stop "200 ms" is --stop 0.2; simulate(stop="0.2 s", interval="50 ms") likewise; a length is refused."""
     path = tmp_path / "pendulum.lag"
     path.write_text(PENDULUM_PREFIXED)
-    command = [sys.executable, "-m", "lagdsl", "run", str(path), "--backend", "numpy", "--interval", "0.05"]
-    seconds = subprocess.run([*command, "--stop", "0.2"], capture_output=True, text=True)
-    milliseconds = subprocess.run([*command, "--stop", "200 ms"], capture_output=True, text=True)
+    command = ["run", str(path), "--backend", "numpy", "--interval", "0.05"]
+    seconds = lagc_in_process(*command, "--stop", "0.2")
+    milliseconds = lagc_in_process(*command, "--stop", "200 ms")
     assert milliseconds.returncode == 0 and milliseconds.stdout == seconds.stdout
-    wrong = subprocess.run([*command, "--stop", "2 m"], capture_output=True, text=True)
+    wrong = lagc_in_process(*command, "--stop", "2 m")
     assert wrong.returncode == 1 and "lagc: error: --stop: '2 m' is a length, but this value is declared in [s]" \
         in wrong.stderr
     model = loaded(PENDULUM_PREFIXED)

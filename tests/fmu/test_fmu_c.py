@@ -51,7 +51,7 @@ def cc():
 @pytest.mark.parametrize("model, scene, kind", [
     ("double_pendulum", None, ("me", "cs")), ("rolling_penny", None, ("cs",)), ("rolling_penny", None, ("me",)),
     ("coupled_oscillators", "pluck", ("cs",)), ("bead_on_hoop", None, ("me", "cs")),
-    ("fpu_chain", "implicit", ("me", "cs"))])
+    pytest.param("fpu_chain", "implicit", ("me", "cs"), marks=pytest.mark.slow)])     # 34 s of CPU: slow
 def test_fmu_source_compiles_under_strict_flags(tmp_path, cc, model, scene, kind, version):
     source, _ = unpack(build_fmu(load(model), scene, version, kind), tmp_path)
     done = subprocess.run([cc, *STRICT_FLAGS, "-fPIC", "-I", str(source.parent), "-c", str(source), "-o",
@@ -60,7 +60,7 @@ def test_fmu_source_compiles_under_strict_flags(tmp_path, cc, model, scene, kind
 
 
 @pytest.mark.parametrize("version", [2, 3])
-@pytest.mark.parametrize("model", ["double_pendulum", "rolling_penny"])
+@pytest.mark.parametrize("model", ["double_pendulum", pytest.param("rolling_penny", marks=pytest.mark.slow)])
 def test_every_function_in_and_out_of_order_under_sanitizers(tmp_path, cc, model, version):
     source, description = unpack(build_fmu(load(model), version=version), tmp_path)
     program = tmp_path / "calls"

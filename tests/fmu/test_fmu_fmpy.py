@@ -47,7 +47,8 @@ def double_pendulum(tmp_path_factory, request):
 
 @VERSIONS
 @pytest.mark.parametrize("name, scene", [("double_pendulum", None), ("rolling_penny", None), ("pendulum", "symplectic"),
-                                         ("bead_on_hoop", None), ("fpu_chain", "implicit")])
+                                         ("bead_on_hoop", None),
+                                         pytest.param("fpu_chain", "implicit", marks=pytest.mark.slow)])
 def test_fmpy_finds_no_problem(tmp_path, name, scene, version):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", LagWarning)        # a symplectic scene: co-simulation only

@@ -170,8 +170,9 @@ def plant(library, tmp_path):
     manifest.write_text(json.dumps(record) + "\n")
 
 
-@pytest.mark.parametrize("how", ["directory writable by others", "entry writable by others",
-                                 "directory of another user"])
+@pytest.mark.parametrize("how", [pytest.param("directory writable by others", marks=pytest.mark.slow),
+                                 "entry writable by others",
+                                 pytest.param("directory of another user", marks=pytest.mark.slow)])
 def test_code_planted_in_an_untrusted_cache_is_never_loaded(cache_dir, tmp_path, how):
     if how == "directory of another user" and os.getuid() != 0:
         pytest.skip("only root can give the cache to another user")

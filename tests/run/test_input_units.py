@@ -7,7 +7,6 @@ NAME=VALUE arguments (and its --batch lines) all run the same inputs, bit for bi
 from __future__ import annotations
 
 import subprocess
-import sys
 from fractions import Fraction
 
 import numpy as np
@@ -16,6 +15,7 @@ import pytest
 from lagdsl.api import Model
 from lagdsl.errors import LagError
 from lagdsl.source import SourceFile
+from tests.conftest import Ran, lagc_in_process
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 
 SWING = """model Swing
@@ -51,8 +51,8 @@ def swing(tmp_path_factory):
     return path
 
 
-def lagc(*arguments: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "lagdsl", *arguments], capture_output=True, text=True, check=False)
+def lagc(*arguments: str) -> Ran:
+    return lagc_in_process(*arguments)
 
 
 def settings(values: dict) -> list[str]:

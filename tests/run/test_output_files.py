@@ -122,7 +122,8 @@ def test_emit_to_a_symlink_writes_the_target(model, tmp_path):
 
 
 @pytest.mark.parametrize("arguments, limit", [
-    (["run", "MODEL", "--stop", "20000", "--interval", "0.01"], 1 << 22),      # 4 MiB: room to build the code, not for the table
+    pytest.param(["run", "MODEL", "--stop", "20000", "--interval", "0.01"], 1 << 22,   # 4 MiB: room to build the code,
+                 marks=pytest.mark.slow),                                      # not for the table (a cold build)
     (["MODEL", "--emit", "c"], 4096),
 ])
 def test_a_file_size_limit_on_standard_output_is_an_error_not_a_short_table(model, tmp_path, arguments, limit):

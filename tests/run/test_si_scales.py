@@ -14,7 +14,7 @@ import pytest
 
 from lagdsl.errors import LagError
 from lagdsl.tolerances import atol_vector
-from tests.conftest import MODELS, lagc_in_process, library_model
+from tests.conftest import MODELS, lagc_in_process, library_model, slow_unless_kept
 from tests.run.c_harness import find_cc
 
 M, Q, C, B = 9.1093837015e-31, -1.602176634e-19, 299792458.0, 1.0
@@ -46,7 +46,9 @@ def test_the_model_states_the_closed_form_radius():
     assert plan.initial_state[4] == pytest.approx(BETA * C, rel=1e-15)
 
 
-ADAPTIVE = [("c", name) for name in ("dop853", "dopri5", "radau5", "taylor", "auto")] + \
+# dopri5, radau5 and auto in C slow (5 s of CPU): the default run keeps a C explicit and the Taylor method, and NumPy's
+ADAPTIVE = slow_unless_kept([("c", name) for name in ("dop853", "dopri5", "radau5", "taylor", "auto")],
+                            kept={("c", "dop853"), ("c", "taylor")}) + \
     [("numpy", name) for name in ("dop853", "dopri5", "auto")] + \
     [pytest.param("numpy", "radau5", marks=pytest.mark.slow)]     # scipy's Radau: 13 s at rtol 1e-12
 

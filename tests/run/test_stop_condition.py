@@ -11,7 +11,7 @@ from scipy.integrate import quad
 from scipy.special import ellipk
 
 import lagdsl
-from tests.conftest import MODELS, library_model
+from tests.conftest import MODELS, library_model, slow_unless_kept
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 
 PROJECTILE = """model Projectile "a thrown point mass; the flight ends where it comes down"
@@ -87,7 +87,8 @@ def load(tmp_path, text: str, name: str = "model"):
 
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])
-@pytest.mark.parametrize("integrator", INTEGRATORS)
+# auto (dopri5, then radau5 where stiff: both kept) slow
+@pytest.mark.parametrize("integrator", slow_unless_kept(INTEGRATORS, kept=set(INTEGRATORS) - {"auto"}))
 def test_the_flight_ends_where_it_comes_down(tmp_path, backend, integrator):
     """y = 4 t - g t^2/2 is a quadratic, which every dense output reproduces: the stop time is
     2 * 4 / g to round-off, the last row is there, and the rows before it are on the grid."""
@@ -155,8 +156,10 @@ def test_the_standalone_program_stops_and_says_where(tmp_path):
         assert f"stopped at t = {last[0]}, where r.y < 0" in run.stderr
 
 
-@pytest.mark.parametrize("backend, integrator", [(backend, integrator) for backend, names in
-                                                 CONSTRAINED_INTEGRATORS.items() for integrator in names])
+@pytest.mark.parametrize("backend, integrator", slow_unless_kept(   # auto and radau5 in C: 6 s of CPU, slow
+    [(backend, integrator) for backend, names in CONSTRAINED_INTEGRATORS.items() for integrator in names],
+    kept={("c", "dop853"), ("c", "dopri5"), ("c", "rk4"), ("c", "taylor"),
+          *(("numpy", name) for name in CONSTRAINED_INTEGRATORS["numpy"])}))
 def test_the_ladder_leaves_the_wall_where_its_multiplier_turns_negative(backend, integrator):
     """`stop when multiplier(wall) < 0;`: the wall's push, solved for with q'' at each dense-output
     state the root search tries, vanishes where the centre has come down to 2/3 of its height."""

@@ -80,7 +80,7 @@ def test_without_error_control_only_the_error_norms_change():
 
 @pytest.mark.parametrize("library, scene, integrator", [
     ("cartesian_pendulum", None, "radau5"),         # dense LU of the KKT system, the augmented Jacobian
-    ("pendulum_chain", None, "dopri5"),             # dense Cholesky
+    pytest.param("pendulum_chain", None, "dopri5", marks=pytest.mark.slow),      # dense Cholesky (41 s of CPU)
     pytest.param("cartesian_chain", None, "auto", marks=pytest.mark.slow),     # sparse LDLᵀ with constraints
     ("coupled_oscillators", "mode1", "rkn8"),       # M factored once (constant), rkn8's accelerations
 ])
