@@ -6,6 +6,7 @@ import pytest
 
 import lagdsl
 from lagdsl import api, pipeline
+from lagdsl.codegen import c as c_printer, numpy as numpy_printer
 from lagdsl.run import loading, toolchain
 from tests.conftest import MODELS, library_model
 
@@ -97,7 +98,7 @@ def test_a_model_keeps_its_loaded_code(backend, monkeypatch):
         original = getattr(module, name)
         monkeypatch.setattr(module, name, lambda *a, **k: calls.append(name) or original(*a, **k))
 
-    for module, name in ((pipeline, "lower_to_kernel"), (pipeline, "render_c"), (pipeline, "render_numpy"),
+    for module, name in ((pipeline, "lower_to_kernel"), (c_printer, "render_c"), (numpy_printer, "render_numpy"),
                          (loading, "load"), (loading, "shared_library"), (loading, "load_module"),
                          (toolchain, "compile_c"), (api, "load_program")):
         counted(module, name)
