@@ -33,6 +33,41 @@ GRID_OVERRIDES = ("start", "stop", "interval", "integrator")
 QUICK_RUNS = 16         # prepared repeated runs a Model keeps (a fit varies its inputs: the last ones)
 
 
+class QuickRuns:
+    """A model's repeated runs, planned without sympy from the scene's settings and values (as a
+    warm `lagc run` plans, run/plans.py) and prepared once for their overrides (the last
+    QUICK_RUNS kept)."""
+
+    def __init__(self):
+        self.plans: dict[str | None, plans.StoredPlan] = {}     # by the scene asked for
+        self.runs: dict[tuple, Callable] = {}                   # by scene, backend and overrides
+
+    def get(self, model: "Model", scene: str | None, backend: str, overrides: Overrides):
+        """A function of `progress` that runs and describes the result; None where that cannot
+        serve: the first run of a scene, a value computed from the overrides, code not yet generated."""
+        key = (scene, backend, overrides)
+        quick = self.runs.get(key)
+        if quick is not None:
+            return quick
+        stored = self.plans.get(scene)
+        run_plan = stored.resolve(overrides) if stored is not None else None
+        program = run_plan and model._programs.get((run_plan.scene_name, run_plan.integrator.name, backend, False))
+        if program is None:
+            return None
+        call = runner.prepared(run_plan, backend, program.loaded)
+        description = _description(model.ir, run_plan.scene_name, run_plan.columns)
+        quick = lambda progress=None: replace(call(progress), **description)    # noqa: E731
+        if len(self.runs) >= QUICK_RUNS:
+            del self.runs[next(iter(self.runs))]
+        self.runs[key] = quick
+        return quick
+
+    def keep_plan(self, model: "Model", scene: str | None, scene_plan: ScenePlan) -> None:
+        stored = self.plans.get(scene) or _stored_plan(model, scene, scene_plan, None)
+        if stored is not None:
+            self.plans[scene] = stored
+
+
 class Model(LyapunovMethod):
     """A parsed, checked model with its derived equations of motion."""
 
@@ -42,8 +77,7 @@ class Model(LyapunovMethod):
         self.equations: Equations
         self.ir, self.equations = compile_model(source)
         self._programs: dict[tuple[str, str, str, bool], Program] = {}   # scene, integrator, backend, drawn
-        self._quick_plans: dict[str | None, plans.StoredPlan] = {}     # by the scene asked for
-        self._quick_runs: dict[tuple, Callable] = {}                   # by scene, backend and overrides
+        self._quick = QuickRuns()
         self._sensitivity_programs: dict[str, object] = {}             # sensitivity.run.Program by scene
 
     @property
@@ -129,13 +163,13 @@ class Model(LyapunovMethod):
         """`simulate` with the overrides already gathered (what `lagc run` calls); `progress` is
         called as progress(t reached, start, stop) every so often."""
         _check_backend(backend)
-        quick = None if estimate_error or draw else self._quick_run(scene, backend, overrides)
+        quick = None if estimate_error or draw else self._quick.get(self, scene, backend, overrides)
         if quick is not None:
             return quick(progress)
         scene_plan = self.plan(scene, overrides, draw)
         program = self._program(scene, scene_plan, backend, overrides)
         result = _execute(self.ir, program, scene_plan, progress)
-        self._keep_quick_plan(scene, scene_plan)
+        self._quick.keep_plan(self, scene, scene_plan)
         if not estimate_error:
             return result
 
@@ -243,34 +277,6 @@ class Model(LyapunovMethod):
         `energy` or `momentum(q)` (C, Dm; default: the scene's columns). See docs/numerics.md."""
         from .linear import linearize_model
         return linearize_model(self, scene, at, set, tuple(inputs), outputs, find)[0]
-
-    def _quick_run(self, scene: str | None, backend: str, overrides: Overrides):
-        """A repeated run, planned without sympy from the scene's settings and values (as a warm
-        `lagc run` plans, run/plans.py) and prepared once for these overrides (the last
-        QUICK_RUNS kept): a function of `progress` that runs it and describes the result; None
-        where that cannot serve: the first run of a scene, a value computed from the overrides,
-        code not yet generated."""
-        key = (scene, backend, overrides)
-        quick = self._quick_runs.get(key)
-        if quick is not None:
-            return quick
-        stored = self._quick_plans.get(scene)
-        run_plan = stored.resolve(overrides) if stored is not None else None
-        program = run_plan and self._programs.get((run_plan.scene_name, run_plan.integrator.name, backend, False))
-        if program is None:
-            return None
-        call = runner.prepared(run_plan, backend, program.loaded)
-        description = _description(self.ir, run_plan.scene_name, run_plan.columns)
-        quick = lambda progress=None: replace(call(progress), **description)    # noqa: E731
-        if len(self._quick_runs) >= QUICK_RUNS:
-            del self._quick_runs[next(iter(self._quick_runs))]
-        self._quick_runs[key] = quick
-        return quick
-
-    def _keep_quick_plan(self, scene: str | None, scene_plan: ScenePlan) -> None:
-        stored = self._quick_plans.get(scene) or _stored_plan(self, scene, scene_plan, None)
-        if stored is not None:
-            self._quick_plans[scene] = stored
 
     def _program(self, scene: str | None, scene_plan: ScenePlan, backend: str, overrides: Overrides) -> Program:
         """The generated, loaded code for a scene, integrator and backend: built on first use, then kept.

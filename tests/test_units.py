@@ -3,6 +3,8 @@ the dimensional analysis of models, values converted to SI, units in `lagc check
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 from fractions import Fraction
 
 import numpy as np

@@ -37,9 +37,23 @@ def template_environment() -> jinja2.Environment:
         loader=jinja2.PackageLoader("lagdsl.codegen", "templates"),
         undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True,
         keep_trailing_newline=True, autoescape=False,
-        bytecode_cache=jinja2.FileSystemBytecodeCache(str(directory)) if directory is not None else None)
+        bytecode_cache=_best_effort_cache(jinja2, directory) if directory is not None else None)
     environment.filters.update(ESCAPE_FILTERS)
     return environment
+
+
+def _best_effort_cache(jinja2, directory):
+    """jinja2's bytecode cache in `directory`, where a failed write (a full disk, `ulimit -f`) only
+    leaves the template uncached: the command's own output then meets the limit and says so."""
+
+    class BestEffort(jinja2.FileSystemBytecodeCache):
+        def dump_bytecode(self, bucket) -> None:
+            try:
+                super().dump_bytecode(bucket)       # removes its partial file before raising
+            except OSError:
+                pass
+
+    return BestEffort(str(directory))
 
 
 ESCAPE_FILTERS = {"c_comment": escape.c_comment, "c_string": escape.c_string,
