@@ -26,6 +26,25 @@ def find_cc() -> str | None:
     return None
 
 
+def build_scene_programs(model: Path, scenes: tuple[str, ...], directory: Path) -> dict[str, Path]:
+    """The generated standalone program of each scene of `model`, compiled under the strict flags
+    into `directory` (a test skips where no compiler is found)."""
+    import pytest
+
+    from tests.conftest import lagc_in_process
+    cc = find_cc()
+    if cc is None:
+        pytest.skip("no C compiler")
+    built = {}
+    for scene in scenes:
+        source = directory / f"{scene}.c"
+        emitted = lagc_in_process("emit", str(model), "--emit", "c", "--scene", scene, "-o", str(source))
+        assert emitted.returncode == 0, emitted.stderr
+        built[scene] = directory / scene
+        subprocess.run([cc, *STRICT_FLAGS, str(source), "-o", str(built[scene]), "-lm"], check=True)
+    return built
+
+
 def assemble(model_c: str, integrator: str, main_c: str) -> str:
     """The integrator's files (with the fragments it shares; a composite's parts renamed) between
     the model and main."""

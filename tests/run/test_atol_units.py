@@ -7,7 +7,6 @@ with a unit (tolerances.py). A scene's `atol(x) = 0.0005` on a coordinate in [mm
 from __future__ import annotations
 
 import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -15,7 +14,8 @@ import pytest
 from lagdsl.api import Model
 from lagdsl.errors import LagError
 from lagdsl.source import SourceFile
-from tests.run.c_harness import STRICT_FLAGS, find_cc
+from tests.conftest import Ran, lagc_in_process
+from tests.run.c_harness import build_scene_programs
 
 # Uncoupled: a spring in millimetres and a pendulum in degrees, at tolerances loose enough that
 # the per-component atol decides the steps.
@@ -50,8 +50,8 @@ def cart(tmp_path_factory):
     return path
 
 
-def lagc(*arguments: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "lagdsl", *arguments], capture_output=True, text=True, check=False)
+def lagc(*arguments: str) -> Ran:
+    return lagc_in_process(*arguments)
 
 
 def atol_options(items: list[str]) -> list[str]:
@@ -84,18 +84,7 @@ def test_the_api_reads_atol_in_the_declared_unit(cart):
 
 @pytest.fixture(scope="module")
 def programs(cart, tmp_path_factory):
-    cc = find_cc()
-    if cc is None:
-        pytest.skip("no C compiler")
-    directory = tmp_path_factory.mktemp("atol_program")
-    built = {}
-    for scene in ("plain", "named"):
-        source = directory / f"{scene}.c"
-        emitted = lagc("emit", str(cart), "--emit", "c", "--scene", scene, "-o", str(source))
-        assert emitted.returncode == 0, emitted.stderr
-        built[scene] = directory / scene
-        subprocess.run([cc, *STRICT_FLAGS, str(source), "-o", str(built[scene]), "-lm"], check=True)
-    return built
+    return build_scene_programs(cart, ("plain", "named"), tmp_path_factory.mktemp("atol_program"))
 
 
 def run_program(path, *arguments: str) -> subprocess.CompletedProcess:

@@ -16,7 +16,7 @@ from lagdsl.api import Model
 from lagdsl.errors import LagError
 from lagdsl.source import SourceFile
 from tests.conftest import Ran, lagc_in_process
-from tests.run.c_harness import STRICT_FLAGS, find_cc
+from tests.run.c_harness import build_scene_programs
 
 SWING = """model Swing
   parameter m = 500 [g];
@@ -97,18 +97,7 @@ def test_a_value_of_another_dimension_names_the_declared_unit(swing):
 @pytest.fixture(scope="module")
 def program(swing, tmp_path_factory):
     """The generated C program of each scene, compiled strictly."""
-    cc = find_cc()
-    if cc is None:
-        pytest.skip("no C compiler")
-    directory = tmp_path_factory.mktemp("program")
-    built = {}
-    for scene in ("plain", "set"):
-        source = directory / f"{scene}.c"
-        emitted = lagc("emit", str(swing), "--emit", "c", "--scene", scene, "-o", str(source))
-        assert emitted.returncode == 0, emitted.stderr
-        built[scene] = directory / scene
-        subprocess.run([cc, *STRICT_FLAGS, str(source), "-o", str(built[scene]), "-lm"], check=True)
-    return built
+    return build_scene_programs(swing, ("plain", "set"), tmp_path_factory.mktemp("program"))
 
 
 def run_program(path, *arguments: str, stdin: str | None = None) -> subprocess.CompletedProcess:
