@@ -24,6 +24,9 @@ BASES = ("m", "g", "s", "A", "K", "mol", "cd", "N", "J", "W", "Pa", "Hz", "C", "
 PREFIXES = ("", "k", "M", "G", "c", "m", "u", "n", "p")
 OTHERS = ("deg", "degree", "rpm", "min", "h", "hour", "day", "turn", "revolution", "radian", "meter", "second",
           "kilogram", "gram", "newton", "joule", "watt", "percent")
+# names the supported pint versions read differently, left to the installed pint: "mcd" is the
+# millicandela in pint 0.21 and a milli-centi-day (a time) in pint 0.24
+VERSION_DEPENDENT = frozenset({"mcd"})
 
 
 @functools.cache
@@ -42,7 +45,8 @@ def lookup(name: str) -> tuple[dict[str, str], str, bool] | None:
 
 
 def names() -> list[str]:
-    return [prefix + base for base in BASES for prefix in PREFIXES] + list(OTHERS)
+    every = [prefix + base for base in BASES for prefix in PREFIXES] + list(OTHERS)
+    return [name for name in every if name not in VERSION_DEPENDENT]
 
 
 def entries() -> dict[str, list]:
