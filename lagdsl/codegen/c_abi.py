@@ -19,6 +19,17 @@ from ..settings import (DEFAULT_MAX_STEPS, FORECAST_JUDGED_AFTER, FORECAST_WINDO
                         MIN_STEP_EPS, RCOND_MIN_EPS, RTOL_FLOOR_EPS, START_STEP_FRACTION, START_STEP_MIN_STEPS,
                         STEPS_PER_ROW)
 
+
+def _tolerance_constants(record: registry.Integrator) -> tuple[tuple[str, str, str], ...]:
+    """The record's tolerance transform (rtol' = scale rtol^power), the power as a quotient so
+    that it is exact in every precision."""
+    power = record.tolerance_power
+    return ((f"LAG_{record.name.upper()}_TOLERANCE_SCALE", f"LAG_LIT({record.tolerance_scale!r})",
+             f"{record.name} works to rtol' = scale rtol^power ..."),
+            (f"LAG_{record.name.upper()}_TOLERANCE_POWER",
+             f"(LAG_LIT({power.numerator}.0) / LAG_LIT({power.denominator}.0))", "... and atol' = rtol' atol / rtol"))
+
+
 VERDICT_NAMES = {VERDICT_STIFF: "LAG_VERDICT_STIFF", VERDICT_OSCILLATION: "LAG_VERDICT_OSCILLATION"}
 # (name, value, what it is): settings.py's numbers as the C driver and integrators read them
 # (those counted in eps: of the working precision).
@@ -49,6 +60,8 @@ SHARED_CONSTANTS = (
     *((f"LAG_{record.name.upper()}_STABILITY_BOUNDARY", f"LAG_LIT({record.stability_boundary!r})",
        f"h lambda beyond which {record.name}'s steps are held by stability")
       for record in map(registry.get, registry.names()) if record.stiffness_test),
+    *(constant for record in map(registry.get, registry.names()) if record.transforms_tolerances
+      for constant in _tolerance_constants(record)),
 )
 # The C argument of each value a status message may name, and its printf conversion where the
 # message gives no format of its own ({rcond:.3g} is printed with %.3g).

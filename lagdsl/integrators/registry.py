@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from fractions import Fraction
 
 
 @dataclass(frozen=True)
@@ -104,6 +105,23 @@ class Integrator:
     source: str = ""                            # its C file, if not NAME.c
     order: int = 0                              # the order of the method (per stage if stage_order)
     stage_order: bool = False                   # gauss: order = order x stages
+    # The tolerances it works to: rtol' = tolerance_scale rtol^tolerance_power, atol' = rtol' atol / rtol
+    # (radau5, as Hairer's RADAU5: its error estimate is O(h^4) while the method has order 5, and
+    # this keeps the global error roughly proportional to rtol). Its scipy equivalent is given the same.
+    tolerance_scale: float = 1.0
+    tolerance_power: Fraction = Fraction(1)           # a fraction, so that C has it in every precision
+
+    def working_tolerances(self, rtol: float, atol):
+        """(rtol', atol'): the tolerances the method's error test uses for the user's (rtol, atol);
+        atol may be one number or an array of one per component."""
+        if not self.transforms_tolerances:
+            return rtol, atol
+        working = self.tolerance_scale * rtol ** float(self.tolerance_power)
+        return working, working * (atol / rtol)
+
+    @property
+    def transforms_tolerances(self) -> bool:
+        return (self.tolerance_scale, self.tolerance_power) != (1.0, 1)
 
     def order_with(self, options: dict[str, float]) -> int:
         """The method's order with `options` (gauss: 2 per stage)."""
@@ -185,7 +203,8 @@ for _record in (
                python="nystrom:run_rkn8", order=8),
     Integrator("radau5", "the implicit Radau IIA method radau5", "Radau IIA order 5, implicit, for stiff models",
                counters=("accepted", "rejected", "rhs_evals", "jac_evals", "lu_decomps", "newton_iters"),
-               implicit=True, scipy="Radau", order=5),
+               implicit=True, scipy="Radau", order=5, tolerance_scale=0.1,
+               tolerance_power=Fraction(2, 3)),
     Integrator("gauss", "the symplectic gauss integrator",
                "Gauss-Legendre collocation of order 2s, symplectic, fixed step",
                options=("stages", "step", "max_steps"), defaults=(("stages", 2),),

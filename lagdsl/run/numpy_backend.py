@@ -91,9 +91,10 @@ def _integrate(module, par, times, y0, plan: RunPlan, progress: Progress | None,
         options["atol"] = np.array(atol_each)
     if record.scipy:
         jacobian = (lambda t, y: module.jacobian(t, y, par)) if plan.implicit else None
+        rtol, atol = record.working_tolerances(options["rtol"], options["atol"])   # auto: each part's own
         problem = ScipyProblem("auto" if record.parts else record.scipy,
                                ctrl_c.checked(lambda t, y: module.rhs(t, y, par)), jacobian,
-                               options["rtol"], options["atol"], options.get("max_step"), plan.max_steps,
+                               rtol, atol, options.get("max_step"), plan.max_steps,
                                constrained, stop, parts=record.parts)
         return integrate_scipy(problem, times, y0, *(() if progress is None else (progress,)))
     module_name, function = record.python.split(":")

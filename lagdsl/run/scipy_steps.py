@@ -14,6 +14,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..abi import HOPELESS, INTERRUPTED, MAX_STEPS, NONFINITE, SINGULAR, STEP_TOO_SMALL
+from ..integrators import registry
 from ..integrators.forecast import WorkForecast
 from ..integrators.python.auto import AutoSolver
 from ..integrators.python.stiffness import STABILITY_BOUNDARY, StiffnessTest
@@ -105,14 +106,21 @@ def _start(problem: ScipyProblem, t: float, y: np.ndarray, t_end: float, first_s
 
 def _solver(problem: ScipyProblem, t: float, y: np.ndarray, t_end: float, first_step: float | None):
     if problem.method == "auto":
-        return AutoSolver(problem.parts, lambda method, t, y, first: _solver(replace(problem, method=method), t, y,
-                                                                             t_end, first), t, y, first_step)
+        return AutoSolver(problem.parts, lambda part, t, y, first: _solver(_part(problem, part), t, y, t_end, first),
+                          t, y, first_step)
     from scipy import integrate
     method = getattr(integrate, problem.method)
     extra = {"jac": problem.jac} if problem.jac is not None and problem.method not in EXPLICIT_PAIRS else {}
     if problem.max_step:
         extra["max_step"] = problem.max_step
     return method(problem.fun, t, y, t_end, rtol=problem.rtol, atol=problem.atol, first_step=first_step, **extra)
+
+
+def _part(problem: ScipyProblem, name: str) -> ScipyProblem:
+    """auto's part `name` (a registry name): its scipy solver, at the tolerances that method works to."""
+    record = registry.get(name)
+    rtol, atol = record.working_tolerances(problem.rtol, problem.atol)
+    return replace(problem, method=record.scipy, rtol=rtol, atol=atol, parts=())
 
 
 def _step(problem: ScipyProblem, solver, times, counts: dict, watch: _StepWatch, forecast: WorkForecast,

@@ -201,6 +201,8 @@ enum lag_status {
 #define LAG_AUTO_GAIN LAG_LIT(2.0)               /* ... or its steps are not this many times dop853's */
 #define LAG_DOPRI5_STABILITY_BOUNDARY LAG_LIT(3.25) /* h lambda beyond which dopri5's steps are held by stability */
 #define LAG_DOP853_STABILITY_BOUNDARY LAG_LIT(6.1) /* h lambda beyond which dop853's steps are held by stability */
+#define LAG_RADAU5_TOLERANCE_SCALE LAG_LIT(0.1)  /* radau5 works to rtol' = scale rtol^power ... */
+#define LAG_RADAU5_TOLERANCE_POWER (LAG_LIT(2.0) / LAG_LIT(3.0)) /* ... and atol' = rtol' atol / rtol */
 
 /* The positions in the settings vector of lag_run and lag_run_batch (lagdsl.abi.SETTINGS). */
 enum lag_setting { LAG_SET_T_START, LAG_SET_T_STOP, LAG_SET_T_INTERVAL, LAG_SET_RTOL, LAG_SET_ATOL, LAG_SET_STEP, LAG_SET_MAX_STEP, LAG_SET_STAGES, LAG_SET_MAX_STEPS, LAG_SETTINGS };
@@ -673,9 +675,9 @@ static int lag_outputs(const lag_system *sys, real t, const real *y, real *out, 
  * LAG_ERR_STEP_TOO_SMALL for the error test.
  *
  * Tolerances.  The estimate is O(h^4) while the method has order 5, so, as RADAU5 does, the
- * user's tolerances are transformed to rtol' = 0.1 rtol^(2/3), atol' = rtol' atol / rtol,
- * which makes the global error roughly proportional to rtol (rtol is raised to at least
- * 10 eps first).
+ * user's tolerances are transformed to rtol' = 0.1 rtol^(2/3), atol' = rtol' atol / rtol
+ * (LAG_RADAU5_TOLERANCE_SCALE and _POWER, from the integrator's record), which makes the
+ * global error roughly proportional to rtol (rtol is raised to at least 10 eps first).
  *
  * Dense output.  The collocation polynomial of the last step, the cubic through (t_old, y_old)
  * and (t_old + c_i h, y_old + z_i), kept in Newton form about t; it has order 3 inside the
@@ -1312,7 +1314,7 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
     for (i = 0; i < LAG_NY; ++i)
         s->y[i] = y0[i];
     radau_coefficients(s);
-    s->rtol = LAG_LIT(0.1) * r_pow(rtol, 2 / LAG_LIT(3.0));
+    s->rtol = LAG_RADAU5_TOLERANCE_SCALE * r_pow(rtol, LAG_RADAU5_TOLERANCE_POWER);
     for (i = 0; i < LAG_NY; ++i)
         s->atol[i] = r_fmax(s->rtol * (LAG_ATOL(opt, i) / rtol), REAL_MIN);
     s->fnewt = r_fmax(10 * REAL_EPSILON / s->rtol, r_fmin(LAG_LIT(0.03), r_sqrt(s->rtol)));

@@ -201,6 +201,8 @@ enum lag_status {
 #define LAG_AUTO_GAIN LAG_LIT(2.0)               /* ... or its steps are not this many times dop853's */
 #define LAG_DOPRI5_STABILITY_BOUNDARY LAG_LIT(3.25) /* h lambda beyond which dopri5's steps are held by stability */
 #define LAG_DOP853_STABILITY_BOUNDARY LAG_LIT(6.1) /* h lambda beyond which dop853's steps are held by stability */
+#define LAG_RADAU5_TOLERANCE_SCALE LAG_LIT(0.1)  /* radau5 works to rtol' = scale rtol^power ... */
+#define LAG_RADAU5_TOLERANCE_POWER (LAG_LIT(2.0) / LAG_LIT(3.0)) /* ... and atol' = rtol' atol / rtol */
 
 /* The positions in the settings vector of lag_run and lag_run_batch (lagdsl.abi.SETTINGS). */
 enum lag_setting { LAG_SET_T_START, LAG_SET_T_STOP, LAG_SET_T_INTERVAL, LAG_SET_RTOL, LAG_SET_ATOL, LAG_SET_STEP, LAG_SET_MAX_STEP, LAG_SET_STAGES, LAG_SET_MAX_STEPS, LAG_SETTINGS };

@@ -60,9 +60,9 @@
  * LAG_ERR_STEP_TOO_SMALL for the error test.
  *
  * Tolerances.  The estimate is O(h^4) while the method has order 5, so, as RADAU5 does, the
- * user's tolerances are transformed to rtol' = 0.1 rtol^(2/3), atol' = rtol' atol / rtol,
- * which makes the global error roughly proportional to rtol (rtol is raised to at least
- * 10 eps first).
+ * user's tolerances are transformed to rtol' = 0.1 rtol^(2/3), atol' = rtol' atol / rtol
+ * (LAG_RADAU5_TOLERANCE_SCALE and _POWER, from the integrator's record), which makes the
+ * global error roughly proportional to rtol (rtol is raised to at least 10 eps first).
  *
  * Dense output.  The collocation polynomial of the last step, the cubic through (t_old, y_old)
  * and (t_old + c_i h, y_old + z_i), kept in Newton form about t; it has order 3 inside the
@@ -699,7 +699,7 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
     for (i = 0; i < LAG_NY; ++i)
         s->y[i] = y0[i];
     radau_coefficients(s);
-    s->rtol = LAG_LIT(0.1) * r_pow(rtol, 2 / LAG_LIT(3.0));
+    s->rtol = LAG_RADAU5_TOLERANCE_SCALE * r_pow(rtol, LAG_RADAU5_TOLERANCE_POWER);
     for (i = 0; i < LAG_NY; ++i)
         s->atol[i] = r_fmax(s->rtol * (LAG_ATOL(opt, i) / rtol), REAL_MIN);
     s->fnewt = r_fmax(10 * REAL_EPSILON / s->rtol, r_fmin(LAG_LIT(0.03), r_sqrt(s->rtol)));

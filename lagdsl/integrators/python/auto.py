@@ -25,7 +25,8 @@ from .. import AUTO_CALM, AUTO_GAIN, STIFF_STEPS, SWITCH_TIMES, VERDICT_STIFF, r
 from .stiffness import StiffnessTest, jacobian_product
 
 EXPLICIT, IMPLICIT = 0, 1
-# (method, t, y, first step or None) -> a scipy OdeSolver integrating to the run's end
+# (part, t, y, first step or None) -> a scipy OdeSolver integrating to the run's end, for the
+# part (a registry name) at the tolerances it works to
 SolverFactory = Callable[[str, float, np.ndarray, float | None], object]
 
 
@@ -114,7 +115,7 @@ class AutoSolver:
             for name in self.finished:
                 self.finished[name] += getattr(self.solver, name)
         self.method = method
-        self.solver = self.make(self.methods[method], t, y, first_step)
+        self.solver = self.make(self.parts[method], t, y, first_step)
         self.last = self.last or self.solver
 
     def _back_to_explicit(self) -> bool:
