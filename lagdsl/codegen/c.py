@@ -14,7 +14,7 @@ from . import GeneratedSource, template_environment
 from .c_abi import runtime_contract, runtime_header, status_printer, summary_packer, verdict_printer
 from .c_factor import factorisation_text
 from .c_lanes import lane_groups
-from .c_taylor_lanes import lane_series_text
+from .c_taylor_lanes import lane_series
 from .c_taylor import series_text
 from .kernel import Block, Kernel, Loop, Store
 from .printers import CPrinter
@@ -76,7 +76,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
         "stop_needs_multipliers": kernel.stop_needs_multipliers,
         "integrator_source": integrator_source(kernel.integrator.name),
         "taylor_series": series_text(kernel, printer, _k_positions(kernel)) if method.series else "",
-        "contract": runtime_contract(), "flags": _driver_flags(kernel, method, lanes is not None), "lanes": lanes,
+        "contract": runtime_contract(), "flags": _driver_flags(kernel, method, lanes), "lanes": lanes,
         "driver": c_file("forecast.c") + "\n" + c_file("driver.c"), "library": c_file("library.c"),
         "standalone": c_file("standalone.c"),
         "summary_packer": summary_packer(summary_layout(method.name, len(kernel.invariant_names), 2 * kernel.n,
@@ -126,21 +126,22 @@ def _lanes(kernel: Kernel, method: registry.Integrator, blocks: dict, printer, e
         return None
     source = c_file("lanes.c").replace(LANES_METHOD, c_file(method.lanes))
     if method.series:
-        series = lane_series_text(kernel, printer, _k_positions(kernel))
-        return None if series is None else {"kept": (), "groups": (), "series": series, "source": source}
+        series = lane_series(kernel, printer, _k_positions(kernel))
+        return None if series is None else {"kept": (), "groups": (), "source": source, **series}
     kept, groups = lane_groups(system, blocks["system"])
-    return {"kept": kept, "groups": groups, "series": "", "source": source}
+    return {"kept": kept, "groups": groups, "series": "", "switch": 1, "source": source}
 
 
-def _driver_flags(kernel: Kernel, method: registry.Integrator, lanes: bool) -> list[tuple[str, int, str]]:
-    """The LAG_HAS_* switches of driver.c and standalone.c: what this scene has."""
+def _driver_flags(kernel: Kernel, method: registry.Integrator, lanes: dict | None) -> list[tuple[str, int | str, str]]:
+    """The LAG_HAS_* switches of driver.c and standalone.c: what this scene has (LAG_HAS_LANES may be
+    a condition on the build's precision, c_taylor_lanes.py)."""
     return [("LAG_HAS_CONSTRAINTS", int(bool(kernel.constraints)), "project onto constraints, watch their residual"),
             ("LAG_HAS_INVARIANTS", int(bool(kernel.invariant_names)), "watch conserved quantities"),
             ("LAG_HAS_STOP", int(kernel.stop is not None), "a stop condition may end the run"),
             ("LAG_HAS_STIFFNESS_TEST", int(method.stiffness_test), "report the integrator's stiffness test"),
             ("LAG_HAS_SWITCHES", int(bool(method.parts)), "report the composite integrator's switches"),
             ("LAG_HAS_TOLERANCES", int("rtol" in method.options), "the integrator takes rtol and atol"),
-            ("LAG_HAS_LANES", int(lanes), "the sweep runs its members in SIMD lanes (lag_run_lanes)")]
+            ("LAG_HAS_LANES", lanes["switch"] if lanes else 0, "the sweep runs its members in SIMD lanes (lag_run_lanes)")]
 
 
 def _linear_algebra(kernel: Kernel) -> str:

@@ -17,7 +17,7 @@ from __future__ import annotations
 import re
 
 from . import template_environment
-from .c_taylor import DOUBLE_DIGITS, max_order, series_context
+from .c_taylor import DOUBLE_DIGITS, MAX_ORDER, max_order, series_context
 
 COEFFICIENT = re.compile(r"\bs\[(\d+)\]\[(\d+)\]")
 RIGHT_SIDE = re.compile(r"\br\[(\d+)\]")
@@ -37,9 +37,11 @@ def lane_input(source: str) -> str:
     return f"{source}[l]"
 
 
-def lane_series_text(kernel, printer, positions: list[str]) -> str | None:
-    """lag_lane_taylor_series and its pieces for kernel.system, or None where the series is not
-    the simple one (another solver, no inverse, orders that keep their loops)."""
+def lane_series(kernel, printer, positions: list[str]) -> dict | None:
+    """{"series": lag_lane_taylor_series and its pieces for kernel.system, "switch": the C condition
+    for LAG_HAS_LANES}, or None where the series is not the simple one (another solver, no inverse,
+    orders that keep their loops). The switch holds in a double build, whose every order the lanes
+    write out, not in an extended-precision one (whose sweep runs member by member)."""
     context = series_context(kernel, printer, positions)
     straight = context["taylor_straight"]
     if (context["taylor_solver"] != "compact" or not context["taylor_inverse"]
@@ -49,4 +51,5 @@ def lane_series_text(kernel, printer, positions: list[str]) -> str | None:
         "lane_inputs": [(name, lane_input(source)) for name, source in context["taylor_inputs"]],
         "lane_straight": [(k, [lane_statement(line) for line in prologue], [lane_statement(line) for line in lines])
                           for k, prologue, lines in straight]}
-    return template_environment().get_template("c/taylor_lanes.c.j2").render({**context, **lanes})
+    return {"series": template_environment().get_template("c/taylor_lanes.c.j2").render({**context, **lanes}),
+            "switch": f"({MAX_ORDER} - 1 <= {len(straight)})"}

@@ -2091,7 +2091,7 @@ static void lag_run_lanes(long members, const double *parameters, const double *
 void lag_run_batch(long members, const double *parameters, const double *initial, const double *settings,
                    double *values, long capacity, double *summaries, long stride, int threads)
 {
-#if LAG_HAS_LANES      /* dop853_lanes.c, pasted after this file: the same results bit for bit */
+#if LAG_HAS_LANES      /* lanes.c, pasted after this file: the same results bit for bit */
     lag_run_lanes(members, parameters, initial, settings, values, capacity, summaries, stride, threads);
 #else
     lag_run_members(members, parameters, initial, settings, lag_grid_row, LAG_NOUT, values, capacity, summaries,
@@ -2099,6 +2099,7 @@ void lag_run_batch(long members, const double *parameters, const double *initial
 #endif
 }
 
+#if LAG_HAS_LANES
 /* ---- the sweep in SIMD lanes ---- */
 /* The sweep in SIMD lanes, what every method's lanes share: LAG_LANES members integrated side by
  * side by one thread, so that the method's arithmetic runs as loops over the lanes that the
@@ -2109,8 +2110,7 @@ void lag_run_batch(long members, const double *parameters, const double *initial
  * step size, error norm, accept or reject and step limit. The method's file (dop853_lanes.c,
  * taylor_lanes.c; codegen/c.py puts it where LAG_LANES_METHOD stands below) defines struct
  * lag_lanes (the fields below first, then its own arrays) and lag_lanes_round, one step or trial
- * of every busy lane, and LAG_LANES_ADMITTED, whether this build's lanes can run (else the members
- * run one by one); the delivery of rows, the work forecast and the summaries are the scalar
+ * of every busy lane; the delivery of rows, the work forecast and the summaries are the scalar
  * code of driver.c and library.c, applied lane by lane, so that a member's rows, counters and
  * summary equal those of its lag_run bit for bit where the method's lanes compute what its
  * scalar path computes. A lane whose member has finished or failed is refilled with the next
@@ -2164,8 +2164,6 @@ static void lag_lanes_round(lag_lanes *lanes);
  * a*b + c into an fma, and nothing is reassociated), so a member's results equal its lag_run's
  * bit for bit.
  */
-
-#define LAG_LANES_ADMITTED 1
 
 /* The stages 2..12 of a trial: each one's node c (NULL for stage 12, which is at t_new) and its
  * coefficients a_sj, nonzero for the stages `from` (HNW I, II.10; the constants of dop853.c). */
@@ -2526,7 +2524,7 @@ static void lag_run_lanes(long members, const double *parameters, const double *
     (void)threads;
 #endif
     {
-        lag_lanes *lanes = LAG_LANES_ADMITTED ? malloc(sizeof *lanes) : NULL;
+        lag_lanes *lanes = malloc(sizeof *lanes);
         if (lanes != NULL)
             lag_lanes_run(lanes, &batch);
         else
@@ -2535,6 +2533,7 @@ static void lag_run_lanes(long members, const double *parameters, const double *
     }
 }
 
+#endif
 /* ---- the standalone program: the scene's grid and options ---- */
 #define LAG_SCENE_T_START LAG_LIT(0.0)
 #define LAG_SCENE_T_STOP LAG_LIT(20.0)

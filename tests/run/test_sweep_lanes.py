@@ -57,7 +57,8 @@ def simulated(model, scene: str, values: dict, stop: float, integrator: str = "d
 def test_each_member_of_a_lane_sweep_equals_its_simulate_bit_for_bit(integrator, name):
     scene, ranges, stop = LANE_MODELS[name]
     model = library_model(name)
-    assert "#define LAG_HAS_LANES 1" in model.emit("c", scene, Overrides(integrator=integrator)).text
+    # 1, or for taylor the condition that the build is a double one (c_taylor_lanes.py)
+    assert "#define LAG_HAS_LANES 0" not in model.emit("c", scene, Overrides(integrator=integrator)).text
     varied = draw(ranges, MEMBERS, seed=len(name))
     sweep = model.sweep(scene, set=varied, stop=stop, integrator=integrator, workers=2)
     for b in range(MEMBERS):

@@ -8,8 +8,6 @@
  * bit for bit.
  */
 
-#define LAG_LANES_ADMITTED 1
-
 /* The stages 2..12 of a trial: each one's node c (NULL for stage 12, which is at t_new) and its
  * coefficients a_sj, nonzero for the stages `from` (HNW I, II.10; the constants of dop853.c). */
 typedef struct dp8_lane_stage {

@@ -7,8 +7,7 @@
  * step size, error norm, accept or reject and step limit. The method's file (dop853_lanes.c,
  * taylor_lanes.c; codegen/c.py puts it where LAG_LANES_METHOD stands below) defines struct
  * lag_lanes (the fields below first, then its own arrays) and lag_lanes_round, one step or trial
- * of every busy lane, and LAG_LANES_ADMITTED, whether this build's lanes can run (else the members
- * run one by one); the delivery of rows, the work forecast and the summaries are the scalar
+ * of every busy lane; the delivery of rows, the work forecast and the summaries are the scalar
  * code of driver.c and library.c, applied lane by lane, so that a member's rows, counters and
  * summary equal those of its lag_run bit for bit where the method's lanes compute what its
  * scalar path computes. A lane whose member has finished or failed is refilled with the next
@@ -232,7 +231,7 @@ static void lag_run_lanes(long members, const double *parameters, const double *
     (void)threads;
 #endif
     {
-        lag_lanes *lanes = LAG_LANES_ADMITTED ? malloc(sizeof *lanes) : NULL;
+        lag_lanes *lanes = malloc(sizeof *lanes);
         if (lanes != NULL)
             lag_lanes_run(lanes, &batch);
         else

@@ -156,22 +156,27 @@ static int taylor_begin_step(lag_stepper *s, real *weight, real *size, int *taki
     return LAG_OK;
 }
 
-/* The second half, once s->s holds the series of the state to s->order: the step from the series
- * and the state at its end. The sweep's lanes (taylor_lanes.c) compute the series of several
- * members at once between the two halves. */
-static int taylor_end_step(lag_stepper *s, const real *weight, real size)
+/* The step of the second half, from the series in s->s: its size h (at most hmax, landing
+ * exactly on t_end: *landing), or LAG_ERR_NONFINITE, LAG_ERR_STEP_TOO_SMALL. */
+static int taylor_step_to_take(lag_stepper *s, const real *weight, real size, real *h, int *landing)
 {
-    real h;
-    int i, status, landing, finite = 1;
+    int status;
     s->stats.orders += s->order;
-    if ((status = taylor_step_size(s, weight, size, &h)) != LAG_OK)
+    if ((status = taylor_step_size(s, weight, size, h)) != LAG_OK)
         return status;
-    h = h < s->hmax ? h : s->hmax;
-    if (!(h >= LAG_MIN_STEP(s->t, s->span)))
+    *h = *h < s->hmax ? *h : s->hmax;
+    if (!(*h >= LAG_MIN_STEP(s->t, s->span)))
         return LAG_ERR_STEP_TOO_SMALL;
-    if ((landing = s->t + LAG_LIT(1.01) * h >= s->t_end))
-        h = s->t_end - s->t;
-    taylor_evaluate(s, h, s->y_end);
+    if ((*landing = s->t + LAG_LIT(1.01) * *h >= s->t_end))
+        *h = s->t_end - s->t;
+    return LAG_OK;
+}
+
+/* The step h taken, once s->y_end holds the series at t + h: the state moves there, or
+ * LAG_ERR_NONFINITE. */
+static int taylor_take_step(lag_stepper *s, real h, int landing)
+{
+    int i, finite = 1;
     for (i = 0; i < LAG_NY; ++i)      /* no early exit: the loop vectorises */
         finite &= r_isfinite(s->y_end[i]);
     if (!finite)
@@ -185,9 +190,22 @@ static int taylor_end_step(lag_stepper *s, const real *weight, real size)
     return LAG_OK;
 }
 
+/* The second half, once s->s holds the series of the state to s->order: the step from the series
+ * and the state at its end. The sweep's lanes (taylor_lanes.c) compute the series of several
+ * members at once between the two halves, and the state at the step's end (Horner) too. */
+static int taylor_end_step(lag_stepper *s, const real *weight, real size)
+{
+    real h;
+    int landing, status = taylor_step_to_take(s, weight, size, &h, &landing);
+    if (status != LAG_OK)
+        return status;
+    taylor_evaluate(s, h, s->y_end);
+    return taylor_take_step(s, h, landing);
+}
+
 static int lag_stepper_step(lag_stepper *s)
 {
-    real weight[LAG_NY], size;
+    real weight[LAG_NY], size = 0;
     int taking, status = taylor_begin_step(s, weight, &size, &taking);
     if (status != LAG_OK || !taking)
         return status;
