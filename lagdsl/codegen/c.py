@@ -141,7 +141,8 @@ def _driver_flags(kernel: Kernel, method: registry.Integrator, lanes: dict | Non
             ("LAG_HAS_STIFFNESS_TEST", int(method.stiffness_test), "report the integrator's stiffness test"),
             ("LAG_HAS_SWITCHES", int(bool(method.parts)), "report the composite integrator's switches"),
             ("LAG_HAS_TOLERANCES", int("rtol" in method.options), "the integrator takes rtol and atol"),
-            ("LAG_HAS_LANES", lanes["switch"] if lanes else 0, "the sweep runs its members in SIMD lanes (lag_run_lanes)")]
+            ("LAG_HAS_LANES", lanes["switch"] if lanes else 0,
+             "the sweep runs its members in SIMD lanes (lag_run_lanes)")]
 
 
 def _linear_algebra(kernel: Kernel) -> str:

@@ -225,7 +225,8 @@ class SeriesPrinter:
 def series_text(kernel, printer, positions: list[str]) -> str:
     """The model part's Taylor series (templates/c/taylor_series.c.j2) for kernel.system.
     `positions` are the C indices of K's stores in the system block, in order."""
-    return template_environment().get_template("c/taylor_series.c.j2").render(series_context(kernel, printer, positions))
+    context = series_context(kernel, printer, positions)
+    return template_environment().get_template("c/taylor_series.c.j2").render(context)
 
 
 def series_context(kernel, printer, positions: list[str]) -> dict:
