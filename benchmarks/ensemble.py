@@ -1,7 +1,7 @@
 """Many runs per call: 10^4 double pendulums with model.sweep against loops of single runs.
 
     python benchmarks/ensemble.py [--side 100] [--workers 2] [--scipy-sample 20] [--loop-sample 200]
-                                  [--picture benchmarks/ensemble_basin.png]
+                                  [--picture benchmarks/ensemble_basin.png] [--no-matched | --matched-only]
 
 Model models/double_pendulum.lag, scene `chaos` with t = 0 .. 10, dop853 at rtol = atol = 1e-8,
 output at t = 0 and t = 10 only. The members are a side x side grid of starting angles
@@ -14,7 +14,7 @@ theta1, theta2 in [-pi, pi] (at rest), 10^4 for side = 100. Measured in one run:
       accelerations, math.sin/cos) over --scipy-sample members, scaled;
   (d) a loop of CyRK's nbsolve_ivp (DOP853, numba right-hand side) over --loop-sample members,
       scaled, if CyRK is installed;
-  (e) at matched accuracy (ensemble_heyoka.py): the sweep against heyoka's batch mode
+  (e) at matched accuracy (ensemble_heyoka.py): the sweep (taylor and dop853 in lanes) against heyoka's batch mode
       (taylor_adaptive_batch, one thread) and ensemble_propagate_until_batch (all threads), each at
       the loosest tolerance whose error at t = 10 is at most 1e-6 on --error-sample random members
       against lagdsl's extended-precision reference; heyoka optional (--no-matched skips it).
@@ -145,9 +145,14 @@ def main() -> int:
     parser.add_argument("--picture", type=Path, default=Path(__file__).resolve().parent / "ensemble_basin.png")
     parser.add_argument("--error-sample", type=int, default=20, help="random members whose error is measured (e)")
     parser.add_argument("--no-matched", action="store_true", help="leave out (e), the comparison at matched accuracy")
+    parser.add_argument("--matched-only", action="store_true", help="only (e), the comparison at matched accuracy")
     args = parser.parse_args()
     model = lagdsl.load(MODELS / "double_pendulum.lag")
     varied = members(args.side)
+    if args.matched_only:
+        print(machine_description())
+        print_matched(model, varied, args)
+        return 0
     total = len(varied["theta1.start"])
     plan = model.plan(SCENE)
     par = tuple(plan.parameters)

@@ -2,7 +2,7 @@
 
 Part of ensemble.py (run there). The members are ensemble.py's grid of double pendulums, t = 0
 .. 10, state at t = 10. The accuracy of a method at a tolerance tol (rtol = atol = tol for
-lagdsl's dop853, heyoka's tol) is its sampled error: the largest |theta1(10) - ref|,
+lagdsl's taylor and dop853, heyoka's tol) is its sampled error: the largest |theta1(10) - ref|,
 |theta2(10) - ref| over --error-sample members spread over the grid, ref being lagdsl's
 extended-precision reference of the member (lagdsl.reference: __float128, cached). Each method
 runs at the loosest tolerance of its ladder whose sampled error is at most TARGET, and is timed on
@@ -27,8 +27,9 @@ from lagdsl.settings import Overrides
 
 TARGET = 1e-6
 STOP = 10.0
-LAGDSL_TOLERANCES = (1e-10, 1e-11, 1e-12, 1e-13, 1e-14)
-HEYOKA_TOLERANCES = (1e-9, 1e-10, 1e-11, 1e-12, 1e-13, 1e-14, 1e-15)
+# Every method's ladder, loosest first: 3e-9, 1e-9, 3e-10, ..., 1e-15.
+TOLERANCES = tuple(float(f"{mantissa}e-{exponent}") for exponent in range(9, 16) for mantissa in (3, 1))
+LAGDSL_METHODS = ("taylor", "dop853")
 
 
 @dataclass(frozen=True)
@@ -68,26 +69,27 @@ def loosest(tolerances, error_of) -> tuple[float, float] | None:
 
 
 # ---- lagdsl ------------------------------------------------------------------------------------
-def lagdsl_finals(model, varied: dict, tol: float, workers: int, chosen=None):
+def lagdsl_finals(model, varied: dict, method: str, tol: float, workers: int, chosen=None):
     chosen = np.arange(len(next(iter(varied.values())))) if chosen is None else chosen
     sweep = model.sweep("chaos", set={k: v[chosen] for k, v in varied.items()}, stop=STOP, interval=STOP,
-                        integrator="dop853", rtol=tol, atol=tol, workers=workers)
+                        integrator=method, rtol=tol, atol=tol, workers=workers)
     return np.column_stack([sweep["theta1"][:, -1], sweep["theta2"][:, -1]])
 
 
 def lagdsl_matched(model, varied: dict, chosen, reference: np.ndarray, workers: int) -> list[Matched]:
-    print("  lagdsl dop853 (lanes):", flush=True)
-    found = loosest(LAGDSL_TOLERANCES, lambda tol: float(np.max(np.abs(
-        lagdsl_finals(model, varied, tol, workers, chosen) - reference))))
-    if found is None:
-        return []
-    tol, error = found
     rows = []
-    for threads in sorted({1, workers}):
-        wall, cpu, _ = min((wall_and_cpu(lambda: lagdsl_finals(model, varied, tol, threads)) for _ in range(2)),
-                           key=lambda m: m[0])
-        rows.append(Matched(f"lagdsl model.sweep, dop853 in lanes, {threads} thread{'s' * (threads > 1)}",
-                            tol, error, cpu, wall))
+    for method in LAGDSL_METHODS:
+        print(f"  lagdsl {method} (lanes):", flush=True)
+        found = loosest(TOLERANCES, lambda tol: float(np.max(np.abs(
+            lagdsl_finals(model, varied, method, tol, workers, chosen) - reference))))
+        if found is None:
+            continue
+        tol, error = found
+        for threads in sorted({1, workers}):
+            wall, cpu, _ = min((wall_and_cpu(lambda: lagdsl_finals(model, varied, method, tol, threads))
+                                for _ in range(2)), key=lambda m: m[0])
+            rows.append(Matched(f"lagdsl model.sweep, {method} in lanes, {threads} thread{'s' * (threads > 1)}",
+                                tol, error, cpu, wall))
     return rows
 
 
@@ -144,7 +146,7 @@ def heyoka_matched(varied: dict, chosen, reference: np.ndarray, workers: int) ->
         integrators[tol] = heyoka_batch(tol)
         return float(np.max(np.abs(heyoka_batch_finals(*integrators[tol], varied, chosen) - reference)))
 
-    found = loosest(HEYOKA_TOLERANCES, error_of)
+    found = loosest(TOLERANCES, error_of)
     if found is None:
         return []
     tol, error = found

@@ -14,11 +14,14 @@ from . import GeneratedSource, template_environment
 from .c_abi import runtime_contract, runtime_header, status_printer, summary_packer, verdict_printer
 from .c_factor import factorisation_text
 from .c_lanes import lane_groups
+from .c_taylor_lanes import lane_series
 from .c_taylor import series_text
 from .kernel import Block, Kernel, Loop, Store
 from .printers import CPrinter
 
 # The parameters of each generated C function whose body is a kernel block.
+# Where lanes.c takes the integrator's own lanes file.
+LANES_METHOD = "/* LAG_LANES_METHOD */"
 FUNCTION_PARAMETERS = {
     "initial": ("par", "y0"),
     "system": ("par", "t", "y", "K", "b"),
@@ -47,7 +50,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
               for name in FUNCTION_PARAMETERS if getattr(kernel, name) is not None}
     options = dict(kernel.integrator.options)
     method = registry.get(kernel.integrator.name)
-    lanes = _lanes(kernel, method, blocks, fmu is not None or sensitivity is not None)
+    lanes = _lanes(kernel, method, blocks, printer, fmu is not None or sensitivity is not None)
     context = {
         "title": f"{kernel.model_name}, scene {kernel.scene_name}: generated C simulation",
         "version": __version__, "source_name": source_name, "scene": kernel.scene_name,
@@ -72,9 +75,8 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
         "outputs_need_multipliers": kernel.outputs_need_multipliers,
         "stop_needs_multipliers": kernel.stop_needs_multipliers,
         "integrator_source": integrator_source(kernel.integrator.name),
-        "taylor_series": series_text(kernel, printer, [_position(s, kernel) for s in kernel.system.stores
-                                                       if s.array == "K"]) if method.series else "",
-        "contract": runtime_contract(), "flags": _driver_flags(kernel, method, lanes is not None), "lanes": lanes,
+        "taylor_series": series_text(kernel, printer, _k_positions(kernel)) if method.series else "",
+        "contract": runtime_contract(), "flags": _driver_flags(kernel, method, lanes), "lanes": lanes,
         "driver": c_file("forecast.c") + "\n" + c_file("driver.c"), "library": c_file("library.c"),
         "standalone": c_file("standalone.c"),
         "summary_packer": summary_packer(summary_layout(method.name, len(kernel.invariant_names), 2 * kernel.n,
@@ -93,6 +95,11 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
     return GeneratedSource("c", text, stem(kernel))
 
 
+def _k_positions(kernel: Kernel) -> list[str]:
+    """The C indices of K's stores in the system block, in order (what the Taylor series assemble)."""
+    return [_position(s, kernel) for s in kernel.system.stores if s.array == "K"]
+
+
 def signature(kernel: Kernel, name: str) -> tuple[str, ...]:
     """The parameters of the function whose body is block `name`: with M apart (constant_mass),
     the system block is lag_forces(par, t, y, b)."""
@@ -106,28 +113,36 @@ def layout_kind(kernel: Kernel) -> str:
     return kernel.layout.kind if kernel.layout else "dense"
 
 
-def _lanes(kernel: Kernel, method: registry.Integrator, blocks: dict, elsewhere: bool) -> dict | None:
-    """The sweep's path in SIMD lanes (c_lanes.py, the integrator's lanes file), or None where the
+def _lanes(kernel: Kernel, method: registry.Integrator, blocks: dict, printer, elsewhere: bool) -> dict | None:
+    """The sweep's path in SIMD lanes (lanes.c with the integrator's lanes file in it; the right-hand
+    side in lanes of c_lanes.py, or taylor's series in lanes of c_taylor_lanes.py), or None where the
     scene has none: an integrator without one, a program that is not the shared library's
-    (`elsewhere`: an FMU, sensitivities), constraints, a stop condition, or a system block with
-    stencil loops (a large chain, whose loops over its members already vectorise)."""
+    (`elsewhere`: an FMU, sensitivities), constraints, a stop condition, a system block with
+    stencil loops (a large chain, whose loops over its members already vectorise), or a series
+    that c_taylor_lanes.py does not write in lanes."""
     system = kernel.system
     if (not method.lanes or elsewhere or kernel.constraints or kernel.stop is not None or system is None
             or system.loops or system.cleared or system.accumulators):
         return None
+    source = c_file("lanes.c").replace(LANES_METHOD, c_file(method.lanes))
+    if method.series:
+        series = lane_series(kernel, printer, _k_positions(kernel))
+        return None if series is None else {"kept": (), "groups": (), "source": source, **series}
     kept, groups = lane_groups(system, blocks["system"])
-    return {"kept": kept, "groups": groups, "source": c_file(method.lanes)}
+    return {"kept": kept, "groups": groups, "series": "", "switch": 1, "source": source}
 
 
-def _driver_flags(kernel: Kernel, method: registry.Integrator, lanes: bool) -> list[tuple[str, int, str]]:
-    """The LAG_HAS_* switches of driver.c and standalone.c: what this scene has."""
+def _driver_flags(kernel: Kernel, method: registry.Integrator, lanes: dict | None) -> list[tuple[str, int | str, str]]:
+    """The LAG_HAS_* switches of driver.c and standalone.c: what this scene has (LAG_HAS_LANES may be
+    a condition on the build's precision, c_taylor_lanes.py)."""
     return [("LAG_HAS_CONSTRAINTS", int(bool(kernel.constraints)), "project onto constraints, watch their residual"),
             ("LAG_HAS_INVARIANTS", int(bool(kernel.invariant_names)), "watch conserved quantities"),
             ("LAG_HAS_STOP", int(kernel.stop is not None), "a stop condition may end the run"),
             ("LAG_HAS_STIFFNESS_TEST", int(method.stiffness_test), "report the integrator's stiffness test"),
             ("LAG_HAS_SWITCHES", int(bool(method.parts)), "report the composite integrator's switches"),
             ("LAG_HAS_TOLERANCES", int("rtol" in method.options), "the integrator takes rtol and atol"),
-            ("LAG_HAS_LANES", int(lanes), "the sweep runs its members in SIMD lanes (lag_run_lanes)")]
+            ("LAG_HAS_LANES", lanes["switch"] if lanes else 0,
+             "the sweep runs its members in SIMD lanes (lag_run_lanes)")]
 
 
 def _linear_algebra(kernel: Kernel) -> str:

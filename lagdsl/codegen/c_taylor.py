@@ -225,6 +225,13 @@ class SeriesPrinter:
 def series_text(kernel, printer, positions: list[str]) -> str:
     """The model part's Taylor series (templates/c/taylor_series.c.j2) for kernel.system.
     `positions` are the C indices of K's stores in the system block, in order."""
+    context = series_context(kernel, printer, positions)
+    return template_environment().get_template("c/taylor_series.c.j2").render(context)
+
+
+def series_context(kernel, printer, positions: list[str]) -> dict:
+    """The statements of the series, as templates/c/taylor_series.c.j2 reads them (and the sweep's
+    lanes, c_taylor_lanes.py)."""
     graph = series_graph(kernel)
     series = SeriesPrinter(graph, printer)
     zeroth_lines = [line for i, node in enumerate(graph.nodes) for line in series.zeroth(i, node)]
@@ -245,7 +252,7 @@ def series_text(kernel, printer, positions: list[str]) -> str:
     helpers = [helper(RECURRENCES[kind], printer) for kind in graph.kinds()]
     if any(value.node is not None for _, _, value in graph.matrix):
         helpers.append(tail_helper())
-    context = {
+    return {
         "taylor_helpers": helpers, "taylor_nodes": len(graph.nodes), "taylor_solution": graph.solution[0],
         "taylor_time": time[0] if time else None, "taylor_solver": solver_kind(kernel),
         "taylor_inverse": kernel.size <= INVERSE_LARGEST,
@@ -259,7 +266,6 @@ def series_text(kernel, printer, positions: list[str]) -> str:
                              + (["const real inv_k = (real)1 / %d;" % k] if any(_reads(line, "inv_k") for line in lines)
                                 else []), lines) for k, lines in orders],
         "constraints": kernel.constraints}
-    return template_environment().get_template("c/taylor_series.c.j2").render(context)
 
 
 def solver_kind(kernel) -> str:

@@ -213,7 +213,7 @@ for _record in (
                order=2, stage_order=True),
     Integrator("taylor", "the Taylor integrator taylor",
                "Taylor series of variable order and step (Jorba-Zou), from the equations' recurrences; C backend",
-               counters=("accepted", "orders"), series=True,
+               counters=("accepted", "orders"), series=True, lanes="taylor_lanes.c",
                numpy="the Taylor integrator taylor runs on the C backend only (its series are generated C); "
                      "use --backend c, or dop853 on the NumPy backend"),
     Integrator("auto", "auto", "dop853, switching to radau5 where the model is stiff, and back",

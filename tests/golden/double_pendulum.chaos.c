@@ -396,7 +396,7 @@ static int lag_rhs(const lag_system *sys, real t, const real *y, real *dydt)
     return lag_accelerations(sys, t, y, dydt + LAG_NQ);
 }
 
-/* ---- the right-hand side in SIMD lanes, for the sweep (dop853_lanes.c, codegen/c_lanes.py) ---- */
+/* ---- the sweep in SIMD lanes (lanes.c): the right-hand side, for dop853_lanes.c (codegen/c_lanes.py) ---- */
 /* Members side by side: as many as the widest vector register the compiler builds for holds doubles. */
 #ifndef LAG_LANES
 #if defined(__AVX512F__)
@@ -2093,7 +2093,7 @@ static void lag_run_lanes(long members, const double *parameters, const double *
 void lag_run_batch(long members, const double *parameters, const double *initial, const double *settings,
                    double *values, long capacity, double *summaries, long stride, int threads)
 {
-#if LAG_HAS_LANES      /* dop853_lanes.c, pasted after this file: the same results bit for bit */
+#if LAG_HAS_LANES      /* lanes.c, pasted after this file: the same results bit for bit */
     lag_run_lanes(members, parameters, initial, settings, values, capacity, summaries, stride, threads);
 #else
     lag_run_members(members, parameters, initial, settings, lag_grid_row, LAG_NOUT, values, capacity, summaries,
@@ -2101,26 +2101,70 @@ void lag_run_batch(long members, const double *parameters, const double *initial
 #endif
 }
 
+#if LAG_HAS_LANES
 /* ---- the sweep in SIMD lanes ---- */
-/* The sweep in SIMD lanes for dop853: LAG_LANES members integrated side by side, so that the
- * stages of their trial steps (the stage arguments and the model's right-hand side, lag_lane_rhs)
- * run as loops over the lanes that the compiler vectorises, entry [i][l] of every array being
- * component i of lane l (structure of arrays).
+/* The sweep in SIMD lanes, what every method's lanes share: LAG_LANES members integrated side by
+ * side by one thread, so that the method's arithmetic runs as loops over the lanes that the
+ * compiler vectorises, entry [i][l] of every array being component i of lane l (structure of
+ * arrays).
  *
  * Each lane is one member with its own scalar lag_stepper, report and output rows: its own t,
- * step size, error norm, accept or reject and step limit. Only the stages 2..12 of a trial and
- * f at its new point are computed in lanes; everything else (the trial's size, the order-8
- * solution and its error, the step-size control, the stiffness test, the dense output and the
- * driver's rows and work forecast) is the scalar code of dop853.c, explicit_control.c,
- * dormand_prince.c and driver.c, applied lane by lane. The lanes compute what the scalar path
- * computes, operation for operation and in the same order (C99 does not contract a*b + c into
- * an fma, and nothing is reassociated), so a member's rows, counters and summary equal those of
- * its lag_run bit for bit. A lane whose member has finished or failed is refilled with the next
+ * step size, error norm, accept or reject and step limit. The method's file (dop853_lanes.c,
+ * taylor_lanes.c; codegen/c.py puts it where LAG_LANES_METHOD stands below) defines struct
+ * lag_lanes (the fields below first, then its own arrays) and lag_lanes_round, one step or trial
+ * of every busy lane; the delivery of rows, the work forecast and the summaries are the scalar
+ * code of driver.c and library.c, applied lane by lane, so that a member's rows, counters and
+ * summary equal those of its lag_run bit for bit where the method's lanes compute what its
+ * scalar path computes. A lane whose member has finished or failed is refilled with the next
  * member not yet begun, so a slow member holds up no other.
  *
  * Pasted after library.c (it reads lag_buffer, lag_grid_row, lag_member_inputs, lag_begin and
- * lag_pack_summary), for a scene without constraints or stop condition whose model gives
- * lag_lane_rhs (lagdsl/codegen/c_lanes.py).
+ * lag_pack_summary), for a scene without constraints or stop condition.
+ */
+
+/* One lane: its member (-1: empty), the member's run as lag_integrate keeps it, and the trial in
+ * progress (the fields a method's round uses). */
+typedef struct lag_lane {
+    long member;
+    lag_system sys;
+    lag_options limited;           /* the options with the step limit, which the stepper keeps */
+    lag_report report;
+    lag_buffer rows;
+    double *summary;
+    real t0, t1, dt;
+    long k, last;                  /* the next row to deliver, the final one */
+    real h, t_new, err;            /* the trial: its size, its end, its scaled error */
+    int trying;                    /* it takes a trial this round */
+    int evaluating;                /* it counts the evaluation of the stage in progress */
+    int status;                    /* of the trial so far */
+} lag_lane;
+
+/* What every lane of a thread shares: the batch's inputs and outputs, and the next member. */
+typedef struct lag_lane_batch {
+    long members;
+    const double *parameters, *initial, *settings;
+    double *values, *summaries;
+    long capacity, stride;
+    long *next;                    /* the next member not yet begun, shared by the threads */
+} lag_lane_batch;
+
+/* The lanes of one thread: the method's file defines it, beginning with
+ *     lag_lane lane[LAG_LANES]; lag_stepper stepper[LAG_LANES];
+ *     const lag_system *sys[LAG_LANES]; real par[LAG_NP > 0 ? LAG_NP : 1][LAG_LANES];
+ * (each lane's run, its stepper, its system, its parameters side by side). */
+typedef struct lag_lanes lag_lanes;
+static void lag_lane_end(lag_lanes *lanes, int l, int status);
+static void lag_lane_rows(lag_lanes *lanes, int l, int stepped);
+static void lag_lanes_round(lag_lanes *lanes);
+
+/* dop853 in SIMD lanes (lanes.c): only the stages 2..12 of a trial and f at its new point are
+ * computed in lanes (the stage arguments and the model's right-hand side, lag_lane_rhs,
+ * codegen/c_lanes.py); everything else (the trial's size, the order-8 solution and its error, the
+ * step-size control, the stiffness test, the dense output) is the scalar code of dop853.c,
+ * explicit_control.c and dormand_prince.c, applied lane by lane. The lanes compute what the
+ * scalar path computes, operation for operation and in the same order (C99 does not contract
+ * a*b + c into an fma, and nothing is reassociated), so a member's results equal its lag_run's
+ * bit for bit.
  */
 
 /* The stages 2..12 of a trial: each one's node c (NULL for stage 12, which is at t_new) and its
@@ -2150,25 +2194,8 @@ static const dp8_lane_stage dp8_lane_stages[11] = {
         &dp8_a12_11 } }
 };
 
-/* One lane: its member (-1: empty), the member's run as lag_integrate keeps it, and the trial in
- * progress. */
-typedef struct lag_lane {
-    long member;
-    lag_system sys;
-    lag_options limited;           /* the options with the step limit, which the stepper keeps */
-    lag_report report;
-    lag_buffer rows;
-    double *summary;
-    real t0, t1, dt;
-    long k, last;                  /* the next row to deliver, the final one */
-    real h, t_new, err;            /* the trial: its size, its end, its scaled error */
-    int trying;                    /* it takes a trial this round */
-    int evaluating;                /* it counts the evaluation of the stage in progress */
-    int status;                    /* of the trial so far */
-} lag_lane;
-
 /* The lanes of one thread: each lane's run, and the stages of the current trials side by side. */
-typedef struct lag_lanes {
+struct lag_lanes {
     lag_lane lane[LAG_LANES];
     lag_stepper stepper[LAG_LANES];
     const lag_system *sys[LAG_LANES];
@@ -2177,143 +2204,7 @@ typedef struct lag_lanes {
     real y[LAG_NY][LAG_LANES], y_stage[LAG_NY][LAG_LANES];
     real k[13][LAG_NY][LAG_LANES];          /* k[s - 1]: stage s */
     int rhs_status[LAG_LANES];
-} lag_lanes;
-
-/* What every lane of a thread shares: the batch's inputs and outputs, and the next member. */
-typedef struct lag_lane_batch {
-    long members;
-    const double *parameters, *initial, *settings;
-    double *values, *summaries;
-    long capacity, stride;
-    long *next;                    /* the next member not yet begun, shared by the threads */
-} lag_lane_batch;
-
-/* The lane's member is done (status, at the stepper's place): its summary, and the lane empties. */
-static void lag_lane_end(lag_lanes *lanes, int l, int status)
-{
-    lag_lane *lane = &lanes->lane[l];
-    lag_finish(&lane->sys, &lanes->stepper[l], status, &lane->report);
-    lag_pack_summary(&lane->report, lane->summary);
-    lane->member = -1;
-    lane->trying = 0;
-#ifdef _OPENMP
-#pragma omp atomic
-#endif
-    lag_batch_done += 1;
-}
-
-/* After the lane's stepper moved to t (or began there): the work forecast and Ctrl-C after a
- * step, then the rows it has reached, as lag_advance and lag_integrate deliver them; the member
- * ends when the last row is out or the run fails. */
-static void lag_lane_rows(lag_lanes *lanes, int l, int stepped)
-{
-    lag_lane *lane = &lanes->lane[l];
-    lag_stepper *s = &lanes->stepper[l];
-    int status = LAG_OK;
-    if (stepped) {
-        status = lag_forecast_step(&lane->report.forecast, s->t - s->t_old, s->t);
-        if (status == LAG_OK && lag_interrupt)
-            status = LAG_ERR_INTERRUPTED;
-    }
-    while (status == LAG_OK && lane->k <= lane->last) {
-        real tk = lane->k == lane->last ? lane->t1 : lane->t0 + lane->k * lane->dt;
-        if (s->t < tk)
-            return;
-        status = lag_deliver_at(&lane->sys, s, tk, lag_grid_row, &lane->rows, &lane->report);
-        lane->k += 1;
-    }
-    lag_lane_end(lanes, l, status);
-}
-
-/* Begin member b in lane l (as lag_run_member and lag_integrate begin it). */
-static void lag_lane_begin(lag_lanes *lanes, int l, const lag_lane_batch *batch, long b)
-{
-    lag_lane *lane = &lanes->lane[l];
-    const double *settings = batch->settings;
-    lag_options options;
-    real y0[LAG_NY], e_old = 0;
-    int i, status;
-    lane->member = b;
-    lane->summary = batch->summaries + b * batch->stride;
-    lane->rows.rows = batch->values + b * batch->capacity * LAG_NOUT;
-    lane->rows.capacity = batch->capacity;
-    lane->rows.used = 0;
-    lane->t0 = settings[LAG_SET_T_START];
-    lane->t1 = settings[LAG_SET_T_STOP];
-    lane->dt = settings[LAG_SET_T_INTERVAL];
-    lane->k = 1;
-    lag_member_inputs(batch->parameters + b * LAG_NP, batch->initial + b * LAG_NY, settings, &lane->sys, &options, y0);
-    memset(&lane->report, 0, sizeof lane->report);
-    lag_system_prepare(&lane->sys);
-    status = lag_begin(&lane->sys, &lanes->stepper[l], y0, lane->t0, lane->t1, lane->dt, &options, &lane->limited,
-                       lag_grid_row, &lane->rows, &lane->report, &e_old, &lane->last);
-    for (i = 0; i < LAG_NP; ++i)
-        lanes->par[i][l] = lane->sys.par[i];
-    if (status != LAG_OK)
-        lag_lane_end(lanes, l, status);
-    else
-        lag_lane_rows(lanes, l, 0);
-}
-
-/* The next member not yet begun (members when none is left), taken by one thread only. */
-static long lag_lanes_take(const lag_lane_batch *batch)
-{
-    long b;
-#ifdef _OPENMP
-#pragma omp atomic capture
-#endif
-    b = (*batch->next)++;
-    return b < batch->members ? b : batch->members;
-}
-
-/* A member not begun because of Ctrl-C (lag_run_members marks it so). */
-static void lag_lanes_skip(const lag_lane_batch *batch, long b)
-{
-    lag_summary_interrupted(batch->settings, batch->summaries + b * batch->stride);
-#ifdef _OPENMP
-#pragma omp atomic
-#endif
-    lag_batch_done += 1;
-}
-
-/* Fill the empty lanes with the next members; after Ctrl-C, members not begun are marked so. */
-static void lag_lanes_fill(lag_lanes *lanes, const lag_lane_batch *batch)
-{
-    int l;
-    for (l = 0; l < LAG_LANES; ++l) {
-        while (lanes->lane[l].member < 0) {
-            long b = lag_lanes_take(batch);
-            if (b == batch->members)
-                return;
-            if (lag_interrupt)
-                lag_lanes_skip(batch, b);
-            else
-                lag_lane_begin(lanes, l, batch, b);
-        }
-    }
-}
-
-/* Members one at a time (lag_run_member), for a thread whose lanes could not be allocated. */
-static void lag_lanes_one_by_one(const lag_lane_batch *batch)
-{
-    long b;
-    while ((b = lag_lanes_take(batch)) < batch->members) {
-        lag_buffer rows;
-        rows.rows = batch->values + b * batch->capacity * LAG_NOUT;
-        rows.capacity = batch->capacity;
-        rows.used = 0;
-        if (lag_interrupt) {
-            lag_lanes_skip(batch, b);
-            continue;
-        }
-        lag_run_member(batch->parameters + b * LAG_NP, batch->initial + b * LAG_NY, batch->settings, lag_grid_row,
-                       &rows, batch->summaries + b * batch->stride);
-#ifdef _OPENMP
-#pragma omp atomic
-#endif
-        lag_batch_done += 1;
-    }
-}
+};
 
 /* The size and end of each lane's next trial (lag_control_trial), and its state and first stage
  * side by side; a lane whose trial cannot be taken (step limit, collapse) ends. Returns the
@@ -2448,6 +2339,143 @@ static void lag_lanes_finish(lag_lanes *lanes, int passed)
     }
 }
 
+/* One trial in every busy lane. */
+static void lag_lanes_round(lag_lanes *lanes)
+{
+    if (lag_lanes_plan(lanes) > 0) {
+        lag_lanes_stages(lanes);
+        lag_lanes_finish(lanes, lag_lanes_solutions(lanes));
+    }
+}
+
+
+/* The lane's member is done (status, at the stepper's place): its summary, and the lane empties. */
+static void lag_lane_end(lag_lanes *lanes, int l, int status)
+{
+    lag_lane *lane = &lanes->lane[l];
+    lag_finish(&lane->sys, &lanes->stepper[l], status, &lane->report);
+    lag_pack_summary(&lane->report, lane->summary);
+    lane->member = -1;
+    lane->trying = 0;
+#ifdef _OPENMP
+#pragma omp atomic
+#endif
+    lag_batch_done += 1;
+}
+
+/* After the lane's stepper moved to t (or began there): the work forecast and Ctrl-C after a
+ * step, then the rows it has reached, as lag_advance and lag_integrate deliver them; the member
+ * ends when the last row is out or the run fails. */
+static void lag_lane_rows(lag_lanes *lanes, int l, int stepped)
+{
+    lag_lane *lane = &lanes->lane[l];
+    lag_stepper *s = &lanes->stepper[l];
+    int status = LAG_OK;
+    if (stepped) {
+        status = lag_forecast_step(&lane->report.forecast, s->t - s->t_old, s->t);
+        if (status == LAG_OK && lag_interrupt)
+            status = LAG_ERR_INTERRUPTED;
+    }
+    while (status == LAG_OK && lane->k <= lane->last) {
+        real tk = lane->k == lane->last ? lane->t1 : lane->t0 + lane->k * lane->dt;
+        if (s->t < tk)
+            return;
+        status = lag_deliver_at(&lane->sys, s, tk, lag_grid_row, &lane->rows, &lane->report);
+        lane->k += 1;
+    }
+    lag_lane_end(lanes, l, status);
+}
+
+/* Begin member b in lane l (as lag_run_member and lag_integrate begin it). */
+static void lag_lane_begin(lag_lanes *lanes, int l, const lag_lane_batch *batch, long b)
+{
+    lag_lane *lane = &lanes->lane[l];
+    const double *settings = batch->settings;
+    lag_options options;
+    real y0[LAG_NY], e_old = 0;
+    int i, status;
+    lane->member = b;
+    lane->summary = batch->summaries + b * batch->stride;
+    lane->rows.rows = batch->values + b * batch->capacity * LAG_NOUT;
+    lane->rows.capacity = batch->capacity;
+    lane->rows.used = 0;
+    lane->t0 = settings[LAG_SET_T_START];
+    lane->t1 = settings[LAG_SET_T_STOP];
+    lane->dt = settings[LAG_SET_T_INTERVAL];
+    lane->k = 1;
+    lag_member_inputs(batch->parameters + b * LAG_NP, batch->initial + b * LAG_NY, settings, &lane->sys, &options, y0);
+    memset(&lane->report, 0, sizeof lane->report);
+    lag_system_prepare(&lane->sys);
+    status = lag_begin(&lane->sys, &lanes->stepper[l], y0, lane->t0, lane->t1, lane->dt, &options, &lane->limited,
+                       lag_grid_row, &lane->rows, &lane->report, &e_old, &lane->last);
+    for (i = 0; i < LAG_NP; ++i)
+        lanes->par[i][l] = lane->sys.par[i];
+    if (status != LAG_OK)
+        lag_lane_end(lanes, l, status);
+    else
+        lag_lane_rows(lanes, l, 0);
+}
+
+/* The next member not yet begun (members when none is left), taken by one thread only. */
+static long lag_lanes_take(const lag_lane_batch *batch)
+{
+    long b;
+#ifdef _OPENMP
+#pragma omp atomic capture
+#endif
+    b = (*batch->next)++;
+    return b < batch->members ? b : batch->members;
+}
+
+/* A member not begun because of Ctrl-C (lag_run_members marks it so). */
+static void lag_lanes_skip(const lag_lane_batch *batch, long b)
+{
+    lag_summary_interrupted(batch->settings, batch->summaries + b * batch->stride);
+#ifdef _OPENMP
+#pragma omp atomic
+#endif
+    lag_batch_done += 1;
+}
+
+/* Fill the empty lanes with the next members; after Ctrl-C, members not begun are marked so. */
+static void lag_lanes_fill(lag_lanes *lanes, const lag_lane_batch *batch)
+{
+    int l;
+    for (l = 0; l < LAG_LANES; ++l) {
+        while (lanes->lane[l].member < 0) {
+            long b = lag_lanes_take(batch);
+            if (b == batch->members)
+                return;
+            if (lag_interrupt)
+                lag_lanes_skip(batch, b);
+            else
+                lag_lane_begin(lanes, l, batch, b);
+        }
+    }
+}
+
+/* Members one at a time (lag_run_member), for a thread whose lanes could not be allocated. */
+static void lag_lanes_one_by_one(const lag_lane_batch *batch)
+{
+    long b;
+    while ((b = lag_lanes_take(batch)) < batch->members) {
+        lag_buffer rows;
+        rows.rows = batch->values + b * batch->capacity * LAG_NOUT;
+        rows.capacity = batch->capacity;
+        rows.used = 0;
+        if (lag_interrupt) {
+            lag_lanes_skip(batch, b);
+            continue;
+        }
+        lag_run_member(batch->parameters + b * LAG_NP, batch->initial + b * LAG_NY, batch->settings, lag_grid_row,
+                       &rows, batch->summaries + b * batch->stride);
+#ifdef _OPENMP
+#pragma omp atomic
+#endif
+        lag_batch_done += 1;
+    }
+}
+
 /* Whether a lane still holds a member. */
 static int lag_lanes_busy(const lag_lanes *lanes)
 {
@@ -2457,7 +2485,7 @@ static int lag_lanes_busy(const lag_lanes *lanes)
     return busy;
 }
 
-/* One thread's share of the batch: rounds of one trial in every lane, refilling the lanes as
+/* One thread's share of the batch: rounds of one step or trial in every lane, refilling the lanes as
  * their members end, until no member is left. */
 static void lag_lanes_run(lag_lanes *lanes, const lag_lane_batch *batch)
 {
@@ -2471,10 +2499,7 @@ static void lag_lanes_run(lag_lanes *lanes, const lag_lane_batch *batch)
         lag_lanes_fill(lanes, batch);
         if (!lag_lanes_busy(lanes))
             return;
-        if (lag_lanes_plan(lanes) > 0) {
-            lag_lanes_stages(lanes);
-            lag_lanes_finish(lanes, lag_lanes_solutions(lanes));
-        }
+        lag_lanes_round(lanes);
     }
 }
 
@@ -2510,6 +2535,7 @@ static void lag_run_lanes(long members, const double *parameters, const double *
     }
 }
 
+#endif
 /* ---- the standalone program: the scene's grid and options ---- */
 #define LAG_SCENE_T_START LAG_LIT(0.0)
 #define LAG_SCENE_T_STOP LAG_LIT(20.0)

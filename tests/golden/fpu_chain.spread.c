@@ -1966,7 +1966,7 @@ static void lag_run_lanes(long members, const double *parameters, const double *
 void lag_run_batch(long members, const double *parameters, const double *initial, const double *settings,
                    double *values, long capacity, double *summaries, long stride, int threads)
 {
-#if LAG_HAS_LANES      /* dop853_lanes.c, pasted after this file: the same results bit for bit */
+#if LAG_HAS_LANES      /* lanes.c, pasted after this file: the same results bit for bit */
     lag_run_lanes(members, parameters, initial, settings, values, capacity, summaries, stride, threads);
 #else
     lag_run_members(members, parameters, initial, settings, lag_grid_row, LAG_NOUT, values, capacity, summaries,

@@ -1,7 +1,7 @@
-"""The C sweep in SIMD lanes (integrators/c/dop853_lanes.c, codegen/c_lanes.py): with dop853, a
-member's rows, status and counters equal its simulate() bit for bit, whichever lane ran it and
-whatever ran beside it; failing members end alone; 10^5 members take the result's memory plus a
-constant."""
+"""The C sweep in SIMD lanes (integrators/c/lanes.c; dop853_lanes.c with codegen/c_lanes.py,
+taylor_lanes.c with codegen/c_taylor_lanes.py): with dop853 and taylor, a member's rows, status and
+counters equal its simulate() bit for bit, whichever lane ran it and whatever ran beside it; failing
+members end alone; 10^5 members take the result's memory plus a constant."""
 from __future__ import annotations
 
 import subprocess
@@ -29,6 +29,9 @@ LANE_MODELS = {
     "damped_driven_pendulum": ("driven", {"theta.start": (-1, 1)}, 3.0),        # f reads t
 }
 DEFAULT_SET = ("double_pendulum", "pendulum")
+# The models whose taylor series run in lanes (K factored in the compact layout, every order
+# written out: c_taylor_lanes.py); the others' taylor sweeps run member by member.
+TAYLOR_LANE_MODELS = ("double_pendulum", "kepler", "elastic_pendulum", "heavy_top", "cart_pole")
 MEMBERS = 100
 
 
@@ -37,25 +40,29 @@ def draw(ranges: dict, count: int, seed: int) -> dict[str, np.ndarray]:
     return {name: rng.uniform(low, high, count) for name, (low, high) in ranges.items()}
 
 
-def simulated(model, scene: str, values: dict, stop: float):
+def simulated(model, scene: str, values: dict, stop: float, integrator: str = "dop853"):
     """(values, status, counters) of simulate(); a failure's partial rows and its message."""
     try:
-        result, status = model.simulate(scene, set=values, stop=stop, integrator="dop853"), "ok"
+        result, status = model.simulate(scene, set=values, stop=stop, integrator=integrator), "ok"
     except SimulationError as error:
         result, status = error.partial, None
     return result, status
 
 
-@pytest.mark.parametrize("name", [pytest.param(name, marks=() if name in DEFAULT_SET else pytest.mark.slow)
-                                  for name in LANE_MODELS])
-def test_each_member_of_a_lane_sweep_equals_its_simulate_bit_for_bit(name):
+@pytest.mark.parametrize("integrator,name",
+                         [pytest.param("dop853", name, marks=() if name in DEFAULT_SET else pytest.mark.slow)
+                          for name in LANE_MODELS]
+                         + [pytest.param("taylor", name, marks=() if name == "double_pendulum" else pytest.mark.slow)
+                            for name in TAYLOR_LANE_MODELS])
+def test_each_member_of_a_lane_sweep_equals_its_simulate_bit_for_bit(integrator, name):
     scene, ranges, stop = LANE_MODELS[name]
     model = library_model(name)
-    assert "#define LAG_HAS_LANES 1" in model.emit("c", scene, Overrides(integrator="dop853")).text
+    # 1, or for taylor the condition that the build is a double one (c_taylor_lanes.py)
+    assert "#define LAG_HAS_LANES 0" not in model.emit("c", scene, Overrides(integrator=integrator)).text
     varied = draw(ranges, MEMBERS, seed=len(name))
-    sweep = model.sweep(scene, set=varied, stop=stop, integrator="dop853", workers=2)
+    sweep = model.sweep(scene, set=varied, stop=stop, integrator=integrator, workers=2)
     for b in range(MEMBERS):
-        result, status = simulated(model, scene, {k: v[b] for k, v in varied.items()}, stop)
+        result, status = simulated(model, scene, {k: v[b] for k, v in varied.items()}, stop, integrator)
         rows = len(result.t)
         assert np.array_equal(sweep.values[b, :rows], result.values, equal_nan=True), (name, b)
         assert np.all(np.isnan(sweep.values[b, rows:]))
@@ -64,15 +71,16 @@ def test_each_member_of_a_lane_sweep_equals_its_simulate_bit_for_bit(name):
             assert counts[b] == result.summary.count(counter), (name, b, counter)
 
 
-def test_members_that_fail_end_alone_and_their_neighbours_in_the_lanes_go_on():
+@pytest.mark.parametrize("integrator", ["dop853", "taylor"])
+def test_members_that_fail_end_alone_and_their_neighbours_in_the_lanes_go_on(integrator):
     model = library_model("double_pendulum")
     masses = np.where(np.arange(40) % 3 == 0, 0.0, 1.0)       # m1 = m2 = 0: M singular from the start
     varied = {"m1": masses, "m2": masses, "theta1.start": np.linspace(-2, 2, 40)}
-    sweep = model.sweep("chaos", set=varied, stop=2.0, integrator="dop853")
+    sweep = model.sweep("chaos", set=varied, stop=2.0, integrator=integrator)
     failed = np.flatnonzero(sweep.status != "ok")
     assert list(failed) == list(np.flatnonzero(masses == 0))
     for b in (0, 1, 2):
-        result, status = simulated(model, "chaos", {k: v[b] for k, v in varied.items()}, 2.0)
+        result, status = simulated(model, "chaos", {k: v[b] for k, v in varied.items()}, 2.0, integrator)
         assert np.array_equal(sweep.values[b, :len(result.t)], result.values, equal_nan=True)
         assert (status == "ok") == (sweep.status[b] == "ok")
 

@@ -139,28 +139,44 @@ static void taylor_evaluate(const lag_stepper *s, real tau, real *y)
     }
 }
 
-static int lag_stepper_step(lag_stepper *s)
+/* The first half of a step, before the series: the step limit, the weights 1/w of the state's
+ * components and the order for them (size: the state's size in units of the tolerance).
+ * *taking is 0 when the run is at its end (no step to take, LAG_OK). */
+static int taylor_begin_step(lag_stepper *s, real *weight, real *size, int *taking)
 {
-    real weight[LAG_NY], size, h;
-    int i, status, landing, finite = 1;
-    if (s->t >= s->t_end)
+    int i;
+    *taking = s->t < s->t_end;
+    if (!*taking)
         return LAG_OK;
     if (s->max_steps > 0 && s->stats.accepted >= s->max_steps)
         return LAG_ERR_MAX_STEPS;
     for (i = 0; i < LAG_NY; ++i)
         weight[i] = 1 / (s->atol[i] + s->rtol * r_fabs(s->y[i]));
-    s->order = taylor_order(s, weight, &size);
-    if ((status = lag_taylor_series(s->sys, s->t, s->y, s->order, s->s)) != LAG_OK)
-        return status;
+    s->order = taylor_order(s, weight, size);
+    return LAG_OK;
+}
+
+/* The step of the second half, from the series in s->s: its size h (at most hmax, landing
+ * exactly on t_end: *landing), or LAG_ERR_NONFINITE, LAG_ERR_STEP_TOO_SMALL. */
+static int taylor_step_to_take(lag_stepper *s, const real *weight, real size, real *h, int *landing)
+{
+    int status;
     s->stats.orders += s->order;
-    if ((status = taylor_step_size(s, weight, size, &h)) != LAG_OK)
+    if ((status = taylor_step_size(s, weight, size, h)) != LAG_OK)
         return status;
-    h = h < s->hmax ? h : s->hmax;
-    if (!(h >= LAG_MIN_STEP(s->t, s->span)))
+    *h = *h < s->hmax ? *h : s->hmax;
+    if (!(*h >= LAG_MIN_STEP(s->t, s->span)))
         return LAG_ERR_STEP_TOO_SMALL;
-    if ((landing = s->t + LAG_LIT(1.01) * h >= s->t_end))
-        h = s->t_end - s->t;
-    taylor_evaluate(s, h, s->y_end);
+    if ((*landing = s->t + LAG_LIT(1.01) * *h >= s->t_end))
+        *h = s->t_end - s->t;
+    return LAG_OK;
+}
+
+/* The step h taken, once s->y_end holds the series at t + h: the state moves there, or
+ * LAG_ERR_NONFINITE. */
+static int taylor_take_step(lag_stepper *s, real h, int landing)
+{
+    int i, finite = 1;
     for (i = 0; i < LAG_NY; ++i)      /* no early exit: the loop vectorises */
         finite &= r_isfinite(s->y_end[i]);
     if (!finite)
@@ -172,6 +188,30 @@ static int lag_stepper_step(lag_stepper *s)
     s->h = h;
     ++s->stats.accepted;
     return LAG_OK;
+}
+
+/* The second half, once s->s holds the series of the state to s->order: the step from the series
+ * and the state at its end. The sweep's lanes (taylor_lanes.c) compute the series of several
+ * members at once between the two halves, and the state at the step's end (Horner) too. */
+static int taylor_end_step(lag_stepper *s, const real *weight, real size)
+{
+    real h;
+    int landing, status = taylor_step_to_take(s, weight, size, &h, &landing);
+    if (status != LAG_OK)
+        return status;
+    taylor_evaluate(s, h, s->y_end);
+    return taylor_take_step(s, h, landing);
+}
+
+static int lag_stepper_step(lag_stepper *s)
+{
+    real weight[LAG_NY], size = 0;
+    int taking, status = taylor_begin_step(s, weight, &size, &taking);
+    if (status != LAG_OK || !taking)
+        return status;
+    if ((status = lag_taylor_series(s->sys, s->t, s->y, s->order, s->s)) != LAG_OK)
+        return status;
+    return taylor_end_step(s, weight, size);
 }
 
 /* Valid on [t_old, t]: the step's polynomial, plus the projection's move in proportion. */
