@@ -59,6 +59,10 @@ class Differentiator:
         self._gradients: dict[sympy.Expr, dict[sympy.Symbol, sympy.Expr]] = {}
         self._dependencies: dict[sympy.Basic, frozenset] = {}
         self._intermediates: dict[sympy.Expr, list[sympy.Symbol]] = {}
+        # A member of a prefix sum -> the member before it (x[i] = x[i-1] + f(i),
+        # frontend/prefix_sums.py): its derivative is named whenever the one before it is, as the
+        # written-out sum's derivative would be (it is at least as large).
+        self.extends: dict[sympy.Symbol, sympy.Symbol] = {}
         for symbol, expr in definitions:
             self.define(symbol, expr)
 
@@ -174,7 +178,8 @@ class Differentiator:
         key = (symbol, direction)
         if key not in self._memo:
             derivative = self.directional(self._definitions[symbol], direction, rates)
-            if tree_size(derivative, INLINE_SIZE) > INLINE_SIZE:
+            before = self._memo.get((self.extends.get(symbol), direction))
+            if tree_size(derivative, INLINE_SIZE) > INLINE_SIZE or before in self._definitions:
                 derivative = self.define(self._name(symbol, direction), derivative)
             self._memo[key] = derivative
         return self._memo[key]

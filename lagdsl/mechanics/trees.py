@@ -104,6 +104,7 @@ class _Tree:
         self.moving = frozenset({*(c.velocity_symbol for c in model.coordinates), ir.TIME})
         self.let_symbols = frozenset(self.lets)
         self._parts: dict[sympy.Symbol, dict[int, sympy.Expr] | None] = {}
+        self._split_all = False
         self._joints: dict[sympy.Expr, int | None] = {}
 
     def constant(self, expression: sympy.Expr) -> bool:
@@ -111,7 +112,15 @@ class _Tree:
         return not expression.free_symbols & (self.let_symbols | self.joints | self.moving)
 
     def parts(self, symbol: sympy.Symbol) -> dict[int, sympy.Expr] | None:
-        """A position let as {joint: r(q_joint)}, or None when it is not a sum of joint terms."""
+        """A position let as {joint: r(q_joint)}, or None when it is not a sum of joint terms.
+        The lets are split in their order on the first call: a member of a prefix sum refers to
+        the member before it (frontend/prefix_sums.py), and asked out of order, each would
+        recurse through all before it."""
+        if not self._split_all:
+            self._split_all = True
+            for let in self.model.lets:
+                if let.derivative_of is None:
+                    self._parts[let.symbol] = self._split(let.expression)
         if symbol not in self._parts:
             self._parts[symbol] = self._split(self.lets[symbol].expression)
         return self._parts[symbol]
