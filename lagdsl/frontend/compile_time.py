@@ -64,6 +64,8 @@ class CompileTime:
         value = self.builder.scalar(node, scope)
         if new:
             self.builder.dims.dimensionless(node, what)
+        if value.is_Integer:            # a literal or a loop index: the common case, nothing to put in
+            return int(value)
         used = value.free_symbols & self.exact_parameters.keys()
         value = self.with_parameter_values(value)
         if not value.is_Integer:

@@ -34,6 +34,8 @@ def require_real_constants(value, where: Callable[[], Span], folds: bool) -> Non
     """A constant part of an expression must be a finite real double (tan(pi/2) is not, nor
     the factor 1/1e-310 = 1e310 that m/1e-310 folds into: `folds`, where constants combine).
     `where()` is the span of the expression: it is found only for a message."""
+    if value.is_Symbol:
+        return
     if not value.is_number:
         if folds and any(abs(n) > MAX_DOUBLE for n in value.atoms(sympy.Rational)):
             _fail("has a constant factor out of the range of double precision", where())
