@@ -59,6 +59,10 @@ class Differentiator:
         self._gradients: dict[sympy.Expr, dict[sympy.Symbol, sympy.Expr]] = {}
         self._dependencies: dict[sympy.Basic, frozenset] = {}
         self._intermediates: dict[sympy.Expr, list[sympy.Symbol]] = {}
+        # A member of a prefix sum -> the member before it (x[i] = x[i-1] + f(i),
+        # frontend/prefix_sums.py): its derivative is named whenever the one before it is, as the
+        # written-out sum's derivative would be (it is at least as large).
+        self.extends: dict[sympy.Symbol, sympy.Symbol] = {}
         for symbol, expr in definitions:
             self.define(symbol, expr)
 
@@ -150,7 +154,7 @@ class Differentiator:
                 slopes = self._split_gradient(expr)
             else:
                 for symbol in expr.free_symbols:
-                    slopes[symbol] = expr.diff(symbol)
+                    slopes[symbol] = partial_derivative(expr, symbol)
             self._gradients[expr] = {s: slopes[s] for s in sorted(slopes, key=sympy.default_sort_key)
                                      if slopes[s] != 0}
         return self._gradients[expr]
@@ -174,7 +178,8 @@ class Differentiator:
         key = (symbol, direction)
         if key not in self._memo:
             derivative = self.directional(self._definitions[symbol], direction, rates)
-            if tree_size(derivative, INLINE_SIZE) > INLINE_SIZE:
+            before = self._memo.get((self.extends.get(symbol), direction))
+            if tree_size(derivative, INLINE_SIZE) > INLINE_SIZE or before in self._definitions:
                 derivative = self.define(self._name(symbol, direction), derivative)
             self._memo[key] = derivative
         return self._memo[key]
@@ -210,6 +215,38 @@ class Differentiator:
                 stack.extend(s for s in self._definitions[symbol].free_symbols
                              if s in self._definitions)
         return tuple((s, e) for s, e in self._definitions.items() if s in wanted)
+
+
+def partial_derivative(expr: sympy.Expr, symbol: sympy.Symbol) -> sympy.Expr:
+    """∂expr/∂symbol, exactly as sympy's diff gives it, by sympy's own first-derivative rules
+    applied directly: a sum term by term; a product by the Leibniz rule ∂(a b)/∂s = (∂a/∂s) b +
+    a ∂b/∂s; a function by the chain rule Σ_i f_i(args) ∂arg_i/∂s; a power as Pow does. diff
+    reaches the same rules through its n-th derivative machinery, at the cost of a Derivative
+    and an assumptions query per factor; what the rules here do not cover goes to diff."""
+    if symbol not in expr.free_symbols:
+        return sympy.S.Zero
+    if expr == symbol:
+        return sympy.S.One
+    args = expr.args
+    if expr.is_Mul:
+        return sympy.Add(*(sympy.Mul(*args[:k], partial_derivative(factor, symbol), *args[k + 1:])
+                           for k, factor in enumerate(args)))
+    if expr.is_Add:
+        return sympy.Add(*(partial_derivative(term, symbol) for term in args))
+    if expr.is_Pow:
+        rate_of_base, rate_of_exponent = (partial_derivative(part, symbol) for part in args)
+        return expr * (rate_of_exponent * sympy.log(expr.base) + rate_of_base * expr.exp / expr.base)
+    if expr.is_Function and type(expr)._eval_derivative is sympy.Function._eval_derivative:
+        terms = []
+        for i, argument in enumerate(args, 1):
+            rate = partial_derivative(argument, symbol)
+            if not rate.is_zero:
+                outer = expr.fdiff(i)       # its own derivative, or a Derivative (canonicalised by diff)
+                if outer.has(sympy.Derivative, sympy.Subs):
+                    return expr.diff(symbol)
+                terms.append(outer * rate)
+        return sympy.Add(*terms)
+    return expr.diff(symbol)
 
 
 def time_rates(coordinates: Iterable[sympy.Symbol], velocities: Iterable[sympy.Symbol],

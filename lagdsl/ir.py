@@ -60,13 +60,16 @@ class Coordinate:
 
 @dataclass(frozen=True)
 class Let:
-    """A named intermediate: a user's let (with its span), or der(x) of a let x (derivative_of)."""
+    """A named intermediate: a user's let (with its span), or der(x) of a let x (derivative_of).
+    A member of a prefix-sum let (or its der) is the member before it plus one term, x[i] =
+    x[i-1] + f(i) (frontend/prefix_sums.py): `extends` is that member x[i-1]."""
 
     name: str
     symbol: sympy.Symbol
     expression: sympy.Expr
     span: Span | None
     derivative_of: sympy.Symbol | None = None
+    extends: sympy.Symbol | None = None
 
 
 @dataclass(frozen=True)
@@ -238,3 +241,13 @@ class Model:
     source_name: str = field(default="")
     units: UnitReport | None = None     # None: the model has no units, nothing was checked
     draws: tuple[Draw, ...] = ()        # drawn in every scene
+
+    def written_out_lets(self) -> tuple[tuple[sympy.Symbol, sympy.Expr], ...]:
+        """(symbol, expression) of each let, a prefix sum's members written out in full as the
+        sum unrolls them (x[i] = f(a) + ... + f(i): sympy's Add flattens x[i-1]'s sum into it),
+        for the derivations that expand the model (n²/2 terms for n members)."""
+        full: dict[sympy.Symbol, sympy.Expr] = {}
+        for let in self.lets:
+            full[let.symbol] = let.expression if let.extends is None else \
+                let.expression.xreplace({let.extends: full[let.extends]})
+        return tuple(full.items())

@@ -64,6 +64,8 @@ class CompileTime:
         value = self.builder.scalar(node, scope)
         if new:
             self.builder.dims.dimensionless(node, what)
+        if value.is_Integer:            # a literal or a loop index: the common case, nothing to put in
+            return int(value)
         used = value.free_symbols & self.exact_parameters.keys()
         value = self.with_parameter_values(value)
         if not value.is_Integer:
@@ -86,14 +88,19 @@ class CompileTime:
         if high - low + 1 > MAX_MEMBERS:
             raise LagError(f"the range {low}:{high} has {high - low + 1} members; at most {MAX_MEMBERS} "
                            "are unrolled", self.builder.span(range_node))
-        self.unrolled += max(0, high - low + 1)
+        self.count_unrolled(max(0, high - low + 1), range_node)
+        return str(name_token), low, high
+
+    def count_unrolled(self, terms: int, range_node) -> None:
+        """Add `terms` built terms to the model's budget of MAX_UNROLLED; past it, an error at
+        `range_node`."""
+        self.unrolled += terms
         if self.unrolled > MAX_UNROLLED:
             error = LagError(f"the sums and indexed lets of the model unroll to more than {MAX_UNROLLED} terms, "
                              "too many to derive symbolically", self.builder.span(range_node))
-            if self.unrolled - (high - low + 1) > MAX_UNROLLED:
+            if self.unrolled - terms > MAX_UNROLLED:
                 error.diagnostics = ()          # reported once, where the budget ran out
             raise error
-        return str(name_token), low, high
 
     def family_size(self, dimension, scope: Scope, what: str) -> int:
         """The number of members of an indexed family `name[n]` of parameters or coordinates."""

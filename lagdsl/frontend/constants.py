@@ -34,8 +34,10 @@ def require_real_constants(value, where: Callable[[], Span], folds: bool) -> Non
     """A constant part of an expression must be a finite real double (tan(pi/2) is not, nor
     the factor 1/1e-310 = 1e310 that m/1e-310 folds into: `folds`, where constants combine).
     `where()` is the span of the expression: it is found only for a message."""
+    if value.is_Symbol:
+        return
     if not value.is_number:
-        if folds and any(abs(n) > MAX_DOUBLE for n in value.atoms(sympy.Rational)):
+        if folds and any(abs(n) > MAX_DOUBLE for n in _large_rationals(value)):
             _fail("has a constant factor out of the range of double precision", where())
         return
     if value.has(*NON_FINITE):
@@ -48,6 +50,20 @@ def require_real_constants(value, where: Callable[[], Span], folds: bool) -> Non
         # exp(1000) is exact to sympy; checked here, node by node, no constant beyond a double
         # ever reaches a power, where 2^2^exp(1000) would make evalf's precision explode
         _fail("is out of the range of double precision", where())
+
+
+def _large_rationals(value: sympy.Expr):
+    """The rationals p/q of `value` with |p| of more than 1023 bits: the only ones that may
+    exceed MAX_DOUBLE (< 2^1024), found by a plain walk (sympy's atoms() is a generator walk
+    several times slower, and this runs on every node of every expression)."""
+    stack = [value]
+    while stack:
+        node = stack.pop()
+        if node.is_Rational:
+            if node.p.bit_length() > 1023:
+                yield node
+        else:
+            stack.extend(node.args)
 
 
 def _fail(what: str, span: Span):

@@ -13,6 +13,7 @@ import sympy
 
 from .. import ir
 from ..errors import LagError
+from .prefix_sums import PrefixSum, next_member, prefix_sum, previous_members
 from .tree import expressions_of, subtree
 from .units import in_si
 from .values import Binding, Matrix, Vector
@@ -130,15 +131,28 @@ class Declarations:
         family = {}
         self.scope.bindings[name] = Binding("partial", self.span(token), family={},   # earlier members only
                                             dimension=self.dims.family(name))
+        prefix = prefix_sum(body, variable, name)
         try:
             for i in range(low, high + 1):
-                value = self.expr.build(body, self.scope.child(**{variable: i}))
-                family[i] = self.intermediate(f"{name}[{i}]", value, token)
-                self.scope.bindings[name].family[i] = family[i]
+                value = self.prefix_step(prefix, family.get(i - 1), i) if prefix is not None else None
+                member = self.intermediate(f"{name}[{i}]", value if value is not None else
+                                           self.expr.build(body, self.scope.child(**{variable: i})), token)
+                if value is not None:
+                    self.calculus.extends.update(previous_members(family[i - 1], member))
+                family[i] = self.scope.bindings[name].family[i] = member
         finally:
             del self.scope.bindings[name]
         self.declare(token, Binding("let", self.span(token), family=family,
                                     dimension=self.dims.family_body(name, body)))
+
+    def prefix_step(self, prefix: PrefixSum, previous, i: int):
+        """Member i of a prefix-sum let as the previous member plus its one new term
+        (frontend/prefix_sums.py), or None where it is built as written."""
+        if previous is None:
+            return None
+        term = self.expr.build(prefix.term, self.scope.child(**{prefix.variable: i}))
+        self.numbers.count_unrolled(1, prefix.range_node)
+        return next_member(previous, term, prefix.sign)
 
     def intermediate(self, name: str, value, token):
         if isinstance(value, Vector):

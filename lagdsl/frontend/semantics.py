@@ -140,7 +140,10 @@ class _ModelBuilder(Declarations, EquationStatements, SceneStatements, DrawState
     def lets(self) -> tuple[ir.Let, ...]:
         """User lets and the der(x) intermediates the chain rule named for them."""
         sources = self.calculus.named_derivatives(TIME_DIRECTION)
-        return tuple(ir.Let(s.name, s, e, self.let_spans.get(s), sources.get(s))
+        rates = {source: rate for rate, source in sources.items()}
+        extends = dict(self.calculus.extends)
+        extends.update({rate: rates.get(self.calculus.extends.get(source)) for rate, source in sources.items()})
+        return tuple(ir.Let(s.name, s, e, self.let_spans.get(s), sources.get(s), extends.get(s))
                      for s, e in self.calculus.definitions())
 
     def description(self, node) -> str | None:

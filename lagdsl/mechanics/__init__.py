@@ -27,7 +27,7 @@ def derive_equations(model: ir.Model) -> Equations:
         raise LagError(f"model {model.name} declares no coordinate: there is nothing to integrate", model.span)
     q = [c.symbol for c in model.coordinates]
     v = [c.velocity_symbol for c in model.coordinates]
-    calculus = Differentiator(((let.symbol, let.expression) for let in model.lets), (*q, *v, ir.TIME))
+    calculus = Differentiator(model.written_out_lets(), (*q, *v, ir.TIME))
     probe = Probe(calculus, (*q, *v, ir.TIME, *(p.symbol for p in model.parameters)))
     lagrangian, momenta, mass, gradient, forces, forcing, held = lagrange_terms(model, calculus)
     constraints = constraint_equations(model, calculus, probe)

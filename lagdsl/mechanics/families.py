@@ -138,8 +138,7 @@ class LocalEquations:
 
     def calculus(self) -> Differentiator:
         """A differentiator over the model's lets (the outputs and the stop condition use them)."""
-        return Differentiator(((let.symbol, let.expression) for let in self.model.lets),
-                              (*self.coordinates, *self.velocities, ir.TIME))
+        return Differentiator(self.model.written_out_lets(), (*self.coordinates, *self.velocities, ir.TIME))
 
     @cached_property
     def expanded(self):
@@ -194,9 +193,8 @@ class _Terms:
             self.coordinate_index[c.symbol] = (k, POSITION)
             self.coordinate_index[c.velocity_symbol] = (k, VELOCITY)
         self.member_index = parameter_members(model)
-        self.lets = {let.symbol: let.expression for let in model.lets}
-        self.calculus = Differentiator(((let.symbol, let.expression) for let in model.lets),
-                                       tuple(self.coordinate_index) + (ir.TIME,))
+        self.lets = dict(model.written_out_lets())
+        self.calculus = Differentiator(self.lets.items(), tuple(self.coordinate_index) + (ir.TIME,))
         self.time_dependent = False
         self._inlined: dict[sympy.Symbol, sympy.Expr] = {}
 

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import sympy
 
 from .. import ir
-from ..calculus import Differentiator
+from ..calculus import Differentiator, partial_derivative
 from .equations import ENERGY_CONSERVED, ConservedQuantity
 from .families import PARAMETER, POSITION, VELOCITY, LocalEquations, Stencil, additive_terms, \
     parameter_members, slot, _runs
@@ -103,15 +103,26 @@ class _Tree:
         self.joints = frozenset(self.index)
         self.moving = frozenset({*(c.velocity_symbol for c in model.coordinates), ir.TIME})
         self.let_symbols = frozenset(self.lets)
+        self.varying = self.let_symbols | self.joints | self.moving
+        self.members = parameter_members(model)
         self._parts: dict[sympy.Symbol, dict[int, sympy.Expr] | None] = {}
+        self._split_all = False
         self._joints: dict[sympy.Expr, int | None] = {}
 
     def constant(self, expression: sympy.Expr) -> bool:
         """Free of the state and of the lets (which may hold it)."""
-        return not expression.free_symbols & (self.let_symbols | self.joints | self.moving)
+        return self.varying.isdisjoint(expression.free_symbols)
 
     def parts(self, symbol: sympy.Symbol) -> dict[int, sympy.Expr] | None:
-        """A position let as {joint: r(q_joint)}, or None when it is not a sum of joint terms."""
+        """A position let as {joint: r(q_joint)}, or None when it is not a sum of joint terms.
+        The lets are split in their order on the first call: a member of a prefix sum refers to
+        the member before it (frontend/prefix_sums.py), and asked out of order, each would
+        recurse through all before it."""
+        if not self._split_all:
+            self._split_all = True
+            for let in self.model.lets:
+                if let.derivative_of is None:
+                    self._parts[let.symbol] = self._split(let.expression)
         if symbol not in self._parts:
             self._parts[symbol] = self._split(self.lets[symbol].expression)
         return self._parts[symbol]
@@ -167,7 +178,7 @@ class _Tree:
             parts = self.parts(symbol) if let.derivative_of is None else None
             if parts and set(parts) == {joint}:
                 q = self.model.coordinates[joint]
-                rate = sympy.diff(parts[joint], q.symbol) * q.velocity_symbol
+                rate = partial_derivative(parts[joint], q.symbol) * q.velocity_symbol
                 ratio = sympy.cancel(term / rate ** 2)
                 if self.constant(ratio) and ratio != 0:
                     return symbol, 2 * ratio
@@ -261,7 +272,7 @@ class _Tree:
         return TreeEquations(self.model, self.parents, len(bodies[0]), links, definitions, energy)
 
     def _in_slots(self, record, q: ir.Coordinate) -> tuple[list[sympy.Expr], int]:
-        members = parameter_members(self.model)
+        members = self.members
         used = sorted({members[s] for e in record for s in e.free_symbols if s in members})
         base = used[0] if used else 0
         rename = {q.symbol: slot(POSITION, 0), q.velocity_symbol: slot(VELOCITY, 0)}
@@ -280,7 +291,7 @@ class _Tree:
                 rate = rates.setdefault(x, sympy.Symbol(f"der({x.name})", real=True))
                 r = self.parts(x)[j]
                 definitions.append((x, r + (above if above is not None else 0)))
-                slope = sympy.diff(r, q.symbol) * q.velocity_symbol
+                slope = partial_derivative(r, q.symbol) * q.velocity_symbol
                 definitions.append((rate, slope + (rates[above] if above is not None else 0)))
                 defined |= {x, rate}
                 kinetic.append(m / 2 * rate ** 2)
@@ -294,10 +305,10 @@ def _links(shape: tuple, run: list[tuple[int, int]], axes: int) -> Links:
     step, parameter_step = (run[1][0] - first, run[1][1] - parameter_first) if count > 1 else (0, 0)
     masses, joints, gradient, potential = shape[:axes], shape[axes:2 * axes], shape[2 * axes:3 * axes], shape[-1]
     x, v = slot(POSITION, 0), slot(VELOCITY, 0)
-    slopes = [sympy.diff(r, x) for r in joints]
-    bias = [sympy.diff(s, x) * v ** 2 for s in slopes]
+    slopes = [partial_derivative(r, x) for r in joints]
+    bias = [partial_derivative(s, x) * v ** 2 for s in slopes]
     members = sorted({int(s.name[len(PARAMETER):]) for e in shape for s in e.free_symbols
                       if s.name.startswith(PARAMETER)})
     placement = Stencil("lagrangian", (0,), count, first, step, (0,), parameter_first, parameter_step,
-                        tuple(members), (), (-sympy.diff(potential, x),), sympy.S.Zero)
+                        tuple(members), (), (-partial_derivative(potential, x),), sympy.S.Zero)
     return Links(placement, (*masses, *slopes, *bias, *gradient))
