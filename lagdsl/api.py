@@ -51,7 +51,7 @@ class QuickRuns:
             return quick
         stored = self.plans.get(scene)
         run_plan = stored.resolve(overrides) if stored is not None else None
-        program = run_plan and model._programs.get((run_plan.scene_name, run_plan.integrator.name, backend, False))
+        program = run_plan and model.built_program(run_plan.scene_name, run_plan.integrator.name, backend)
         if program is None:
             return None
         call = runner.prepared(run_plan, backend, program.loaded)
@@ -277,6 +277,10 @@ class Model(LyapunovMethod):
         `energy` or `momentum(q)` (C, Dm; default: the scene's columns). See docs/numerics.md."""
         from .linear import linearize_model
         return linearize_model(self, scene, at, set, tuple(inputs), outputs, find)[0]
+
+    def built_program(self, scene: str, integrator: str, backend: str) -> Program | None:
+        """The code generated and loaded for a scene (by name), integrator and backend (not drawn), if built."""
+        return self._programs.get((scene, integrator, backend, False))
 
     def _program(self, scene: str | None, scene_plan: ScenePlan, backend: str, overrides: Overrides) -> Program:
         """The generated, loaded code for a scene, integrator and backend: built on first use, then kept.

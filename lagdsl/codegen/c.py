@@ -7,7 +7,7 @@ from .. import __version__
 from ..escape import c_comment, c_string, csv_field
 from ..frontend import units
 from ..abi import summary_layout
-from ..integrators import c_file, integrator_source, registry
+from ..integrators import c_file, integrator_source, registry, standalone_source
 from ..integrators.registry import OPTION_ORDER, OPTIONS
 from ..tolerances import component_input, component_names
 from . import GeneratedSource, template_environment
@@ -78,7 +78,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
         "taylor_series": series_text(kernel, printer, _k_positions(kernel)) if method.series else "",
         "contract": runtime_contract(), "flags": _driver_flags(kernel, method, lanes), "lanes": lanes,
         "driver": c_file("forecast.c") + "\n" + c_file("driver.c"), "library": c_file("library.c"),
-        "standalone": c_file("standalone.c"),
+        "standalone": standalone_source(),
         "summary_packer": summary_packer(summary_layout(method.name, len(kernel.invariant_names), 2 * kernel.n,
                                                         bool(kernel.constraints), kernel.stop is not None)),
         "status_printer": status_printer(),
@@ -133,7 +133,7 @@ def _lanes(kernel: Kernel, method: registry.Integrator, blocks: dict, printer, e
 
 
 def _driver_flags(kernel: Kernel, method: registry.Integrator, lanes: dict | None) -> list[tuple[str, int | str, str]]:
-    """The LAG_HAS_* switches of driver.c and standalone.c: what this scene has (LAG_HAS_LANES may be
+    """The LAG_HAS_* switches of driver.c and standalone*.c: what this scene has (LAG_HAS_LANES may be
     a condition on the build's precision, c_taylor_lanes.py)."""
     return [("LAG_HAS_CONSTRAINTS", int(bool(kernel.constraints)), "project onto constraints, watch their residual"),
             ("LAG_HAS_INVARIANTS", int(bool(kernel.invariant_names)), "watch conserved quantities"),
@@ -210,7 +210,7 @@ def _atol_tables(kernel: Kernel) -> dict:
 
 
 def _input_unit_rows(kernel: Kernel) -> list[str]:
-    """The initializers of lag_input_units (standalone.c): for each parameter, each coordinate's
+    """The initializers of lag_input_units (standalone_input.c): for each parameter, each coordinate's
     start and each one's velocity, its declared unit, its SI unit, its dimension in words and its
     factor to SI as a double and the remainder (the exact factor is their sum to about 2^-106)."""
     declared = kernel.input_units or (None,) * (len(kernel.parameters) + 2 * kernel.n)

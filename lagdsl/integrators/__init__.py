@@ -46,6 +46,15 @@ def integrator_source(name: str) -> str:
     return "\n".join(texts)
 
 
+# The standalone program's C files, in the order they are pasted (c/standalone_input.c says what each holds).
+STANDALONE_FILES = ("standalone_input.c", "standalone_output.c", "standalone_batch.c", "standalone.c")
+
+
+def standalone_source() -> str:
+    """The C text of the standalone program: its files in order."""
+    return "\n".join(c_file(file) for file in STANDALONE_FILES)
+
+
 def c_file(name: str) -> str:
     """A bundled C fragment (runtime.h, lu.c, an integrator file)."""
     return resources.files(__name__).joinpath("c").joinpath(name).read_text(encoding="utf-8")

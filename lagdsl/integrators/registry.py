@@ -76,7 +76,8 @@ class Integrator:
     `counters` are the fields of the lag_stats its C file defines, in the order the run summary
     reports them. `python` is the NumPy backend's stepper, "module:function" in
     lagdsl.integrators.python with the signature of `run.numpy_backend.Stepper`; `scipy` the
-    scipy.integrate solver that stands for it there instead.
+    scipy.integrate solver that stands for it there instead (a composite steps its parts'
+    solvers: scipy_solvers).
     """
 
     name: str
@@ -131,6 +132,15 @@ class Integrator:
     def stiffness_test(self) -> bool:
         """It reports the explicit pairs' stiffness test."""
         return self.stability_boundary > 0
+
+    @property
+    def scipy_solvers(self) -> tuple[str, ...]:
+        """The scipy.integrate solvers that step it on the NumPy backend: its `scipy`, or a
+        composite's parts', between which integrators/python/auto.py switches by the rule of
+        auto.c; () for a method with a Python stepper of its own."""
+        if self.parts:
+            return tuple(get(part).scipy for part in self.parts)
+        return (self.scipy,) if self.scipy else ()
 
     @property
     def adaptive(self) -> bool:
@@ -218,7 +228,7 @@ for _record in (
                      "use --backend c, or dop853 on the NumPy backend"),
     Integrator("auto", "auto", "dop853, switching to radau5 where the model is stiff, and back",
                counters=("accepted", "rejected", "rhs_evals", "jac_evals", "lu_decomps", "newton_iters"),
-               implicit=True, parts=("dop853", "radau5"), scipy="LSODA", order=5,
+               implicit=True, parts=("dop853", "radau5"), order=5,
                numpy_constraints="auto on the NumPy backend restarts its scipy solver after every projection "
                                  "onto the constraints, which would begin its stiffness test and its switches "
                                  "anew each step; use --backend c, or --integrator dop853 or radau5"),

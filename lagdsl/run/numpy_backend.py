@@ -89,13 +89,11 @@ def _integrate(module, par, times, y0, plan: RunPlan, progress: Progress | None,
     atol_each = plan.atol_vector(plan.coordinates)
     if atol_each is not None:
         options["atol"] = np.array(atol_each)
-    if record.scipy:
+    if record.scipy_solvers:
         jacobian = (lambda t, y: module.jacobian(t, y, par)) if plan.implicit else None
-        rtol, atol = record.working_tolerances(options["rtol"], options["atol"])   # auto: each part's own
-        problem = ScipyProblem("auto" if record.parts else record.scipy,
-                               ctrl_c.checked(lambda t, y: module.rhs(t, y, par)), jacobian,
-                               rtol, atol, options.get("max_step"), plan.max_steps,
-                               constrained, stop, parts=record.parts)
+        problem = ScipyProblem.of(record.name, ctrl_c.checked(lambda t, y: module.rhs(t, y, par)), jacobian,
+                                  options["rtol"], options["atol"], options.get("max_step"), plan.max_steps,
+                                  project=constrained, stop=stop)
         return integrate_scipy(problem, times, y0, *(() if progress is None else (progress,)))
     module_name, function = record.python.split(":")
     stepper = getattr(importlib.import_module(f"lagdsl.integrators.python.{module_name}"), function)
@@ -112,7 +110,7 @@ def _within_scipy_tolerances(plan: RunPlan) -> RunPlan:
     """scipy's solvers raise rtol below 100 eps themselves (with a warning of their own): raise it
     here, say so in our words, and let the summary print the tolerance the run used."""
     options = dict(plan.integrator.options)
-    if not registry.get(plan.integrator.name).scipy or options["rtol"] >= SCIPY_RTOL_FLOOR:
+    if not registry.get(plan.integrator.name).scipy_solvers or options["rtol"] >= SCIPY_RTOL_FLOOR:
         return plan
     warnings.warn(f"rtol = {options['rtol']:g} is below what scipy's solvers accept; the NumPy backend "
                   f"runs at rtol = {SCIPY_RTOL_FLOOR:.3g}", LagWarning, stacklevel=3)
@@ -174,9 +172,9 @@ def _numpy_result(module, par, times, states, plan, counts, elapsed, projection,
         residual = float(max(np.max(np.abs(g), initial=0.0), np.max(np.abs(c), initial=0.0)))
     record = registry.get(plan.integrator.name)
     kept = tuple((name, int(counts[name])) for name in record.counters if counts.get(name) is not None)
-    solvers = " and ".join(registry.get(part).scipy for part in record.parts) if record.parts else record.scipy
+    solvers = " and ".join(record.scipy_solvers)
     uncounted = tuple((name, f"not counted by scipy's {solvers}") for name in record.counters
-                      if counts.get(name) is None and record.scipy and counts)
+                      if counts.get(name) is None and solvers and counts)
     summary = RunSummary("numpy", plan.integrator.name, kept, elapsed, invariants, plan.constraints, residual,
                          projection if plan.constraints else None, plan.integrator.options,
                          atol_each=plan.integrator.atol_each,

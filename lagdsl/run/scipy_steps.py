@@ -1,4 +1,5 @@
-"""scipy's solvers stepped one step at a time: the NumPy backend's adaptive runs and stacked sweeps.
+"""scipy's solvers stepped one step at a time: the NumPy backend's adaptive runs, stacked sweeps and
+sensitivities.
 
 The loop takes scipy's steps itself rather than calling solve_ivp, so that it can count them
 against the step limit, stop a run whose steps have collapsed (scipy's own floor, 10 ulp of t, is
@@ -49,6 +50,18 @@ class ScipyProblem:
     watch: bool = True                                  # the stiffness test or auto's switches
     parts: tuple[str, ...] = ()                         # auto: the methods it switches between (registry names)
 
+    @classmethod
+    def of(cls, integrator: str, fun: Callable[[float, np.ndarray], np.ndarray],
+           jac: Callable[[float, np.ndarray], np.ndarray] | None, rtol: float, atol: float | np.ndarray,
+           max_step: float | None, max_steps: int, **extra) -> ScipyProblem:
+        """The problem as scipy steps `integrator` (a registry name): by its scipy solver, or a
+        composite by AutoSolver over its parts' (integrators/python/auto.py), on every NumPy path,
+        at the tolerances the method works to; `extra` sets project, stop and watch."""
+        record = registry.get(integrator)
+        rtol, atol = record.working_tolerances(rtol, atol)          # auto: each part's own (_part)
+        return cls("auto" if record.parts else record.scipy, fun, jac, rtol, atol, max_step, max_steps,
+                   parts=record.parts, **extra)
+
 
 def _no_progress(t: float, start: float, stop: float) -> None:
     pass
@@ -63,7 +76,7 @@ def integrate_scipy(problem: ScipyProblem, times: np.ndarray, y0: np.ndarray,
     forecast = WorkForecast(times[0], times[-1], problem.max_steps)
     states, solver = [y0], None
     try:
-        solver = _start(problem, times[0], y0, times[-1])   # its choice of the first step evaluates the model
+        solver = start_solver(problem, times[0], y0, times[-1])   # its choice of the first step evaluates the model
         while len(states) < len(times):
             failure = _step(problem, solver, times, counts, watch, forecast, progress)
             if failure is not None:
@@ -85,7 +98,7 @@ def integrate_scipy(problem: ScipyProblem, times: np.ndarray, y0: np.ndarray,
     return states, watch.finish(_tally(counts, solver)), None
 
 
-def _start(problem: ScipyProblem, t: float, y: np.ndarray, t_end: float, first_step: float | None = None):
+def start_solver(problem: ScipyProblem, t: float, y: np.ndarray, t_end: float, first_step: float | None = None):
     """scipy's solver at (t, y), with its own first step (which evaluates the model) unless
     `first_step` is given; a first step that is not a number or lies below the floor
     (settings.START_STEP_MIN_STEPS: a tiny atol on a component at 0 makes it tiny) is replaced,
@@ -169,7 +182,7 @@ def _restart_projected(problem: ScipyProblem, solver, counts: dict, t_end: float
     projected = problem.project(solver.t, solver.y)
     _tally(counts, solver)
     proposed = getattr(solver, "h_abs", solver.step_size)
-    return _start(problem, solver.t, projected, t_end, first_step=min(proposed, t_end - solver.t))
+    return start_solver(problem, solver.t, projected, t_end, first_step=min(proposed, t_end - solver.t))
 
 
 class _StepWatch:

@@ -390,8 +390,8 @@ def _stacked_chunk(module, members: Members, lo: int, hi: int, values: np.ndarra
     def fun(t, y):
         return module.rhs(t, y.reshape(n, count), par).reshape(-1)
 
-    problem = ScipyProblem(registry.get(plan.integrator.name).scipy, fun, None, rtol, atol, options.get("max_step"),
-                           plan.max_steps, watch=False)
+    problem = ScipyProblem.of(plan.integrator.name, fun, None, rtol, atol, options.get("max_step"), plan.max_steps,
+                              watch=False)
     with np.errstate(all="ignore"):
         states, counts, failure = integrate_scipy(problem, times, y0.reshape(-1))
         if failure is not None and failure[0] != INTERRUPTED:

@@ -14,8 +14,9 @@ of it), the unit vector for "q.start" and "q.velocity", zero rows for starts set
 
 An output column h(t, y, par) has ∂h/∂θ = Cy S + Cp J_θ on the output grid.
 
-The system is integrated by the scipy solver that stands for the scene's integrator on the
-NumPy backend (registry.Integrator.scipy). With `error_control` (the default, CVODES's "full
+The system is integrated as the NumPy backend integrates the scene (run/scipy_steps.py): by the
+scipy solver that stands for its integrator, or for auto by the same switching between scipy's
+DOP853 and Radau (integrators/python/auto.py). With `error_control` (the default, CVODES's "full
 error control") S enters the step-size control with the state's tolerances; without it S
 gets an infinite atol, so steps are chosen for the state alone.
 """
@@ -25,12 +26,13 @@ import time as clock
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.integrate
 import sympy
 
-from ..errors import LagError, Setting, SimulationError, suggest
+from ..errors import LagError, Setting, suggest
 from ..integrators import registry
 from ..run.output import Result, RunSummary, output_times
+from ..run.scipy_steps import ScipyProblem, integrate_scipy
+from ..run.status import simulation_error
 from .variational import VariationalSystem, onto_constraints
 
 START, VELOCITY = ".start", ".velocity"
@@ -149,14 +151,15 @@ def build(model, scene: str | None) -> Program:
 JACOBIAN_INTEGRATOR = "radau5"
 
 
-def solver_of(plan) -> tuple[str, dict[str, float]]:
-    """The scipy solver standing for the plan's integrator, and its options (rtol, atol, ...)."""
+def options_of(plan) -> dict[str, float]:
+    """The options of the plan's integrator (rtol, atol, ...), which scipy's solvers step with
+    error control."""
     record = registry.get(plan.integrator.name)
-    if record.scipy is None or record.fixed_step:
+    if not record.scipy_solvers or record.fixed_step:
         raise LagError(f"sensitivities need an adaptive integrator with error control on the NumPy backend "
                        f"(dopri5, dop853, radau5 or auto), not {plan.integrator.name}",
                        plan.integrator.span or Setting("--integrator"))
-    return record.scipy, {**dict(record.defaults), **dict(plan.integrator.options)}
+    return {**dict(record.defaults), **dict(plan.integrator.options)}
 
 
 def integrate(program: Program, plan, chosen: Directions, times: np.ndarray | None = None,
@@ -164,7 +167,7 @@ def integrate(program: Program, plan, chosen: Directions, times: np.ndarray | No
     """Run `plan` (a scene.ScenePlan) with the sensitivities by `chosen` on `times` (default: the
     scene's output grid, which starts at the scene's start time)."""
     start = prepare(program, plan, chosen, times)
-    method, options = solver_of(plan)
+    options = options_of(plan)
     n = len(plan.coordinates)
     tolerance = np.full(start.y0.size, float(options["atol"]))
     atol_each = plan.atol_vector(plan.coordinates)      # the state's own per component; the sensitivities keep atol
@@ -175,11 +178,11 @@ def integrate(program: Program, plan, chosen: Directions, times: np.ndarray | No
     system = start.system
     started = clock.perf_counter()
     jacobian = system.newton_matrix if registry.get(plan.integrator.name).implicit else None
-    settings = dict(method=method, rtol=float(options["rtol"]), atol=tolerance, max_step=options.get("max_step", np.inf),
-                    **({"jac": jacobian} if jacobian else {}))
-    solution = _solve(system, plan, start.times, start.y0, settings)
-    return result(program, plan, chosen, system, (solution.t, solution.y), "numpy",
-                  (("rhs_evals", int(solution.nfev)),), clock.perf_counter() - started, options)
+    problem = ScipyProblem.of(plan.integrator.name, system.rhs, jacobian, float(options["rtol"]), tolerance,
+                              options.get("max_step"), plan.run_plan().max_steps, watch=False)
+    Y, rhs_evals = _solve(problem, plan, start.times, start.y0)
+    return result(program, plan, chosen, system, (start.times, Y), "numpy", (("rhs_evals", rhs_evals),),
+                  clock.perf_counter() - started, options)
 
 
 @dataclass(frozen=True)
@@ -208,23 +211,17 @@ def prepare(program: Program, plan, chosen: Directions, times: np.ndarray | None
     return Start(times, np.concatenate([state, S0.ravel()]), VariationalSystem(module, par, J, n))
 
 
-def _solve(system: VariationalSystem, plan, times, y0, settings: dict):
-    """solve_ivp from the scene's start over `times`; SimulationError naming the time and state
-    where it failed (the last the right-hand side was evaluated at)."""
+def _solve(problem: ScipyProblem, plan, times: np.ndarray, y0: np.ndarray) -> tuple[np.ndarray, int]:
+    """(Y at `times`, a column per time; the right-hand sides evaluated), integrated from the
+    scene's start; SimulationError naming the time and state where it failed."""
     start = float(plan.time.start)
-    try:
-        solution = scipy.integrate.solve_ivp(system.rhs, (start, float(times[-1])), y0, t_eval=times, **settings)
-        if solution.status == 0:
-            return solution
-        why = solution.message
-    except np.linalg.LinAlgError:
-        why = "the mass matrix (with the constraints' rows) is singular"
-    reached, Y = system.last if system.last is not None else (start, y0)
-    n = len(plan.coordinates)
-    named = {**{q: float(Y[k]) for k, q in enumerate(plan.coordinates)},
-             **{q + VELOCITY: float(Y[n + k]) for k, q in enumerate(plan.coordinates)}}
-    raise SimulationError(f"the sensitivities' integration failed ({why})", float(reached), named,
-                          "check the parameter values; lower rtol, or choose radau5 for a stiff model")
+    grid = np.asarray(times, dtype=float) if times[0] == start else np.concatenate([[start], times])
+    states, counts, failure = integrate_scipy(problem, grid, y0)
+    if failure is not None:
+        status, reached, Y = failure[:3]
+        raise simulation_error(plan.run_plan(), status, reached, Y[:2 * len(plan.coordinates)], None, None,
+                               *failure[3:])
+    return np.array(states[len(grid) - len(times):]).T, int(counts["rhs_evals"])
 
 
 def result(program, plan, chosen, system, solution: tuple[np.ndarray, np.ndarray], backend: str, counters,

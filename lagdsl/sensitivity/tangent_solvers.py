@@ -2,7 +2,8 @@
 (sensitivity/lyapunov.py): the augmented system Y = (y, V by rows) of the forward sensitivities
 (variational.py) without parameter directions, J = 0, so that each tangent vector is a
 sensitivity column with respect to the start values, integrated on the NumPy backend by the scipy
-solver standing for the scene's integrator (`ScipySolver`) or on the C backend by the scene's C
+solver standing for the scene's integrator, for auto the switching of integrators/python/auto.py,
+as run/scipy_steps.py starts them (`ScipySolver`), or on the C backend by the scene's C
 integrator in the generated sensitivity program (`CSolver`, c_run.py). A scene whose integrator
 has no error control (rk4, gauss) or steps by generated Taylor series of the equations of motion
 alone (taylor) is run with FALLBACK_INTEGRATOR instead, with the options it takes.
@@ -12,11 +13,11 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
-import scipy.integrate
 
 from ..abi import SETTINGS
 from ..errors import SimulationError
 from ..integrators import registry
+from ..run.scipy_steps import ScipyProblem, start_solver
 from ..run.status import simulation_error
 from ..settings import IntegratorChoice
 from . import c_run
@@ -54,29 +55,28 @@ class ScipySolver:
     """scipy's solver standing for the scene's integrator, restarted at each re-orthonormalisation
     with the step size it had reached."""
 
-    def __init__(self, system: VariationalSystem, name: str, method: str, options: dict, implicit: bool,
+    def __init__(self, system: VariationalSystem, record: registry.Integrator, options: dict, max_steps: int,
                  instead_of: str | None = None):
-        self.system, self.name, self.method = system, name, getattr(scipy.integrate, method)
+        self.system, self.name, self.solvers = system, record.name, " and ".join(record.scipy_solvers)
         self.instead_of = instead_of        # the scene's integrator, when it has no error control
         self.rtol, self.atol = float(options["rtol"]), float(options["atol"])
-        self.max_step = float(options.get("max_step", np.inf))
-        self.extra = {"jac": system.newton_matrix} if implicit else {}
+        self.problem = ScipyProblem.of(record.name, system.rhs, system.newton_matrix if record.implicit else None,
+                                       self.rtol, self.atol, options.get("max_step"), max_steps, watch=False)
         self.step: float | None = None
 
     @classmethod
     def of(cls, plan, system: VariationalSystem) -> "ScipySolver":
-        record, instead_of = _replaced(plan, lambda r: r.scipy is None or r.fixed_step)
-        return cls(system, record.name, record.scipy, _options(plan, record), record.implicit, instead_of)
+        record, instead_of = _replaced(plan, lambda r: not r.scipy_solvers or r.fixed_step)
+        return cls(system, record, _options(plan, record), plan.run_plan().max_steps, instead_of)
 
     def describe(self) -> str:
-        return f"{self.name} (scipy {self.method.__name__}, rtol {self.rtol:g}, atol {self.atol:g}" \
+        return f"{self.name} (scipy {self.solvers}, rtol {self.rtol:g}, atol {self.atol:g}" \
                f"{_instead(self.instead_of)})"
 
     def advance(self, t: float, t_next: float, Y: np.ndarray) -> np.ndarray:
         """Y at t_next from Y at t; SimulationError naming where the integration failed."""
         first = self.step if self.step is not None and self.step < t_next - t else None
-        solver = self.method(self.system.rhs, t, Y, t_next, rtol=self.rtol, atol=self.atol,
-                             max_step=self.max_step, first_step=first, **self.extra)
+        solver = start_solver(self.problem, t, Y, t_next, first)
         while solver.status == "running":
             try:
                 message = solver.step()

@@ -31,7 +31,6 @@ class VariationalSystem:
     def __init__(self, module, par: np.ndarray, J: np.ndarray, n: int):
         self.module, self.par, self.J = module, par, J
         self.n, self.m = n, J.shape[1]
-        self.last: tuple[float, np.ndarray] | None = None     # (t, Y) of the last evaluation: a failure's place
 
     def split(self, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return Y[:2 * self.n], Y[2 * self.n:].reshape(2 * self.n, self.m)
@@ -39,7 +38,6 @@ class VariationalSystem:
     def rates(self, t: float, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """x = (q'', λ) and its sensitivities (Sq'', Sλ), both from K's solves."""
         module, par, n = self.module, self.par, self.n
-        self.last = (t, Y)
         y, S = self.split(Y)
         K, b = module.assemble(par, t, y)
         x = module.solve(K, b)

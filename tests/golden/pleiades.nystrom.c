@@ -217,7 +217,7 @@ enum lag_setting { LAG_SET_T_START, LAG_SET_T_STOP, LAG_SET_T_INTERVAL, LAG_SET_
 #define LAG_NP 3     /* parameters */
 #define LAG_NOUT 17     /* output columns */
 #define LAG_NINV 1     /* conserved quantities watched */
-/* What the driver does for this scene (integrators/c/driver.c, standalone.c): */
+/* What the driver does for this scene (integrators/c/driver.c, standalone*.c): */
 #define LAG_HAS_CONSTRAINTS 0     /* project onto constraints, watch their residual */
 #define LAG_HAS_INVARIANTS 1     /* watch conserved quantities */
 #define LAG_HAS_STOP 0     /* a stop condition may end the run */
@@ -1155,7 +1155,7 @@ static int lag_forecast_step(lag_forecast *forecast, real h, real t)
  * its invariants and its stop condition, and report how the run went (lag_integrate).
  *
  * Pasted into every generated C file after the model and the integrator (lagdsl/codegen/c.py);
- * library.c and standalone.c follow it. From the model it reads LAG_NQ, LAG_NY, LAG_NOUT,
+ * library.c and the standalone program's files follow it. From the model it reads LAG_NQ, LAG_NY, LAG_NOUT,
  * lag_system, lag_system_prepare, lag_outputs and lag_condition, and what the scene has, as its
  * LAG_HAS_* flags say:
  *   LAG_HAS_CONSTRAINTS   LAG_NC (LAG_NH of them holonomic, first), lag_constraint_rows, lag_gram
@@ -1740,7 +1740,7 @@ void lag_run_batch(long members, const double *parameters, const double *initial
 #define LAG_SCENE_T_START LAG_LIT(0.0)
 #define LAG_SCENE_T_STOP LAG_LIT(3.0)
 #define LAG_SCENE_T_INTERVAL LAG_LIT(0.1)
-/* The components an atol may be given for (lagdsl/tolerances.py, standalone.c's --atol=NAME=VALUE):
+/* The components an atol may be given for (lagdsl/tolerances.py, standalone_input.c's --atol=NAME=VALUE):
  * each coordinate and each family, then der() of each in the same order; the slot of
  * lag_input_units whose unit a value of each is in; the family of each coordinate (its name's
  * index, -1 for none); the scene's atol of each in SI (-1: not given). */
@@ -1754,7 +1754,7 @@ static const double lag_scene_atol_given[LAG_NATOL] = { -1.0, -1.0, -1.0, -1.0, 
 #define LAG_SCENE_OPTIONS { LAG_LIT(1e-12), LAG_LIT(1e-12), LAG_LIT(0.0), LAG_LIT(0.0), 0, 0L, NULL }
 
 /* The declared unit of each input (runtime.h): the parameters, each coordinate's start, each
- * one's velocity, the slots of lag_member (standalone.c). */
+ * one's velocity, the slots of lag_member (standalone_input.c). */
 static const lag_input_unit lag_input_units[] = {
     { "", "", "", 1.0, 0.0 },
     { "m^3/(kg*s^2)", "m^3/(kg*s^2)", "length^3/(mass*time^2)", 1.0, 0.0 },
@@ -1888,40 +1888,15 @@ static void lag_print_status(FILE *file, int status, long max_steps, double rcon
  * the tables of the atol per component (LAG_NATOL, lag_atol_names, lag_atol_inputs,
  * lag_atol_family, lag_scene_atol_given), lag_stop_text (with
  * LAG_HAS_STOP), lag_counter_labels and lag_print_status (lagdsl/abi.py).
+ *
+ * Four files in this order (lagdsl/integrators STANDALONE_FILES): this one, the values the program
+ * is given (NAME=VALUE of an input, in its declared unit or with a unit; --atol=NAME=VALUE; the
+ * checks of `lagc run` on the grid, the tolerances and the inputs), read the same way on the
+ * command line and in batch lines; standalone_output.c (the CSV, the run summary, Ctrl-C);
+ * standalone_batch.c (--batch); standalone.c (the command line and main).
  */
 
 #define LAG_LINE_MAX 4096                /* the longest line of batch input (and argument), with its newline */
-
-static int lag_print_row(void *context, real t, const real *out)
-{
-    int i;
-    (void)context;
-    lag_print_real(stdout, t);
-    for (i = 0; i < LAG_NOUT; ++i) {
-        fputc(',', stdout);
-        lag_print_real(stdout, out[i]);
-    }
-    fputc('\n', stdout);
-    return 0;
-}
-
-/* The CSV header: the columns, after the member's number in batch mode. */
-static void lag_print_header(int batch)
-{
-    int i;
-    fputs(batch ? "member,t" : "t", stdout);
-    for (i = 0; i < LAG_NOUT; ++i)
-        fprintf(stdout, ",%s", lag_column_names[i]);
-    fputc('\n', stdout);
-}
-
-/* The work counters as the summary labels them: "12 steps accepted, 3 rejected, ...". */
-static void lag_print_counters(FILE *file, const long *counts)
-{
-    int i;
-    for (i = 0; i < LAG_NCOUNTERS; ++i)
-        fprintf(file, "%s%ld %s", i == 0 ? "" : ", ", counts[i], lag_counter_labels[i]);
-}
 
 static int lag_index_of(const char *const *names, int count, const char *name, size_t length)
 {
@@ -2156,29 +2131,6 @@ static void lag_atol_apply(lag_options *options, real t0, real t1)
 }
 #endif
 
-static void lag_on_interrupt(int signal_number)
-{
-    (void)signal_number;
-    lag_interrupt = 1;
-}
-
-/* Ctrl-C stops the run between two steps. With POSIX's sigaction the handler stays and a write
- * of a row that the signal interrupts resumes (SA_RESTART): ISO C's signal() gives neither on
- * every system, and an interrupted write would cut the last row of the CSV. */
-static void lag_catch_interrupt(void)
-{
-#ifdef SA_RESTART
-    struct sigaction action;
-    memset(&action, 0, sizeof action);
-    action.sa_handler = lag_on_interrupt;
-    sigemptyset(&action.sa_mask);
-    action.sa_flags = SA_RESTART;
-    sigaction(SIGINT, &action, NULL);
-#else
-    signal(SIGINT, lag_on_interrupt);
-#endif
-}
-
 /* The checks of `lagc run`: a finite grid of at most LAG_MAX_ROWS rows. */
 static int lag_check_grid(const char *program, real t0, real t1, real dt)
 {
@@ -2252,6 +2204,140 @@ static int lag_member_state(const char *prefix, lag_member *member, real *y0)
             y0[i] = member->start[i];
     return lag_check_inputs(prefix, member->par, y0);
 }
+
+/* The standalone program's output: the CSV on standard output, the run summary on standard error,
+ * and Ctrl-C, which stops the run between two steps and leaves the rows written a valid CSV. */
+
+static int lag_print_row(void *context, real t, const real *out)
+{
+    int i;
+    (void)context;
+    lag_print_real(stdout, t);
+    for (i = 0; i < LAG_NOUT; ++i) {
+        fputc(',', stdout);
+        lag_print_real(stdout, out[i]);
+    }
+    fputc('\n', stdout);
+    return 0;
+}
+
+/* The CSV header: the columns, after the member's number in batch mode. */
+static void lag_print_header(int batch)
+{
+    int i;
+    fputs(batch ? "member,t" : "t", stdout);
+    for (i = 0; i < LAG_NOUT; ++i)
+        fprintf(stdout, ",%s", lag_column_names[i]);
+    fputc('\n', stdout);
+}
+
+/* The work counters as the summary labels them: "12 steps accepted, 3 rejected, ...". */
+static void lag_print_counters(FILE *file, const long *counts)
+{
+    int i;
+    for (i = 0; i < LAG_NCOUNTERS; ++i)
+        fprintf(file, "%s%ld %s", i == 0 ? "" : ", ", counts[i], lag_counter_labels[i]);
+}
+
+static void lag_on_interrupt(int signal_number)
+{
+    (void)signal_number;
+    lag_interrupt = 1;
+}
+
+/* Ctrl-C stops the run between two steps. With POSIX's sigaction the handler stays and a write
+ * of a row that the signal interrupts resumes (SA_RESTART): ISO C's signal() gives neither on
+ * every system, and an interrupted write would cut the last row of the CSV. */
+static void lag_catch_interrupt(void)
+{
+#ifdef SA_RESTART
+    struct sigaction action;
+    memset(&action, 0, sizeof action);
+    action.sa_handler = lag_on_interrupt;
+    sigemptyset(&action.sa_mask);
+    action.sa_flags = SA_RESTART;
+    sigaction(SIGINT, &action, NULL);
+#else
+    signal(SIGINT, lag_on_interrupt);
+#endif
+}
+
+/* The integrator's work, and what the scene watches: the stiffness test, the switches, the stop
+ * condition, the invariants and the constraints. */
+static void lag_print_work(const lag_report *report, const lag_options *options, double seconds)
+{
+    double summary[LAG_SUMMARY_SIZE];
+    long counts[LAG_NCOUNTERS];
+    int i;
+    lag_pack_summary(report, summary);
+    for (i = 0; i < LAG_NCOUNTERS; ++i)
+        counts[i] = (long)summary[LAG_SUMMARY_COUNTERS + i];
+    fprintf(stderr, "integrator %s(", LAG_INTEGRATOR_NAME);    /* the options as used, as in a scene */
+    lag_print_options(stderr, options);
+#if LAG_HAS_TOLERANCES
+    for (i = 0; i < LAG_NATOL; ++i)
+        if (lag_atol_given[i] >= 0)
+            fprintf(stderr, ", atol(%s) = %g", lag_atol_names[i], lag_atol_given[i]);
+#endif
+    fputs("): ", stderr);
+    lag_print_counters(stderr, counts);
+    fprintf(stderr, ", %.3g s CPU\n", seconds);
+#if LAG_HAS_STIFFNESS_TEST
+    lag_print_verdict(stderr, report);
+#endif
+#if LAG_HAS_SWITCHES
+    fprintf(stderr, "auto: %ld switch%s", report->switches.count, report->switches.count == 1 ? "" : "es");
+    for (i = 0; i < report->switches.count && i < LAG_AUTO_LOGGED; ++i)
+        fprintf(stderr, "%sto %s at t = %.6g", i == 0 ? " (" : ", ", i % 2 == 0 ? "radau5" : "dop853",
+                (double)report->switches.at[i]);
+    fprintf(stderr, "%s; dop853 over %.6g of t, radau5 over %.6g\n",
+            report->switches.count == 0 ? "" : report->switches.count > LAG_AUTO_LOGGED ? ", ...)" : ")",
+            (double)report->switches.span[LAG_AUTO_EXPLICIT], (double)report->switches.span[LAG_AUTO_IMPLICIT]);
+#endif
+#if LAG_HAS_STOP
+    if (report->stopped)
+        fprintf(stderr, "stopped at t = %.17g, where %s\n", (double)report->t_stop, lag_stop_text);
+#endif
+#if LAG_HAS_INVARIANTS
+    for (i = 0; i < LAG_NINV; ++i)
+        fprintf(stderr, "drift of %s: %.3g (from %.17g)\n", lag_invariant_names[i],
+                (double)report->invariant_drift[i], (double)report->invariant_start[i]);
+#endif
+#if LAG_HAS_CONSTRAINTS
+    fprintf(stderr, "largest constraint residual (%s", lag_constraint_names[0]);
+    for (i = 1; i < LAG_NC; ++i)
+        fprintf(stderr, ", %s", lag_constraint_names[i]);
+    fprintf(stderr, "): %.3g\n", (double)report->residual_max);
+#endif
+}
+
+/* The run summary on standard error: the work (lag_print_work) and how the run failed. Returns
+ * the exit status: 0, 1 after a failure, 130 when interrupted. */
+static int lag_print_summary(const lag_report *report, const lag_options *options, long max_steps, double seconds)
+{
+    int i;
+    lag_print_work(report, options, seconds);
+    if (report->status == LAG_ERR_INTERRUPTED) {
+        fprintf(stderr, "interrupted at t = %.17g after %ld rows\n", (double)report->t_fail, report->rows);
+        return 130;    /* 128 + SIGINT, as a shell reports a run stopped by Ctrl-C */
+    }
+    if (report->status != LAG_OK) {
+        fprintf(stderr, "the run is incomplete: %ld rows written\n", report->rows);
+        fprintf(stderr, "simulation failed at t = %.17g: ", (double)report->t_fail);
+        lag_print_status(stderr, report->status, max_steps, (double)report->rcond_fail,
+                         (double)report->forecast.steps, (double)report->forecast.stop);
+        fputs("\n  state:", stderr);
+        for (i = 0; i < LAG_NQ; ++i)
+            fprintf(stderr, " %s = %.17g, %s' = %.17g", lag_coordinate_names[i], (double)report->y_fail[i],
+                    lag_coordinate_names[i], (double)report->y_fail[LAG_NQ + i]);
+        fputc('\n', stderr);
+        return 1;
+    }
+    return 0;
+}
+
+/* The standalone program's batch mode (--batch): the members read from standard input, run in
+ * chunks over lag_run_members (library.c), their rows written in member order in one CSV. */
 
 /* ---- batch mode: one member a line of standard input ---- */
 #define LAG_BATCH_VALUES (1L << 22)      /* the doubles of output held at once: members run in chunks */
@@ -2454,6 +2540,9 @@ static int lag_batch_main(const char *program, const lag_member *given, real t0,
     return status;
 }
 
+/* The standalone program's command line (NAME=VALUE, --OPTION=VALUE, --batch, --help) and main:
+ * one run of the scene, or with --batch one per line of standard input (standalone_batch.c). */
+
 /* OPTION=VALUE with the option's name as its flag (max_step -> max-step); 0 if too long. */
 static int lag_option_text(const char *text, char *option)
 {
@@ -2577,80 +2666,6 @@ static int lag_parse_arguments(int argc, char **argv, lag_member *given, real *g
         }
     }
     return lag_check_grid(argv[0], grid[0], grid[1], grid[2]) && lag_check_tolerances(argv[0], options);
-}
-
-/* The integrator's work, and what the scene watches: the stiffness test, the switches, the stop
- * condition, the invariants and the constraints. */
-static void lag_print_work(const lag_report *report, const lag_options *options, double seconds)
-{
-    double summary[LAG_SUMMARY_SIZE];
-    long counts[LAG_NCOUNTERS];
-    int i;
-    lag_pack_summary(report, summary);
-    for (i = 0; i < LAG_NCOUNTERS; ++i)
-        counts[i] = (long)summary[LAG_SUMMARY_COUNTERS + i];
-    fprintf(stderr, "integrator %s(", LAG_INTEGRATOR_NAME);    /* the options as used, as in a scene */
-    lag_print_options(stderr, options);
-#if LAG_HAS_TOLERANCES
-    for (i = 0; i < LAG_NATOL; ++i)
-        if (lag_atol_given[i] >= 0)
-            fprintf(stderr, ", atol(%s) = %g", lag_atol_names[i], lag_atol_given[i]);
-#endif
-    fputs("): ", stderr);
-    lag_print_counters(stderr, counts);
-    fprintf(stderr, ", %.3g s CPU\n", seconds);
-#if LAG_HAS_STIFFNESS_TEST
-    lag_print_verdict(stderr, report);
-#endif
-#if LAG_HAS_SWITCHES
-    fprintf(stderr, "auto: %ld switch%s", report->switches.count, report->switches.count == 1 ? "" : "es");
-    for (i = 0; i < report->switches.count && i < LAG_AUTO_LOGGED; ++i)
-        fprintf(stderr, "%sto %s at t = %.6g", i == 0 ? " (" : ", ", i % 2 == 0 ? "radau5" : "dop853",
-                (double)report->switches.at[i]);
-    fprintf(stderr, "%s; dop853 over %.6g of t, radau5 over %.6g\n",
-            report->switches.count == 0 ? "" : report->switches.count > LAG_AUTO_LOGGED ? ", ...)" : ")",
-            (double)report->switches.span[LAG_AUTO_EXPLICIT], (double)report->switches.span[LAG_AUTO_IMPLICIT]);
-#endif
-#if LAG_HAS_STOP
-    if (report->stopped)
-        fprintf(stderr, "stopped at t = %.17g, where %s\n", (double)report->t_stop, lag_stop_text);
-#endif
-#if LAG_HAS_INVARIANTS
-    for (i = 0; i < LAG_NINV; ++i)
-        fprintf(stderr, "drift of %s: %.3g (from %.17g)\n", lag_invariant_names[i],
-                (double)report->invariant_drift[i], (double)report->invariant_start[i]);
-#endif
-#if LAG_HAS_CONSTRAINTS
-    fprintf(stderr, "largest constraint residual (%s", lag_constraint_names[0]);
-    for (i = 1; i < LAG_NC; ++i)
-        fprintf(stderr, ", %s", lag_constraint_names[i]);
-    fprintf(stderr, "): %.3g\n", (double)report->residual_max);
-#endif
-}
-
-/* The run summary on standard error: the work (lag_print_work) and how the run failed. Returns
- * the exit status: 0, 1 after a failure, 130 when interrupted. */
-static int lag_print_summary(const lag_report *report, const lag_options *options, long max_steps, double seconds)
-{
-    int i;
-    lag_print_work(report, options, seconds);
-    if (report->status == LAG_ERR_INTERRUPTED) {
-        fprintf(stderr, "interrupted at t = %.17g after %ld rows\n", (double)report->t_fail, report->rows);
-        return 130;    /* 128 + SIGINT, as a shell reports a run stopped by Ctrl-C */
-    }
-    if (report->status != LAG_OK) {
-        fprintf(stderr, "the run is incomplete: %ld rows written\n", report->rows);
-        fprintf(stderr, "simulation failed at t = %.17g: ", (double)report->t_fail);
-        lag_print_status(stderr, report->status, max_steps, (double)report->rcond_fail,
-                         (double)report->forecast.steps, (double)report->forecast.stop);
-        fputs("\n  state:", stderr);
-        for (i = 0; i < LAG_NQ; ++i)
-            fprintf(stderr, " %s = %.17g, %s' = %.17g", lag_coordinate_names[i], (double)report->y_fail[i],
-                    lag_coordinate_names[i], (double)report->y_fail[LAG_NQ + i]);
-        fputc('\n', stderr);
-        return 1;
-    }
-    return 0;
 }
 
 int main(int argc, char **argv)

@@ -1,4 +1,4 @@
-"""The driver's static C (integrators/c/driver.c, library.c, standalone.c) compiled on its own.
+"""The driver's static C (integrators/c/driver.c, library.c, standalone*.c) compiled on its own.
 
 A small stub model (two uncoupled oscillators q'' = -q, held together by q1 = q2 or q1' = q2') and a
 stub stepper (explicit Euler, with every counter and auto's switch log) stand for what the code
@@ -15,7 +15,7 @@ import pytest
 
 from lagdsl.abi import MAX_STEPS, STATUSES, summary_layout
 from lagdsl.codegen.c_abi import runtime_contract, runtime_header, status_printer, summary_packer, verdict_printer
-from lagdsl.integrators import c_file
+from lagdsl.integrators import c_file, standalone_source
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 
 HEADERS = """#define _POSIX_C_SOURCE 200809L
@@ -230,7 +230,7 @@ def program(constraints, holonomic, invariants, stop, integrator, tolerances) ->
     return "\n".join([HEADERS, runtime_header(), runtime_contract(), linear_algebra, defines,
                       MODEL % {"holonomic": "#define LAG_NH 1" if holonomic else ""}, STEPPER,
                       c_file("forecast.c"), c_file("driver.c"), summary_packer(layout), c_file("library.c"), SCENE,
-                      status_printer(), verdict_printer() if integrator == "dop853" else "", c_file("standalone.c")])
+                      status_printer(), verdict_printer() if integrator == "dop853" else "", standalone_source()])
 
 
 def build(tmp_path, name: str, combination: tuple) -> str:

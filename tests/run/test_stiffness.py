@@ -144,6 +144,17 @@ def test_auto_switches_at_the_verdict_of_its_backends_dop853(spring, backend):
     assert position_error(result) < 1e-5
 
 
+def test_a_numpy_sweep_member_with_auto_equals_its_simulate(spring):
+    """Every NumPy path steps auto alike (integrators/python/auto.py): a member of a sweep switches
+    where its own simulate() does, and equals it bit for bit."""
+    amplitudes = [1.0, 0.5]
+    sweep = spring.sweep(None, "numpy", set={"a": amplitudes}, integrator="auto", stop=0.5)
+    for b, amplitude in enumerate(amplitudes):
+        alone = spring.simulate(backend="numpy", integrator="auto", stop=0.5, a=amplitude)
+        assert alone.summary.switches.count >= 1
+        assert np.array_equal(alone.values, sweep.values[b])
+
+
 def test_auto_handles_constraints_in_c_and_is_refused_by_numpy():
     model = library_model("cartesian_pendulum")
     auto = model.simulate(integrator="auto", stop=1, rtol=1e-10, atol=1e-12)

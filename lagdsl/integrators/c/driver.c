@@ -2,7 +2,7 @@
  * its invariants and its stop condition, and report how the run went (lag_integrate).
  *
  * Pasted into every generated C file after the model and the integrator (lagdsl/codegen/c.py);
- * library.c and standalone.c follow it. From the model it reads LAG_NQ, LAG_NY, LAG_NOUT,
+ * library.c and the standalone program's files follow it. From the model it reads LAG_NQ, LAG_NY, LAG_NOUT,
  * lag_system, lag_system_prepare, lag_outputs and lag_condition, and what the scene has, as its
  * LAG_HAS_* flags say:
  *   LAG_HAS_CONSTRAINTS   LAG_NC (LAG_NH of them holonomic, first), lag_constraint_rows, lag_gram

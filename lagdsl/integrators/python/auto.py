@@ -51,8 +51,9 @@ class AutoSolver:
 
     # ---- scipy's interface -------------------------------------------------------------------
     def __getattr__(self, name: str):
-        """t, t_old, y, status and the dense output are those of the solver that took the last step."""
-        if name in ("t", "t_old", "y", "status", "dense_output"):
+        """t, t_old, y, status, the dense output and the step size are those of the solver that took
+        the last step."""
+        if name in ("t", "t_old", "y", "status", "dense_output", "step_size"):
             return getattr(self.last, name)
         raise AttributeError(name)
 
@@ -60,13 +61,14 @@ class AutoSolver:
     def h_abs(self) -> float:
         return self.solver.h_abs
 
-    def step(self) -> None:
+    def step(self) -> str | None:
+        """One step of the solver in charge; its message (None, or why it failed), as scipy's step()."""
         t_before, evaluated = self.solver.t, self.solver.nfev
-        self.solver.step()
+        message = self.solver.step()
         self.last = self.solver
         self.spans[self.method] += float(self.solver.t - t_before)
         if self.solver.status != "running":
-            return
+            return message
         if self.method == EXPLICIT:
             self.trials += (self.solver.nfev - evaluated) // self.solver.n_stages   # each attempt costs n_stages
             self.accepted += 1
@@ -79,6 +81,7 @@ class AutoSolver:
             self._switch()
             last = self.last
             self._start_explicit(last.t, last.y, min(last.t - last.t_old, last.t_bound - last.t))
+        return message
 
     # ---- the counters, over both solvers and their earlier runs ------------------------------
     nfev = property(lambda self: self._count("nfev"), lambda self, value: self._reset("nfev"))
