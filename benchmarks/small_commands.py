@@ -13,10 +13,12 @@ CPU time per call over a run of calls (the integration's included).
 
     python benchmarks/small_commands.py              # about a minute warm, more on a fresh cache
     python benchmarks/small_commands.py --repeat 9
+    python benchmarks/small_commands.py --against /tmp/main   # simulate() only, main's lagdsl in turns with this one
 """
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import resource
 import statistics
@@ -113,11 +115,68 @@ def simulate_overhead(name: str, calls: int) -> tuple[float, float, float, float
     return statistics.median(overheads), statistics.quantiles(overheads, n=10)[0], statistics.median(integrations), cpu
 
 
+def overhead_worker(name: str) -> None:
+    """Serve `--against`: load `name` (warm), then for each line "N" on stdin make N simulate()
+    calls and print their overheads (s) as one line of JSON."""
+    import lagdsl
+    model = lagdsl.load(MODELS / f"{name}.lag")
+    model.simulate()
+    print("ready", flush=True)
+    for line in sys.stdin:
+        overheads = []
+        for _ in range(int(line)):
+            started = time.perf_counter()
+            result = model.simulate()
+            overheads.append(time.perf_counter() - started - result.summary.wall_time)
+        print(json.dumps(overheads), flush=True)
+
+
+def compared_overheads(name: str, calls: int, trees: dict[str, str], rounds: int = 10) -> dict[str, list[float]]:
+    """The overheads of `calls` repeated simulate() of `name` with each of `trees` (a label and the
+    directory its lagdsl is imported from), a process each, taking turns in `rounds` rounds: the
+    same load for all."""
+    workers = {}
+    for label, tree in trees.items():
+        workers[label] = subprocess.Popen([sys.executable, __file__, "--overhead-worker", name], text=True,
+                                          stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                          env={**os.environ, "PYTHONPATH": tree})
+        if workers[label].stdout.readline().strip() != "ready":
+            sys.exit(f"the {label} worker ({tree}) did not start")
+    overheads: dict[str, list[float]] = {label: [] for label in trees}
+    for _ in range(rounds):
+        for label, worker in workers.items():
+            worker.stdin.write(f"{calls // rounds}\n")
+            worker.stdin.flush()
+            overheads[label] += json.loads(worker.stdout.readline())
+    for worker in workers.values():
+        worker.stdin.close()
+        worker.wait()
+    return overheads
+
+
+def compare(against: str, calls: int) -> None:
+    """Print the repeated simulate()'s overhead with the lagdsl of `against` and with this tree's."""
+    trees = {"before": str(Path(against).resolve()), "after": str(ROOT)}
+    print(f"repeated simulate(), {calls} calls each, taking turns; load average "
+          f"{', '.join(f'{x:.2f}' for x in os.getloadavg())}; before {trees['before']}, after {trees['after']}")
+    for name in SIMULATED:
+        for label, overheads in compared_overheads(name, calls, trees).items():
+            print(f"{name:<18} {label:<6} overhead median {statistics.median(overheads) * 1e6:6.0f} us, "
+                  f"lowest tenth {statistics.quantiles(overheads, n=10)[0] * 1e6:6.0f} us")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=5, help="warm runs of each command (median counts)")
     parser.add_argument("--calls", type=int, default=2000, help="simulate() calls")
+    parser.add_argument("--against", metavar="TREE", help="only the repeated simulate(): its overhead with the "
+                        "lagdsl in TREE (a checkout of main) and with this tree's, taking turns")
+    parser.add_argument("--overhead-worker", metavar="MODEL", help=argparse.SUPPRESS)
     arguments = parser.parse_args()
+    if arguments.overhead_worker:
+        return overhead_worker(arguments.overhead_worker)
+    if arguments.against:
+        return compare(arguments.against, arguments.calls)
     with tempfile.TemporaryDirectory(prefix="lagdsl-small-") as work:
         os.environ.setdefault("LAGDSL_CACHE", str(Path(work) / "cache"))
         repeat = arguments.repeat

@@ -30,6 +30,7 @@ from .source import SourceFile
 
 BACKENDS = ("c", "numpy")
 GRID_OVERRIDES = ("start", "stop", "interval", "integrator")
+NO_TIMES = (None, None, None)     # simulate()'s start, stop and interval when none is given
 QUICK_RUNS = 16         # prepared repeated runs a Model keeps (a fit varies its inputs: the last ones)
 
 
@@ -54,9 +55,8 @@ class QuickRuns:
         program = run_plan and model.built_program(run_plan.scene_name, run_plan.integrator.name, backend)
         if program is None:
             return None
-        call = runner.prepared(run_plan, backend, program.loaded)
-        description = _description(model.ir, run_plan.scene_name, run_plan.columns)
-        quick = lambda progress=None: replace(call(progress), **description)    # noqa: E731
+        quick = runner.prepared(run_plan, backend, program.loaded,
+                                **_description(model.ir, run_plan.scene_name, run_plan.columns))
         if len(self.runs) >= QUICK_RUNS:
             del self.runs[next(iter(self.runs))]
         self.runs[key] = quick
@@ -132,12 +132,9 @@ class Model(LyapunovMethod):
         they enter the step-size control (default: they do).
         """
         _check_backend(backend)
-        values = dict(set or {})
-        values.update(parameters)
-        options = given_options(dict(rtol=rtol, atol=atol, step=step, stages=stages, max_step=max_step,
-                                     max_steps=max_steps))
-        overrides = Overrides(tuple((k, single_number(k, v)) for k, v in values.items()),
-                              *_times(start, stop, interval), integrator, options, given_atol_each({"atol": atol}))
+        values = {**set, **parameters} if set else parameters
+        options = dict(rtol=rtol, atol=atol, step=step, stages=stages, max_step=max_step, max_steps=max_steps)
+        overrides = _overrides(values, (start, stop, interval), integrator, options)
         if sensitivities is not None:
             if draw:
                 raise LagError("a run with sensitivities is not drawn; run simulate(..., draw=True) without them")
@@ -368,6 +365,16 @@ def _described(model: ir.Model, result: Result, scene_name: str) -> Result:
 def _description(model: ir.Model, scene_name: str, columns: tuple[str, ...]) -> dict:
     units = None if model.units is None else model.units.column_units(scene_name, columns)
     return dict(units=units, origin=f"{model.name}, scene {scene_name}")
+
+
+def _overrides(values: dict, times: tuple, integrator: str | None, options: dict) -> Overrides:
+    """The Overrides of simulate()'s arguments: `values` of inputs, the time grid's (start, stop,
+    interval), the `integrator` and its run `options` (None where not given). Where only values
+    are given, nothing else is parsed: a repeated run's overhead is mostly its Python."""
+    given = tuple((name, single_number(name, value)) for name, value in values.items())
+    if integrator is None and times == NO_TIMES and all(value is None for value in options.values()):
+        return Overrides(given)
+    return Overrides(given, *_times(*times), integrator, given_options(options), given_atol_each(options))
 
 
 def _times(start, stop, interval) -> tuple[float | None, ...]:

@@ -15,7 +15,7 @@ from ..integrators import SWITCH_TIMES
 from ..settings import RunPlan
 from .interrupt import interrupt_flag, interruptible
 from .loading import load
-from .output import Result, RunSummary, Stiffness, Stop, Switches, output_times
+from .output import Deferred, Result, RunSummary, Stiffness, Stop, Switches, output_times
 from .scipy_steps import Progress
 from .status import simulation_error
 
@@ -31,16 +31,18 @@ def run_c(kernel: Kernel, source: GeneratedSource, plan: RunPlan, progress: Prog
 
 class CRun:
     """A run of `plan` with the loaded library, its arrays and pointers made once: a repeated
-    simulate() with the same inputs (api.Model keeps it) pays only the call and its result."""
+    simulate() with the same inputs (api.Model keeps it) pays only the call and its result, whose
+    columns carry `units` and `origin` (api._description)."""
 
-    def __init__(self, library: ctypes.CDLL, plan: RunPlan):
-        self.plan = plan
+    def __init__(self, library: ctypes.CDLL, plan: RunPlan, units: tuple[str, ...] | None = None, origin: str = ""):
+        self.plan, self._description = plan, (units, origin)
         self._entry = library.lag_run
         double_p = ctypes.POINTER(ctypes.c_double)
         self._entry.argtypes = [double_p, double_p, double_p, double_p, ctypes.c_long, double_p]
         self._entry.restype = ctypes.c_int
         self._layout = plan_summary(plan)
         self._shape = (len(output_times(plan)), len(plan.columns) + 1)
+        self._buffers = (ctypes.c_double * (self._shape[0] * self._shape[1]), ctypes.c_double * self._layout.size)
         # the inputs and the pointers over their memory, made once (a call only reads them; the
         # rows and the summary are each call's own, as calls may come from several threads)
         self._inputs = (np.array(plan.parameters or (0.0,), dtype=float), np.array(plan.initial_state, dtype=float),
@@ -50,15 +52,23 @@ class CRun:
         self._reached = ctypes.c_double.in_dll(library, "lag_progress_t")
 
     def __call__(self, progress: Progress | None = None) -> Result:
+        """The run's Result, whose t and values are views of one array made for this call (the
+        rows, then the summary's doubles), so that no copy follows the run and no later call
+        touches them; its summary is read from those doubles when first asked for (a fit reads
+        only the values)."""
         plan, entry, (capacity, width) = self.plan, self._entry, self._shape
-        rows, summary = np.empty((capacity, width)), np.empty(self._layout.size)
-        arguments = (*self._pointers, _doubles(rows), capacity, _doubles(summary))
+        memory = np.empty(capacity * width + self._layout.size)
+        rows_type, summary_type = self._buffers
+        arguments = (*self._pointers, rows_type.from_buffer(memory), capacity,
+                     summary_type.from_buffer(memory, ctypes.sizeof(rows_type)))
         poll = None if progress is None else lambda: progress(self._reached.value, plan.time.start, plan.time.stop)
-        status, elapsed = interruptible(self._interrupt, lambda: entry(*arguments), poll)
-        values, at = summary.tolist(), self._layout.offsets    # a list reads faster than a record, field by field
+        status, elapsed = interruptible(self._interrupt, entry, poll, arguments)
+        rows = memory[:capacity * width].reshape(capacity, width)
+        values = memory[capacity * width:].tolist()     # a list reads faster than a record, field by field
+        at = self._layout.offsets
         used = int(values[at["rows"]])
-        result = Result(rows[:used, 0].copy(), plan.columns, rows[:used, 1:].copy(),
-                        _run_summary(plan, self._layout, values, elapsed))
+        result = Result(rows[:used, 0], plan.columns, rows[:used, 1:],
+                        Deferred(lambda: _run_summary(plan, self._layout, values, elapsed)), *self._description)
         if status != 0:
             y_fail = values[at["y_fail"]:at["y_fail"] + len(plan.initial_state)]
             raise simulation_error(plan, status, values[at["t_fail"]], y_fail, result, values[at["rcond_fail"]],

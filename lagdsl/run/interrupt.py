@@ -27,9 +27,9 @@ def interrupt_flag(library: ctypes.CDLL) -> ctypes.c_int:
     return ctypes.c_int.in_dll(library, "lag_interrupt")
 
 
-def interruptible(interrupt: ctypes.c_int, call: Callable[[], int],
-                  poll: Callable[[], None] | None) -> tuple[int, float]:
-    """Make the C call in a worker thread, so that the main thread stays free for Ctrl-C and
+def interruptible(interrupt: ctypes.c_int, call: Callable[..., int],
+                  poll: Callable[[], None] | None, arguments: tuple = ()) -> tuple[int, float]:
+    """Make the C call `call(*arguments)` in a worker thread, so that the main thread stays free for Ctrl-C and
     `poll` (called every POLL_SECONDS: progress reports).
     Returns its status and its duration, timed in the worker: the main thread notices the end
     only at its next poll, up to POLL_SECONDS later.
@@ -41,7 +41,7 @@ def interruptible(interrupt: ctypes.c_int, call: Callable[[], int],
     """
     interrupt.value = 0
     if poll is None:
-        done = _InPlace.call(interrupt, call)
+        done = _InPlace.call(interrupt, call, arguments)
         if done is not None:
             return done
     outcome: list[tuple[int, float]] = []
@@ -52,7 +52,7 @@ def interruptible(interrupt: ctypes.c_int, call: Callable[[], int],
     def work() -> None:
         try:
             started = clock.perf_counter()
-            status = call()
+            status = call(*arguments)
             outcome.append((status, clock.perf_counter() - started))
         finally:
             ended.append(True)
@@ -105,10 +105,10 @@ class _InPlace:
     _pressed: list[int] = []                       # the signals noted during the call
 
     @classmethod
-    def call(cls, interrupt: ctypes.c_int, call: Callable[[], int]) -> tuple[int, float] | None:
+    def call(cls, interrupt: ctypes.c_int, call: Callable[..., int], arguments: tuple) -> tuple[int, float] | None:
         if _thread.get_ident() != threading.main_thread().ident:
             started = clock.perf_counter()
-            status = call()
+            status = call(*arguments)
             return status, clock.perf_counter() - started
         handled = [number for number, ours in ((signal.SIGINT, signal.default_int_handler),
                                                 (signal.SIGTERM, _terminated)) if _signal.getsignal(number) is ours]
@@ -125,7 +125,7 @@ class _InPlace:
             else:
                 try:
                     started = clock.perf_counter()
-                    status = call()
+                    status = call(*arguments)
                     stopped = interrupt.value   # read before a late press is noted (which sets nothing)
                     done = status, clock.perf_counter() - started
                 finally:

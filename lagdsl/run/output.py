@@ -164,6 +164,34 @@ class RunSummary:
                          + [f"atol({name}) = {value:g}" for name, value in self.atol_each])
 
 
+class Deferred:
+    """A field's value made when the field is first read (a repeated C run's summary, which a fit
+    never reads): `make()` gives it."""
+
+    __slots__ = ("make",)
+
+    def __init__(self, make):
+        self.make = make
+
+
+class _DeferredField:
+    """A dataclass field that may be given a Deferred: read, it is made once and kept."""
+
+    def __set_name__(self, owner, name: str) -> None:
+        self.name = name
+
+    def __get__(self, instance, owner=None):
+        if instance is None:        # no default: dataclass takes the field as required
+            raise AttributeError(self.name)
+        value = instance.__dict__[self.name]
+        if type(value) is Deferred:
+            value = instance.__dict__[self.name] = value.make()
+        return value
+
+    def __set__(self, instance, value) -> None:
+        instance.__dict__[self.name] = value
+
+
 @dataclass(frozen=True)
 class Result:
     """Output times `t`, the named columns, and the summary. `result["theta1"]` is a column.
@@ -173,10 +201,14 @@ class Result:
     t: np.ndarray
     columns: tuple[str, ...]
     values: np.ndarray            # shape (len(t), len(columns))
-    summary: RunSummary
+    summary: RunSummary = _DeferredField()     # a RunSummary (or a Deferred, made when read)
     units: tuple[str, ...] | None = None    # each column's unit ("?" unknown; None: a model without units)
     origin: str = ""                        # what ran, for titles: "Kepler, scene ellipse"
     drawing: object | None = field(default=None, kw_only=True)     # keyword-only: subclasses add fields
+
+    def __getstate__(self) -> dict:
+        """The fields to pickle (a Result goes back from a sweep's worker), the summary made."""
+        return {**self.__dict__, "summary": self.summary}
 
     def animate(self, speed: float = 1.0):
         """The animation of the run (an animation.Animation: shown in Jupyter, `.save(path)`),

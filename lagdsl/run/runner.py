@@ -12,6 +12,7 @@ POLL_SECONDS in the C backend, after every step of scipy's solvers in the NumPy 
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 from ..settings import RunPlan, check_step_count, grid_rows
@@ -34,13 +35,15 @@ def run(plan: RunPlan, language: str, loaded=None, progress: Progress | None = N
     return {"c": run_c, "numpy": run_numpy}[language](None, source, plan, progress, loaded)
 
 
-def prepared(plan: RunPlan, language: str, loaded) -> Callable[[Progress | None], Result]:
+def prepared(plan: RunPlan, language: str, loaded, units: tuple[str, ...] | None,
+             origin: str) -> Callable[[Progress | None], Result]:
     """`plan` checked and made ready to run with `loaded`: a function of `progress` that runs it,
-    as often as called (C: its arrays made once, c_backend.CRun)."""
+    as often as called (C: its arrays made once, c_backend.CRun), its result's columns in `units`
+    and its `origin` the model and scene (api._description)."""
     _check(plan, language)
     if language == "c":
-        return CRun(loaded, plan)
-    return lambda progress=None: run_numpy(None, None, plan, progress, loaded)
+        return CRun(loaded, plan, units, origin)
+    return lambda progress=None: replace(run_numpy(None, None, plan, progress, loaded), units=units, origin=origin)
 
 
 def _check(plan: RunPlan, language: str) -> None:
