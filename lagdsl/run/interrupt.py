@@ -100,7 +100,7 @@ class _InPlace:
     (`interruptible` hands the call to a worker).
     """
 
-    _watched: tuple[int, int] | None = None        # (pid, write end of the watcher's pipe)
+    _watched: int | None = None                    # the write end of the watcher's pipe (None in a forked child)
     _flag: ctypes.c_int | None = None              # lag_interrupt of the call running now
     _pressed: list[int] = []                       # the signals noted during the call
 
@@ -149,15 +149,15 @@ class _InPlace:
     def _watcher(cls) -> int | None:
         """The write end of the watcher's pipe (the watcher started once per process); None where
         a pipe cannot be made."""
-        if cls._watched is None or cls._watched[0] != os.getpid():
+        if cls._watched is None:
             try:
                 read_end, write_end = os.pipe()
                 os.set_blocking(write_end, False)       # set_wakeup_fd's requirement
             except OSError:
                 return None
             _thread.start_new_thread(cls._watch, (read_end,))
-            cls._watched = (os.getpid(), write_end)
-        return cls._watched[1]
+            cls._watched = write_end
+        return cls._watched
 
     @classmethod
     def _watch(cls, read_end: int) -> None:
@@ -194,6 +194,7 @@ class _Worker:
 
 _idle_workers: list[_Worker] = []       # list.pop and append are atomic: callers in several threads each take one
 os.register_at_fork(after_in_child=_idle_workers.clear)     # a child has none of the parent's threads
+os.register_at_fork(after_in_child=lambda: setattr(_InPlace, "_watched", None))   # nor its watcher
 
 
 def terminate_as_interrupt() -> None:

@@ -1,6 +1,9 @@
 """The Python API, the build cache, and names that would collide in C."""
 from __future__ import annotations
 
+import pickle
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -130,3 +133,25 @@ def test_repeated_runs_planned_without_sympy_equal_fresh_ones():
         again, fresh = model.simulate(**overrides), lagdsl.load(path).simulate(**overrides)
         assert np.array_equal(again.values, fresh.values) and np.array_equal(again.t, fresh.t), overrides
         assert again.summary.counters == fresh.summary.counters
+
+
+def test_repeated_calls_equal_a_plain_run_and_share_no_memory():
+    """A repeated simulate() with the same inputs (its run prepared once, api.QuickRuns) returns
+    what a plain simulate() returns, bit for bit, with the same summary, units and origin; each
+    call's rows are its own, so that a later call, or a change to one result, leaves the others
+    as they were."""
+    path = MODELS / "elastic_pendulum.lag"
+    plain = lagdsl.load(path).simulate()
+    model = lagdsl.load(path)
+    model.simulate()
+    second, third = model.simulate(), model.simulate()
+    assert model._quick.runs, "the repeated calls did not take the prepared run"
+    untimed = lambda result: replace(result.summary, wall_time=0.0)     # noqa: E731
+    for again in (second, third, pickle.loads(pickle.dumps(third))):
+        assert np.array_equal(again.t, plain.t) and np.array_equal(again.values, plain.values)
+        assert (again.columns, again.units, again.origin) == (plain.columns, plain.units, plain.origin)
+        assert untimed(again) == untimed(plain)
+    assert not np.shares_memory(second.values, third.values) and not np.shares_memory(second.t, third.t)
+    third.values[:] = np.nan
+    third.t[:] = np.nan
+    assert np.array_equal(second.values, plain.values) and np.array_equal(second.t, plain.t)
