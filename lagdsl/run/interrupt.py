@@ -29,8 +29,8 @@ def interrupt_flag(library: ctypes.CDLL) -> ctypes.c_int:
 
 def interruptible(interrupt: ctypes.c_int, call: Callable[..., int],
                   poll: Callable[[], None] | None, arguments: tuple = ()) -> tuple[int, float]:
-    """Make the C call `call(*arguments)` in a worker thread, so that the main thread stays free for Ctrl-C and
-    `poll` (called every POLL_SECONDS: progress reports).
+    """Make the C call `call(*arguments)` in a worker thread, so that the main thread stays free
+    for Ctrl-C and `poll` (called every POLL_SECONDS: progress reports).
     Returns its status and its duration, timed in the worker: the main thread notices the end
     only at its next poll, up to POLL_SECONDS later.
 
