@@ -12,10 +12,10 @@ import numpy as np
 
 from ..abi import SummaryLayout, plan_summary, settings_vector
 from ..integrators import SWITCH_TIMES
-from ..settings import RunPlan
+from ..settings import RunPlan, grid_rows
 from .interrupt import interrupt_flag, interruptible
 from .loading import load
-from .output import Deferred, Result, RunSummary, Stiffness, Stop, Switches, output_times
+from .output import Deferred, Result, RunSummary, Stiffness, Stop, Switches
 from .scipy_steps import Progress
 from .status import simulation_error
 
@@ -41,7 +41,7 @@ class CRun:
         self._entry.argtypes = [double_p, double_p, double_p, double_p, ctypes.c_long, double_p]
         self._entry.restype = ctypes.c_int
         self._layout = plan_summary(plan)
-        self._shape = (len(output_times(plan)), len(plan.columns) + 1)
+        self._shape = (grid_rows(plan.time.start, plan.time.stop, plan.time.interval), len(plan.columns) + 1)
         self._buffers = (ctypes.c_double * (self._shape[0] * self._shape[1]), ctypes.c_double * self._layout.size)
         # the inputs and the pointers over their memory, made once (a call only reads them; the
         # rows and the summary are each call's own, as calls may come from several threads)
