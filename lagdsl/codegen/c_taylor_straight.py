@@ -112,7 +112,27 @@ class StraightPrinter:
             lines.append(f"r[{row}] -= {scale}{tail};")
         return lines
 
-    def order(self, k: int) -> list[str]:
-        """The body of lag_taylor_order_K."""
+    def order(self, k: int, fused: str | None) -> list[str]:
+        """The body of lag_taylor_order_K; with `fused` ("inverse": the product with K_0^-1 that
+        lag_taylor_series keeps in c; "constant": the constant M's substitution), also x_k and
+        order k + 1 of q and q'."""
         lines = [line for i, node in enumerate(self.graph.nodes) if (line := self.node(i, node, k))]
-        return lines + self.right_side(k)
+        return lines + self.right_side(k) + (self.next_order(k, fused) if fused else [])
+
+    def next_order(self, k: int, fused: str) -> list[str]:
+        """x_k = K_0^-1 r, then q_{k+1} = q'_k / (k+1) and q'_{k+1} = x_k / (k+1): what the loop of
+        lag_taylor_series does after an order, with the same operations in the same order."""
+        solution, coordinates = self.graph.solution, self.graph.states // 2
+        if fused == "inverse":
+            x = [f"x{i}" for i in range(len(solution))]
+            lines = [f"const real x{i} = " + " + ".join(f"c->inverse[{i}][{j}] * r[{j}]" for j in range(len(solution)))
+                     + ";" for i in range(len(solution))]
+        else:
+            x = [f"r[{i}]" for i in range(len(solution))]
+            lines = ["lag_substitute(c->sys->mass, c->sys->mass_scale, r);"]
+        lines.append(f"const real inv_next = (real)1 / {k + 1};")
+        lines += [f"{ROW.format(row, k)} = {x[i]};" for i, row in enumerate(solution)]
+        for i in range(coordinates):
+            lines += [f"{ROW.format(i, k + 1)} = {ROW.format(coordinates + i, k)} * inv_next;",
+                      f"{ROW.format(coordinates + i, k + 1)} = {ROW.format(solution[i], k)} * inv_next;"]
+        return lines
