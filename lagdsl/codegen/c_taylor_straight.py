@@ -112,16 +112,16 @@ class StraightPrinter:
             lines.append(f"r[{row}] -= {scale}{tail};")
         return lines
 
-    def order(self, k: int, fused: str | None) -> list[str]:
-        """The body of lag_taylor_order_K; with `fused` ("inverse": the product with K_0^-1 that
-        lag_taylor_series keeps in c; "constant": the constant M's substitution), also x_k and
-        order k + 1 of q and q'."""
+    def order(self, k: int) -> list[str]:
+        """The body of lag_taylor_order_K."""
         lines = [line for i, node in enumerate(self.graph.nodes) if (line := self.node(i, node, k))]
-        return lines + self.right_side(k) + (self.next_order(k, fused) if fused else [])
+        return lines + self.right_side(k)
 
     def next_order(self, k: int, fused: str) -> list[str]:
-        """x_k = K_0^-1 r, then q_{k+1} = q'_k / (k+1) and q'_{k+1} = x_k / (k+1): what the loop of
-        lag_taylor_series does after an order, with the same operations in the same order."""
+        """The end of lag_taylor_order_K when the solve is fused into it (`fused` "inverse": the
+        product with K_0^-1 that lag_taylor_series keeps in c; "constant": the constant M's
+        substitution): x_k = K_0^-1 r, then q_{k+1} = q'_k / (k+1) and q'_{k+1} = x_k / (k+1), what
+        the loop of lag_taylor_series does after an order, the same operations in the same order."""
         solution, coordinates = self.graph.solution, self.graph.states // 2
         if fused == "inverse":
             x = [f"x{i}" for i in range(len(solution))]
