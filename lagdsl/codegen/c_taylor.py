@@ -239,7 +239,10 @@ def series_context(kernel, printer, positions: list[str]) -> dict:
     assemble = [f"K[{position}] = {series.scaled(value, '0')};" for position, (_, value) in zip(positions, graph.stored)]
     rhs_zero, rhs_k = series.right_side("0"), series.right_side("k")
     straight = StraightPrinter(series)
-    orders = [(k, straight.order(k)) for k in range(1, straight_orders(graph, max_order(DOUBLE_DIGITS) - 1) + 1)]
+    highest = straight_orders(graph, max_order(DOUBLE_DIGITS) - 1)
+    fused = None if not highest else "inverse" if kernel.size <= INVERSE_LARGEST else (
+        "constant" if solver_kind(kernel) == "constant" else None)
+    orders = [(k, straight.order(k)) for k in range(1, highest + 1)]
     body = zeroth_lines + order_lines + assemble + rhs_zero + rhs_k + [line for _, lines in orders for line in lines]
     declarations = [(name, f"{printer.doprint(expr)}") for name, expr in graph.constants]
     declarations += [(name, printer.doprint(expr)) for expr, name in series.hoisted.items()]
@@ -260,7 +263,9 @@ def series_context(kernel, printer, positions: list[str]) -> dict:
         "taylor_constants": [f"const real {name} = {value};" for name, value in declarations if name in used],
         "taylor_hoisted": [], "taylor_zeroth": zeroth_lines, "taylor_order": order_lines,
         "taylor_assemble": assemble, "taylor_rhs_zero": rhs_zero, "taylor_rhs": rhs_k,
-        "taylor_max_order": MAX_ORDER, "taylor_fields": fields,
+        "taylor_max_order": MAX_ORDER, "taylor_fields": fields, "taylor_fused": fused,
+        "taylor_struct": bool(fields) or fused is not None,
+        "taylor_next": [straight.next_order(k, fused) if fused else [] for k, _ in orders],
         "taylor_straight": [(k, [f"const real {name} = c->{name};" for name in fields
                                  if any(_reads(line, name) for line in lines)]
                              + (["const real inv_k = (real)1 / %d;" % k] if any(_reads(line, "inv_k") for line in lines)

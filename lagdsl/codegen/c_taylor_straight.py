@@ -116,3 +116,23 @@ class StraightPrinter:
         """The body of lag_taylor_order_K."""
         lines = [line for i, node in enumerate(self.graph.nodes) if (line := self.node(i, node, k))]
         return lines + self.right_side(k)
+
+    def next_order(self, k: int, fused: str) -> list[str]:
+        """The end of lag_taylor_order_K when the solve is fused into it (`fused` "inverse": the
+        product with K_0^-1 that lag_taylor_series keeps in c; "constant": the constant M's
+        substitution): x_k = K_0^-1 r, then q_{k+1} = q'_k / (k+1) and q'_{k+1} = x_k / (k+1), what
+        the loop of lag_taylor_series does after an order, the same operations in the same order."""
+        solution, coordinates = self.graph.solution, self.graph.states // 2
+        if fused == "inverse":
+            x = [f"x{i}" for i in range(len(solution))]
+            lines = [f"const real x{i} = " + " + ".join(f"c->inverse[{i}][{j}] * r[{j}]" for j in range(len(solution)))
+                     + ";" for i in range(len(solution))]
+        else:
+            x = [f"r[{i}]" for i in range(len(solution))]
+            lines = ["lag_substitute(c->sys->mass, c->sys->mass_scale, r);"]
+        lines.append(f"const real inv_next = (real)1 / {k + 1};")
+        lines += [f"{ROW.format(row, k)} = {x[i]};" for i, row in enumerate(solution)]
+        for i in range(coordinates):
+            lines += [f"{ROW.format(i, k + 1)} = {ROW.format(coordinates + i, k)} * inv_next;",
+                      f"{ROW.format(coordinates + i, k + 1)} = {ROW.format(solution[i], k)} * inv_next;"]
+        return lines

@@ -39,6 +39,7 @@ typedef struct lag_stepper {
     real atol[LAG_NY], atol_least;    /* per component of y, and the smallest */
     long max_steps;
     int order;                        /* the last step's order */
+    real order_low, order_high;       /* the sizes M that give that order: low < M <= high */
     int safety_order;                 /* the order `safety` was computed for */
     real safety;                      /* h / rho = e^-2 exp(-0.7 / (p - 1)) */
     real y_end[LAG_NY];               /* the polynomial at t, before the driver may move y */
@@ -66,6 +67,7 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
     s->max_steps = opt->max_steps;
     s->h = 0;
     s->order = 0;                     /* until the first step, the dense output is y0 */
+    s->order_low = s->order_high = 0; /* no size: the first step takes the logarithm */
     s->safety_order = 0;
     memcpy(s->y, y0, sizeof s->y);
     memcpy(s->y_end, y0, sizeof s->y_end);
@@ -88,8 +90,10 @@ static real taylor_norm(const lag_stepper *s, const real *weight, int j)
     return largest;
 }
 
-/* The order for the state y, from its size in units of the tolerance (1/w = weight). */
-static int taylor_order(const lag_stepper *s, const real *weight, real *size)
+/* The order for the state y, from its size M in units of the tolerance (1/w = weight): order p
+ * holds for e^(2p - 4) < M <= e^(2p - 2), a range the order keeps from step to step, so the
+ * logarithm is taken only when M leaves it (the clamped orders 2 and the highest extend it). */
+static int taylor_order(lag_stepper *s, const real *weight, real *size)
 {
     real largest = 1 / (s->atol_least + s->rtol), wanted;
     int i, order;
@@ -98,12 +102,29 @@ static int taylor_order(const lag_stepper *s, const real *weight, real *size)
         largest = x > largest ? x : largest;     /* not r_fmax: a libm call in this loop */
     }
     *size = largest;
+    if (largest > s->order_low && largest <= s->order_high)
+        return s->order;
     wanted = r_log(largest) / 2 + 1;
-    if (!(wanted < LAG_TAYLOR_MAX_ORDER))
-        return LAG_TAYLOR_MAX_ORDER;
-    order = (int)wanted;
-    order += order < wanted;          /* the ceiling */
-    return order < 2 ? 2 : order;
+    if (!(wanted < LAG_TAYLOR_MAX_ORDER)) {
+        order = LAG_TAYLOR_MAX_ORDER;
+    } else {
+        order = (int)wanted;
+        order += order < wanted;      /* the ceiling */
+        order = order < 2 ? 2 : order;
+    }
+    s->order_low = order == 2 ? 0 : r_exp((real)(2 * order - 4));
+    s->order_high = order == LAG_TAYLOR_MAX_ORDER ? REAL_MAX : r_exp((real)(2 * order - 2));
+    return order;
+}
+
+/* x^n for n >= 1, by squaring. */
+static real taylor_power(real x, int n)
+{
+    real result = 1;
+    for (; n > 0; n >>= 1, x *= x)
+        if (n & 1)
+            result *= x;
+    return result;
 }
 
 /* The step from the last two coefficients (Jorba and Zou (3.11)), or LAG_ERR_NONFINITE. */
@@ -115,7 +136,9 @@ static int taylor_step_size(lag_stepper *s, const real *weight, real size, real 
         return LAG_ERR_NONFINITE;
     if (before > 0)
         rho = r_pow(size / before, (real)1 / (p - 1));
-    if (last > 0) {
+    /* the radius from the last is the smaller one iff size / last < rho^p: the second power only
+     * then (rho^p overflows to inf for a huge rho, and then the power is taken) */
+    if (last > 0 && (rho == REAL_MAX || size / last < taylor_power(rho, p))) {
         real other = r_pow(size / last, (real)1 / p);
         rho = other < rho ? other : rho;
     }
@@ -127,16 +150,16 @@ static int taylor_step_size(lag_stepper *s, const real *weight, real size, real 
     return LAG_OK;
 }
 
-/* y at t_old + tau from the series (Horner), without the projection's shift. */
+/* y at t_old + tau from the series (Horner), without the projection's shift; the components
+ * innermost, so that their chains of multiplications and additions overlap. */
 static void taylor_evaluate(const lag_stepper *s, real tau, real *y)
 {
     int i, j;
-    for (i = 0; i < LAG_NY; ++i) {
-        real sum = s->s[i][s->order];
-        for (j = s->order - 1; j >= 0; --j)
-            sum = sum * tau + s->s[i][j];
-        y[i] = sum;
-    }
+    for (i = 0; i < LAG_NY; ++i)
+        y[i] = s->s[i][s->order];
+    for (j = s->order - 1; j >= 0; --j)
+        for (i = 0; i < LAG_NY; ++i)
+            y[i] = y[i] * tau + s->s[i][j];
 }
 
 /* The first half of a step, before the series: the step limit, the weights 1/w of the state's
