@@ -113,7 +113,8 @@ def test_emit_writes_source(tmp_path, language):
 
 
 @pytest.mark.parametrize("options, version, kind, other, entry", [
-    (("--kind", "cs"), "2.0", "CoSimulation", "ModelExchange", "modelDescription.xml"),
+    pytest.param(("--kind", "cs"), "2.0", "CoSimulation", "ModelExchange", "modelDescription.xml",
+                 marks=pytest.mark.slow),
     (("--fmi", "3", "--kind", "me"), "3.0", "ModelExchange", "CoSimulation", "sources/buildDescription.xml")])
 def test_emit_fmu_writes_an_fmi_archive(tmp_path, options, version, kind, other, entry):
     out = tmp_path / "Kepler.fmu"

@@ -59,7 +59,7 @@ def settings(values: dict) -> list[str]:
     return [f"{name}={value}" for name, value in values.items()]
 
 
-@pytest.mark.parametrize("backend", ["numpy", "c"])
+@pytest.mark.parametrize("backend", [pytest.param("numpy", marks=pytest.mark.slow), "c"])
 def test_every_way_of_setting_a_value_runs_the_same_csv(swing, backend):
     scene = lagc("run", str(swing), "--scene", "set", "--backend", backend)
     assert scene.returncode == 0, scene.stderr
