@@ -15,7 +15,7 @@ import pytest
 from lagdsl.api import Model
 from lagdsl.errors import LagError
 from lagdsl.source import SourceFile
-from tests.conftest import Ran, lagc_in_process
+from tests.conftest import Ran, lagc_in_process, model_file
 from tests.run.c_harness import build_scene_programs
 
 SWING = """model Swing
@@ -45,10 +45,8 @@ IN_SI = {"m": "0.25 kg", "l": "0.3 [m]", "theta.start": f"{float(30 * DEG)!r} ra
 
 
 @pytest.fixture(scope="module")
-def swing(tmp_path_factory):
-    path = tmp_path_factory.mktemp("units") / "swing.lag"
-    path.write_text(SWING)
-    return path
+def swing():
+    return model_file(SWING, "swing")
 
 
 def lagc(*arguments: str) -> Ran:

@@ -110,6 +110,7 @@ def test_a_fit_runs_on_the_c_backend():
     assert fit.values["l"] == pytest.approx(1.3, rel=1e-6) and fit.values["b"] == pytest.approx(0.3, rel=1e-6)
 
 
+@pytest.mark.slow          # 5 s of CPU; a per-component atol in C is checked without sensitivities in run/test_si_scales.py
 def test_a_per_component_atol_holds_for_the_state_on_the_c_backend():
     # atol(x) weighs the state's own components (the sensitivities keep the scalar atol, as on
     # NumPy): tight, the C run agrees with NumPy's; equal to the scalar, it changes nothing; loose
