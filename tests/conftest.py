@@ -17,7 +17,8 @@ What the default run keeps of each kind (issue 28), and where; a matrix's other 
   a multiplier ladder.slide (goldens), rheonomic car_axis.bumps (test_strict_compile.py) and
   codegen/test_kernel_names.py's [rheonomic-radau5]. Closed form: holonomic
   test_cartesian_pendulum_multiplier_is_the_rod_force and test_wedge_accelerations, nonholonomic
-  models/test_constrained.py::test_rolling_penny_follows_the_corrected_closed_form, unilateral
+  models/test_constrained.py::test_rolling_penny_follows_the_corrected_closed_form, rheonomic
+  mechanics/test_textbook_systems.py::test_bead_on_a_turning_rod_is_flung_out_and_pushed_by_the_coriolis_force, unilateral
   run/test_stop_condition.py::test_the_ladder_leaves_the_wall_where_its_multiplier_turns_negative.
 - Jacobian kind, strict compile: dense (kernel_names [everything-radau5]), banded
   (fpu_chain.implicit), augmented with constraints (sensitivity/test_c_sensitivities.py's
@@ -30,7 +31,9 @@ What the default run keeps of each kind (issue 28), and where; a matrix's other 
   run/test_si_scales.py's cyclotron [c-taylor] and the ladder [c-taylor].
 
 `--cpu-report N` lists the N tests that took most CPU, the C compilers they started included: the
-figure to watch when a test joins the default run.
+figure to watch when a test joins the default run. A test that runs a model of its own text in C
+writes it with `model_file` rather than to tmp_path: the generated C names the model's path, so a
+new path is a new build in every run.
 """
 from __future__ import annotations
 
