@@ -17,7 +17,8 @@ What the default run keeps of each kind (issue 28), and where; a matrix's other 
   a multiplier ladder.slide (goldens), rheonomic car_axis.bumps (test_strict_compile.py) and
   codegen/test_kernel_names.py's [rheonomic-radau5]. Closed form: holonomic
   test_cartesian_pendulum_multiplier_is_the_rod_force and test_wedge_accelerations, nonholonomic
-  models/test_constrained.py::test_rolling_penny_follows_the_corrected_closed_form, unilateral
+  models/test_constrained.py::test_rolling_penny_follows_the_corrected_closed_form, rheonomic
+  mechanics/test_textbook_systems.py::test_bead_on_a_turning_rod_is_flung_out_and_pushed_by_the_coriolis_force, unilateral
   run/test_stop_condition.py::test_the_ladder_leaves_the_wall_where_its_multiplier_turns_negative.
 - Jacobian kind, strict compile: dense (kernel_names [everything-radau5]), banded
   (fpu_chain.implicit), augmented with constraints (sensitivity/test_c_sensitivities.py's
@@ -30,12 +31,15 @@ What the default run keeps of each kind (issue 28), and where; a matrix's other 
   run/test_si_scales.py's cyclotron [c-taylor] and the ladder [c-taylor].
 
 `--cpu-report N` lists the N tests that took most CPU, the C compilers they started included: the
-figure to watch when a test joins the default run.
+figure to watch when a test joins the default run. A test that runs a model of its own text in C
+writes it with `model_file` rather than to tmp_path: the generated C names the model's path, so a
+new path is a new build in every run.
 """
 from __future__ import annotations
 
 import contextlib
 import functools
+import hashlib
 import io
 import os
 import re
@@ -51,6 +55,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "models"
 _OWN_CACHE: list[str] = []       # the build cache this process made for the session, removed at its end
+_MODEL_FILES: list[Path] = []    # where model_file writes, set when the session is configured
 
 
 def without_units(text: str) -> str:
@@ -87,6 +92,21 @@ def slow_unless_kept(cases, kept) -> list:
     return [case if case in kept else pytest.param(*(case if isinstance(case, tuple) else (case,)),
                                                    marks=pytest.mark.slow)
             for case in cases]
+
+
+def model_file(text: str, name: str = "model") -> Path:
+    """`text` written to `NAME.lag` in a directory of the suite's own named by the text's hash: the
+    same path in every test, worker and run. The generated C names the path of its model, so a model
+    written to tmp_path is compiled afresh in each test; one written here is built once and found
+    in the build cache from then on. The file is shared: a test that edits its model, or writes
+    beside it, uses tmp_path."""
+    path = _MODEL_FILES[0] / hashlib.sha256(f"{name}\0{text}".encode()).hexdigest()[:24] / f"{name}.lag"
+    if not path.exists() or path.read_text() != text:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        partial = path.with_name(f"{path.name}.{os.getpid()}.part")     # workers may write it at once
+        partial.write_text(text)
+        os.replace(partial, path)
+    return path
 
 
 @dataclass(frozen=True)
@@ -131,15 +151,23 @@ def pytest_configure(config):
     starts warm, as ccache would, and `pytest --cache-clear` empties it; without pytest's cache
     (`-p no:cacheprovider`) it is a temporary directory removed at the session's end. xdist's
     workers inherit it from the controller, so they share it (the cache takes concurrent builds);
-    a test that needs a cold cache makes its own."""
+    a test that needs a cold cache makes its own. The models that model_file writes live beside it
+    (.pytest_cache/d/lagdsl-models), or in a temporary directory without pytest's cache."""
+    _MODEL_FILES[:] = [Path(config.cache.mkdir("lagdsl-models")) if getattr(config, "cache", None) is not None
+                       else Path(_own_temporary_directory("lagdsl-test-models-"))]
     if os.environ.get("LAGDSL_CACHE"):
         return
     if getattr(config, "cache", None) is not None and not hasattr(config, "workerinput"):
         os.environ["LAGDSL_CACHE"] = str(config.cache.mkdir("lagdsl-builds"))
         return
-    path = tempfile.mkdtemp(prefix="lagdsl-test-cache-")
-    os.environ["LAGDSL_CACHE"] = path
+    os.environ["LAGDSL_CACHE"] = _own_temporary_directory("lagdsl-test-cache-")
+
+
+def _own_temporary_directory(prefix: str) -> str:
+    """A temporary directory removed at the session's end."""
+    path = tempfile.mkdtemp(prefix=prefix)
     _OWN_CACHE.append(path)
+    return path
 
 
 def pytest_unconfigure(config):
@@ -148,6 +176,7 @@ def pytest_unconfigure(config):
         if os.environ.get("LAGDSL_CACHE") == path:
             del os.environ["LAGDSL_CACHE"]
     _OWN_CACHE.clear()
+    _MODEL_FILES.clear()
 
 
 def pytest_collection_modifyitems(config, items):

@@ -19,7 +19,7 @@ import pytest
 
 from lagdsl.cli import main
 from lagdsl.progress import TimeProgress
-from tests.conftest import MODELS, lagc_in_process
+from tests.conftest import MODELS, lagc_in_process, model_file
 from tests.run.test_bounds import OSCILLATOR
 
 
@@ -70,7 +70,7 @@ def test_run_writes_csv_with_the_exact_header(tmp_path):
 
 
 @pytest.mark.slow
-def test_run_overrides(tmp_path):
+def test_run_overrides():
     done = lagc("run", MODELS / "wedge.lag", "--set", "m=2", "--set", "s.velocity=1", "--stop", "0.1")
     assert done.returncode == 0, done.stderr
     first = done.stdout.splitlines()[1].split(",")
@@ -113,7 +113,8 @@ def test_emit_writes_source(tmp_path, language):
 
 
 @pytest.mark.parametrize("options, version, kind, other, entry", [
-    (("--kind", "cs"), "2.0", "CoSimulation", "ModelExchange", "modelDescription.xml"),
+    pytest.param(("--kind", "cs"), "2.0", "CoSimulation", "ModelExchange", "modelDescription.xml",
+                 marks=pytest.mark.slow),
     (("--fmi", "3", "--kind", "me"), "3.0", "ModelExchange", "CoSimulation", "sources/buildDescription.xml")])
 def test_emit_fmu_writes_an_fmi_archive(tmp_path, options, version, kind, other, entry):
     out = tmp_path / "Kepler.fmu"
@@ -139,10 +140,8 @@ def test_emit_fmu_refuses_what_it_cannot_do(tmp_path, arguments, message):
 # ---- bounded, interruptible runs; checked inputs (tests/run/test_bounds.py has the API side) ----
 
 @pytest.fixture
-def oscillator(tmp_path):
-    path = tmp_path / "oscillator.lag"
-    path.write_text(OSCILLATOR)
-    return path
+def oscillator():
+    return model_file(OSCILLATOR, "oscillator")
 
 
 @pytest.mark.parametrize("arguments, words", [

@@ -196,8 +196,13 @@ def let_chain(levels: int) -> str:
             f"  T = (2 + cos(a{levels}))*der(x)^2/2;\n  U = x^2/2;\nend Chain;\n")
 
 
-@pytest.mark.parametrize("command", [["check"], ["eom"], ["emit"]])
-@pytest.mark.parametrize("text", [TOWER, let_chain(24)], ids=["exponential tower", "24 doubling lets"])
+# The default run takes `lagc eom` of the tower and `lagc check` of the lets; the other four are slow.
+@pytest.mark.parametrize("text, command", [
+    pytest.param(text, command, id=f"{name}-{command[0]}",
+                 marks=() if (name, command[0]) in {("exponential tower", "eom"), ("24 doubling lets", "check")}
+                 else pytest.mark.slow)
+    for text, name in [(TOWER, "exponential tower"), (let_chain(24), "24 doubling lets")]
+    for command in (["check"], ["eom"], ["emit"])])
 def test_magnitudes_beyond_double_precision_end_the_identity_checks_and_the_display(tmp_path, text, command):
     """The 50-digit identity checks give up on sin of an argument of astronomical magnitude (the
     phase is unknown: never "zero") instead of computing pi to 1e30 bits; `lagc eom` sizes the

@@ -16,6 +16,7 @@ from lagdsl.frontend.parser import parse
 from lagdsl.frontend.semantics import build_model
 from lagdsl.source import SourceFile
 from tests.mechanics.eom import equations_from_text, is_zero, residual_rows, symbols_of
+from tests.conftest import model_file
 
 
 def model_of(text: str):
@@ -137,10 +138,8 @@ def test_parameter_arrays_are_members_with_values_and_expressions(tmp_path):
 
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])
-def test_parameter_arrays_in_sums_scenes_and_overrides(tmp_path, backend):
-    path = tmp_path / "springs.lag"
-    path.write_text(ARRAY_MODEL)
-    model = lagdsl.load(path)
+def test_parameter_arrays_in_sums_scenes_and_overrides(backend):
+    model = lagdsl.load(model_file(ARRAY_MODEL, "springs"))
     # each x[i] is an oscillator of frequency sqrt(k[i]/m[i]); the scene sets m[2] = 8
     result = model.simulate("heavy", backend, rtol=1e-12, atol=1e-14)
     assert result.columns == ("x[2]", "m[2]*x[2]")

@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 from lagdsl.fmu import build_fmu
+from tests.conftest import slow_unless_kept
 from tests.fmu.fmu_files import load
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 
@@ -47,11 +48,16 @@ def cc():
     return compiler
 
 
-@pytest.mark.parametrize("version", [2, 3])
-@pytest.mark.parametrize("model, scene, kind", [
-    ("double_pendulum", None, ("me", "cs")), ("rolling_penny", None, ("cs",)), ("rolling_penny", None, ("me",)),
-    ("coupled_oscillators", "pluck", ("cs",)), ("bead_on_hoop", None, ("me", "cs")),
-    pytest.param("fpu_chain", "implicit", ("me", "cs"), marks=pytest.mark.slow)])     # 34 s of CPU: slow
+FMU_SOURCES = [("double_pendulum", None, ("me", "cs")), ("rolling_penny", None, ("cs",)), ("rolling_penny", None, ("me",)),
+               ("coupled_oscillators", "pluck", ("cs",)), ("bead_on_hoop", None, ("me", "cs")),
+               ("fpu_chain", "implicit", ("me", "cs"))]          # the last takes 34 s of CPU
+
+
+# The default run compiles both kinds of FMI 2 (a dense model) and both of FMI 3 (a rheonomic one);
+# every other pair is slow.
+@pytest.mark.parametrize("model, scene, kind, version", slow_unless_kept(
+    [(*case, version) for case in FMU_SOURCES for version in (2, 3)],
+    {("double_pendulum", None, ("me", "cs"), 2), ("bead_on_hoop", None, ("me", "cs"), 3)}))
 def test_fmu_source_compiles_under_strict_flags(tmp_path, cc, model, scene, kind, version):
     source, _ = unpack(build_fmu(load(model), scene, version, kind), tmp_path)
     done = subprocess.run([cc, *STRICT_FLAGS, "-fPIC", "-I", str(source.parent), "-c", str(source), "-o",
@@ -59,7 +65,7 @@ def test_fmu_source_compiles_under_strict_flags(tmp_path, cc, model, scene, kind
     assert done.returncode == 0, done.stderr
 
 
-@pytest.mark.parametrize("version", [2, 3])
+@pytest.mark.parametrize("version", [pytest.param(2, marks=pytest.mark.slow), 3])     # FMI 2's calls: slow
 @pytest.mark.parametrize("model", ["double_pendulum", pytest.param("rolling_penny", marks=pytest.mark.slow)])
 def test_every_function_in_and_out_of_order_under_sanitizers(tmp_path, cc, model, version):
     source, description = unpack(build_fmu(load(model), version=version), tmp_path)

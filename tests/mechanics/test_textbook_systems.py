@@ -5,7 +5,7 @@ between lagdsl's equations and the known ones simplifies to zero.
 """
 import sympy
 
-from tests.mechanics.eom import equations_of, is_zero, residual_rows, solve_accelerations, symbols_of
+from tests.mechanics.eom import equations_from_text, equations_of, is_zero, residual_rows, solve_accelerations, symbols_of
 
 
 def test_particle_in_3d_obeys_newton():
@@ -146,3 +146,37 @@ def test_explicitly_time_dependent_lagrangian():
     expected = m * l**2 * acc + m * l * (g - A * omega**2 * sympy.cos(omega * t)) * sympy.sin(theta)
     assert is_zero(residual_rows(eq)[0] - expected)
     assert eq.conserved == ()
+
+
+BEAD_ON_A_TURNING_ROD = """
+model TurningRod "a bead on a rod turned in a horizontal plane at the constant rate omega"
+  parameter m = 1 [kg];
+  parameter omega = 2 [rad/s];
+  coordinate x(start = 1) [m];
+  coordinate y(start = 0) [m];
+  T = m/2*(der(x)^2 + der(y)^2);
+  U = 0;
+  constraint rod: cos(omega*t)*y - sin(omega*t)*x = 0;
+end TurningRod;
+"""
+
+
+def test_bead_on_a_turning_rod_is_flung_out_and_pushed_by_the_coriolis_force():
+    """A rheonomic constraint: the rod through the origin at the angle omega t. Along the rod
+    r'' = omega^2 r (r = r0 cosh(omega t) + ...); across it the rod pushes with
+    lambda = 2 m omega r', the Coriolis force, so x'' = -2 omega r' sin(omega t) and
+    y'' = 2 omega r' cos(omega t): the bead on a rotating rod of the textbooks' chapters on
+    rotating frames (e.g. J. R. Taylor, Classical Mechanics, chapters 7 and 9)."""
+    eq = equations_from_text(BEAD_ON_A_TURNING_ROD)
+    s = symbols_of(eq)
+    m, omega, t = s["m"], s["omega"], s["t"]
+    r, speed = sympy.symbols("r speed", real=True)
+    angle = omega * t
+    on_rod = {s["x"]: r * sympy.cos(angle), s["y"]: r * sympy.sin(angle),
+              s["x'"]: speed * sympy.cos(angle) - r * omega * sympy.sin(angle),
+              s["y'"]: speed * sympy.sin(angle) + r * omega * sympy.cos(angle)}
+    xdd, ydd, lam = (expression.subs(on_rod) for expression in solve_accelerations(eq))
+    assert is_zero(lam - 2 * m * omega * speed)
+    assert is_zero(xdd + 2 * omega * speed * sympy.sin(angle))
+    assert is_zero(ydd - 2 * omega * speed * sympy.cos(angle))
+    assert [c.kind for c in eq.constraints] == ["holonomic"] and eq.conserved == ()

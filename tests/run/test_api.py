@@ -11,7 +11,7 @@ import lagdsl
 from lagdsl import api, pipeline
 from lagdsl.codegen import c as c_printer, numpy as numpy_printer
 from lagdsl.run import loading, toolchain
-from tests.conftest import MODELS, library_model
+from tests.conftest import MODELS, library_model, model_file
 
 COLLIDING = """
 model Collide "names that are C keywords, libm or POSIX functions"
@@ -66,10 +66,8 @@ def test_several_values_where_one_is_expected_point_to_sweep(values, words):
     assert words in str(refused.value)
 
 
-def test_names_that_collide_in_c(tmp_path):
-    path = tmp_path / "collide.lag"
-    path.write_text(COLLIDING)
-    model = lagdsl.load(path)
+def test_names_that_collide_in_c():
+    model = lagdsl.load(model_file(COLLIDING, "collide"))
     c = model.simulate()
     numpy = model.simulate(backend="numpy")
     # int'' = -(errno gamma^2 / main) int: a harmonic oscillator with omega^2 = 1/12

@@ -14,7 +14,7 @@ import pytest
 from lagdsl.api import Model
 from lagdsl.errors import LagError
 from lagdsl.source import SourceFile
-from tests.conftest import Ran, lagc_in_process
+from tests.conftest import Ran, lagc_in_process, model_file
 from tests.run.c_harness import build_scene_programs
 
 # Uncoupled: a spring in millimetres and a pendulum in degrees, at tolerances loose enough that
@@ -44,10 +44,8 @@ GIVEN = (["x=0.0005", "der(theta)=0.5"], ["x=0.0005 mm", "der(theta)=0.5 deg/s"]
 
 
 @pytest.fixture(scope="module")
-def cart(tmp_path_factory):
-    path = tmp_path_factory.mktemp("atol") / "cart.lag"
-    path.write_text(CART)
-    return path
+def cart():
+    return model_file(CART, "cart")
 
 
 def lagc(*arguments: str) -> Ran:

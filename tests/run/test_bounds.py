@@ -21,6 +21,7 @@ import pytest
 import lagdsl
 from lagdsl.errors import LagError, LagWarning, Setting, SimulationError, SimulationInterrupted
 from lagdsl.scene import MAX_ROWS, RTOL_FLOOR, Overrides, grid_rows
+from tests.conftest import model_file
 
 OSCILLATOR = """
 model Oscillator
@@ -41,10 +42,8 @@ BACKENDS = ("c", "numpy")
 
 
 @pytest.fixture(scope="module")
-def oscillator(tmp_path_factory):
-    path = tmp_path_factory.mktemp("bounds") / "oscillator.lag"
-    path.write_text(OSCILLATOR)
-    return lagdsl.load(path)
+def oscillator():
+    return lagdsl.load(model_file(OSCILLATOR, "oscillator"))
 
 
 # ---- the time grid ---------------------------------------------------------------------------

@@ -11,7 +11,7 @@ import pytest
 import lagdsl
 from lagdsl.errors import SimulationError
 from lagdsl.pipeline import execute, generate
-from tests.conftest import MODELS, library_model
+from tests.conftest import MODELS, library_model, model_file
 from tests.test_cli import lagc
 
 SINGULAR_START = """model SingularStart
@@ -42,10 +42,8 @@ end BlowUp;
 """
 
 
-def load(tmp_path, text):
-    path = tmp_path / "model.lag"
-    path.write_text(text, encoding="utf-8")
-    return lagdsl.load(path)
+def load(text):
+    return lagdsl.load(model_file(text))
 
 
 def failure(model, backend, **settings) -> SimulationError:
@@ -64,8 +62,8 @@ SINGULAR_DETERMINANT = SINGULAR_START.replace("T = (x*der(y))^2/2 + der(x)^2/2;"
 
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])
-def test_singular_mass_matrix_at_the_start(tmp_path, backend):
-    error = failure(load(tmp_path, SINGULAR_START), backend)
+def test_singular_mass_matrix_at_the_start(backend):
+    error = failure(load(SINGULAR_START), backend)
     assert error.message.startswith("the mass matrix is singular at this state")
     assert error.time == 0 and error.state == {"x": 0, "y": 0, "x'": 1, "y'": 1}
     assert "start away from it" in error.remedy
@@ -74,10 +72,10 @@ def test_singular_mass_matrix_at_the_start(tmp_path, backend):
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])
 @pytest.mark.parametrize("integrator", ["dop853", "taylor"])
-def test_a_full_2x2_mass_matrix_singular_in_its_determinant_alone(tmp_path, backend, integrator):
+def test_a_full_2x2_mass_matrix_singular_in_its_determinant_alone(backend, integrator):
     if backend == "numpy" and integrator == "taylor":
         pytest.skip("taylor runs on the C backend only")
-    error = failure(load(tmp_path, SINGULAR_DETERMINANT), backend, integrator=integrator)
+    error = failure(load(SINGULAR_DETERMINANT), backend, integrator=integrator)
     assert error.message.startswith("the mass matrix is singular at this state")
     assert error.time == 0 and error.state == {"x": 1, "y": 0, "x'": 1, "y'": 1}
 
@@ -99,16 +97,16 @@ def test_a_negative_mass_is_refused_at_check_and_named(tmp_path):
 
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])
-def test_a_negative_mass_set_for_a_run_names_the_sign_in_the_remedy(tmp_path, backend):
-    error = failure(load(tmp_path, NEGATIVE_MASS), backend, set={"m": -1.0}, stop=1.0)
+def test_a_negative_mass_set_for_a_run_names_the_sign_in_the_remedy(backend):
+    error = failure(load(NEGATIVE_MASS), backend, set={"m": -1.0}, stop=1.0)
     assert error.message.startswith("the mass matrix is singular at this state") and error.time == 0
     assert "a negative value does the same (the kinetic energy must be positive" in error.remedy
 
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])
 @pytest.mark.parametrize("integrator", ["rk4", "gauss"])
-def test_singular_mass_matrix_later_keeps_the_rows_before(tmp_path, backend, integrator):
-    model = load(tmp_path, SINGULAR_LATER)
+def test_singular_mass_matrix_later_keeps_the_rows_before(backend, integrator):
+    model = load(SINGULAR_LATER)
     if integrator == "gauss":          # Hamilton's equations never evaluate M at x = 0 here
         assert model.simulate(None, backend, integrator="gauss").t[-1] == 2.0
         return
@@ -122,9 +120,9 @@ def test_singular_mass_matrix_later_keeps_the_rows_before(tmp_path, backend, int
 @pytest.mark.parametrize("backend", ["c", "numpy"])
 @pytest.mark.parametrize("integrator", ["dop853", pytest.param("radau5", marks=pytest.mark.slow),
                                         pytest.param("rk4", marks=pytest.mark.slow)])
-def test_blow_up(tmp_path, backend, integrator):
+def test_blow_up(backend, integrator):
     settings = {"integrator": integrator, **({"step": 0.001} if integrator == "rk4" else {})}
-    error = failure(load(tmp_path, BLOW_UP), backend, **settings)
+    error = failure(load(BLOW_UP), backend, **settings)
     # a method that crawls towards the singularity may be ended there by the work forecast,
     # before its step collapses
     forecast = error.message.startswith("at this pace reaching t = 10 would take ")
@@ -138,10 +136,10 @@ def test_blow_up(tmp_path, backend, integrator):
 
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])
-def test_non_finite_initial_state(tmp_path, backend):
+def test_non_finite_initial_state(backend):
     # A start value that is NaN only once the integration has begun would be refused by the plan;
     # the runners check the state they are given all the same.
-    model = load(tmp_path, BLOW_UP)
+    model = load(BLOW_UP)
     plan = model.plan(None)
     state = (float("nan"),) + plan.initial_state[1:]
     kernel, source = generate(model.equations, plan, backend, "blow_up.lag")
@@ -169,8 +167,8 @@ end ConstantOverflow;
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])
 @pytest.mark.parametrize("integrator, options", [("dop853", {}), ("rk4", {"step": 0.01})])
-def test_overflow_of_a_constant_is_a_simulation_error(tmp_path, backend, integrator, options):
-    model = load(tmp_path, CONSTANT_OVERFLOW)
+def test_overflow_of_a_constant_is_a_simulation_error(backend, integrator, options):
+    model = load(CONSTANT_OVERFLOW)
     with pytest.raises(SimulationError, match="infinite or NaN"):
         model.simulate(backend=backend, integrator=integrator, stop=0.1, **options)
 
@@ -219,7 +217,7 @@ def test_a_non_finite_jacobian_in_scipys_radau_is_a_simulation_error():
     assert len(failure.value.partial.t) == 1
 
 
-def test_outputs_with_multipliers_at_a_singular_start_leave_no_row_on_either_backend(tmp_path):
+def test_outputs_with_multipliers_at_a_singular_start_leave_no_row_on_either_backend():
     """The penny with a zero moment of inertia (radius 1e-200: m a^2/4 underflows to 0): the
     system for q'' is singular at t = 0, so its start row has no multipliers. Both backends stop
     there with no row, as the C driver delivers no row it cannot evaluate (the NumPy one raised

@@ -15,7 +15,7 @@ import pytest
 from lagdsl.api import Model
 from lagdsl.errors import LagError
 from lagdsl.source import SourceFile
-from tests.conftest import Ran, lagc_in_process
+from tests.conftest import Ran, lagc_in_process, model_file
 from tests.run.c_harness import build_scene_programs
 
 SWING = """model Swing
@@ -45,10 +45,8 @@ IN_SI = {"m": "0.25 kg", "l": "0.3 [m]", "theta.start": f"{float(30 * DEG)!r} ra
 
 
 @pytest.fixture(scope="module")
-def swing(tmp_path_factory):
-    path = tmp_path_factory.mktemp("units") / "swing.lag"
-    path.write_text(SWING)
-    return path
+def swing():
+    return model_file(SWING, "swing")
 
 
 def lagc(*arguments: str) -> Ran:
@@ -59,7 +57,7 @@ def settings(values: dict) -> list[str]:
     return [f"{name}={value}" for name, value in values.items()]
 
 
-@pytest.mark.parametrize("backend", ["numpy", "c"])
+@pytest.mark.parametrize("backend", [pytest.param("numpy", marks=pytest.mark.slow), "c"])
 def test_every_way_of_setting_a_value_runs_the_same_csv(swing, backend):
     scene = lagc("run", str(swing), "--scene", "set", "--backend", backend)
     assert scene.returncode == 0, scene.stderr

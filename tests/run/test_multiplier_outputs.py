@@ -13,7 +13,7 @@ import lagdsl
 from lagdsl.errors import LagError
 from lagdsl.pipeline import model_from_source
 from lagdsl.source import SourceFile
-from tests.conftest import library_model
+from tests.conftest import library_model, model_file
 
 ANGLE_PENDULUM = """model Pendulum
   parameter m = 1.0;  parameter l = 1.0;  parameter g = 9.81;  parameter theta0 = 0.5;
@@ -31,12 +31,10 @@ end Pendulum;
 
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])
-def test_rod_tension_matches_the_angle_solution(backend, tmp_path):
+def test_rod_tension_matches_the_angle_solution(backend):
     settings = dict(stop=3.0, interval=0.25, rtol=1e-11, atol=1e-13, m=1.5, l=2.0, theta0=0.9)
     cartesian = library_model("cartesian_pendulum").simulate("swing", backend, **settings)
-    path = tmp_path / "pendulum.lag"
-    path.write_text(ANGLE_PENDULUM, encoding="utf-8")
-    angle = lagdsl.load(path).simulate("swing", backend, **settings)
+    angle = lagdsl.load(model_file(ANGLE_PENDULUM, "pendulum")).simulate("swing", backend, **settings)
     assert np.array_equal(cartesian.t, angle.t)
     assert cartesian["tension"] == pytest.approx(angle["tension"], rel=1e-8)
     assert cartesian["multiplier(rod)"] == pytest.approx(-angle["tension"] / (2 * 2.0), rel=1e-8)

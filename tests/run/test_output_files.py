@@ -12,6 +12,7 @@ import pytest
 
 from lagdsl.cli import main
 from lagdsl.run.files import CannotWrite, write_output
+from tests.conftest import model_file
 
 OSCILLATOR = """model Oscillator
   coordinate x(start = 1);
@@ -27,10 +28,8 @@ end Oscillator;
 
 
 @pytest.fixture
-def model(tmp_path):
-    path = tmp_path / "oscillator.lag"
-    path.write_text(OSCILLATOR)
-    return path
+def model():
+    return model_file(OSCILLATOR, "oscillator")
 
 
 def leftovers(directory) -> list[str]:

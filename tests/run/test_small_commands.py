@@ -86,7 +86,7 @@ def test_cache_clear_removes_the_helper_directories(cache_dir, tmp_path):
     assert sorted(os.listdir(cache_dir)) == ["notes.txt"] and os.listdir(elsewhere) == ["keep.txt"]
 
 
-@pytest.mark.parametrize("varied", ["theta.start=0.1:0.5:4", "g=9:10:3",
+@pytest.mark.parametrize("varied", ["theta.start=0.1:0.5:4", pytest.param("g=9:10:3", marks=pytest.mark.slow),
                                     pytest.param("a=0.1:0.5:4", marks=pytest.mark.slow)])
 def test_a_warm_sweep_writes_the_same_table_without_the_pipeline(cache_dir, tmp_path, varied):
     """`a` gives the start values (a varied value other values are computed from) and `g` enters

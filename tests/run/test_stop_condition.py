@@ -11,7 +11,7 @@ from scipy.integrate import quad
 from scipy.special import ellipk
 
 import lagdsl
-from tests.conftest import MODELS, library_model, slow_unless_kept
+from tests.conftest import MODELS, library_model, model_file, slow_unless_kept
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 
 PROJECTILE = """model Projectile "a thrown point mass; the flight ends where it comes down"
@@ -80,20 +80,18 @@ INTEGRATORS = {"dopri5": {}, "dop853": {}, "rkn8": {}, "radau5": {}, "auto": {},
                "gauss": {"step": 0.01}}
 
 
-def load(tmp_path, text: str, name: str = "model"):
-    path = tmp_path / f"{name}.lag"
-    path.write_text(text)
-    return lagdsl.load(path)
+def load(text: str, name: str = "model"):
+    return lagdsl.load(model_file(text, name))
 
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])
 # auto (dopri5, then radau5 where stiff: both kept) slow
 @pytest.mark.parametrize("integrator", slow_unless_kept(INTEGRATORS, kept=set(INTEGRATORS) - {"auto"}))
-def test_the_flight_ends_where_it_comes_down(tmp_path, backend, integrator):
+def test_the_flight_ends_where_it_comes_down(backend, integrator):
     """y = 4 t - g t^2/2 is a quadratic, which every dense output reproduces: the stop time is
     2 * 4 / g to round-off, the last row is there, and the rows before it are on the grid."""
     tight = {"rtol": 1e-12, "atol": 1e-14} if integrator not in ("rk4", "gauss") else {}
-    result = load(tmp_path, PROJECTILE).simulate("flight", backend, integrator=integrator,
+    result = load(PROJECTILE).simulate("flight", backend, integrator=integrator,
                                                  **INTEGRATORS[integrator], **tight)
     landing = 8 / 9.81
     assert result.summary.stopped is not None
@@ -108,26 +106,26 @@ def test_the_flight_ends_where_it_comes_down(tmp_path, backend, integrator):
 @pytest.mark.parametrize("integrator, options, tolerance", [
     ("dop853", {"rtol": 1e-12, "atol": 1e-14}, 1e-10), ("radau5", {"rtol": 1e-10, "atol": 1e-12}, 1e-8),
     ("rk4", {"step": 0.01}, 1e-8), ("gauss", {"step": 0.05, "stages": 3}, 1e-8)])
-def test_the_stop_time_has_the_accuracy_of_the_integrator(tmp_path, backend, integrator, options, tolerance):
+def test_the_stop_time_has_the_accuracy_of_the_integrator(backend, integrator, options, tolerance):
     """A quarter period of a large swing: located inside a step, far from the output grid."""
-    result = load(tmp_path, PENDULUM).simulate("quarter", backend, integrator=integrator, **options)
+    result = load(PENDULUM).simulate("quarter", backend, integrator=integrator, **options)
     assert abs(result.t[-1] - QUARTER) < tolerance
     assert abs(result["theta"][-1]) < tolerance * 10
     assert len(result.t) == int(QUARTER / 0.25) + 2
 
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])
-def test_a_condition_that_holds_at_the_start_stops_there(tmp_path, backend):
-    result = load(tmp_path, PROJECTILE).simulate("flight", backend, set={"y.start": -1})
+def test_a_condition_that_holds_at_the_start_stops_there(backend):
+    result = load(PROJECTILE).simulate("flight", backend, set={"y.start": -1})
     assert list(result.t) == [0.0]
     assert result.summary.stopped.time == 0.0
 
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])
 @pytest.mark.parametrize("integrator", ["dop853", "rk4"])
-def test_a_constrained_model_stops_on_its_constraint(tmp_path, backend, integrator):
+def test_a_constrained_model_stops_on_its_constraint(backend, integrator):
     options = {"step": 0.001} if integrator == "rk4" else {}
-    result = load(tmp_path, ROD).simulate("fall", backend, integrator=integrator, **options)
+    result = load(ROD).simulate("fall", backend, integrator=integrator, **options)
     assert abs(result["x"][-1]) < 1e-9
     assert result["y"][-1] == pytest.approx(-1, abs=1e-9)
     assert result.summary.residual_max < 1e-9
@@ -138,7 +136,7 @@ def test_the_standalone_program_stops_and_says_where(tmp_path):
     cc = find_cc()
     if cc is None:
         pytest.skip("no C compiler")
-    model = load(tmp_path, PROJECTILE)
+    model = load(PROJECTILE)
     for integrator in INTEGRATORS:
         source = tmp_path / f"{integrator}.c"
         source.write_text(model.emit("c", "flight", lagdsl.scene.Overrides(
@@ -174,7 +172,7 @@ def test_the_ladder_leaves_the_wall_where_its_multiplier_turns_negative(backend,
 
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])
-def test_a_stop_on_a_nonholonomic_multiplier(tmp_path, backend):
+def test_a_stop_on_a_nonholonomic_multiplier(backend):
     """The rolling penny (models/rolling_penny.lag): the plane's side force, the multiplier of
     roll_y, is -m sin(theta) 2 g s (2 cos(theta) - cos(theta0))/3 with theta = theta0 + w t (the
     corrected closed form of tests/models/test_constrained.py); it changes sign where
@@ -188,7 +186,7 @@ def test_a_stop_on_a_nonholonomic_multiplier(tmp_path, backend):
 end RollingPenny;
 """
     text = (MODELS / "rolling_penny.lag").read_text().replace("end RollingPenny;\n", scene)
-    result = load(tmp_path, text, "penny").simulate("turn", backend)
+    result = load(text, "penny").simulate("turn", backend)
     assert result.t[-1] == pytest.approx(np.arccos(np.cos(0.3) / 2) - 0.3, abs=1e-9)
     assert np.all(result["multiplier(roll_y)"][:-1] < 0)
 

@@ -72,8 +72,8 @@ def _overrides(**grid):
 
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])
-def test_a_member_reaching_a_singular_configuration_fails_alone(tmp_path, backend):
-    model = load(tmp_path, SINGULAR_LATER)      # x = x0 - t: M = diag(1, x^2) is singular where x = 0
+def test_a_member_reaching_a_singular_configuration_fails_alone(backend):
+    model = load(SINGULAR_LATER)      # x = x0 - t: M = diag(1, x^2) is singular where x = 0
     sweep = model.sweep(None, backend, set={"x.start": [1.3, 1.0, 2.7]})
     assert sweep.status[1].startswith("the mass matrix is singular at this state")
     assert sweep.failure_time[1] == 0.875 and sweep.rows[1] == 4
@@ -91,8 +91,8 @@ def test_numpy_batch_agrees_with_c_within_the_tolerance(pendulum):
     assert np.allclose(stacked.values, c.values, rtol=0, atol=1e-6)
 
 
-def test_members_with_parameters_computed_from_varied_ones_are_planned_one_by_one(tmp_path):
-    model = load(tmp_path, DERIVED)
+def test_members_with_parameters_computed_from_varied_ones_are_planned_one_by_one():
+    model = load(DERIVED)
     sweep = model.sweep(set={"k": [1.0, 9.0]})
     assert sweep["w"][:, 0] == pytest.approx([1.0, 3.0])
     for b, k in enumerate((1.0, 9.0)):
@@ -205,9 +205,9 @@ def test_numpy_members_under_pure_relative_error_control_run_one_by_one(pendulum
         assert np.array_equal(alone.values, sweep.values[b])
 
 
-def test_a_start_velocity_computed_from_a_varied_parameter_is_recomputed_per_member(tmp_path):
+def test_a_start_velocity_computed_from_a_varied_parameter_is_recomputed_per_member():
     text = DERIVED.replace("coordinate x(start = 1/w, velocity = 0);", "coordinate x(start = 1, velocity = k);")
-    model = load(tmp_path, text)
+    model = load(text)
     sweep = model.sweep(set={"k": [1.0, 4.0], "x.start": [0.5, 0.25]})
     assert list(sweep.values[:, 0, 0]) == [0.5, 0.25]
     for b, (k, x) in enumerate(((1.0, 0.5), (4.0, 0.25))):

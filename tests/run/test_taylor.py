@@ -20,7 +20,7 @@ import pytest
 import lagdsl
 from lagdsl.errors import LagWarning
 from lagdsl.scene import Overrides
-from tests.conftest import library_model
+from tests.conftest import library_model, model_file
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 from tests.run.test_stop_condition import PENDULUM, QUARTER
 
@@ -57,10 +57,8 @@ end Kepler;
 """
 
 
-def load(tmp_path, text: str):
-    path = tmp_path / "model.lag"
-    path.write_text(text)
-    return lagdsl.load(path)
+def load(text: str):
+    return lagdsl.load(model_file(text))
 
 
 def kepler_orbit(t: np.ndarray, e: float) -> tuple[np.ndarray, np.ndarray]:
@@ -78,8 +76,8 @@ def kepler_orbit(t: np.ndarray, e: float) -> tuple[np.ndarray, np.ndarray]:
     return a * (1 - e * np.cos(anomaly)), theta
 
 
-def test_the_oscillator_follows_its_closed_form_between_the_steps(tmp_path):
-    result = load(tmp_path, OSCILLATOR).simulate("swing")
+def test_the_oscillator_follows_its_closed_form_between_the_steps():
+    result = load(OSCILLATOR).simulate("swing")
     t = result.t
     assert np.max(np.abs(result["x"] - (X0 * np.cos(OMEGA * t) + V0 / OMEGA * np.sin(OMEGA * t)))) < 1e-12
     assert np.max(np.abs(result["der(x)"] - (-X0 * OMEGA * np.sin(OMEGA * t) + V0 * np.cos(OMEGA * t)))) < 1e-12
@@ -87,8 +85,8 @@ def test_the_oscillator_follows_its_closed_form_between_the_steps(tmp_path):
     assert result.summary.count("accepted") * 10 < len(t)
 
 
-def test_the_grid_changes_neither_the_steps_nor_the_rows(tmp_path):
-    model = load(tmp_path, OSCILLATOR)
+def test_the_grid_changes_neither_the_steps_nor_the_rows():
+    model = load(OSCILLATOR)
     fine, coarse = model.simulate("swing"), model.simulate("swing", interval=0.5)
     assert fine.summary.count("accepted") == coarse.summary.count("accepted")
     rows = {t: i for i, t in enumerate(fine.t)}
@@ -98,32 +96,32 @@ def test_the_grid_changes_neither_the_steps_nor_the_rows(tmp_path):
         assert np.array_equal(fine[column][common], coarse[column])
 
 
-def test_kepler_orbit_from_keplers_equation(tmp_path):
+def test_kepler_orbit_from_keplers_equation():
     e = 0.44
-    result = load(tmp_path, kepler_model(e, orbits=10, per_orbit=40, tol=3e-15)).simulate("orbits")
+    result = load(kepler_model(e, orbits=10, per_orbit=40, tol=3e-15)).simulate("orbits")
     r, theta = kepler_orbit(result.t, e)
     assert np.max(np.abs(result["r"] - r)) < 1e-12
     assert np.max(np.abs(result["theta"] - theta)) < 1e-12
 
 
 @pytest.mark.slow      # 44,000 steps of order 18: 0.1 s of integration, 7 s with the derivation and the build
-def test_kepler_at_eccentricity_06_keeps_its_energy_over_1000_orbits(tmp_path):
+def test_kepler_at_eccentricity_06_keeps_its_energy_over_1000_orbits():
     """Issue 34's criterion: 1000 orbits at rtol 1e-15 (raised to the floor, 10 eps), energy
     error below 1e-13 (E = -1/(2a) = -0.2)."""
-    model = load(tmp_path, kepler_model(0.6, orbits=1000, per_orbit=10, tol=1e-15))
+    model = load(kepler_model(0.6, orbits=1000, per_orbit=10, tol=1e-15))
     with pytest.warns(LagWarning, match="raised to"):
         result = model.simulate("orbits")
     assert result.t[-1] == pytest.approx(1000 * 2 * math.pi * 0.4 ** -1.5)
     assert np.max(np.abs(result["energy"] + 0.2)) < 1e-13
 
 
-def test_the_stop_condition_is_located_on_the_polynomial(tmp_path):
-    result = load(tmp_path, PENDULUM).simulate("quarter", integrator="taylor", rtol=1e-13, atol=1e-13)
+def test_the_stop_condition_is_located_on_the_polynomial():
+    result = load(PENDULUM).simulate("quarter", integrator="taylor", rtol=1e-13, atol=1e-13)
     assert abs(result.t[-1] - QUARTER) < 1e-11
     assert abs(result["theta"][-1]) < 1e-10
 
 
-@pytest.mark.parametrize("precision", [[], ["-DLAG_LONG_DOUBLE"]])
+@pytest.mark.parametrize("precision", [[], pytest.param(["-DLAG_LONG_DOUBLE"], marks=pytest.mark.slow)])
 def test_the_generated_file_compiles_warning_free(tmp_path, precision):
     """(__float128 is a GNU extension, -pedantic refuses its literals: the bench's reference
     builds it, tests/run/test_bench.py.)"""
@@ -138,6 +136,6 @@ def test_the_generated_file_compiles_warning_free(tmp_path, precision):
     assert built.returncode == 0, built.stderr
 
 
-def test_the_numpy_backend_refuses_it_naming_the_c_backend(tmp_path):
+def test_the_numpy_backend_refuses_it_naming_the_c_backend():
     with pytest.raises(lagdsl.LagError, match="--backend c"):
-        load(tmp_path, OSCILLATOR).simulate("swing", "numpy")
+        load(OSCILLATOR).simulate("swing", "numpy")

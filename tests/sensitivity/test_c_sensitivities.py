@@ -82,9 +82,9 @@ def test_without_error_control_only_the_error_norms_change():
     ("cartesian_pendulum", None, "radau5"),         # dense LU of the KKT system, the augmented Jacobian
     pytest.param("pendulum_chain", None, "dopri5", marks=pytest.mark.slow),      # dense Cholesky (41 s of CPU)
     pytest.param("cartesian_chain", None, "auto", marks=pytest.mark.slow),     # sparse LDLᵀ with constraints
-    ("coupled_oscillators", "mode1", "rkn8"),       # M factored once (constant), rkn8's accelerations
+    pytest.param("coupled_oscillators", "mode1", "rkn8", marks=pytest.mark.slow),  # M factored once, rkn8's accelerations
 ])
-@pytest.mark.parametrize("error_control", [True, False])
+@pytest.mark.parametrize("error_control", [True, pytest.param(False, marks=pytest.mark.slow)])
 def test_the_sensitivity_program_compiles_under_the_strict_flags(tmp_path, library, scene, integrator, error_control):
     cc = find_cc()
     if cc is None:
@@ -110,6 +110,7 @@ def test_a_fit_runs_on_the_c_backend():
     assert fit.values["l"] == pytest.approx(1.3, rel=1e-6) and fit.values["b"] == pytest.approx(0.3, rel=1e-6)
 
 
+@pytest.mark.slow          # 5 s of CPU; a per-component atol in C is checked without sensitivities in run/test_si_scales.py
 def test_a_per_component_atol_holds_for_the_state_on_the_c_backend():
     # atol(x) weighs the state's own components (the sensitivities keep the scalar atol, as on
     # NumPy): tight, the C run agrees with NumPy's; equal to the scalar, it changes nothing; loose

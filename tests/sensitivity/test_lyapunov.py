@@ -7,7 +7,7 @@ import pytest
 
 import lagdsl
 from lagdsl.errors import LagError
-from tests.conftest import MODELS, lagc_in_process, library_model
+from tests.conftest import MODELS, lagc_in_process, library_model, model_file
 
 CARTESIAN_DOUBLE_PENDULUM = """model CartesianDouble
   parameter m1 = 1.0 [kg];
@@ -45,15 +45,10 @@ end {name};
 
 
 @pytest.fixture(scope="module")
-def springs(tmp_path_factory):
+def springs():
     """(oscillator, inverted oscillator) with k/m = 4: exponents 0 and ±2 1/s."""
-    folder = tmp_path_factory.mktemp("springs")
-    paths = []
-    for name, sign in (("Oscillator", ""), ("Inverted", "-")):
-        path = folder / f"{name.lower()}.lag"
-        path.write_text(SPRING.format(name=name, sign=sign))
-        paths.append(path)
-    return tuple(paths)
+    return tuple(model_file(SPRING.format(name=name, sign=sign), name.lower())
+                 for name, sign in (("Oscillator", ""), ("Inverted", "-")))
 
 
 def test_the_inverted_oscillator_has_the_exponents_plus_and_minus_sqrt_k_over_m(springs):

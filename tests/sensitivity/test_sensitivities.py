@@ -65,12 +65,17 @@ def assert_agrees(computed, expected, what):
     assert np.max(np.abs(computed - expected)) <= 1e-6 * max(1.0, np.max(np.abs(expected))), what
 
 
-@pytest.mark.parametrize("backend", ["numpy", "c"])
-@pytest.mark.parametrize("library, scene, column, names", [
-    ("double_pendulum", None, "theta2", {"m2": 1.0, "l1": 1.0, "theta1.start": 1.0, "theta2.velocity": 0.0}),
-    ("damped_driven_pendulum", None, "theta", {"b": 0.5, "omega": 2.0, "l": 1.0}),
-    ("coupled_oscillators", "mode1", "x[2]", {"k": 4.0, "A": 0.1}),
-])
+# The default run takes the dense double pendulum on NumPy and the constant M of the coupled
+# oscillators in C; the other pairs are slow.
+@pytest.mark.parametrize("library, scene, column, names, backend", [
+    pytest.param(library, scene, column, names, backend,
+                 marks=() if (library, backend) in {("double_pendulum", "numpy"), ("coupled_oscillators", "c")}
+                 else pytest.mark.slow)
+    for library, scene, column, names in [
+        ("double_pendulum", None, "theta2", {"m2": 1.0, "l1": 1.0, "theta1.start": 1.0, "theta2.velocity": 0.0}),
+        ("damped_driven_pendulum", None, "theta", {"b": 0.5, "omega": 2.0, "l": 1.0}),
+        ("coupled_oscillators", "mode1", "x[2]", {"k": 4.0, "A": 0.1})]
+    for backend in ("numpy", "c")])
 def test_sensitivities_agree_with_central_differences(library, scene, column, names, backend):
     subject = model(library)
     stop = 2.0
@@ -88,7 +93,7 @@ def test_the_sensitivities_agree_with_differences_of_the_c_backend():
         assert np.max(np.abs(run.sensitivity("theta1", name) - expected)) <= 1e-6 * np.max(np.abs(expected)), name
 
 
-@pytest.mark.parametrize("backend", ["numpy", "c"])
+@pytest.mark.parametrize("backend", [pytest.param("numpy", marks=pytest.mark.slow), "c"])
 def test_the_sensitivities_hold_without_their_error_control(oscillator, backend):
     full = oscillator.simulate(backend=backend, sensitivities=["k"])
     state_only = oscillator.simulate(backend=backend, sensitivities=["k"], sensitivity_error_control=False)
@@ -121,13 +126,18 @@ def test_bad_directions_are_refused_with_a_message(oscillator, names, options, m
     assert message in raised.value.render()
 
 
-@pytest.mark.parametrize("library, columns, names", [
-    # the rod's length moves the constraint itself; x.start alone leaves it and is projected back
-    ("cartesian_pendulum", ("x", "y", "multiplier(rod)", "tension"),
-     {"l": 1.0, "theta0": 0.5, "x.start": np.sin(0.5), "y.velocity": 0.0}),
-    ("rolling_penny", ("x", "y"), {"alpha": 0.2, "theta.velocity": 1.0, "phi.velocity": 0.0}),
-])
-@pytest.mark.parametrize("backend", ["numpy", "c"])
+# The default run takes the holonomic pendulum in C and the nonholonomic penny on NumPy; the other
+# pairs are slow.
+@pytest.mark.parametrize("library, columns, names, backend", [
+    pytest.param(library, columns, names, backend,
+                 marks=() if (library, backend) in {("cartesian_pendulum", "c"), ("rolling_penny", "numpy")}
+                 else pytest.mark.slow)
+    for library, columns, names in [
+        # the rod's length moves the constraint itself; x.start alone leaves it and is projected back
+        ("cartesian_pendulum", ("x", "y", "multiplier(rod)", "tension"),
+         {"l": 1.0, "theta0": 0.5, "x.start": np.sin(0.5), "y.velocity": 0.0}),
+        ("rolling_penny", ("x", "y"), {"alpha": 0.2, "theta.velocity": 1.0, "phi.velocity": 0.0})]
+    for backend in ("numpy", "c")])
 def test_constrained_sensitivities_agree_with_central_differences(library, columns, names, backend):
     subject = model(library)
     run = subject.simulate(backend=backend, sensitivities=list(names), stop=2.0, rtol=1e-12, atol=1e-14)
@@ -149,7 +159,8 @@ def test_a_parameter_defined_by_another_follows_it(oscillator):
     np.testing.assert_array_equal(held, 0.0)
 
 
-@pytest.mark.parametrize("integrator", ["dopri5", "radau5", "auto"])
+@pytest.mark.parametrize("integrator", [pytest.param("dopri5", marks=pytest.mark.slow), "radau5",
+                                        pytest.param("auto", marks=pytest.mark.slow)])
 def test_every_adaptive_integrator_gives_the_same_sensitivities(integrator):
     subject, names = model("damped_driven_pendulum"), ["b", "theta.start"]
     reference = subject.simulate(backend="numpy", stop=3, sensitivities=names, rtol=1e-12, atol=1e-14)
