@@ -42,6 +42,7 @@ import json
 import math
 import os
 import resource
+import signal
 import subprocess
 import sys
 import tempfile
@@ -375,13 +376,19 @@ def child(kind: str, n: int, kane: bool, dense: bool) -> None:
 def measure(kind: str, n: int, kane: bool, limit: float, dense: bool = False) -> dict | str:
     command = [sys.executable, __file__, "--child", kind, str(n)] + (["--kane"] if kane else []) \
         + (["--dense"] if dense else [])
+    # its own session, so that a size over the limit takes its C compiler down with it (a 1024-link
+    # chain's cc1 went on for 13 CPU minutes and 6 GB after its parent was killed)
+    child = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                             start_new_session=True)
     try:
-        done = subprocess.run(command, capture_output=True, text=True, timeout=limit)
+        stdout, stderr = child.communicate(timeout=limit)
     except subprocess.TimeoutExpired:
+        os.killpg(child.pid, signal.SIGKILL)
+        child.communicate()
         return f"over {limit:.0f} s"
-    if done.returncode != 0:
-        return "failed: " + done.stderr.strip().splitlines()[-1]
-    return json.loads(done.stdout.strip().splitlines()[-1])
+    if child.returncode != 0:
+        return "failed: " + stderr.strip().splitlines()[-1]
+    return json.loads(stdout.strip().splitlines()[-1])
 
 
 def exponent(sizes, values) -> str:
