@@ -1,6 +1,7 @@
 """The Python API: `lagdsl.load("model.lag").simulate()`. The command line is a thin layer over it."""
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -22,7 +23,7 @@ from .run import sweep as batch
 from .run.loading import load as load_program
 from .run import runner
 from .run.sweep_job import SweepJob, progress_bar, stream_to_file
-from .scene import (RUN_OPTIONS, Overrides, ScenePlan, given_options, parameters_in_expressions,
+from .scene import (RUN_OPTIONS, Overrides, ScenePlan, given_options, input_values, parameters_in_expressions,
                     scene_defaults)
 from .sensitivity.methods import LyapunovMethod
 from .settings import given_atol_each
@@ -51,7 +52,8 @@ class QuickRuns:
         if quick is not None:
             return quick
         stored = self.plans.get(scene)
-        run_plan = stored.resolve(overrides) if stored is not None else None
+        computed = functools.partial(input_values, model.ir)
+        run_plan = stored.resolve(overrides, computed) if stored is not None else None
         program = run_plan and model.built_program(run_plan.scene_name, run_plan.integrator.name, backend)
         if program is None:
             return None

@@ -428,3 +428,14 @@ def check_step_count(plan: IntegratorTraits) -> None:
         raise LagError(f"{choice.name} with step {step:g} would take {steps:.3g} steps from {time.start:g} to "
                        f"{time.stop:g}, more than the step limit of {plan.max_steps}; take a larger step or "
                        "raise --max-steps", choice.span)
+
+
+def with_initial(state, coordinates, initial: dict) -> tuple[float, ...]:
+    """The initial state `state` (q(0), then q'(0), of `coordinates`) with the start values and
+    velocities set in `initial` ({coordinate: (start or None, velocity or None)}) put in."""
+    state, n = list(state), len(coordinates)
+    for k, name in enumerate(coordinates):
+        start, velocity = initial.get(name, (None, None))
+        state[k] = start if start is not None else state[k]
+        state[n + k] = velocity if velocity is not None else state[n + k]
+    return tuple(state)

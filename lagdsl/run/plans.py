@@ -25,9 +25,10 @@ import hashlib
 import json
 from dataclasses import dataclass
 from fractions import Fraction
+from typing import Callable
 
 from ..errors import LagError
-from ..settings import InputUnit, IntegratorChoice, Overrides, RunPlan, SceneSettings, TimeGrid
+from ..settings import InputUnit, IntegratorChoice, Overrides, RunPlan, SceneSettings, TimeGrid, with_initial
 from ..source import SourceFile, Span
 from . import loading, runner
 from .cache import cached_entry, find_entry, package_digest
@@ -35,6 +36,8 @@ from .output import Result
 from .toolchain import find_compiler, library_entry
 
 PLAN_FORMAT = 3
+# the parameters and initial state of the values set and the initial values set (scene.input_values)
+Computed = Callable[[dict, dict], tuple[tuple[float, ...], tuple[float, ...]]]
 
 
 @dataclass(frozen=True)
@@ -75,22 +78,24 @@ class StoredPlan:
     stop: str | None                        # the text of the scene's stop condition
     program: ProgramEntry
 
-    def resolve(self, overrides: Overrides) -> RunPlan | None:
+    def resolve(self, overrides: Overrides, computed: Computed | None = None) -> RunPlan | None:
         """The run plan with `overrides` applied, as scene.plan_scene makes it (the same errors, in
-        the same order); None when a value to set needs the model's expressions."""
-        if any(name in self.computed_from for name, _ in overrides.values):
+        the same order). A value to set that others are computed from needs the model's
+        expressions: `computed` (scene.input_values of the model, where the process has it)
+        computes the parameters and the initial state anew; without it, None."""
+        recomputed = any(name in self.computed_from for name, _ in overrides.values)
+        if recomputed and computed is None:
             return None
         settings = self.settings
         time, integrator, set_values, initial = settings.resolve(overrides)
+        if recomputed:
+            parameters, state = computed(set_values, initial)
+        else:
+            parameters = tuple(float(set_values.get(name, value))
+                               for name, value in zip(settings.parameters, self.parameters))
+            state = with_initial(self.initial_state, settings.coordinates, initial)
         settings.check_integrator(integrator)
-        parameters = tuple(float(set_values.get(name, value)) for name, value in zip(settings.parameters,
-                                                                                       self.parameters))
-        state, n = list(self.initial_state), len(settings.coordinates)
-        for k, name in enumerate(settings.coordinates):
-            start, velocity = initial.get(name, (None, None))
-            state[k] = start if start is not None else state[k]
-            state[n + k] = velocity if velocity is not None else state[n + k]
-        return RunPlan(settings.scene_name, time, integrator, parameters, tuple(state), settings.coordinates,
+        return RunPlan(settings.scene_name, time, integrator, parameters, state, settings.coordinates,
                        self.columns, self.invariants, settings.constraints, self.stop)
 
     def run(self, plan: RunPlan, progress=None) -> Result | None:
