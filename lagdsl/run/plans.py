@@ -80,23 +80,31 @@ class StoredPlan:
 
     def resolve(self, overrides: Overrides, computed: Computed | None = None) -> RunPlan | None:
         """The run plan with `overrides` applied, as scene.plan_scene makes it (the same errors, in
-        the same order). A value to set that others are computed from needs the model's
-        expressions: `computed` (scene.input_values of the model, where the process has it)
-        computes the parameters and the initial state anew; without it, None."""
-        recomputed = any(name in self.computed_from for name, _ in overrides.values)
-        if recomputed and computed is None:
-            return None
+        the same order); None when a value to set needs the model's expressions and `computed`
+        is not given (see `values`)."""
         settings = self.settings
-        time, integrator, set_values, initial = settings.resolve(overrides)
-        if recomputed:
-            parameters, state = computed(set_values, initial)
-        else:
-            parameters = tuple(float(set_values.get(name, value))
-                               for name, value in zip(settings.parameters, self.parameters))
-            state = with_initial(self.initial_state, settings.coordinates, initial)
+        if computed is None and self.recomputes(overrides):
+            return None
+        time, integrator, _, _ = settings.resolve(overrides)
+        parameters, state = self.values(overrides, computed)
         settings.check_integrator(integrator)
         return RunPlan(settings.scene_name, time, integrator, parameters, state, settings.coordinates,
                        self.columns, self.invariants, settings.constraints, self.stop)
+
+    def recomputes(self, overrides: Overrides) -> bool:
+        """Whether `overrides` set a value that other values are computed from."""
+        return any(name in self.computed_from for name, _ in overrides.values)
+
+    def values(self, overrides: Overrides, computed: Computed | None) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """The parameters and the initial state with `overrides` set. A value set that others
+        are computed from needs the model's expressions: `computed` (scene.input_values of the
+        model, where the process has it) computes the others anew."""
+        set_values, initial = self.settings.resolve_values(overrides)
+        if self.recomputes(overrides):
+            return computed(set_values, initial)
+        parameters = tuple(float(set_values.get(name, value))
+                           for name, value in zip(self.settings.parameters, self.parameters))
+        return parameters, with_initial(self.initial_state, self.settings.coordinates, initial)
 
     def run(self, plan: RunPlan, progress=None) -> Result | None:
         """Run `plan` with the stored program; None if the program entry is no longer valid."""
