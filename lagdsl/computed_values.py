@@ -100,13 +100,13 @@ def _bind_constants(expression: sympy.Expr, constants: dict[sympy.Symbol, float]
     """`expression` with each constant part (a sum's or product's terms free of symbols, a constant
     argument) replaced by a symbol bound in `constants` to its correctly rounded value; exact
     integers and rational exponents (x**2, sqrt) are kept as written."""
-    if not expression.free_symbols:
+    if not expression.free_symbols and isinstance(expression, sympy.Expr):     # not a condition's true
         if expression.is_Integer and abs(expression) < EXACT_INTEGER:
             return expression
         symbol = sympy.Dummy(f"c{len(constants)}")
         constants[symbol] = _constant(expression)
         return symbol
-    if expression.is_Atom:
+    if expression.is_Atom or not expression.args:
         return expression
     if expression.is_Pow and expression.exp.is_Rational:
         return sympy.Pow(_bind_constants(expression.base, constants), expression.exp, evaluate=False)
