@@ -15,9 +15,10 @@ messages of the full pipeline (both go through `SceneSettings.resolve`), loads t
 library or module and runs it, without importing sympy or lark. Positions in the model
 (the spans errors point at) are stored as numbers and re-attached to the model's text, which
 the key pins. Setting a parameter that other parameters or start values are computed from needs
-the expressions: such a run, like one whose plan or program entry is missing or fails
-verification, takes the full pipeline (`StoredPlan.resolve` returns None), which writes the
-entry again.
+the expressions: in a new process such a run, like one whose plan or program entry is missing
+or fails verification, takes the full pipeline (`StoredPlan.resolve` returns None), which writes
+the entry again; a process that has the model passes its compiled values (scene.input_values,
+computed_values.py) instead.
 """
 from __future__ import annotations
 
