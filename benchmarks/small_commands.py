@@ -13,7 +13,8 @@ CPU time per call over a run of calls (the integration's included).
 
     python benchmarks/small_commands.py              # about a minute warm, more on a fresh cache
     python benchmarks/small_commands.py --repeat 9
-    python benchmarks/small_commands.py --against /tmp/main   # simulate() only, main's lagdsl in turns with this one
+    python benchmarks/small_commands.py --against /tmp/main   # simulate() only, main's lagdsl in turns with this one,
+                                                              # the same inputs and new ones (CASES)
 """
 from __future__ import annotations
 
@@ -33,6 +34,16 @@ MODELS = ROOT / "models"
 CHECKED = ("double_pendulum", "kepler", "elastic_pendulum", "spring_chain")
 SWEEP = ("sweep", MODELS / "double_pendulum.lag", "--vary", "theta1.start=-1:1:20", "--stop", "10")
 SIMULATED = ("elastic_pendulum", "triple_pendulum")
+# The repeated simulate()s compared with --against, by model: (a) the same inputs, (b) a new value
+# of a parameter nothing else is computed from, (c) a new value of one a start value is computed
+# from (the elastic pendulum's s.start = m g cos(phi0)/k; the triple pendulum has none), (d) a new
+# start value; each a function of the call's number giving simulate()'s arguments.
+CASES = {
+    "elastic_pendulum": {"a": lambda i: {}, "b": lambda i: {"l": 1 + 1e-6 * i}, "c": lambda i: {"k": 100 + 1e-3 * i},
+                         "d": lambda i: {"set": {"phi.start": 1 + 1e-6 * i}}},
+    "triple_pendulum": {"a": lambda i: {}, "b": lambda i: {"g": 9.81 + 1e-6 * i},
+                        "d": lambda i: {"set": {"theta1.start": 2 + 1e-6 * i}}},
+}
 
 
 def command(*arguments, repeat: int) -> tuple[float, float]:
@@ -115,29 +126,33 @@ def simulate_overhead(name: str, calls: int) -> tuple[float, float, float, float
     return statistics.median(overheads), statistics.quantiles(overheads, n=10)[0], statistics.median(integrations), cpu
 
 
-def overhead_worker(name: str) -> None:
+def overhead_worker(name: str, case: str) -> None:
     """Serve `--against`: load `name` (warm), then for each line "N" on stdin make N simulate()
-    calls and print their overheads (s) as one line of JSON."""
+    calls with the arguments of CASES[name][case] and print their overheads (s) as one line of JSON."""
     import lagdsl
-    model = lagdsl.load(MODELS / f"{name}.lag")
-    model.simulate()
+    model, arguments = lagdsl.load(MODELS / f"{name}.lag"), CASES[name][case]
+    model.simulate(**arguments(0))
     print("ready", flush=True)
+    calls = 0
     for line in sys.stdin:
         overheads = []
         for _ in range(int(line)):
+            calls += 1
+            given = arguments(calls)
             started = time.perf_counter()
-            result = model.simulate()
+            result = model.simulate(**given)
             overheads.append(time.perf_counter() - started - result.summary.wall_time)
         print(json.dumps(overheads), flush=True)
 
 
-def compared_overheads(name: str, calls: int, trees: dict[str, str], rounds: int = 10) -> dict[str, list[float]]:
-    """The overheads of `calls` repeated simulate() of `name` with each of `trees` (a label and the
-    directory its lagdsl is imported from), a process each, taking turns in `rounds` rounds: the
-    same load for all."""
+def compared_overheads(name: str, case: str, calls: int, trees: dict[str, str],
+                       rounds: int = 10) -> dict[str, list[float]]:
+    """The overheads of `calls` repeated simulate() of `name`, CASES[name][case], with each of
+    `trees` (a label and the directory its lagdsl is imported from), a process each, taking turns
+    in `rounds` rounds: the same load for all."""
     workers = {}
     for label, tree in trees.items():
-        workers[label] = subprocess.Popen([sys.executable, __file__, "--overhead-worker", name], text=True,
+        workers[label] = subprocess.Popen([sys.executable, __file__, "--overhead-worker", name, case], text=True,
                                           stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                           env={**os.environ, "PYTHONPATH": tree})
         if workers[label].stdout.readline().strip() != "ready":
@@ -160,9 +175,11 @@ def compare(against: str, calls: int) -> None:
     print(f"repeated simulate(), {calls} calls each, taking turns; load average "
           f"{', '.join(f'{x:.2f}' for x in os.getloadavg())}; before {trees['before']}, after {trees['after']}")
     for name in SIMULATED:
-        for label, overheads in compared_overheads(name, calls, trees).items():
-            print(f"{name:<18} {label:<6} overhead median {statistics.median(overheads) * 1e6:6.0f} us, "
-                  f"lowest tenth {statistics.quantiles(overheads, n=10)[0] * 1e6:6.0f} us")
+        for case in CASES[name]:
+            for label, overheads in compared_overheads(name, case, calls, trees).items():
+                print(f"{name:<18} ({case}) {label:<6} overhead median {statistics.median(overheads) * 1e6:6.0f} us, "
+                      f"lowest tenth {statistics.quantiles(overheads, n=10)[0] * 1e6:6.0f} us", flush=True)
+    print(f"load average at the end {', '.join(f'{x:.2f}' for x in os.getloadavg())}")
 
 
 def main() -> None:
@@ -171,10 +188,10 @@ def main() -> None:
     parser.add_argument("--calls", type=int, default=2000, help="simulate() calls")
     parser.add_argument("--against", metavar="TREE", help="only the repeated simulate(): its overhead with the "
                         "lagdsl in TREE (a checkout of main) and with this tree's, taking turns")
-    parser.add_argument("--overhead-worker", metavar="MODEL", help=argparse.SUPPRESS)
+    parser.add_argument("--overhead-worker", nargs=2, metavar=("MODEL", "CASE"), help=argparse.SUPPRESS)
     arguments = parser.parse_args()
     if arguments.overhead_worker:
-        return overhead_worker(arguments.overhead_worker)
+        return overhead_worker(*arguments.overhead_worker)
     if arguments.against:
         return compare(arguments.against, arguments.calls)
     with tempfile.TemporaryDirectory(prefix="lagdsl-small-") as work:

@@ -1,6 +1,7 @@
 """The Python API: `lagdsl.load("model.lag").simulate()`. The command line is a thin layer over it."""
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -22,7 +23,7 @@ from .run import sweep as batch
 from .run.loading import load as load_program
 from .run import runner
 from .run.sweep_job import SweepJob, progress_bar, stream_to_file
-from .scene import (RUN_OPTIONS, Overrides, ScenePlan, given_options, parameters_in_expressions,
+from .scene import (RUN_OPTIONS, Overrides, ScenePlan, given_options, input_values, parameters_in_expressions,
                     scene_defaults)
 from .sensitivity.methods import LyapunovMethod
 from .settings import given_atol_each
@@ -37,29 +38,39 @@ QUICK_RUNS = 16         # prepared repeated runs a Model keeps (a fit varies its
 class QuickRuns:
     """A model's repeated runs, planned without sympy from the scene's settings and values (as a
     warm `lagc run` plans, run/plans.py) and prepared once for their overrides (the last
-    QUICK_RUNS kept)."""
+    QUICK_RUNS kept). A C run with new values only (a fit's next call) is the last one prepared
+    with the same grid and integrator given new inputs (c_backend.CRun.with_inputs)."""
 
     def __init__(self):
         self.plans: dict[str | None, plans.StoredPlan] = {}     # by the scene asked for
         self.runs: dict[tuple, Callable] = {}                   # by scene, backend and overrides
+        self.alike: dict[tuple, Callable] = {}                  # C runs by scene, backend and overrides but values
 
     def get(self, model: "Model", scene: str | None, backend: str, overrides: Overrides):
         """A function of `progress` that runs and describes the result; None where that cannot
-        serve: the first run of a scene, a value computed from the overrides, code not yet generated."""
+        serve: the first run of a scene, code not yet generated."""
         key = (scene, backend, overrides)
         quick = self.runs.get(key)
         if quick is not None:
             return quick
         stored = self.plans.get(scene)
-        run_plan = stored.resolve(overrides) if stored is not None else None
-        program = run_plan and model.built_program(run_plan.scene_name, run_plan.integrator.name, backend)
-        if program is None:
+        if stored is None:
             return None
-        quick = runner.prepared(run_plan, backend, program.loaded,
-                                **_description(model.ir, run_plan.scene_name, run_plan.columns))
-        if len(self.runs) >= QUICK_RUNS:
-            del self.runs[next(iter(self.runs))]
-        self.runs[key] = quick
+        computed = functools.partial(input_values, model.ir)
+        settings_key = (scene, backend, replace(overrides, values=()))
+        alike = self.alike.get(settings_key)
+        if alike is not None:
+            quick = alike.with_inputs(*stored.values(overrides, computed))
+        else:
+            run_plan = stored.resolve(overrides, computed)
+            program = model.built_program(run_plan.scene_name, run_plan.integrator.name, backend)
+            if program is None:
+                return None
+            quick = runner.prepared(run_plan, backend, program.loaded,
+                                    **_description(model.ir, run_plan.scene_name, run_plan.columns))
+            if backend == "c":
+                _keep(self.alike, settings_key, quick)
+        _keep(self.runs, key, quick)
         return quick
 
     def keep_plan(self, model: "Model", scene: str | None, scene_plan: ScenePlan) -> None:
@@ -350,6 +361,13 @@ def _execute(model: ir.Model, program: Program, scene_plan: ScenePlan, progress)
             error.partial = split(error.partial)
         raise
     return _described(model, split(result), scene_plan.scene_name)
+
+
+def _keep(runs: dict, key: tuple, run: Callable) -> None:
+    """Keep `run` under `key` among the last QUICK_RUNS."""
+    if len(runs) >= QUICK_RUNS:
+        del runs[next(iter(runs))]
+    runs[key] = run
 
 
 def load(path: str | Path) -> Model:

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import sympy
 
 from . import ir
+from .computed_values import computed_values
 from .frontend import draws as drawing, units
 from .errors import LagError, suggest
 from .integrators import registry
@@ -22,7 +23,7 @@ from .mechanics import Equations
 # Re-exported: the run settings were defined here before they moved to settings.py.
 from .settings import (DEFAULT_INTEGRATOR, DEFAULT_MAX_STEPS, DEFAULT_TIME, GRID_SLACK, MAX_ROWS,  # noqa: F401
                        RTOL_FLOOR, RUN_OPTIONS, InputUnit, IntegratorTraits, Overrides, RunPlan, SceneSettings,
-                       check_step_count, given_options, grid_rows, step_limit)
+                       check_step_count, given_options, grid_rows, step_limit, with_initial)
 
 
 @dataclass(frozen=True)
@@ -166,44 +167,35 @@ def _find_scene(model: ir.Model, name: str | None) -> ir.Scene | None:
     raise LagError(f"no scene '{name}' in model {model.name}{suggest(name, names)}{available}", model.span)
 
 
+def input_values(model: ir.Model, set_values: dict[str, float], initial: dict) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """The parameters and the initial state of the values set (as SceneSettings.resolve gives
+    them), the others computed as the model defines them: what a repeated run (api.QuickRuns)
+    computes again when it sets a parameter that other values are computed from."""
+    parameters = _parameter_values(model, set_values)
+    return parameters, _initial_state(model, parameters, initial)
+
+
 def _parameter_values(model: ir.Model, set_values: dict[str, float]) -> tuple[float, ...]:
-    """Parameters in declaration order; a parameter not set is recomputed from the ones before."""
-    values: dict = {}
-    result = []
-    for parameter in model.parameters:
-        if parameter.name in set_values:
-            value = float(set_values[parameter.name])
-        else:
-            value = float(parameter.expression.xreplace(values).evalf(30)) if parameter.expression.free_symbols \
-                else parameter.value
+    """Parameters in declaration order; a parameter not set is recomputed from the ones before
+    (computed_values.py: in double precision, its function compiled once per model)."""
+    names = [p.name for p in model.parameters]
+    values = computed_values(model).parameters(names, set_values)
+    for parameter, value in zip(model.parameters, values):
+        if not math.isfinite(value) and parameter.name not in set_values:
             _require_finite(value, f"the parameter {parameter.name}, computed from the others,")
-        values[parameter.symbol] = sympy.Float(value, 30)
-        result.append(value)
-    return tuple(result)
+    return tuple(values)
 
 
 def _initial_state(model: ir.Model, parameters, initial: dict) -> tuple[float, ...]:
-    values = {p.symbol: sympy.Float(v, 30) for p, v in zip(model.parameters, parameters)}
-
-    def evaluated(expression: sympy.Expr) -> float:
-        # a plain number (most start values: the zeros of a chain at rest) needs no evalf, which
-        # costs more than a short run of a 200-mass chain
-        if expression is sympy.S.Zero:
-            return 0.0
-        return float(expression) if expression.is_Number else float(expression.xreplace(values).evalf(30))
-
-    starts, velocities = [], []
-    for c in model.coordinates:
-        start, velocity = initial.get(c.name, (None, None))
-        starts.append(start if start is not None else evaluated(c.start))
-        velocities.append(velocity if velocity is not None else evaluated(c.velocity))
+    """y0 = (q(0), q'(0)): the values set in `initial`, the model's (computed_values.py) elsewhere."""
+    n = len(model.coordinates)
+    state = with_initial(computed_values(model).initial(parameters), [c.name for c in model.coordinates], initial)
     # checked after the loop, and the message written only for a value that fails: a chain of
     # thousands of masses is planned at every simulate()
-    for what, values in (("start value", starts), ("start velocity", velocities)):
-        for c, value in zip(model.coordinates, values):
-            if not math.isfinite(value):
-                _require_finite(value, f"the {what} of {c.name}")
-    return tuple(starts + velocities)
+    for k, value in enumerate(state):
+        if not math.isfinite(value):
+            _require_finite(value, f"the {'start value' if k < n else 'start velocity'} of {model.coordinates[k % n].name}")
+    return state
 
 
 def _require_finite(value: float, what: str) -> None:

@@ -276,14 +276,19 @@ class SceneSettings:
         """The time grid, the integrator, the parameters set ({name: value}) and the initial values
         set ({coordinate: (start, velocity)}) with `overrides` applied on top of the scene's."""
         time = _time(self.time, overrides)
+        integrator = _integrator(self.integrator, overrides, self.coordinates, dict(self.units))
+        return (time, integrator, *self.resolve_values(overrides))
+
+    def resolve_values(self, overrides: Overrides) -> tuple[dict, dict]:
+        """The parameters set and the initial values set of `resolve`, alone (the time grid and
+        the integrator left out: a repeated run with the same ones has checked them)."""
         units = dict(self.units)
-        integrator = _integrator(self.integrator, overrides, self.coordinates, units)
         set_values = dict(self.set_values)
         initial = {name: (start, velocity) for name, start, velocity in self.initial}
         for name, value in overrides.values:
             self._check_name(name)
             self._apply_override(name, input_in_si(name, value, units.get(name)), set_values, initial)
-        return time, integrator, set_values, initial
+        return set_values, initial
 
     def check_integrator(self, choice: IntegratorChoice) -> None:
         refusal = registry.get(choice.name).refusal("c", bool(self.constraints))
@@ -428,3 +433,14 @@ def check_step_count(plan: IntegratorTraits) -> None:
         raise LagError(f"{choice.name} with step {step:g} would take {steps:.3g} steps from {time.start:g} to "
                        f"{time.stop:g}, more than the step limit of {plan.max_steps}; take a larger step or "
                        "raise --max-steps", choice.span)
+
+
+def with_initial(state, coordinates, initial: dict) -> tuple[float, ...]:
+    """The initial state `state` (q(0), then q'(0), of `coordinates`) with the start values and
+    velocities set in `initial` ({coordinate: (start or None, velocity or None)}) put in."""
+    state, n = list(state), len(coordinates)
+    for k, name in enumerate(coordinates):
+        start, velocity = initial.get(name, (None, None))
+        state[k] = start if start is not None else state[k]
+        state[n + k] = velocity if velocity is not None else state[n + k]
+    return tuple(state)

@@ -5,7 +5,9 @@ doubles and fills the output rows and the run summary, whose fields abi.SummaryL
 """
 from __future__ import annotations
 
+import copy
 import ctypes
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -43,13 +45,24 @@ class CRun:
         self._layout = plan_summary(plan)
         self._shape = (grid_rows(plan.time.start, plan.time.stop, plan.time.interval), len(plan.columns) + 1)
         self._buffers = (ctypes.c_double * (self._shape[0] * self._shape[1]), ctypes.c_double * self._layout.size)
-        # the inputs and the pointers over their memory, made once (a call only reads them; the
-        # rows and the summary are each call's own, as calls may come from several threads)
-        self._inputs = (np.array(plan.parameters or (0.0,), dtype=float), np.array(plan.initial_state, dtype=float),
-                        settings_vector(plan))
-        self._pointers = tuple(_doubles(a) for a in self._inputs)
+        self._take_inputs(plan.parameters, plan.initial_state, settings_vector(plan))
         self._interrupt = interrupt_flag(library)
         self._reached = ctypes.c_double.in_dll(library, "lag_progress_t")
+
+    def with_inputs(self, parameters: tuple[float, ...], initial_state: tuple[float, ...]) -> CRun:
+        """This run with other parameter values and initial state: the same program, grid,
+        integrator and settings vector, new input arrays (a fit's next call)."""
+        run = copy.copy(self)
+        run.plan = replace(self.plan, parameters=parameters, initial_state=initial_state)
+        run._take_inputs(parameters, initial_state, self._inputs[2])
+        return run
+
+    def _take_inputs(self, parameters: tuple[float, ...], initial_state: tuple[float, ...],
+                     settings: np.ndarray) -> None:
+        """The input arrays and the pointers over their memory, made once (a call only reads
+        them; the rows and the summary are each call's own, as calls may come from several threads)."""
+        self._inputs = (np.array(parameters or (0.0,), dtype=float), np.array(initial_state, dtype=float), settings)
+        self._pointers = tuple(_doubles(a) for a in self._inputs)
 
     def __call__(self, progress: Progress | None = None) -> Result:
         """The run's Result, whose t and values are views of one array made for this call (the

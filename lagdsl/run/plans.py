@@ -15,9 +15,10 @@ messages of the full pipeline (both go through `SceneSettings.resolve`), loads t
 library or module and runs it, without importing sympy or lark. Positions in the model
 (the spans errors point at) are stored as numbers and re-attached to the model's text, which
 the key pins. Setting a parameter that other parameters or start values are computed from needs
-the expressions: such a run, like one whose plan or program entry is missing or fails
-verification, takes the full pipeline (`StoredPlan.resolve` returns None), which writes the
-entry again.
+the expressions: in a new process such a run, like one whose plan or program entry is missing
+or fails verification, takes the full pipeline (`StoredPlan.resolve` returns None), which writes
+the entry again; a process that has the model passes its compiled values (scene.input_values,
+computed_values.py) instead.
 """
 from __future__ import annotations
 
@@ -25,9 +26,10 @@ import hashlib
 import json
 from dataclasses import dataclass
 from fractions import Fraction
+from typing import Callable
 
 from ..errors import LagError
-from ..settings import InputUnit, IntegratorChoice, Overrides, RunPlan, SceneSettings, TimeGrid
+from ..settings import InputUnit, IntegratorChoice, Overrides, RunPlan, SceneSettings, TimeGrid, with_initial
 from ..source import SourceFile, Span
 from . import loading, runner
 from .cache import cached_entry, find_entry, package_digest
@@ -35,6 +37,8 @@ from .output import Result
 from .toolchain import find_compiler, library_entry
 
 PLAN_FORMAT = 3
+# the parameters and initial state of the values set and the initial values set (scene.input_values)
+Computed = Callable[[dict, dict], tuple[tuple[float, ...], tuple[float, ...]]]
 
 
 @dataclass(frozen=True)
@@ -75,23 +79,33 @@ class StoredPlan:
     stop: str | None                        # the text of the scene's stop condition
     program: ProgramEntry
 
-    def resolve(self, overrides: Overrides) -> RunPlan | None:
+    def resolve(self, overrides: Overrides, computed: Computed | None = None) -> RunPlan | None:
         """The run plan with `overrides` applied, as scene.plan_scene makes it (the same errors, in
-        the same order); None when a value to set needs the model's expressions."""
-        if any(name in self.computed_from for name, _ in overrides.values):
-            return None
+        the same order); None when a value to set needs the model's expressions and `computed`
+        is not given (see `values`)."""
         settings = self.settings
-        time, integrator, set_values, initial = settings.resolve(overrides)
+        if computed is None and self.recomputes(overrides):
+            return None
+        time, integrator, _, _ = settings.resolve(overrides)
+        parameters, state = self.values(overrides, computed)
         settings.check_integrator(integrator)
-        parameters = tuple(float(set_values.get(name, value)) for name, value in zip(settings.parameters,
-                                                                                       self.parameters))
-        state, n = list(self.initial_state), len(settings.coordinates)
-        for k, name in enumerate(settings.coordinates):
-            start, velocity = initial.get(name, (None, None))
-            state[k] = start if start is not None else state[k]
-            state[n + k] = velocity if velocity is not None else state[n + k]
-        return RunPlan(settings.scene_name, time, integrator, parameters, tuple(state), settings.coordinates,
+        return RunPlan(settings.scene_name, time, integrator, parameters, state, settings.coordinates,
                        self.columns, self.invariants, settings.constraints, self.stop)
+
+    def recomputes(self, overrides: Overrides) -> bool:
+        """Whether `overrides` set a value that other values are computed from."""
+        return any(name in self.computed_from for name, _ in overrides.values)
+
+    def values(self, overrides: Overrides, computed: Computed | None) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """The parameters and the initial state with `overrides` set. A value set that others
+        are computed from needs the model's expressions: `computed` (scene.input_values of the
+        model, where the process has it) computes the others anew."""
+        set_values, initial = self.settings.resolve_values(overrides)
+        if self.recomputes(overrides):
+            return computed(set_values, initial)
+        parameters = tuple(float(set_values.get(name, value))
+                           for name, value in zip(self.settings.parameters, self.parameters))
+        return parameters, with_initial(self.initial_state, self.settings.coordinates, initial)
 
     def run(self, plan: RunPlan, progress=None) -> Result | None:
         """Run `plan` with the stored program; None if the program entry is no longer valid."""
