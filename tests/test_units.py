@@ -9,6 +9,7 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
+import sympy
 
 from lagdsl.api import Model
 from lagdsl.frontend.dimensions import Form, Solver
@@ -16,7 +17,7 @@ from lagdsl.errors import LagError
 from lagdsl.pipeline import load_model, model_from_source
 from lagdsl.scene import Overrides
 from lagdsl.source import SourceFile, Span
-from lagdsl.frontend.units import Dimension, dimension, parse_unit
+from lagdsl.frontend.units import Dimension, dimension, in_si, parse_unit
 from tests.conftest import MODELS, lagc_in_process
 
 
@@ -102,6 +103,13 @@ def test_prefixed_and_derived_units_are_converted_to_si():
     assert float(theta.start) == pytest.approx(math.pi / 6, rel=1e-15)
     assert float(theta.velocity) == pytest.approx(0.1, rel=1e-15)
     assert model.units.unit_of("b") == "kg*m^2/s" and model.units.unit_of("theta") == "rad"
+
+
+@pytest.mark.parametrize("degrees, radians", [(1, math.pi / 180), (30, math.pi / 6), (45, math.pi / 4),
+                                              (90, math.pi / 2), (180, math.pi), (360, 2 * math.pi)])
+def test_an_angle_in_degrees_is_its_radians_correctly_rounded(degrees, radians):
+    """`30 [deg]` is the double nearest pi/6, not a 15-digit decimal of pi/180 times 30."""
+    assert float(in_si(sympy.Integer(degrees), parse_unit(unit_span("[deg]")))) == radians
 
 
 def test_prefixed_units_run_with_si_values_and_outputs_in_their_own_unit():

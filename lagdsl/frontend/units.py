@@ -117,8 +117,11 @@ def resolve_with_pint(name: str) -> tuple[Dimension, Fraction, bool] | None:
     if registry.Quantity(0, name).to_base_units().magnitude != 0:
         raise ValueError(name)
     dimension = Dimension.of(**{k.strip("[]"): v for k, v in registry.Unit(name).dimensionality.items()})
-    factor = Fraction(f"{registry.Quantity(1, name).to_base_units().magnitude:.16g}")
     angle = "radian" in str(registry.Quantity(1, name).to_root_units().units)
+    magnitude = float(registry.Quantity(1, name).to_base_units().magnitude)
+    # 16 digits drop the last-bit noise of pint's composed factors (a kL is 1.0000000000000002 m^3);
+    # an angle's factor is one division of pi, correctly rounded, so all 17 are kept: 30 deg is pi/6
+    factor = Fraction(repr(magnitude) if angle else f"{magnitude:.16g}")
     return dimension, factor, angle
 
 
