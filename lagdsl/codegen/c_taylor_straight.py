@@ -21,9 +21,9 @@ and cosines are half its products).
 """
 from __future__ import annotations
 
-import sympy
-
 from dataclasses import replace
+
+import sympy
 
 from .taylor import J, K, OWN, RECURRENCES, Coefficient, Convolution, zeroth
 from .taylor_graph import Node
