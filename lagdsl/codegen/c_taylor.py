@@ -234,7 +234,7 @@ def series_context(kernel, printer, positions: list[str]) -> dict:
     lanes, c_taylor_lanes.py)."""
     graph = series_graph(kernel)
     series = SeriesPrinter(graph, printer)
-    zeroth_lines = [line for i, node in enumerate(graph.nodes) for line in series.zeroth(i, node)]
+    zeroth_lines = zeroth_statements(graph, series)
     order_lines = [line for i, node in enumerate(graph.nodes) for line in series.at_order(i, node)]
     assemble = [f"K[{position}] = {series.scaled(value, '0')};" for position, (_, value) in zip(positions, graph.stored)]
     rhs_zero, rhs_k = series.right_side("0"), series.right_side("k")
@@ -271,6 +271,58 @@ def series_context(kernel, printer, positions: list[str]) -> dict:
                              + (["const real inv_k = (real)1 / %d;" % k] if any(_reads(line, "inv_k") for line in lines)
                                 else []), lines) for k, lines in orders],
         "constraints": kernel.constraints}
+
+
+def zeroth_statements(graph: SeriesGraph, series: SeriesPrinter) -> list[str]:
+    """Order 0 of every node, each after the nodes it reads. sin(a ± b) and cos(a ± b) come from
+    the sines and cosines of a and b when the graph has those (the double pendulum's θ1 - θ2):
+    sin(a ± b) = sin a cos b ± cos a sin b, cos(a ± b) = cos a cos b ∓ sin a sin b, two products
+    and a sum where libm's sin and cos take tens of ns a step; their absolute error is a few eps,
+    as that of a ± b itself. Such a node may read nodes numbered after it: it is printed after them."""
+    angles = {(node.kind, node.operands[0]): i for i, node in enumerate(graph.nodes) if node.kind in ("sin", "cos")}
+    statements, reads = {}, {}
+    for i, node in enumerate(graph.nodes):
+        identity = _angle_sum(graph, angles, node)
+        if identity is not None:
+            statements[i], reads[i] = [f"{ROW.format(i)}[0] = {identity[0]};"], identity[1]
+        else:
+            statements[i], reads[i] = series.zeroth(i, node), [o for o in node.operands if o < i]
+    printed: set[int] = set()
+    lines: list[str] = []
+
+    def emit(i: int) -> None:
+        if i not in printed:
+            printed.add(i)
+            for operand in reads[i]:
+                emit(operand)
+            lines.extend(statements[i])
+    for i in range(len(graph.nodes)):
+        emit(i)
+    return lines
+
+
+def _angle_sum(graph: SeriesGraph, angles: dict, node: Node) -> tuple[str, tuple[int, ...]] | None:
+    """(C, the rows it reads) for order 0 of sin or cos of a + b or a - b from the sines and
+    cosines of a and b, or None when node is not that or the graph lacks one of them."""
+    if node.kind not in ("sin", "cos"):
+        return None
+    argument = graph.nodes[node.operands[0]]
+    if argument.kind != "lin" or argument.offset != 0 or len(argument.operands) != 2:
+        return None
+    if set(argument.scales) == {1, -1}:
+        a, b = argument.operands if argument.scales[0] == 1 else reversed(argument.operands)
+        plus = False
+    elif tuple(argument.scales) == (1, 1):
+        (a, b), plus = argument.operands, True
+    else:
+        return None
+    rows = [angles.get((kind, operand)) for operand in (a, b) for kind in ("sin", "cos")]
+    if None in rows:
+        return None
+    sa, ca, sb, cb = (f"{ROW.format(row)}[0]" for row in rows)
+    if node.kind == "sin":
+        return f"{sa}*{cb} {'+' if plus else '-'} {ca}*{sb}", tuple(rows)
+    return f"{ca}*{cb} {'-' if plus else '+'} {sa}*{sb}", tuple(rows)
 
 
 def solver_kind(kernel) -> str:

@@ -12,12 +12,20 @@ the loops. Each order is a function of its own, called through a table, so that 
 optimises each apart: one function with every order took it twice as long.
 
 Sums are added pairwise, (a + b) + (c + d), which the processor overlaps.
+
+A convolution weighted by j over a coordinate, Σ j a_j c_{k-j} / k (sin, cos, exp, ... of q or
+of a sum of q's), reads j a_j as what it is, the velocity's coefficient (a')_{j-1}: q_j = q'_{j-1}
+/ j, so that j q_j = q'_{j-1}. Its terms then all carry the weight 1/k, multiplied once after the
+sum: k + 1 multiplications an order where the weights took 2k (the double pendulum's six sines
+and cosines are half its products).
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import sympy
 
-from .taylor import J, K, OWN, RECURRENCES, Coefficient, zeroth
+from .taylor import J, K, OWN, RECURRENCES, Coefficient, Convolution, zeroth
 from .taylor_graph import Node
 
 # At most so many products over all straight-line orders (the double pendulum's 21 orders take
@@ -81,6 +89,11 @@ class StraightPrinter:
             if isinstance(term, Coefficient):
                 products.append((sign * inverse * term.weight.xreplace(known), ROW.format(rows[term.operand], k)))
                 continue
+            if self.velocity_term(term, rows[term.left], 1) is not None:
+                products += [(sign * inverse, f"{self.velocity_term(term, rows[term.left], j)}*"
+                                              f"{ROW.format(rows[term.right], k - j)}")
+                             for j in range(term.first, k - term.gap + 1)]
+                continue
             for j in range(term.first, k - term.gap + 1):
                 if term.left == term.right and term.weight == 1 and term.first == term.gap and 2 * j > k:
                     break                    # a square: each pair once, doubled
@@ -89,9 +102,30 @@ class StraightPrinter:
                     weight *= 2
                 factors = f"{ROW.format(rows[term.left], j)}*{ROW.format(rows[term.right], k - j)}"
                 products.append((weight, factors))
-        terms = [self.weighted(weight, factors) for weight, factors in products if weight != 0]
-        value = pairwise(terms) if terms else "0"
+        value = self.weighted_sum([(weight, factors) for weight, factors in products if weight != 0])
         return value if rest == 1 else f"{value} * z{index}"
+
+    def velocity_term(self, term, operand: int, j: int) -> str | None:
+        """j a_j as (a')_{j-1} (C) when `term` is Σ j a_j c_{k-j} (a = left) and a a coordinate or
+        a sum of coordinates, whose derivative is the velocities' rows (y = (q, q')); else None."""
+        if not (isinstance(term, Convolution) and term.weight == J and term.first >= 1):
+            return None
+        coordinates, node = self.graph.states // 2, self.graph.nodes[operand]
+        if node.kind == "state" and operand < coordinates:
+            return ROW.format(operand + coordinates, j - 1)
+        if node.kind == "lin" and all(self.graph.nodes[o].kind == "state" and o < coordinates for o in node.operands):
+            velocity = replace(node, operands=tuple(o + coordinates for o in node.operands), offset=sympy.S.Zero)
+            return f"({self.series.linear(velocity, str(j - 1))})"
+        return None
+
+    def weighted_sum(self, products: list[tuple[sympy.Expr, str]]) -> str:
+        """Σ weight · factors, pairwise; one weight common to several terms multiplies their sum."""
+        if not products:
+            return "0"
+        weights = {weight for weight, _ in products}
+        if len(products) > 1 and len(weights) == 1 and abs(products[0][0]) != 1:
+            return f"{pairwise([factors for _, factors in products])}*{self.printer.parenthesize(products[0][0], 50)}"
+        return pairwise([self.weighted(weight, factors) for weight, factors in products])
 
     def weighted(self, weight: sympy.Expr, factors: str) -> str:
         if weight == 1:

@@ -6,6 +6,10 @@
 - Kepler's problem from periapsis: r(t) and theta(t) from Kepler's equation, to 1e-12 over ten
   orbits; at e = 0.6 over 1000 orbits at rtol 1e-15, the energy error below 1e-13 (issue 34).
 - A stop condition located on the polynomial: the quarter period of a large pendulum swing.
+- The straight-line orders (j a_j of a coordinate read as the velocity's (a')_{j-1}) and the
+  loops (a_j weighted by j) give the same series: the double pendulum's runs agree to rounding.
+- Order 0 of sin(a ± b), cos(a ± b) from the sines and cosines of a and b: the same runs as with
+  libm's sin and cos of a ± b, to rounding.
 - The generated C file compiles warning-free in double and long double.
 - The NumPy backend refuses it, naming --backend c.
 """
@@ -18,7 +22,12 @@ import numpy as np
 import pytest
 
 import lagdsl
+from lagdsl.codegen import c_taylor, c_taylor_straight
 from lagdsl.errors import LagWarning
+from lagdsl.pipeline import generate
+from lagdsl.run.c_backend import run_c
+from lagdsl.run.loading import load as load_library
+from lagdsl.run.output import Result
 from lagdsl.scene import Overrides
 from tests.conftest import library_model, model_file
 from tests.run.c_harness import STRICT_FLAGS, find_cc
@@ -38,6 +47,18 @@ OSCILLATOR = """model Oscillator "a mass on a spring"
 end Oscillator;
 """
 OMEGA, X0, V0 = 2.0, 0.5, -1.5           # w = sqrt(k/m)
+ANGLE_SUM = """model AngleSum "two angles coupled through cos(x + y)"
+  coordinate x(start = 0.7, velocity = 0.3);
+  coordinate y(start = -0.4, velocity = 1.1);
+  T = (der(x)^2 + der(y)^2)/2;
+  U = -cos(x) - cos(y) - cos(x + y);
+  scene swing
+    time(stop = 2, interval = 0.1);
+    integrator taylor(rtol = 1e-13, atol = 1e-13);
+    output x, y;
+  end swing;
+end AngleSum;
+"""
 
 
 def kepler_model(eccentricity: float, orbits: int, per_orbit: int, tol: float) -> str:
@@ -119,6 +140,42 @@ def test_the_stop_condition_is_located_on_the_polynomial():
     result = load(PENDULUM).simulate("quarter", integrator="taylor", rtol=1e-13, atol=1e-13)
     assert abs(result.t[-1] - QUARTER) < 1e-11
     assert abs(result["theta"][-1]) < 1e-10
+
+
+def test_the_straight_line_orders_give_the_series_of_the_loops(monkeypatch):
+    """sin and cos of theta1, theta2 and theta1 - theta2: written out, Σ j a_j c_{k-j} reads the
+    velocities' coefficients; in the loops (no order written out), the weights j. 2 s, before the
+    pendulum's chaos spreads the rounding."""
+    model = library_model("double_pendulum")
+    plan = model.plan("chaos", Overrides(stop=2.0, interval=0.1, integrator="taylor",
+                                         options=(("rtol", 1e-13), ("atol", 1e-13))))
+
+    straight_text, straight = generated_run(model, plan)
+    monkeypatch.setattr(c_taylor_straight, "STRAIGHT_TERMS", 0)
+    looped_text, looped = generated_run(model, plan)
+    assert "lag_taylor_order_1(" in straight_text and "lag_taylor_order_1(" not in looped_text
+    assert straight.summary.count("accepted") == looped.summary.count("accepted")
+    assert np.max(np.abs(straight.values - looped.values)) < 1e-12
+
+
+@pytest.mark.parametrize("model", [lambda: library_model("double_pendulum"), lambda: load(ANGLE_SUM)],
+                         ids=["difference", "sum"])
+def test_sines_of_a_sum_of_angles_from_the_sines_of_the_angles(model, monkeypatch):
+    model = model()
+    plan = model.plan(None, Overrides(stop=2.0, interval=0.1, integrator="taylor",
+                                      options=(("rtol", 1e-13), ("atol", 1e-13))))
+    composed_text, composed = generated_run(model, plan)
+    monkeypatch.setattr(c_taylor, "_angle_sum", lambda *arguments: None)
+    libm_text, libm = generated_run(model, plan)
+    assert composed_text.count("r_sin(") < libm_text.count("r_sin(")
+    assert composed.summary.count("accepted") == libm.summary.count("accepted")
+    assert np.max(np.abs(composed.values - libm.values)) < 1e-12
+
+
+def generated_run(model, plan) -> tuple[str, Result]:
+    """The generated C's text and its run of `plan`, built from what the generator prints now."""
+    kernel, source = generate(model.equations, plan, "c", "model.lag")
+    return source.text, run_c(kernel, source, plan.run_plan(), None, load_library(source))
 
 
 @pytest.mark.parametrize("precision", [[], pytest.param(["-DLAG_LONG_DOUBLE"], marks=pytest.mark.slow)])
