@@ -250,9 +250,11 @@ def _print_block(block: Block, signature: tuple[str, ...], kernel: Kernel, print
                   if (p != "lam" or kernel.constraints) and (p != "inv" or kernel.invariant_names)]
     unused = [p for p in parameters if p not in read]
     cleared = sorted({s.array for s in block.stores if s.array in CLEARED} | set(block.cleared))
+    after = block.sweep.after if block.sweep else len(loops)
     return {"inputs": block.inputs, "assignments": assignments, "stores": stores, "unused": unused,
             "cleared": [f"memset({array}, 0, {ARRAY_SIZES[array]});" for array in cleared],
-            "accumulators": block.accumulators, "loops": loops}
+            "accumulators": block.accumulators, "loops": loops[:after], "sweep": block.sweep,
+            "swept": loops[after:]}
 
 
 # Arrays set to zero before a block fills them, so that their structurally zero entries need

@@ -75,6 +75,18 @@ class Loop:
 
 
 @dataclass(frozen=True)
+class Sweep:
+    """Root to leaves over the links of the tree layout (structure.py): for each link j with a
+    parent, array[j·width + a] += array[parent(j)·width + a], a < width. The `after` loops before
+    it store each link's own terms (r_j, r_j'); those after it read the sums along the path from
+    the root (P_j, P_j'). The array, of n·width reals, is local to the block and starts at zero."""
+
+    array: str
+    width: int
+    after: int
+
+
+@dataclass(frozen=True)
 class Block:
     inputs: tuple[tuple[str, str], ...]          # (name, source such as "y[3]" or "par[0]")
     assignments: tuple[tuple[str, sympy.Expr], ...]
@@ -82,6 +94,7 @@ class Block:
     loops: tuple[Loop, ...] = ()                 # run after the inputs, before the assignments
     accumulators: tuple[str, ...] = ()           # scalars the loops sum into, zero before them
     cleared: tuple[str, ...] = ()                # arrays zeroed first: the loops add into them
+    sweep: Sweep | None = None                   # between the loops: sums along a tree's paths
 
 
 @dataclass(frozen=True)
