@@ -251,7 +251,10 @@ def _print_block(block: Block, signature: tuple[str, ...], kernel: Kernel, print
     unused = [p for p in parameters if p not in read]
     cleared = sorted({s.array for s in block.stores if s.array in CLEARED} | set(block.cleared))
     after = block.sweep.after if block.sweep else len(loops)
-    return {"inputs": block.inputs, "assignments": assignments, "stores": stores, "unused": unused,
+    swept = {name for name, source in block.inputs if block.sweep and source.startswith(block.sweep.array + "[")}
+    return {"inputs": [(name, source) for name, source in block.inputs if name not in swept],
+            "read_after_sweep": [(name, source) for name, source in block.inputs if name in swept],
+            "assignments": assignments, "stores": stores, "unused": unused,
             "cleared": [f"memset({array}, 0, {ARRAY_SIZES[array]});" for array in cleared],
             "accumulators": block.accumulators, "loops": loops[:after], "sweep": block.sweep,
             "swept": loops[after:]}

@@ -199,11 +199,15 @@ class _Lowering:
         return mass_layout(self.eq.mass_matrix)
 
     # -- blocks --------------------------------------------------------------------------------
-    def block(self, stores: list[tuple[str, tuple[int, ...], sympy.Expr]]) -> Block:
+    def block(self, stores: list[tuple[str, tuple[int, ...], sympy.Expr]],
+              read: dict[sympy.Symbol, str] | None = None) -> Block:
+        """The stores' block; the intermediates in `read` are inputs from the sources given there
+        (an array the block's loops fill), not computed from their definitions."""
         values = [value for _, _, value in stores]
-        needed = self.calculus.needed(values)
+        read = read or {}
+        needed = tuple((s, e) for s, e in self.calculus.needed(values) if s not in read)
         self.table.name_new_intermediates()
-        names, sources = self.table.names, self.table.sources
+        names, sources = self.table.names, {**self.table.sources, **read}
         ordered, reduced = eliminate_common_subexpressions(needed, values)
         rename = {}
         for symbol, _ in ordered:                   # intermediates and CSE temporaries (c0, c1, ...)
@@ -211,7 +215,7 @@ class _Lowering:
         used = set().union(*(e.free_symbols for _, e in ordered), *(e.free_symbols for e in reduced)) \
             if (ordered or reduced) else set()
         inputs = []
-        for symbol in sorted(used - set(rename), key=self.table.input_order):
+        for symbol in sorted(used - set(rename), key=lambda s: (self.table.input_order(s), names[s])):
             if symbol not in sources:
                 raise InternalError(f"unbound symbol {symbol} in a kernel block")
             rename[symbol] = sympy.Symbol(names[symbol], real=True)

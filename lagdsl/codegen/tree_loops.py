@@ -49,20 +49,24 @@ class TreeLowering(LocalLowering):
         return self.member_loop(placement, targets, values)
 
     def outputs_block(self) -> Block:
-        """The columns; where they read the energy, h from the links' loops (module docstring)
-        plus U_0."""
+        """The columns. Where they read the energy, h from the links' loops (module docstring)
+        plus U_0; where they read the bodies' P or P' (directly or through other lets), those
+        from KINEMATICS after the sweep, not each from the chain of lets to the root."""
         stores = self.output_stores()
-        if not any(ENERGY in value.free_symbols for _, _, value in stores):
+        values = [value for _, _, value in stores]
+        energy_read = any(ENERGY in value.free_symbols for value in values)
+        if not energy_read and not any(s in self.eq.points for s, _ in self.calculus.needed(values)):
             return self.block(stores)
         total = ENERGY + self.eq.energy_shift
         stores = [(array, index, value.xreplace({ENERGY: total})) for array, index, value in stores]
         energy = self.table.names[ENERGY]
-        kinematics = [self.kinematics_loop(links) for links in self.eq.links]
+        kinematics = [loop for loop in map(self.kinematics_loop, self.eq.links) if loop]
         terms = [self.member_loop(links.placement, [(energy, ())], [links.placement.energy])
-                 for links in self.eq.links]
-        block = self.looped_block(stores, [loop for loop in kinematics + terms if loop], accumulators=(energy,))
-        width = 2 * self.eq.axes
-        return dataclasses.replace(block, sweep=Sweep(KINEMATICS, width, sum(map(bool, kinematics))))
+                 for links in self.eq.links] if energy_read else []
+        read = {s: f"{KINEMATICS}[{k}]" for s, k in self.eq.points.items()}
+        block = self.looped_block(stores, kinematics + [loop for loop in terms if loop],
+                                  accumulators=(energy,) if energy_read else (), read=read)
+        return dataclasses.replace(block, sweep=Sweep(KINEMATICS, 2 * self.eq.axes, len(kinematics)))
 
     def kinematics_loop(self, links) -> Loop | None:
         """Each link's own r_j and r_j' = s_j q_j' into KINEMATICS, where the sweep adds its

@@ -66,10 +66,12 @@ class TreeEquations(LocalEquations):
     are derived on first use for everything else."""
 
     def __init__(self, model: ir.Model, parents: tuple[int, ...], axes: int, links: tuple[Links, ...],
-                 definitions: tuple[tuple[sympy.Symbol, sympy.Expr], ...], energy_shift: sympy.Expr):
+                 definitions: tuple[tuple[sympy.Symbol, sympy.Expr], ...], points: dict[sympy.Symbol, int],
+                 energy_shift: sympy.Expr):
         super().__init__(model, (), 0, True)    # the energy: ENERGY, which the links' loops compute
         self.parents, self.axes, self.links = parents, axes, links
         self.definitions = definitions          # the bodies' components and velocities, link by link
+        self.points = points                    # P_ja -> j·2d + a, P_ja' -> j·2d + d + a
         self.energy_shift = energy_shift        # U_0, the constant terms of U
 
     @property
@@ -275,7 +277,7 @@ class _Tree:
             renamed, parameter_base = self._in_slots(record, q)
             shapes.setdefault(tuple(renamed), []).append((j, parameter_base))
         links = tuple(_links(shape, run, len(bodies[0])) for shape, members in shapes.items() for run in _runs(members))
-        return TreeEquations(self.model, self.parents, len(bodies[0]), links, self._recursive(bodies), shift)
+        return TreeEquations(self.model, self.parents, len(bodies[0]), links, *self._recursive(bodies), shift)
 
     def _in_slots(self, record, q: ir.Coordinate) -> tuple[list[sympy.Expr], int]:
         members = self.members
@@ -285,11 +287,11 @@ class _Tree:
         rename.update({p: slot(PARAMETER, k - base) for p, k in members.items() if k in used})
         return [e.xreplace(rename) for e in record], base
 
-    def _recursive(self, bodies) -> tuple[tuple[sympy.Symbol, sympy.Expr], ...]:
+    def _recursive(self, bodies) -> tuple[tuple[tuple[sympy.Symbol, sympy.Expr], ...], dict[sympy.Symbol, int]]:
         """The components P_ja = P_parent,a + r_ja and their velocities, link by link, then the
-        other lets."""
+        other lets; and each component's and velocity's place in a link's P, P' (TreeEquations.points)."""
         rates = {let.derivative_of: let.symbol for let in self.model.lets if let.derivative_of is not None}
-        definitions, defined = [], set()
+        definitions, points, axes = [], {}, len(bodies[0])
         for j, body in enumerate(bodies):
             q = self.model.coordinates[j]
             for a, (x, _) in enumerate(body):
@@ -299,9 +301,9 @@ class _Tree:
                 definitions.append((x, r + (above if above is not None else 0)))
                 slope = partial_derivative(r, q.symbol) * q.velocity_symbol
                 definitions.append((rate, slope + (rates[above] if above is not None else 0)))
-                defined |= {x, rate}
-        others = [(let.symbol, let.expression) for let in self.model.lets if let.symbol not in defined]
-        return tuple(definitions + others)
+                points[x], points[rate] = 2 * axes * j + a, 2 * axes * j + axes + a
+        others = [(let.symbol, let.expression) for let in self.model.lets if let.symbol not in points]
+        return tuple(definitions + others), points
 
 
 def _links(shape: tuple, run: list[tuple[int, int]], axes: int) -> Links:
