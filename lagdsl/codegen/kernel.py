@@ -215,7 +215,7 @@ class _Lowering:
         used = set().union(*(e.free_symbols for _, e in ordered), *(e.free_symbols for e in reduced)) \
             if (ordered or reduced) else set()
         inputs = []
-        for symbol in sorted(used - set(rename), key=lambda s: (self.table.input_order(s), names[s])):
+        for symbol in sorted(used - set(rename), key=lambda s: (self.table.input_order(s), names.get(s, s.name))):
             if symbol not in sources:
                 raise InternalError(f"unbound symbol {symbol} in a kernel block")
             rename[symbol] = sympy.Symbol(names[symbol], real=True)
