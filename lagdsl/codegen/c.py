@@ -250,13 +250,14 @@ def _print_block(block: Block, signature: tuple[str, ...], kernel: Kernel, print
                   if (p != "lam" or kernel.constraints) and (p != "inv" or kernel.invariant_names)]
     unused = [p for p in parameters if p not in read]
     cleared = sorted({s.array for s in block.stores if s.array in CLEARED} | set(block.cleared))
-    after = block.sweep.after if block.sweep else len(loops)
-    swept = {name for name, source in block.inputs if block.sweep and source.startswith(block.sweep.array + "[")}
-    return {"inputs": [(name, source) for name, source in block.inputs if name not in swept],
-            "read_after_sweep": [(name, source) for name, source in block.inputs if name in swept],
+    sums = block.path_sums
+    after = sums.after if sums else len(loops)
+    late = {name for name, source in block.inputs if sums and source.startswith(sums.array + "[")}
+    return {"inputs": [(name, source) for name, source in block.inputs if name not in late],
+            "read_after_sums": [(name, source) for name, source in block.inputs if name in late],
             "assignments": assignments, "stores": stores, "unused": unused,
             "cleared": [f"memset({array}, 0, {ARRAY_SIZES[array]});" for array in cleared],
-            "accumulators": block.accumulators, "loops": loops[:after], "sweep": block.sweep,
+            "accumulators": block.accumulators, "loops": loops[:after], "path_sums": block.path_sums,
             "swept": loops[after:]}
 
 

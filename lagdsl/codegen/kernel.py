@@ -75,7 +75,7 @@ class Loop:
 
 
 @dataclass(frozen=True)
-class Sweep:
+class PathSums:
     """Root to leaves over the links of the tree layout (structure.py): for each link j with a
     parent, array[j·width + a] += array[parent(j)·width + a], a < width. The `after` loops before
     it store each link's own terms (r_j, r_j'); those after it read the sums along the path from
@@ -94,7 +94,7 @@ class Block:
     loops: tuple[Loop, ...] = ()                 # run after the inputs, before the assignments
     accumulators: tuple[str, ...] = ()           # scalars the loops sum into, zero before them
     cleared: tuple[str, ...] = ()                # arrays zeroed first: the loops add into them
-    sweep: Sweep | None = None                   # between the loops: sums along a tree's paths
+    path_sums: PathSums | None = None            # between the loops: sums along a tree's paths
 
 
 @dataclass(frozen=True)

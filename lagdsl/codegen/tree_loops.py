@@ -4,7 +4,7 @@ the articulated-body recursion of the tree layout (structure.py, templates/c/mod
 The system block stores link j's record m_j, s_j, w_j, g_j into K[j·4d ...] and τ_j into b[j],
 one loop per run of links of one shape (mechanics/trees.py). The energy is loops too: each
 link's r_j and r_j' into a scratch array KINEMATICS, a sweep root to leaves that makes them
-P_j = P_parent + r_j and P_j' (kernel.Sweep), and each link's term of h summed from them. The
+P_j = P_parent + r_j and P_j' (kernel.PathSums), and each link's term of h summed from them. The
 outputs other than the energy are ordinary blocks over the tree's recursive lets, linear in n.
 """
 from __future__ import annotations
@@ -15,7 +15,7 @@ import sympy
 
 from ..mechanics.families import ENERGY, slot
 from ..mechanics.trees import POINT, POINT_RATE, TreeEquations
-from .kernel import Block, Loop, Sweep
+from .kernel import Block, Loop, PathSums
 from .loops import LocalLowering
 from .structure import MassLayout, tree_layout
 
@@ -66,7 +66,7 @@ class TreeLowering(LocalLowering):
         read = {s: f"{KINEMATICS}[{k}]" for s, k in self.eq.points.items()}
         block = self.looped_block(stores, kinematics + [loop for loop in terms if loop],
                                   accumulators=(energy,) if energy_read else (), read=read)
-        return dataclasses.replace(block, sweep=Sweep(KINEMATICS, 2 * self.eq.axes, len(kinematics)))
+        return dataclasses.replace(block, path_sums=PathSums(KINEMATICS, 2 * self.eq.axes, len(kinematics)))
 
     def kinematics_loop(self, links) -> Loop | None:
         """Each link's own r_j and r_j' = s_j q_j' into KINEMATICS, where the sweep adds its

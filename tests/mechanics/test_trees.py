@@ -169,7 +169,7 @@ def test_the_outputs_are_loops_over_the_links():
     for n in (8, 32):
         _, (kernel, source) = tree_kernel(chain_text(n))
         outputs = kernel.outputs
-        assert outputs.sweep is not None and len(outputs.loops) == 2
+        assert outputs.path_sums is not None and len(outputs.loops) == 2
         assert all(loop.count == n for loop in outputs.loops)
         statements.append(len(outputs.inputs) + len(outputs.assignments) + len(outputs.stores))
         body = source.text.split("static int lag_outputs(")[1].split("\n}\n")[0]
