@@ -303,10 +303,17 @@ def measure_dense(path: Path, scene: str) -> dict:
             "final": float(result.values[-1, 0])}
 
 
+# Pinocchio's Data holds second-order derivative tensors of nv³ reals whatever is called: 1.1 GB
+# at 256 links, and at 1024 links 22 GB, when the kernel killed the benchmark (out of memory).
+PINOCCHIO_MAX = 256
+
+
 def pinocchio_chain(n: int) -> dict:
     """Pinocchio's aba on the same chain (revolute joints about z, point masses m_i = 1 + 1/i
     at the ends of unit links, gravity -9.81 y), seconds per call from Python less the call
-    overhead (a 1-link model's); {} when pinocchio is not installed."""
+    overhead (a 1-link model's); {} when pinocchio is not installed or n > PINOCCHIO_MAX."""
+    if n > PINOCCHIO_MAX:
+        return {}
     try:
         import pinocchio
     except ImportError:
@@ -387,7 +394,7 @@ def measure(kind: str, n: int, kane: bool, limit: float, dense: bool = False) ->
         child.communicate()
         return f"over {limit:.0f} s"
     if child.returncode != 0:
-        return "failed: " + stderr.strip().splitlines()[-1]
+        return "failed: " + (stderr.strip().splitlines() or [f"exit status {child.returncode}"])[-1]
     return json.loads(stdout.strip().splitlines()[-1])
 
 

@@ -250,9 +250,15 @@ def _print_block(block: Block, signature: tuple[str, ...], kernel: Kernel, print
                   if (p != "lam" or kernel.constraints) and (p != "inv" or kernel.invariant_names)]
     unused = [p for p in parameters if p not in read]
     cleared = sorted({s.array for s in block.stores if s.array in CLEARED} | set(block.cleared))
-    return {"inputs": block.inputs, "assignments": assignments, "stores": stores, "unused": unused,
+    sums = block.path_sums
+    after = sums.after if sums else len(loops)
+    late = {name for name, source in block.inputs if sums and source.startswith(sums.array + "[")}
+    return {"inputs": [(name, source) for name, source in block.inputs if name not in late],
+            "read_after_sums": [(name, source) for name, source in block.inputs if name in late],
+            "assignments": assignments, "stores": stores, "unused": unused,
             "cleared": [f"memset({array}, 0, {ARRAY_SIZES[array]});" for array in cleared],
-            "accumulators": block.accumulators, "loops": loops}
+            "accumulators": block.accumulators, "loops": loops[:after], "path_sums": block.path_sums,
+            "swept": loops[after:]}
 
 
 # Arrays set to zero before a block fills them, so that their structurally zero entries need

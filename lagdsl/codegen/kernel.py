@@ -75,6 +75,18 @@ class Loop:
 
 
 @dataclass(frozen=True)
+class PathSums:
+    """Root to leaves over the links of the tree layout (structure.py): for each link j with a
+    parent, array[j·width + a] += array[parent(j)·width + a], a < width. The `after` loops before
+    it store each link's own terms (r_j, r_j'); those after it read the sums along the path from
+    the root (P_j, P_j'). The array, of n·width reals, is local to the block and starts at zero."""
+
+    array: str
+    width: int
+    after: int
+
+
+@dataclass(frozen=True)
 class Block:
     inputs: tuple[tuple[str, str], ...]          # (name, source such as "y[3]" or "par[0]")
     assignments: tuple[tuple[str, sympy.Expr], ...]
@@ -82,6 +94,7 @@ class Block:
     loops: tuple[Loop, ...] = ()                 # run after the inputs, before the assignments
     accumulators: tuple[str, ...] = ()           # scalars the loops sum into, zero before them
     cleared: tuple[str, ...] = ()                # arrays zeroed first: the loops add into them
+    path_sums: PathSums | None = None            # between the loops: sums along a tree's paths
 
 
 @dataclass(frozen=True)
@@ -186,11 +199,15 @@ class _Lowering:
         return mass_layout(self.eq.mass_matrix)
 
     # -- blocks --------------------------------------------------------------------------------
-    def block(self, stores: list[tuple[str, tuple[int, ...], sympy.Expr]]) -> Block:
+    def block(self, stores: list[tuple[str, tuple[int, ...], sympy.Expr]],
+              read: dict[sympy.Symbol, str] | None = None) -> Block:
+        """The stores' block; the intermediates in `read` are inputs from the sources given there
+        (an array the block's loops fill), not computed from their definitions."""
         values = [value for _, _, value in stores]
-        needed = self.calculus.needed(values)
+        read = read or {}
+        needed = tuple((s, e) for s, e in self.calculus.needed(values) if s not in read)
         self.table.name_new_intermediates()
-        names, sources = self.table.names, self.table.sources
+        names, sources = self.table.names, {**self.table.sources, **read}
         ordered, reduced = eliminate_common_subexpressions(needed, values)
         rename = {}
         for symbol, _ in ordered:                   # intermediates and CSE temporaries (c0, c1, ...)
@@ -198,7 +215,7 @@ class _Lowering:
         used = set().union(*(e.free_symbols for _, e in ordered), *(e.free_symbols for e in reduced)) \
             if (ordered or reduced) else set()
         inputs = []
-        for symbol in sorted(used - set(rename), key=self.table.input_order):
+        for symbol in sorted(used - set(rename), key=lambda s: (self.table.input_order(s), names.get(s, s.name))):
             if symbol not in sources:
                 raise InternalError(f"unbound symbol {symbol} in a kernel block")
             rename[symbol] = sympy.Symbol(names[symbol], real=True)

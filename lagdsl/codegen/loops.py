@@ -81,10 +81,11 @@ class LocalLowering(_Lowering):
         loops = [loop for stencil in self.eq.stencils for loop in [self.stencil_loop(stencil, ("energy",))] if loop]
         return self.looped_block(stores, loops, accumulators=(self.table.names[ENERGY],))
 
-    def looped_block(self, stores, loops: list[Loop], cleared=(), accumulators=()) -> Block:
-        """A block whose loops run first; the inputs are the plain part's and those the loop
-        bodies read outside y and par (scalar parameters, in the order of par)."""
-        plain = self.block(stores) if stores else Block((), (), ())
+    def looped_block(self, stores, loops: list[Loop], cleared=(), accumulators=(), read=None) -> Block:
+        """A block whose loops run first; the inputs are the plain part's (`read`: as in
+        kernel.py's block) and those the loop bodies read outside y and par (scalar parameters,
+        in the order of par)."""
+        plain = self.block(stores, read) if stores else Block((), (), ())
         inputs = {name: source for name, source in plain.inputs if source != LOOPS}
         read = {x.name for loop in loops for value in (*(v for _, v in loop.assignments),
                                                        *(v for _, _, v in loop.stores)) for x in value.free_symbols}

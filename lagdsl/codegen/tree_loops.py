@@ -2,15 +2,24 @@
 the articulated-body recursion of the tree layout (structure.py, templates/c/model.c.j2).
 
 The system block stores link j's record m_j, s_j, w_j, g_j into K[j·4d ...] and τ_j into b[j],
-one loop per run of links of one shape (mechanics/trees.py); the outputs and the energy are
-ordinary blocks over the tree's recursive lets (P_j = P_parent + r_j), linear in n.
+one loop per run of links of one shape (mechanics/trees.py). The energy is loops too: each
+link's r_j and r_j' into a scratch array KINEMATICS, a sweep root to leaves that makes them
+P_j = P_parent + r_j and P_j' (kernel.PathSums), and each link's term of h summed from them. The
+outputs other than the energy are ordinary blocks over the tree's recursive lets, linear in n.
 """
 from __future__ import annotations
 
-from ..mechanics.trees import TreeEquations
-from .kernel import Block, _Lowering
+import dataclasses
+
+import sympy
+
+from ..mechanics.families import ENERGY, slot
+from ..mechanics.trees import POINT, POINT_RATE, TreeEquations
+from .kernel import Block, Loop, PathSums
 from .loops import LocalLowering
 from .structure import MassLayout, tree_layout
+
+KINEMATICS = "kin"      # the outputs' scratch array: link j's P_j at [j·2d ...], P_j' at [j·2d + d ...]
 
 
 class TreeLowering(LocalLowering):
@@ -40,4 +49,43 @@ class TreeLowering(LocalLowering):
         return self.member_loop(placement, targets, values)
 
     def outputs_block(self) -> Block:
-        return _Lowering.outputs_block(self)
+        """The columns. Where they read the energy, h from the links' loops (module docstring)
+        plus U_0; where they read the bodies' P or P' (directly or through other lets), those
+        from KINEMATICS after the sweep, not each from the chain of lets to the root."""
+        stores = self.output_stores()
+        values = [value for _, _, value in stores]
+        energy_read = any(ENERGY in value.free_symbols for value in values)
+        if not energy_read and not any(s in self.eq.points for s, _ in self.calculus.needed(values)):
+            return self.block(stores)
+        total = ENERGY + self.eq.energy_shift
+        stores = [(array, index, value.xreplace({ENERGY: total})) for array, index, value in stores]
+        energy = self.table.names[ENERGY]
+        kinematics = [loop for loop in map(self.kinematics_loop, self.eq.links) if loop]
+        terms = [self.member_loop(links.placement, [(energy, ())], [links.placement.energy])
+                 for links in self.eq.links] if energy_read else []
+        read = {s: f"{KINEMATICS}[{k}]" for s, k in self.eq.points.items()}
+        block = self.looped_block(stores, kinematics + [loop for loop in terms if loop],
+                                  accumulators=(energy,) if energy_read else (), read=read)
+        return dataclasses.replace(block, path_sums=PathSums(KINEMATICS, 2 * self.eq.axes, len(kinematics)))
+
+    def kinematics_loop(self, links) -> Loop | None:
+        """Each link's own r_j and r_j' = s_j q_j' into KINEMATICS, where the sweep adds its
+        parent's P and P' to them."""
+        placement, width = links.placement, 2 * self.eq.axes
+        targets = [(KINEMATICS, ((placement.first * width + field, placement.step * width),))
+                   for field, value in enumerate(links.kinematics) if value != 0]
+        return self.member_loop(placement, targets, [value for value in links.kinematics if value != 0])
+
+    def _slot_names(self, stencil, expressions):
+        """The slots of kernel.LocalLowering, and a link's P and P' read from KINEMATICS (after
+        the sweep) as point<a> and rate<a>."""
+        rename, inputs = super()._slot_names(stencil, expressions)
+        used = set().union(*(e.free_symbols for e in expressions))
+        axes = self.eq.axes
+        for part, (kind, name) in enumerate(((POINT, "point"), (POINT_RATE, "rate"))):
+            for a in range(axes):
+                if slot(kind, a) in used:
+                    rename[slot(kind, a)] = sympy.Symbol(f"{name}{a}", real=True)
+                    inputs.append((f"{name}{a}", KINEMATICS, (stencil.first * 2 + part) * axes + a,
+                                   stencil.step * 2 * axes))
+        return rename, inputs

@@ -20,7 +20,12 @@ root, F_j = A_j P_parent'' + c_j with the articulated inertia A_j = Â - (Â s)(
 D = sᵀ Â s, Â = diag(m_j) + Σ_children A; then root to leaves,
 q_j'' = (τ_j - sᵀ(Â (P_parent'' + w_j) + ĉ_j)) / D. Each link's record (m_j, s_j, w_j, g_j and
 τ_j) is derived once per shape of link, in slot symbols as the local form's stencils are
-(mechanics/families.py), and the generated code loops over the links.
+(mechanics/families.py), and the generated code loops over the links. So does the energy,
+
+    h = Σ_j (Σ_a m_ja/2 (P_ja')² + g_j·P_j + V_j(q_j)) + U_0    (U_0: U's constant terms),
+
+from each link's terms r_j and r_j' = s_j q_j' made sums along the path from the root
+(P_j = P_parent + r_j, P_j' = P_parent' + r_j'), a sweep root to leaves in the generated code.
 
 The tree form is used for a natural system without constraints, forces or dissipation, with at
 least TREE_MIN_COORDINATES coordinates, each the joint of one body, every body with a mass on
@@ -36,22 +41,24 @@ import sympy
 
 from .. import ir
 from ..calculus import Differentiator, partial_derivative
-from .equations import ENERGY_CONSERVED, ConservedQuantity
 from .families import PARAMETER, POSITION, VELOCITY, LocalEquations, Stencil, additive_terms, \
     parameter_members, slot, _runs
 
 TREE_MIN_COORDINATES = 8        # smaller chains are cheap in the dense form
+POINT, POINT_RATE = "§P", "§R"  # slots of a body's P_a and P_a' in a link's energy (no user can write §)
 
 
 @dataclass(frozen=True)
 class Links:
     """Bodies of one shape: `placement` is a one-slot Stencil whose members are the bodies
-    (count, first body, step, parameter members) and whose forcing is their τ; `record` is each
-    body's m (d entries), s, w and g, in the slot symbols §x0, §v0 and §p<b> of
+    (count, first body, step, parameter members), whose forcing is their τ and whose energy is
+    their term of h, Σ_a m_a/2 §R<a>² + g_a §P<a> + V_j; `record` is each body's m (d entries),
+    s, w and g, and `kinematics` its r and r' = s q', in the slot symbols §x0, §v0 and §p<b> of
     mechanics/families.py."""
 
     placement: Stencil
     record: tuple[sympy.Expr, ...]
+    kinematics: tuple[sympy.Expr, ...]
 
 
 class TreeEquations(LocalEquations):
@@ -59,12 +66,13 @@ class TreeEquations(LocalEquations):
     are derived on first use for everything else."""
 
     def __init__(self, model: ir.Model, parents: tuple[int, ...], axes: int, links: tuple[Links, ...],
-                 definitions: tuple[tuple[sympy.Symbol, sympy.Expr], ...], energy: sympy.Expr):
-        super().__init__(model, (), 0, True)
+                 definitions: tuple[tuple[sympy.Symbol, sympy.Expr], ...], points: dict[sympy.Symbol, int],
+                 energy_shift: sympy.Expr):
+        super().__init__(model, (), 0, True)    # the energy: ENERGY, which the links' loops compute
         self.parents, self.axes, self.links = parents, axes, links
         self.definitions = definitions          # the bodies' components and velocities, link by link
-        self.energy = energy
-        self.conserved = (ConservedQuantity("energy", energy, ENERGY_CONSERVED),)
+        self.points = points                    # P_ja -> j·2d + a, P_ja' -> j·2d + d + a
+        self.energy_shift = energy_shift        # U_0, the constant terms of U
 
     @property
     def velocity_in_accelerations(self) -> str:
@@ -72,7 +80,7 @@ class TreeEquations(LocalEquations):
 
     def calculus(self) -> Differentiator:
         """The components as P_parent + r_j and their velocities as P_parent' + s_j q_j': each
-        let costs one link's terms, so that the outputs and the energy stay linear in n."""
+        let costs one link's terms, so that the outputs stay linear in n."""
         return Differentiator(self.definitions, (*self.coordinates, *self.velocities, ir.TIME))
 
 
@@ -89,8 +97,7 @@ def derive_tree_equations(model: ir.Model) -> TreeEquations | None:
     potential = tree.potential(bodies)
     if potential is None:
         return None
-    fields, torques = potential
-    return tree.equations(bodies, fields, torques)
+    return tree.equations(bodies, *potential)
 
 
 class _Tree:
@@ -236,15 +243,17 @@ class _Tree:
         axes = {len(body) for body in ordered}
         return ordered if len(axes) == 1 else None
 
-    def potential(self, bodies) -> tuple[dict[sympy.Symbol, sympy.Expr], list[sympy.Expr]] | None:
-        """(component -> g, the field's constant gradient; joint -> V_j), or None."""
+    def potential(self, bodies) -> tuple[dict[sympy.Symbol, sympy.Expr], list[sympy.Expr], sympy.Expr] | None:
+        """(component -> g, the field's constant gradient; joint -> V_j; U_0), or None."""
         components = {x for body in bodies for x, _ in body}
         fields: dict[sympy.Symbol, sympy.Expr] = {}
         torques = [sympy.S.Zero] * len(bodies)
+        shift = sympy.S.Zero
         potential = self.model.lagrangian.potential
         for term in additive_terms(potential, self.constant) if potential is not None else ():
             if self.constant(term):
-                continue                # shifts the energy only
+                shift += term           # shifts the energy only
+                continue
             lets = term.free_symbols & self.let_symbols
             if len(lets) == 1 and lets <= components:
                 x = next(iter(lets))
@@ -257,9 +266,9 @@ class _Tree:
             if lets or len(joints) != 1 or term.free_symbols & self.moving:
                 return None
             torques[self.index[next(iter(joints))]] += term
-        return fields, torques
+        return fields, torques, shift
 
-    def equations(self, bodies, fields, torques) -> TreeEquations:
+    def equations(self, bodies, fields, torques, shift) -> TreeEquations:
         shapes: dict[tuple, list[tuple[int, int]]] = {}
         for j, body in enumerate(bodies):
             q = self.model.coordinates[j]
@@ -268,8 +277,7 @@ class _Tree:
             renamed, parameter_base = self._in_slots(record, q)
             shapes.setdefault(tuple(renamed), []).append((j, parameter_base))
         links = tuple(_links(shape, run, len(bodies[0])) for shape, members in shapes.items() for run in _runs(members))
-        definitions, energy = self._recursive(bodies, fields)
-        return TreeEquations(self.model, self.parents, len(bodies[0]), links, definitions, energy)
+        return TreeEquations(self.model, self.parents, len(bodies[0]), links, *self._recursive(bodies), shift)
 
     def _in_slots(self, record, q: ir.Coordinate) -> tuple[list[sympy.Expr], int]:
         members = self.members
@@ -279,24 +287,23 @@ class _Tree:
         rename.update({p: slot(PARAMETER, k - base) for p, k in members.items() if k in used})
         return [e.xreplace(rename) for e in record], base
 
-    def _recursive(self, bodies, fields) -> tuple[tuple[tuple[sympy.Symbol, sympy.Expr], ...], sympy.Expr]:
-        """The components P_ja = P_parent,a + r_ja and their velocities, link by link, and the
-        energy h = Σ m/2 (P')² + U in terms of them."""
+    def _recursive(self, bodies) -> tuple[tuple[tuple[sympy.Symbol, sympy.Expr], ...], dict[sympy.Symbol, int]]:
+        """The components P_ja = P_parent,a + r_ja and their velocities, link by link, then the
+        other lets; and each component's and velocity's place in a link's P, P' (TreeEquations.points)."""
         rates = {let.derivative_of: let.symbol for let in self.model.lets if let.derivative_of is not None}
-        definitions, kinetic, defined = [], [], set()
+        definitions, points, axes = [], {}, len(bodies[0])
         for j, body in enumerate(bodies):
             q = self.model.coordinates[j]
-            for a, (x, m) in enumerate(body):
+            for a, (x, _) in enumerate(body):
                 above = bodies[self.parents[j]][a][0] if self.parents[j] >= 0 else None
                 rate = rates.setdefault(x, sympy.Symbol(f"der({x.name})", real=True))
                 r = self.parts(x)[j]
                 definitions.append((x, r + (above if above is not None else 0)))
                 slope = partial_derivative(r, q.symbol) * q.velocity_symbol
                 definitions.append((rate, slope + (rates[above] if above is not None else 0)))
-                defined |= {x, rate}
-                kinetic.append(m / 2 * rate ** 2)
-        others = [(let.symbol, let.expression) for let in self.model.lets if let.symbol not in defined]
-        return tuple(definitions + others), sympy.Add(*kinetic, self.model.lagrangian.potential or sympy.S.Zero)
+                points[x], points[rate] = 2 * axes * j + a, 2 * axes * j + axes + a
+        others = [(let.symbol, let.expression) for let in self.model.lets if let.symbol not in points]
+        return tuple(definitions + others), points
 
 
 def _links(shape: tuple, run: list[tuple[int, int]], axes: int) -> Links:
@@ -309,6 +316,8 @@ def _links(shape: tuple, run: list[tuple[int, int]], axes: int) -> Links:
     bias = [partial_derivative(s, x) * v ** 2 for s in slopes]
     members = sorted({int(s.name[len(PARAMETER):]) for e in shape for s in e.free_symbols
                       if s.name.startswith(PARAMETER)})
+    energy = sympy.Add(*(m / 2 * slot(POINT_RATE, a) ** 2 + g * slot(POINT, a)
+                         for a, (m, g) in enumerate(zip(masses, gradient))), potential)
     placement = Stencil("lagrangian", (0,), count, first, step, (0,), parameter_first, parameter_step,
-                        tuple(members), (), (-partial_derivative(potential, x),), sympy.S.Zero)
-    return Links(placement, (*masses, *slopes, *bias, *gradient))
+                        tuple(members), (), (-partial_derivative(potential, x),), energy)
+    return Links(placement, (*masses, *slopes, *bias, *gradient), (*joints, *(s * v for s in slopes)))

@@ -4,8 +4,9 @@ joint coordinates, solved by the articulated-body recursion in O(n).
 Checked against the expanded equations (derive_equations, the dense M q'' = f, itself checked
 against the textbook in test_textbook_systems.py): the same scene's trajectory from both to
 1e-10, for chains of unequal masses and lengths, a branched tree and links that swing in tilted
-planes (bodies in 3-D); the generated code must not grow faster than the number of links; and
-what the tree form does not serve falls back to the expanded equations.
+planes (bodies in 3-D), and the energy with joint springs and constants in U; the generated code
+must not grow faster than the number of links, and lag_outputs is loops over them; what the
+tree form does not serve falls back to the expanded equations.
 """
 from __future__ import annotations
 
@@ -92,6 +93,13 @@ def trajectories(text: str, scene: str = "swing"):
     return tree, tree_values, dense_values
 
 
+def tree_kernel(text: str):
+    """The tree form of the model and its scene swing's (Kernel, C source)."""
+    model = model_from_source(SourceFile("chain.lag", text))
+    tree = derive_tree_equations(model)
+    return tree, generate(tree, plan(model, tree, "swing", Overrides()), "c", "chain.lag")
+
+
 @pytest.fixture
 def small_trees(monkeypatch):
     """The tree form for a few links too (it starts at TREE_MIN_COORDINATES)."""
@@ -119,12 +127,7 @@ def test_small_trees_follow_the_dense_trajectory(small_trees, text, parents, axe
 
 
 def test_generated_code_grows_linearly_with_the_links():
-    sizes = []
-    for n in (8, 16, 32):
-        model = model_from_source(SourceFile("chain.lag", chain_text(n)))
-        tree = derive_tree_equations(model)
-        scene_plan = plan(model, tree, "swing", Overrides())
-        sizes.append(len(generate(tree, scene_plan, "c", "chain.lag")[1].text))
+    sizes = [len(tree_kernel(chain_text(n))[1][1].text) for n in (8, 16, 32)]
     assert sizes[2] - sizes[1] <= 2.2 * (sizes[1] - sizes[0])
 
 
@@ -144,3 +147,31 @@ def test_scenes_the_tree_form_does_not_serve_fall_back(overrides, backend):
     scene_plan = plan(model, tree, "swing", Overrides(**overrides))
     kernel, _ = generate(tree, scene_plan, backend, "chain.lag")
     assert kernel.layout is None or kernel.layout.kind != "tree"
+
+
+# Joint springs (V_j) and constants in U (U_0 = 2n + 5): every part of h that the links' loops add.
+SPRUNG = chain_text(8, seconds=1).replace(
+    "U = sum(m[i]*g*y[i], i in 1:n);", "U = sum(m[i]*g*y[i] + 2*(1 - cos(theta[i])), i in 1:n) + 5;")
+
+
+def test_energy_from_the_links_loops_equals_the_dense_energy():
+    tree, looped, dense = trajectories(SPRUNG)
+    assert tree.energy_shift == 21
+    energy = -1
+    assert abs(looped[0, energy] - dense[0, energy]) <= 1e-13 * abs(dense[0, energy])     # the same state
+    assert np.all(np.abs(looped - dense) <= 1e-10 * np.maximum(1, np.abs(dense)))
+
+
+def test_the_outputs_are_loops_over_the_links():
+    """lag_outputs reads the energy and x[n] from loops and a sweep: its statements do not grow
+    with n."""
+    statements = []
+    for n in (8, 32):
+        _, (kernel, source) = tree_kernel(chain_text(n))
+        outputs = kernel.outputs
+        assert outputs.path_sums is not None and len(outputs.loops) == 2
+        assert all(loop.count == n for loop in outputs.loops)
+        statements.append(len(outputs.inputs) + len(outputs.assignments) + len(outputs.stores))
+        body = source.text.split("static int lag_outputs(")[1].split("\n}\n")[0]
+        assert f"for (int i = 0; i < {n}; ++i)" in body and "lag_parent[j]" in body
+    assert statements[0] == statements[1]
