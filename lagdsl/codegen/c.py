@@ -17,7 +17,7 @@ from .c_lanes import lane_groups
 from .c_taylor_lanes import lane_series
 from .c_taylor import series_text
 from .kernel import Block, Kernel, Loop, Store
-from .printers import CPrinter
+from .printers import CPrinter, TaylorPrinter
 
 # The parameters of each generated C function whose body is a kernel block.
 # Where lanes.c takes the integrator's own lanes file.
@@ -75,7 +75,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
         "outputs_need_multipliers": kernel.outputs_need_multipliers,
         "stop_needs_multipliers": kernel.stop_needs_multipliers,
         "integrator_source": integrator_source(kernel.integrator.name),
-        "taylor_series": series_text(kernel, printer, _k_positions(kernel)) if method.series else "",
+        "taylor_series": _series(kernel) if method.series else "",
         "contract": runtime_contract(), "flags": _driver_flags(kernel, method, lanes), "lanes": lanes,
         "driver": c_file("forecast.c") + "\n" + c_file("driver.c"), "library": c_file("library.c"),
         "standalone": standalone_source(),
@@ -93,6 +93,11 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
     }
     text = template_environment().get_template("c/model.c.j2").render(context)
     return GeneratedSource("c", text, stem(kernel))
+
+
+def _series(kernel: Kernel) -> str:
+    """Taylor's series of the model part, after its own sin and cos (taylor_functions.c)."""
+    return c_file("taylor_functions.c") + "\n" + series_text(kernel, TaylorPrinter(), _k_positions(kernel))
 
 
 def _k_positions(kernel: Kernel) -> list[str]:
@@ -126,7 +131,7 @@ def _lanes(kernel: Kernel, method: registry.Integrator, blocks: dict, printer, e
         return None
     source = c_file("lanes.c").replace(LANES_METHOD, c_file(method.lanes))
     if method.series:
-        series = lane_series(kernel, printer, _k_positions(kernel))
+        series = lane_series(kernel, TaylorPrinter(), _k_positions(kernel))
         return None if series is None else {"kept": (), "groups": (), "source": source, **series}
     kept, groups = lane_groups(system, blocks["system"])
     return {"kept": kept, "groups": groups, "series": "", "switch": 1, "source": source}

@@ -1,9 +1,11 @@
 """The Taylor series of LAG_LANES members at once, for the sweep's taylor in lanes
 (integrators/c/taylor_lanes.c; templates/c/taylor_lanes.c.j2).
 
-Built from the statements of the scalar series (c_taylor.series_context): order 0 of each member
-(its sines and cosines are libm calls, its K factored and inverted) runs member by member, the
-scalar statements with the member's inputs; each order k >= 1 is the straight-line order of
+Built from the statements of the scalar series (c_taylor.series_context): order 0 runs in one loop
+over the lanes, the scalar statements with lag_sin_near and lag_cos_near for the series' own lag_sin
+and lag_cos (integrators/c/taylor_functions.c: the same arithmetic, NaN beyond their range, where
+the lane takes the scalar statements instead), then each member's K is factored and inverted member
+by member; each order k >= 1 is the straight-line order of
 c_taylor_straight.py, every coefficient s[i][k] becoming the array s[i][k][l] of the lanes and
 every statement the same, inside one loop over the lanes that the compiler vectorises. A lane
 computes what the scalar series computes, operation for operation and in the same order, so a
@@ -22,6 +24,8 @@ from .c_taylor import DOUBLE_DIGITS, MAX_ORDER, max_order, series_context
 COEFFICIENT = re.compile(r"\bs\[(\d+)\]\[(\d+)\]")
 RIGHT_SIDE = re.compile(r"\br\[(\d+)\]")
 CONSTANT = re.compile(r"\bc->(\w+)")
+MATRIX = re.compile(r"\bK\[(\d+)\]")
+TRIGONOMETRY = re.compile(r"\blag_(sin|cos)\(")
 
 
 def lane_statement(line: str) -> str:
@@ -29,7 +33,16 @@ def lane_statement(line: str) -> str:
     from lane l: s[5][2] -> s[5][2][l], r[0] -> r[0][l], c->e3 -> c->e3[l]."""
     line = COEFFICIENT.sub(r"s[\1][\2][l]", line)
     line = RIGHT_SIDE.sub(r"r[\1][l]", line)
+    line = MATRIX.sub(r"K[\1][l]", line)
     return CONSTANT.sub(r"c->\1[l]", line)
+
+
+def lane_zeroth(line: str) -> str:
+    """A statement of order 0 in lane l, a row's lag_sin and lag_cos as lag_sin_near and lag_cos_near
+    (a row that is not finite sends the lane to the scalar statements; any other statement keeps
+    them, and its loop may then not vectorise)."""
+    line = lane_statement(line)
+    return TRIGONOMETRY.sub(r"lag_\1_near(", line) if line.startswith("s[") else line
 
 
 def lane_input(source: str) -> str:
@@ -49,6 +62,9 @@ def lane_series(kernel, printer, positions: list[str]) -> dict | None:
         return None
     lanes = {
         "lane_inputs": [(name, lane_input(source)) for name, source in context["taylor_inputs"]],
+        "lane_zeroth": [lane_zeroth(line) for line in context["taylor_zeroth"]],
+        "lane_rhs_zero": [lane_statement(line) for line in context["taylor_rhs_zero"]],
+        "lane_assemble": [lane_statement(line) for line in context["taylor_assemble"]],
         "lane_straight": [(k, [lane_statement(line) for line in prologue], [lane_statement(line) for line in lines])
                           for k, prologue, lines in straight]}
     return {"series": template_environment().get_template("c/taylor_lanes.c.j2").render({**context, **lanes}),

@@ -139,6 +139,15 @@ def _call(function: str):
     return printer
 
 
+class TaylorPrinter(CPrinter):
+    """The C printer of taylor's series: sin and cos are the series' own lag_sin and lag_cos
+    (integrators/c/taylor_functions.c), plain arithmetic that the sweep's lanes vectorise with the
+    same results as simulate()'s series."""
+
+    _print_sin = _call("lag_sin")
+    _print_cos = _call("lag_cos")
+
+
 class PythonPrinter(NumPyPrinter):
     """NumPy printer: the same kernels as Python over arrays (a batch of states broadcasts).
 

@@ -127,26 +127,47 @@ static real taylor_power(real x, int n)
     return result;
 }
 
-/* The step from the last two coefficients (Jorba and Zou (3.11)), or LAG_ERR_NONFINITE. */
-static int taylor_step_size(lag_stepper *s, const real *weight, real size, real *h)
+/* The radius of convergence from the norms of the last two coefficients (Jorba and Zou (3.11)):
+ * min over j = p-1, p of (size / norm_j)^(1/j), REAL_MAX when both norms are 0. The sweep's lanes
+ * take it in a loop over the lanes (taylor_lanes.c) with the same arithmetic. */
+static real taylor_radius(real size, real before, real last, int p)
 {
-    const int p = s->order;
-    real last = taylor_norm(s, weight, p), before = taylor_norm(s, weight, p - 1), rho = REAL_MAX;
-    if (!r_isfinite(last) || !r_isfinite(before))
-        return LAG_ERR_NONFINITE;
+    real rho = REAL_MAX;
     if (before > 0)
-        rho = r_pow(size / before, (real)1 / (p - 1));
+        rho = taylor_root(size / before, p - 1);
     /* the radius from the last is the smaller one iff size / last < rho^p: the second power only
      * then (rho^p overflows to inf for a huge rho, and then the power is taken) */
     if (last > 0 && (rho == REAL_MAX || size / last < taylor_power(rho, p))) {
-        real other = r_pow(size / last, (real)1 / p);
+        real other = taylor_root(size / last, p);
         rho = other < rho ? other : rho;
     }
+    return rho;
+}
+
+/* The norms of the last two coefficients, before (order p-1) and last (order p), or
+ * LAG_ERR_NONFINITE. */
+static int taylor_norms(const lag_stepper *s, const real *weight, real *before, real *last)
+{
+    *last = taylor_norm(s, weight, s->order);
+    *before = taylor_norm(s, weight, s->order - 1);
+    return r_isfinite(*last) && r_isfinite(*before) ? LAG_OK : LAG_ERR_NONFINITE;
+}
+
+/* The step from the radius rho: a fraction of it (at most hmax, landing exactly on t_end:
+ * *landing), or LAG_ERR_STEP_TOO_SMALL. */
+static int taylor_step_from(lag_stepper *s, real rho, real *h, int *landing)
+{
+    const int p = s->order;
     if (p != s->safety_order) {       /* the order rarely changes: exp once per change */
         s->safety = r_exp(-2 - LAG_LIT(0.7) / (p - 1));
         s->safety_order = p;
     }
     *h = rho * s->safety;
+    *h = *h < s->hmax ? *h : s->hmax;
+    if (!(*h >= LAG_MIN_STEP(s->t, s->span)))
+        return LAG_ERR_STEP_TOO_SMALL;
+    if ((*landing = s->t + LAG_LIT(1.01) * *h >= s->t_end))
+        *h = s->t_end - s->t;
     return LAG_OK;
 }
 
@@ -183,16 +204,12 @@ static int taylor_begin_step(lag_stepper *s, real *weight, real *size, int *taki
  * exactly on t_end: *landing), or LAG_ERR_NONFINITE, LAG_ERR_STEP_TOO_SMALL. */
 static int taylor_step_to_take(lag_stepper *s, const real *weight, real size, real *h, int *landing)
 {
+    real before, last;
     int status;
     s->stats.orders += s->order;
-    if ((status = taylor_step_size(s, weight, size, h)) != LAG_OK)
+    if ((status = taylor_norms(s, weight, &before, &last)) != LAG_OK)
         return status;
-    *h = *h < s->hmax ? *h : s->hmax;
-    if (!(*h >= LAG_MIN_STEP(s->t, s->span)))
-        return LAG_ERR_STEP_TOO_SMALL;
-    if ((*landing = s->t + LAG_LIT(1.01) * *h >= s->t_end))
-        *h = s->t_end - s->t;
-    return LAG_OK;
+    return taylor_step_from(s, taylor_radius(size, before, last, s->order), h, landing);
 }
 
 /* The step h taken, once s->y_end holds the series at t + h: the state moves there, or
