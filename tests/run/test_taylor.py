@@ -167,7 +167,7 @@ def test_sines_of_a_sum_of_angles_from_the_sines_of_the_angles(model, monkeypatc
     composed_text, composed = generated_run(model, plan)
     monkeypatch.setattr(c_taylor, "_angle_sum", lambda *arguments: None)
     libm_text, libm = generated_run(model, plan)
-    assert composed_text.count("r_sin(") < libm_text.count("r_sin(")
+    assert composed_text.count("lag_sin(") < libm_text.count("lag_sin(")
     assert composed.summary.count("accepted") == libm.summary.count("accepted")
     assert np.max(np.abs(composed.values - libm.values)) < 1e-12
 
