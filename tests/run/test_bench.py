@@ -13,7 +13,7 @@ from lagdsl import bench, reference
 from lagdsl.cli import main
 from lagdsl.run import toolchain
 from lagdsl.scene import Overrides
-from tests.conftest import MODELS, model_file
+from tests.conftest import library_model, model_file
 
 # The Kepler ellipse of models/kepler.lag (r0 = 1, r0' = 0, theta0' = 1.2, GM = 1): energy
 # E = 1.44/2 - 1 = -0.28, semi-major axis a = -1/(2E), period T = 2 pi a^(3/2). At t = kT the
@@ -146,7 +146,7 @@ def test_simulate_estimates_its_global_error(kepler):
 def test_the_error_names_its_column_and_unit():
     """Columns of different units: the largest error is named with its column and unit, and each
     column's largest error is listed in its unit."""
-    estimate = lagdsl.load(MODELS / "kepler.lag").simulate(stop=5.0, estimate_error=True).summary.error
+    estimate = library_model("kepler").simulate(stop=5.0, estimate_error=True).summary.error
     errors = dict(estimate.columns)
     units = dict(zip(errors, estimate.units))
     assert units == {"r": "m", "theta": "rad", "energy": "J", "momentum(theta)": "kg*m^2/s"}
