@@ -68,6 +68,13 @@ def test_a_compiler_that_refuses_march_native_gets_the_portable_flags(fake_compi
     assert "-march=native" in tuned and "-march=native" not in portable and " -O2 " in f" {portable} "
 
 
+def test_a_real_compiler_that_refuses_a_tuned_flag_gets_the_portable_ones(tmp_path, monkeypatch):
+    """The real compiler's own words for a flag it does not know are recognised."""
+    monkeypatch.setenv("LAGDSL_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr(toolchain, "LIBRARY_FLAGS", (*toolchain.LIBRARY_FLAGS, "-fno-such-flag-anywhere"))
+    assert toolchain.shared_library(SOURCE, "answer", openmp=False).exists()
+
+
 def test_an_error_in_the_generated_code_is_not_retried(fake_compiler):
     log = fake_compiler("broken-code")
     with pytest.raises(toolchain.CompilerFailed, match="expected expression"):
