@@ -136,7 +136,8 @@ def lagc_in_process(*arguments) -> Ran:
 
 def pytest_addoption(parser):
     parser.addoption("--update-golden", action="store_true", default=False,
-                     help="rewrite tests/golden/ from the current code generator")
+                     help="rewrite tests/golden/ from the current code generator, and the stored reference "
+                          "trajectories (tests/mechanics/references/) by solving them again")
     parser.addoption("--slow", action="store_true", default=False,
                      help="run the tests marked slow too (the whole suite)")
     parser.addoption("--cpu-report", type=int, default=None, metavar="N",

@@ -128,7 +128,7 @@ end Springs;
 """
 
 
-def test_parameter_arrays_are_members_with_values_and_expressions(tmp_path):
+def test_parameter_arrays_are_members_with_values_and_expressions():
     model = model_of(ARRAY_MODEL)
     values = {p.name: p.value for p in model.parameters}
     assert [values[f"m[{i}]"] for i in (1, 2, 3)] == [1, 2, 3]
@@ -249,9 +249,8 @@ def test_the_heavy_top_has_the_textbook_equations():
         assert is_zero(row - textbook)
 
 
-def test_the_free_asymmetric_body_keeps_energy_and_the_size_of_its_angular_momentum(tmp_path):
-    path = tmp_path / "body.lag"
-    path.write_text("""model FreeBody "a free asymmetric rigid body in z-x-z Euler angles"
+def test_the_free_asymmetric_body_keeps_energy_and_the_size_of_its_angular_momentum():
+    path = model_file("""model FreeBody "a free asymmetric rigid body in z-x-z Euler angles"
       parameter I1 = 1 [kg*m^2];
       parameter I2 = 2 [kg*m^2];
       parameter I3 = 3 [kg*m^2];
@@ -267,7 +266,7 @@ def test_the_free_asymmetric_body_keeps_energy_and_the_size_of_its_angular_momen
         integrator dop853(rtol = 1e-12, atol = 1e-14);
         output spin, energy;
       end tumble;
-    end FreeBody;""")
+    end FreeBody;""", "body")
     for backend in ("c", "numpy"):
         result = lagdsl.load(path).simulate("tumble", backend)
         assert np.ptp(result["spin"]) < 1e-9 * result["spin"][0]
@@ -292,9 +291,8 @@ def test_matrix_mistakes_are_located(body, at, message):
 
 
 @pytest.mark.slow
-def test_one_member_is_set_from_the_command_line(tmp_path):
-    path = tmp_path / "springs.lag"
-    path.write_text(ARRAY_MODEL)
+def test_one_member_is_set_from_the_command_line():
+    path = model_file(ARRAY_MODEL, "springs")
     run = subprocess.run([sys.executable, "-m", "lagdsl", "run", str(path), "--set", "m[2]=5", "--rtol", "1e-12",
                           "--atol", "1e-14"], capture_output=True, text=True)
     assert run.returncode == 0, run.stderr
@@ -303,11 +301,10 @@ def test_one_member_is_set_from_the_command_line(tmp_path):
     assert float(rows[-1].split(",")[1]) == pytest.approx(np.cos(2), abs=1e-9)
 
 
-def test_a_chain_started_in_a_mode_shape_stays_in_that_mode(tmp_path):
+def test_a_chain_started_in_a_mode_shape_stays_in_that_mode():
     """n masses between fixed walls: started in mode j, q[i](t) = a sin(pi i j/(n+1)) cos(w t),
     w = 2 sqrt(k/m) sin(pi j/(2(n+1)))."""
-    path = tmp_path / "chain.lag"
-    path.write_text("""model Chain
+    path = model_file("""model Chain
       parameter n = 5;
       parameter j = 2;
       parameter k = 4 [N/m];
@@ -320,7 +317,7 @@ def test_a_chain_started_in_a_mode_shape_stays_in_that_mode(tmp_path):
         time(stop = 3, interval = 0.5);
         integrator dop853(rtol = 1e-12, atol = 1e-14);
       end mode;
-    end Chain;""")
+    end Chain;""", "chain")
     result = lagdsl.load(path).simulate("mode")
     w = 2 * np.sqrt(4) * np.sin(np.pi * 2 / 12)
     for i in range(1, 6):

@@ -11,6 +11,7 @@ import functools
 import hashlib
 import os
 import shutil
+import signal
 import subprocess
 import tempfile
 from pathlib import Path
@@ -43,6 +44,9 @@ int main(void)
     return n > 0 ? 0 : 1;
 }
 """
+# What a compiler driver prints when the compiler proper died of a signal (the out-of-memory killer
+# sends SIGKILL to cc1, not to the driver): gcc, then clang.
+KILLED_DIAGNOSTICS = ("signal terminated program", "due to signal", "unable to execute command: Killed")
 # The working precision of a build: the macro runtime.h reads, and the library it needs beyond libm.
 PRECISIONS = {"double": ((), ()), "long double": (("-DLAG_LONG_DOUBLE",), ()),
               "float128": (("-DLAG_FLOAT128",), ("-lquadmath",))}
@@ -56,9 +60,19 @@ def find_compiler() -> str:
                    "or run with --backend numpy")
 
 
+class CompilerFailed(InternalError):
+    """The C compiler refused the generated code or its flags; `diagnostics` is what it printed."""
+
+    def __init__(self, diagnostics: str):
+        super().__init__(f"the generated C did not compile\n{diagnostics}")
+        self.diagnostics = diagnostics
+
+
 def compile_c(source: str, output: Path, flags=STRICT_FLAGS, compiler: str | None = None,
               libraries: tuple[str, ...] = ()) -> None:
-    """Compile one C file; a compiler error in generated code is our bug, reported in full."""
+    """Compile one C file; a compiler error in generated code is our bug, reported in full. A
+    compiler killed by a signal (the out-of-memory killer, a Ctrl-C, a time limit) is not: that
+    is a LagError naming the signal and what to do."""
     compiler = compiler or find_compiler()
     with tempfile.TemporaryDirectory() as work:
         source_path = Path(work) / "model.c"        # the output's name may be long; this one never is
@@ -67,7 +81,22 @@ def compile_c(source: str, output: Path, flags=STRICT_FLAGS, compiler: str | Non
             result = subprocess.run([compiler, *flags, str(source_path), "-o", str(output), *libraries, "-lm"],
                                     capture_output=True, text=True)
         if result.returncode != 0:
-            raise InternalError(f"the generated C did not compile\n{result.stderr}")
+            _raise_if_killed(result, compiler, len(source))
+            raise CompilerFailed(result.stderr)
+
+
+def _raise_if_killed(result: subprocess.CompletedProcess, compiler: str, size: int) -> None:
+    """A LagError when the compiler, or the compiler proper under its driver, died of a signal:
+    a negative return code (the process itself), 128 + the signal (a wrapper script's child), or
+    the driver's own words for it."""
+    code = result.returncode
+    number = -code if code < 0 else code - 128 if 128 < code < 128 + signal.NSIG else None
+    if number is None and not any(words in result.stderr for words in KILLED_DIAGNOSTICS):
+        return
+    what = f"signal {number} ({signal.Signals(number).name})" if number in signal.valid_signals() else "a signal"
+    raise LagError(f"the C compiler {compiler} was killed by {what} while compiling {size / 1e6:.1f} MB of "
+                   f"generated C (SIGKILL is most often the out-of-memory killer); free memory and run "
+                   f"again, or run with --backend numpy\n{result.stderr.strip()}".rstrip())
 
 
 def shared_library(source: str, stem: str, openmp: bool | None = None, precision: str = "double") -> Path:
@@ -103,13 +132,25 @@ def library_flags(compiler: str, openmp: bool | None = None, flags: tuple[str, .
 
 
 def _compile_library(source: str, output: Path, compiler: str, openmp: bool | None, precision: str) -> None:
-    """Build with the tuned flags, or with the portable ones where the compiler refuses those."""
+    """Build with the tuned flags, or with the portable ones where the compiler refuses those:
+    where its diagnostics name one of the tuned flags the portable set leaves out. Any other
+    failure is raised as it is (a killed compiler would be killed again, an error in the
+    generated C would recur)."""
     libraries = PRECISIONS[precision][1]
     try:
         compile_c(source, output, library_flags(compiler, openmp, precision=precision), compiler, libraries)
-    except InternalError:
+    except CompilerFailed as failure:
+        if not refuses_tuned_flags(failure.diagnostics):
+            raise
         compile_c(source, output, library_flags(compiler, openmp, PORTABLE_LIBRARY_FLAGS, precision), compiler,
                   libraries)
+
+
+def refuses_tuned_flags(diagnostics: str) -> bool:
+    """Whether a compiler's diagnostics name a tuned flag that the portable set leaves out, by the
+    option's name (gcc says "bad value 'native' for '-march=' switch", clang "unknown argument")."""
+    options = {flag.split("=")[0] for flag in LIBRARY_FLAGS if flag not in PORTABLE_LIBRARY_FLAGS}
+    return any(option in diagnostics for option in options)
 
 
 @functools.lru_cache(maxsize=None)

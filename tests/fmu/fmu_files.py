@@ -1,17 +1,10 @@
 """Library models loaded once per test session, and FMUs of them written to files, for the FMU tests."""
 from __future__ import annotations
 
-import functools
 from pathlib import Path
 
-import lagdsl
 from lagdsl.fmu import build_fmu
-from tests.conftest import MODELS
-
-
-@functools.cache
-def load(name: str):
-    return lagdsl.load(MODELS / f"{name}.lag")
+from tests.conftest import library_model as load     # loaded once per session
 
 
 def fmu_file(folder: Path, name: str, scene: str | None = None, kinds: tuple[str, ...] | None = None,

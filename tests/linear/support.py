@@ -1,16 +1,10 @@
 """Helpers of the linear-analysis tests: one loaded model per library file, `lagc` in-process."""
 from __future__ import annotations
 
-import functools
-
-import lagdsl
 from lagdsl.cli import main
-from tests.conftest import MODELS
+from tests.conftest import library_model as model     # loaded once per session
 
-
-@functools.cache
-def model(name: str) -> lagdsl.Model:
-    return lagdsl.load(MODELS / f"{name}.lag")
+__all__ = ["lagc", "model"]
 
 
 def lagc(capsys, *arguments) -> tuple[int, str, str]:

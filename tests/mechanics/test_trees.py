@@ -10,14 +10,19 @@ tree form does not serve falls back to the expanded equations.
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from lagdsl.mechanics import derive_equations, trees
 from lagdsl.mechanics.trees import TreeEquations, derive_tree_equations
 from lagdsl.pipeline import execute, generate, model_from_source, plan
+from lagdsl.run import toolchain
 from lagdsl.scene import Overrides
 from lagdsl.source import SourceFile
+
+DENSE_64 = Path(__file__).parent / "references" / "chain_64_links_dense.csv"
 
 
 def chain_text(n: int, seconds: float = 10) -> str:
@@ -83,14 +88,26 @@ def trajectories(text: str, scene: str = "swing"):
     model = model_from_source(SourceFile("tree.lag", text))
     tree = derive_tree_equations(model)
     assert isinstance(tree, TreeEquations)
-    results = []
-    for equations in (tree, derive_equations(model)):
-        scene_plan = plan(model, equations, scene, Overrides())
-        kernel, source = generate(equations, scene_plan, "c", "tree.lag")
-        results.append((kernel, execute(kernel, source, scene_plan).values))
-    (tree_kernel, tree_values), (dense_kernel, dense_values) = results
-    assert tree_kernel.layout.kind == "tree" and dense_kernel.layout.kind != "tree"
-    return tree, tree_values, dense_values
+    return tree, run_tree(model, tree, scene), run_dense(model, scene)
+
+
+def run_tree(model, tree: TreeEquations, scene: str = "swing") -> np.ndarray:
+    kernel, values = run_scene(model, tree, scene)
+    assert kernel.layout.kind == "tree"
+    return values
+
+
+def run_dense(model, scene: str = "swing") -> np.ndarray:
+    kernel, values = run_scene(model, derive_equations(model), scene)
+    assert kernel.layout.kind != "tree"
+    return values
+
+
+def run_scene(model, equations, scene: str):
+    """The kernel generated for `equations` and the scene's outputs it gives (C backend)."""
+    scene_plan = plan(model, equations, scene, Overrides())
+    kernel, source = generate(equations, scene_plan, "c", "tree.lag")
+    return kernel, execute(kernel, source, scene_plan).values
 
 
 def tree_kernel(text: str):
@@ -109,13 +126,35 @@ def small_trees(monkeypatch):
 # The chain is chaotic: rounding differences of the two solves grow with time and with n, so
 # the longer chains are compared over fewer seconds. Each column agrees to 1e-10 of its size
 # (the energy of the 32-link chain is about 4e3: its rounding alone is 1e-12).
-@pytest.mark.parametrize("n, seconds", [(8, 10), pytest.param(32, 4, marks=pytest.mark.slow),
-                                        pytest.param(64, 2, marks=pytest.mark.slow)])
+@pytest.mark.parametrize("n, seconds", [(8, 10), pytest.param(32, 4, marks=pytest.mark.slow)])
 def test_chain_of_unequal_links_follows_the_dense_trajectory(n, seconds):
     tree, looped, dense = trajectories(chain_text(n, seconds))
     assert tree.parents == (-1, *range(n - 1)) and tree.axes == 2
     assert [links.placement.count for links in tree.links] == [n]      # one shape: one loop
+    assert_follows(looped, dense)
+
+
+def assert_follows(looped: np.ndarray, dense: np.ndarray) -> None:
+    assert looped.shape == dense.shape
     assert np.all(np.abs(looped - dense) <= 1e-10 * np.maximum(1, np.abs(dense)))
+
+
+@pytest.mark.slow
+def test_chain_of_64_links_follows_the_stored_dense_trajectory(update_golden, monkeypatch):
+    """As above over 2 s, against the expanded equations' trajectory stored in DENSE_64: deriving
+    them takes sympy minutes, and gcc -O3 takes 15-35 CPU minutes over their 4.2 MB of C.
+    `--update-golden` solves them again (built at -O1: the flags change no result, see
+    toolchain.LIBRARY_FLAGS, and -O1 builds in a fraction of the time) and rewrites the file."""
+    model = model_from_source(SourceFile("tree.lag", chain_text(64, 2)))
+    if update_golden:
+        monkeypatch.setattr(toolchain, "LIBRARY_FLAGS",
+                            tuple("-O1" if flag == "-O3" else flag for flag in toolchain.LIBRARY_FLAGS))
+        np.savetxt(DENSE_64, run_dense(model), fmt="%.17g", delimiter=",",
+                   header="theta[1],theta[64],x[64],energy every 0.05 s: the expanded equations, dop853")
+    assert DENSE_64.exists(), f"no stored trajectory {DENSE_64.name}; run pytest with --update-golden"
+    tree = derive_tree_equations(model)
+    assert isinstance(tree, TreeEquations) and tree.parents == (-1, *range(63))
+    assert_follows(run_tree(model, tree), np.loadtxt(DENSE_64, delimiter=","))
 
 
 @pytest.mark.parametrize("text, parents, axes", [(chain_text(3, seconds=5), (-1, 0, 1), 2),

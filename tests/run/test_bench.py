@@ -13,7 +13,7 @@ from lagdsl import bench, reference
 from lagdsl.cli import main
 from lagdsl.run import toolchain
 from lagdsl.scene import Overrides
-from tests.conftest import MODELS
+from tests.conftest import library_model, model_file
 
 # The Kepler ellipse of models/kepler.lag (r0 = 1, r0' = 0, theta0' = 1.2, GM = 1): energy
 # E = 1.44/2 - 1 = -0.28, semi-major axis a = -1/(2E), period T = 2 pi a^(3/2). At t = kT the
@@ -36,11 +36,8 @@ end Kepler;
 
 
 @pytest.fixture
-def kepler(tmp_path, monkeypatch):
-    monkeypatch.setenv("LAGDSL_CACHE", str(tmp_path / "cache"))
-    path = tmp_path / "kepler.lag"
-    path.write_text(KEPLER)
-    return path
+def kepler():
+    return model_file(KEPLER, "kepler")
 
 
 def test_adaptive_ladder_spans_1e_3_to_1e_13_with_atol_scaled():
@@ -75,7 +72,8 @@ def test_step_ladder_halves_from_four_intervals_within_the_run_and_the_step_limi
     assert max(s.step for s in bench.step_ladder("gauss", "c", short)) == pytest.approx(0.2)
 
 
-def test_the_reference_is_cached_and_not_rebuilt(kepler, monkeypatch):
+def test_the_reference_is_cached_and_not_rebuilt(kepler, tmp_path, monkeypatch):
+    monkeypatch.setenv("LAGDSL_CACHE", str(tmp_path / "cache"))      # cold: the first reference is built
     model = lagdsl.load(kepler)
     plan = model.plan()
     first = reference.reference_solution(model.equations, plan, model.source.name)
@@ -145,11 +143,10 @@ def test_simulate_estimates_its_global_error(kepler):
     assert estimate.column == max(errors, key=errors.get)
 
 
-def test_the_error_names_its_column_and_unit(tmp_path, monkeypatch):
+def test_the_error_names_its_column_and_unit():
     """Columns of different units: the largest error is named with its column and unit, and each
     column's largest error is listed in its unit."""
-    monkeypatch.setenv("LAGDSL_CACHE", str(tmp_path / "cache"))
-    estimate = lagdsl.load(MODELS / "kepler.lag").simulate(stop=5.0, estimate_error=True).summary.error
+    estimate = library_model("kepler").simulate(stop=5.0, estimate_error=True).summary.error
     errors = dict(estimate.columns)
     units = dict(zip(errors, estimate.units))
     assert units == {"r": "m", "theta": "rad", "energy": "J", "momentum(theta)": "kg*m^2/s"}

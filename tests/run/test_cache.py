@@ -143,15 +143,6 @@ def test_two_processes_building_the_same_model_both_succeed(cache_dir, tmp_path)
     assert lagc_run(model, cache_dir) == outputs[0][0]
 
 
-def test_a_compiler_that_refuses_the_tuned_flags_gets_the_portable_ones(cache_dir, monkeypatch, tmp_path):
-    from lagdsl.run import toolchain
-    monkeypatch.setattr(toolchain, "LIBRARY_FLAGS", (*toolchain.LIBRARY_FLAGS, "-fno-such-flag-anywhere"))
-    model = tmp_path / "oscillator.lag"
-    model.write_text(OSCILLATOR)
-    result = lagdsl.load(model).simulate(stop=1.0)
-    assert result.summary.count("accepted") > 0
-
-
 PLANTED = """#include <stdio.h>
 #include <stdlib.h>
 __attribute__((constructor)) static void planted(void) { FILE *f = fopen(getenv("PLANTED_MARK"), "w"); if (f) fclose(f); }
@@ -199,6 +190,7 @@ def test_code_planted_in_an_untrusted_cache_is_never_loaded(cache_dir, tmp_path,
             in done.stderr
 
 
+@pytest.mark.slow         # a vouched-for library of another's making: test_code_planted_in_an_untrusted_cache_is_never_loaded
 def test_a_library_without_the_entry_point_is_rebuilt(cache_dir, tmp_path):
     model = tmp_path / "oscillator.lag"
     model.write_text(OSCILLATOR)

@@ -13,6 +13,7 @@ import pytest
 
 import lagdsl
 from lagdsl.cli import main as lagc
+from tests.conftest import model_file
 from tests.run.c_harness import find_cc
 
 # y stays at rest at 0, so -y is -0, 1/y is inf and -1/y is -inf; sqrt(x - 2) is NaN (printf
@@ -33,11 +34,8 @@ COLUMNS = ["x", "-y", "1e-300*x", "sqrt(x - 2)", "1/y", "-1/y", "max(x, 0)", 'su
 
 
 @pytest.fixture
-def model_path(tmp_path, monkeypatch):
-    monkeypatch.setenv("LAGDSL_CACHE", str(tmp_path / "cache"))
-    path = tmp_path / "formats.lag"
-    path.write_text(MODEL)
-    return path
+def model_path():
+    return model_file(MODEL, "formats")
 
 
 def test_lagc_run_to_csv_and_the_standalone_program_write_the_same_bytes(tmp_path, model_path):

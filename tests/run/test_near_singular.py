@@ -16,7 +16,7 @@ import pytest
 import lagdsl
 from lagdsl.cli import main
 from lagdsl.settings import RCOND_MIN
-from tests.conftest import library_model
+from tests.conftest import library_model, model_file
 
 THROUGH_THE_POLE = """model Straight "a free particle on a line through the origin, in polar coordinates"
   coordinate r(start = -1, velocity = 1);
@@ -48,8 +48,7 @@ def test_heavy_top_a_little_further_from_the_pole_runs(backend):
 
 
 def test_rows_before_a_singular_state_are_written_to_the_output(tmp_path, capsys):
-    model = tmp_path / "straight.lag"
-    model.write_text(THROUGH_THE_POLE)
+    model = model_file(THROUGH_THE_POLE, "straight")
     output = tmp_path / "out.csv"
     status = main(["run", str(model), "--integrator", "rk4", "--step", "0.25", "--stop", "2",
                    "--interval", "0.25", "-o", str(output)])
@@ -68,8 +67,7 @@ def test_rows_before_a_singular_state_are_written_to_the_output(tmp_path, capsys
 @pytest.mark.parametrize("backend", ["c", "numpy"])
 def test_a_collapsing_step_keeps_the_rows_and_exits_1(tmp_path, capsys, backend):
     """Radial fall into 1/r: r reaches 0 at t = pi/(2 sqrt 2) = 1.11; the step size collapses."""
-    model = tmp_path / "fall.lag"
-    model.write_text("model Fall\n  coordinate r(start = 1);\n  T = der(r)^2/2;\n  U = -1/r;\nend Fall;\n")
+    model = model_file("model Fall\n  coordinate r(start = 1);\n  T = der(r)^2/2;\n  U = -1/r;\nend Fall;\n", "fall")
     output = tmp_path / "fall.csv"
     status = main(["run", str(model), "--backend", backend, "--stop", "2", "--interval", "0.1",
                    "-o", str(output)])

@@ -14,7 +14,7 @@ import pytest
 
 from lagdsl.errors import LagError
 from lagdsl.tolerances import atol_vector
-from tests.conftest import MODELS, lagc_in_process, library_model, slow_unless_kept
+from tests.conftest import MODELS, lagc_in_process, library_model, model_file, slow_unless_kept
 from tests.run.c_harness import find_cc
 
 M, Q, C, B = 9.1093837015e-31, -1.602176634e-19, 299792458.0, 1.0
@@ -118,8 +118,7 @@ def test_atol_per_component_is_the_same_given_in_the_scene_the_cli_and_the_api(t
     written = CYCLOTRON.read_text().replace(
         "integrator dop853(rtol = 1e-12, atol = 1e-18);",
         "integrator dop853(rtol = 1e-9, atol = 1, atol(x) = 1e-16, atol( y ) = 1e-16, atol(der(z)) = 1e-3);")
-    scene_file = tmp_path / "scene.lag"
-    scene_file.write_text(written)
+    scene_file = model_file(written, "scene")
     by_scene = tmp_path / "scene.csv"
     by_cli = tmp_path / "cli.csv"
     common = ["--backend", backend, "--stop", str(PERIOD), "--interval", str(PERIOD / 50)]

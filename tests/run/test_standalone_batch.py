@@ -12,28 +12,30 @@ import pytest
 from lagdsl.abi import parse_number
 from lagdsl.run.toolchain import supports_openmp
 from tests.run.c_harness import STRICT_FLAGS
+from tests.conftest import model_file
 from tests.run.test_failures import SINGULAR_LATER
 from tests.test_cli import lagc
 
 
-def _strict_programs(model_path, tmp_path) -> list[Path]:
-    """The model's standalone program built with the strict flags, serial and (when the compiler
-    can) with OpenMP."""
+@pytest.fixture(scope="module")
+def programs(tmp_path_factory) -> list[Path]:
+    """SINGULAR_LATER's standalone program built with the strict flags, serial and (when the
+    compiler can) with OpenMP: once for the module's tests, which only run it."""
     cc = shutil.which("cc") or pytest.skip("no C compiler")
-    source = tmp_path / "model.c"
-    assert lagc(model_path, "--emit", "c", "-o", source).returncode == 0
+    work = tmp_path_factory.mktemp("standalone")
+    source = work / "model.c"
+    assert lagc(model_file(SINGULAR_LATER, "singular"), "--emit", "c", "-o", source).returncode == 0
     builds = [("serial", [])] + ([("openmp", ["-fopenmp"])] if supports_openmp(cc) else [])
     for name, flags in builds:
-        subprocess.run([cc, *STRICT_FLAGS, *flags, "-o", tmp_path / name, source, "-lm"], check=True)
-    return [tmp_path / name for name, _ in builds]
+        subprocess.run([cc, *STRICT_FLAGS, *flags, "-o", work / name, source, "-lm"], check=True)
+    return [work / name for name, _ in builds]
 
 
-def test_the_standalone_batch_equals_single_runs_row_for_row(tmp_path):
-    model_path = tmp_path / "singular.lag"
-    model_path.write_text(SINGULAR_LATER, encoding="utf-8")     # x = x0 - t: singular where x = 0
+def test_the_standalone_batch_equals_single_runs_row_for_row(programs):
+    """SINGULAR_LATER has x = x0 - t: its mass matrix is singular where x = 0."""
     members = ["x.start=1.3", "x.start=1.0", "x.start=2.7 y.velocity=0.5"]
     batch_input = "# x0 and y'0\n" + "\n\n".join(members) + "\n"
-    for program in _strict_programs(model_path, tmp_path):
+    for program in programs:
         done = subprocess.run([program, "--batch", "t.stop=1.5"], input=batch_input, capture_output=True,
                               text=True, timeout=30, env={**os.environ, "OMP_NUM_THREADS": "2"})
         assert done.returncode == 1, done.stderr
@@ -52,10 +54,8 @@ def test_the_standalone_batch_equals_single_runs_row_for_row(tmp_path):
 
 
 @pytest.mark.slow
-def test_a_bad_line_of_batch_input_stops_the_batch_before_it_runs(tmp_path):
-    model_path = tmp_path / "singular.lag"
-    model_path.write_text(SINGULAR_LATER, encoding="utf-8")
-    program = _strict_programs(model_path, tmp_path)[0]
+def test_a_bad_line_of_batch_input_stops_the_batch_before_it_runs(programs):
+    program = programs[0]
     for text, words in [("x.start=1\nx.start=one\n", "line 2: expected NAME=VALUE with a number (and a unit), got 'x.start=one'"),
                         ("\nx.start=1 t.stop=3\n", "line 2: 't.stop' is not a parameter or a coordinate's"),
                         ("x.start=inf\n", "line 1: the initial value of x is inf"),
@@ -70,12 +70,10 @@ NUMBER_SAMPLES = ["1", "-0.5", "+2.", ".25", "1e-3", "1E+3", "inf", "-Infinity",
                   "1 ", "", ".", "e5", "1e", "1.5.2", "infinit", "--1"]
 
 
-def test_the_program_and_lagc_take_the_same_numbers(tmp_path):
+def test_the_program_and_lagc_take_the_same_numbers(programs):
     """A value the standalone program refuses, `lagc run --set` refuses too (abi.NUMBER): both read
     plain decimal numbers, inf and nan; neither hexadecimal nor Python's underscores."""
-    model_path = tmp_path / "singular.lag"
-    model_path.write_text(SINGULAR_LATER, encoding="utf-8")
-    program = _strict_programs(model_path, tmp_path)[0]
+    program = programs[0]
     for text in NUMBER_SAMPLES:
         done = subprocess.run([program, f"t.interval={text}", "--help"], capture_output=True, text=True, timeout=30)
         c_takes = "expected NAME=VALUE" not in done.stderr

@@ -174,12 +174,10 @@ end OnALine;
 
 
 @pytest.fixture(scope="module")
-def on_a_line(tmp_path_factory):
+def on_a_line():
     """The inverted oscillator in Cartesian coordinates, held to the line y = x by a constraint:
     along it s'' = (k/m) s, so the exponents are ±sqrt(k/m) = ±2 1/s, two of them (2n - h - m = 2)."""
-    path = tmp_path_factory.mktemp("line") / "on_a_line.lag"
-    path.write_text(INVERTED_ON_A_LINE)
-    return lagdsl.load(path)
+    return lagdsl.load(model_file(INVERTED_ON_A_LINE, "on_a_line"))
 
 
 @pytest.mark.parametrize("backend", ["numpy", "c"])
@@ -207,13 +205,11 @@ def test_the_c_backend_stands_dop853_in_for_gauss():
 
 
 @pytest.mark.slow
-def test_the_double_pendulum_in_cartesian_coordinates_has_the_angles_exponents(tmp_path):
+def test_the_double_pendulum_in_cartesian_coordinates_has_the_angles_exponents():
     """The same motion written in (x1, y1, x2, y2) with two rod constraints: the spectrum has
     2n - h - m = 4 exponents, as in angles; the finite-time estimates differ by the change of
     metric and of starting vectors, O(1)/T: 0.008 1/s for the largest after 20 s."""
-    path = tmp_path / "cartesian_double.lag"
-    path.write_text(CARTESIAN_DOUBLE_PENDULUM)
-    cartesian = lagdsl.load(path).lyapunov(stop=20, all=True, backend="c")
+    cartesian = lagdsl.load(model_file(CARTESIAN_DOUBLE_PENDULUM, "cartesian_double")).lyapunov(stop=20, all=True, backend="c")
     angles = library_model("double_pendulum").lyapunov(stop=20, all=True)
     assert len(cartesian.exponents) == 4
     assert cartesian.largest == pytest.approx(angles.largest, abs=0.03)
