@@ -6,6 +6,7 @@ NAME=VALUE arguments (and its --batch lines) all run the same inputs, bit for bi
 """
 from __future__ import annotations
 
+import math
 import subprocess
 from fractions import Fraction
 
@@ -39,7 +40,7 @@ end Swing;
 PLAIN = {"m": 250, "l": 30, "theta.start": 30, "theta.velocity": 20}
 WITH_UNITS = {"m": "250 g", "l": "30 cm", "theta.start": "30 deg", "theta.velocity": "20 deg/s"}
 # The same values in SI units: 30 deg is the double 30 times the factor of deg, rounded once.
-DEG = Fraction("0.01745329251994330")
+DEG = Fraction(repr(math.pi / 180))     # the double nearest pi/180, as lagdsl reads [deg] (tests/test_units.py)
 IN_SI = {"m": "0.25 kg", "l": "0.3 [m]", "theta.start": f"{float(30 * DEG)!r} rad",
          "theta.velocity": f"{float(20 * DEG)!r} rad/s"}
 
