@@ -229,44 +229,38 @@ class CtrlC:
     Python's SIGINT handler raises KeyboardInterrupt at the next bytecode the main thread runs,
     and when that bytecode belongs to a finaliser (the __del__ of some object the cyclic
     collector frees just then) Python prints "Exception ignored" and drops it: the press is lost
-    and the run goes on. Within this context, in the main thread and if SIGINT has Python's
-    default handler, a press first calls `on_press` and sets `pressed`, which the run's loops
-    test between steps (`check`), and then raises as usual. A context within another (a run of
-    a NumPy sweep) leaves the handler to the outer one, which presses for every open context.
-    SIGTERM, where terminate_as_interrupt() made it an interrupt, is handled the same way.
+    and the run goes on. While such contexts are open in the main thread, and if SIGINT had
+    Python's default handler when the first was opened, a press first calls every open
+    context's `on_press` and sets its `pressed`, which the run's loops test between steps
+    (`check`), and then raises as usual. Contexts within one another (the runs of a NumPy sweep)
+    share the one handler, which is put back when the last of them closes, in whatever order
+    they close (one opened in a generator closes when the generator is collected). SIGTERM,
+    where terminate_as_interrupt() made it an interrupt, is handled the same way.
     """
 
-    _innermost: CtrlC | None = None      # the context of the main thread that is open now
+    _open: list[CtrlC] = []                     # the main thread's contexts open now
+    _replaced: dict[int, Callable] = {}         # the handlers that _on_signal stands in for
 
     def __init__(self, on_press: Callable[[], None] = lambda: None):
         self.pressed = False
         self._on_press = on_press
-        self._previous: dict[int, Callable] = {}
-        self._outer: CtrlC | None = None
 
     def __enter__(self) -> CtrlC:
         if threading.current_thread() is threading.main_thread():
-            self._outer, CtrlC._innermost = CtrlC._innermost, self
+            CtrlC._open.append(self)
             for number, default in ((signal.SIGINT, signal.default_int_handler), (signal.SIGTERM, _terminated)):
                 if _signal.getsignal(number) is default:
-                    self._previous[number] = _signal.signal(number, self._handle)
+                    CtrlC._replaced[number] = _signal.signal(number, _on_signal)
         return self
 
     def __exit__(self, *exception) -> None:
-        for number, previous in self._previous.items():
-            _signal.signal(number, previous)
-        if CtrlC._innermost is self:
-            CtrlC._innermost = self._outer
-
-    def _handle(self, signal_number, frame) -> None:
-        if signal_number == signal.SIGTERM:
-            _terminated_note()
-        context = CtrlC._innermost
-        while context is not None:
-            context.pressed = True
-            context._on_press()
-            context = context._outer
-        raise KeyboardInterrupt
+        if self in CtrlC._open:
+            CtrlC._open.remove(self)
+        if not CtrlC._open:
+            for number, replaced in CtrlC._replaced.items():
+                if _signal.getsignal(number) is _on_signal:
+                    _signal.signal(number, replaced)
+            CtrlC._replaced.clear()
 
     def check(self) -> None:
         """Raise KeyboardInterrupt if Ctrl-C was pressed (its own exception may have been dropped)."""
@@ -279,3 +273,14 @@ class CtrlC:
             self.check()
             return function(*arguments)
         return checked_function
+
+
+def _on_signal(signal_number, frame) -> None:
+    """SIGINT (or SIGTERM as an interrupt) while CtrlC contexts are open: each is pressed, then
+    KeyboardInterrupt is raised as Python's own handler would."""
+    if signal_number == signal.SIGTERM:
+        _terminated_note()
+    for context in list(CtrlC._open):
+        context.pressed = True
+        context._on_press()
+    raise KeyboardInterrupt

@@ -128,7 +128,10 @@ def test_bad_options_are_clean_errors(kepler, options, message, capsys):
     assert capsys.readouterr().err.startswith(message)
 
 
-def test_simulate_estimates_its_global_error(kepler):
+def test_simulate_estimates_its_global_error(kepler, monkeypatch):
+    """A rerun at 100x tighter tolerances, unless the reference is cached already (which an
+    earlier test in the same worker may have done): this test takes the rerun's branch."""
+    monkeypatch.setattr(reference, "reference_is_cached", lambda *arguments: False)
     model = lagdsl.load(kepler)
     result = model.simulate(estimate_error=True)
     exact = np.column_stack([np.ones(ORBITS + 1), 2 * math.pi * np.arange(ORBITS + 1)])
