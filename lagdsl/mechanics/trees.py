@@ -41,8 +41,10 @@ import sympy
 
 from .. import ir
 from ..calculus import Differentiator, partial_derivative
+from .constraints import constraint_equations
 from .families import PARAMETER, POSITION, VELOCITY, LocalEquations, Stencil, additive_terms, \
     parameter_members, slot, _runs
+from .probe import Probe
 
 TREE_MIN_COORDINATES = 8        # smaller chains are cheap in the dense form
 POINT, POINT_RATE = "§P", "§R"  # slots of a body's P_a and P_a' in a link's energy (no user can write §)
@@ -73,6 +75,26 @@ class TreeEquations(LocalEquations):
         self.definitions = definitions          # the bodies' components and velocities, link by link
         self.points = points                    # P_ja -> j·2d + a, P_ja' -> j·2d + d + a
         self.energy_shift = energy_shift        # U_0, the constant terms of U
+        self.constraints = self.active_constraints = ()
+
+    def close_loops(self) -> bool:
+        """Derive the model's constraints through the tree's lets (a constraint on a body reads
+        its path to the root); False where one is not holonomic, which the tree form leaves to
+        the expanded equations. h stays conserved while no constraint depends on t."""
+        if not self.model.constraints:
+            return True
+        calculus = self.calculus()
+        probe = Probe(calculus, (*self.coordinates, *self.velocities, ir.TIME,
+                                 *(p.symbol for p in self.model.parameters)))
+        constraints = constraint_equations(self.model, calculus, probe)
+        if any(c.kind != "holonomic" for c in constraints):
+            return False
+        self.constraints = constraints
+        self.definitions = calculus.definitions()   # with the intermediates the constraints' rates made
+        self.active_constraints = tuple(c for c in constraints if not c.dropped)
+        if any(ir.TIME in calculus.dependencies(c.residual) for c in self.active_constraints):
+            self.conserved = ()
+        return True
 
     @property
     def velocity_in_accelerations(self) -> str:
@@ -87,7 +109,7 @@ class TreeEquations(LocalEquations):
 def derive_tree_equations(model: ir.Model) -> TreeEquations | None:
     """The tree form of `model`'s equations, or None where it does not apply (module docstring)."""
     n = len(model.coordinates)
-    if (n < TREE_MIN_COORDINATES or model.constraints or model.forces or model.dissipation is not None
+    if (n < TREE_MIN_COORDINATES or model.forces or model.dissipation is not None
             or not model.lagrangian.is_natural):
         return None
     tree = _Tree(model)
@@ -97,7 +119,8 @@ def derive_tree_equations(model: ir.Model) -> TreeEquations | None:
     potential = tree.potential(bodies)
     if potential is None:
         return None
-    return tree.equations(bodies, *potential)
+    equations = tree.equations(bodies, *potential)
+    return equations if equations.close_loops() else None
 
 
 class _Tree:
