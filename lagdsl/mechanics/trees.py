@@ -27,8 +27,11 @@ q_j'' = (τ_j - sᵀ(Â (P_parent'' + w_j) + ĉ_j)) / D. Each link's record (m_j
 from each link's terms r_j and r_j' = s_j q_j' made sums along the path from the root
 (P_j = P_parent + r_j, P_j' = P_parent' + r_j'), a sweep root to leaves in the generated code.
 
-The tree form is used for a natural system without constraints, forces or dissipation, with at
-least TREE_MIN_COORDINATES coordinates, each the joint of one body, every body with a mass on
+Holonomic constraints g(q, t) = 0 close loops (a chain pinned at both ends): their rows
+A = ∂g/∂q and γ are derived through the recursive lets (TreeEquations.close_loops), and the
+generated code solves M q'' = f + Aᵀλ, A q'' = γ by the Schur complement A M⁻¹ Aᵀ with the one
+factor of the recursion (docs/numerics.md). The tree form is used for a natural system without
+forces, dissipation or nonholonomic constraints, with at least TREE_MIN_COORDINATES coordinates, each the joint of one body, every body with a mass on
 each of its parent's components, and T and U exactly of the forms above. Everything else, and
 what the tree form does not provide (`lagc eom`, implicit and symplectic integrators, momenta),
 takes the expanded Equations of derive_equations, derived on first use.
