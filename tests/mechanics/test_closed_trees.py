@@ -3,7 +3,7 @@ of lag_solve in templates/c/model.c.j2): a chain whose last bob is pinned to a p
 on a line, solved through the articulated-body factor of M, against the expanded equations'
 dense saddle-point solve (itself checked against the textbook in tests/models/test_constrained.py):
 the same trajectory, multipliers and residuals to 1e-10 of their size, the generated C
-compiled strictly.
+compiled strictly; and chains with joint dampers and forces on single joints (their τ_j).
 
 The closed chain is chaotic and snaps (its multipliers jump tenfold within 0.05 s): rounding
 differences of the two solves grow with time and n, and at rtol 1e-10 the two runs' different
@@ -17,7 +17,7 @@ import pytest
 from lagdsl.mechanics.trees import TreeEquations, derive_tree_equations
 from lagdsl.pipeline import model_from_source
 from lagdsl.source import SourceFile
-from tests.mechanics.test_trees import assert_follows, run_dense, run_scene
+from tests.mechanics.test_trees import assert_follows, chain_text, run_dense, run_scene
 from tests.run.c_harness import build_scene_programs
 
 PIN = "constraint ex: x[n] = span;\n  constraint ey: y[n] = drop;"
@@ -84,3 +84,31 @@ def test_closed_chain_compiles_strictly(tmp_path):
     source = tmp_path / "swing.c"
     build_scene_programs(model, ("swing",), tmp_path)
     assert "lag_tree_substitute(K, pivot, response[i], 0);" in source.read_text()
+
+
+# Joint dampers and forces on single joints add to the joints' torques τ_j (mechanics/trees.py).
+DRIVEN = chain_text(8, seconds=3).replace("  scene swing", """  dissipation = sum(0.3*i/2*der(theta[i])^2, i in 1:n);
+  force theta[2] = -0.5*sin(theta[2]) - 0.2*der(theta[2]);
+  scene swing""")
+
+
+def test_damped_and_forced_joints_follow_the_dense_trajectory():
+    model = model_from_source(SourceFile("driven.lag", DRIVEN))
+    tree = derive_tree_equations(model)
+    assert isinstance(tree, TreeEquations) and not tree.conserved
+    kernel, looped = run_scene(model, tree, "swing")
+    assert kernel.layout.kind == "tree"
+    dense = run_dense(model)
+    assert dense[-1, -1] < dense[0, -1] - 1                 # the dampers take energy out
+    assert_follows(looped, dense)
+
+
+@pytest.mark.parametrize("old, new", [
+    ("force theta[2] = -0.5*sin(theta[2])", "force theta[2] = -0.5*sin(theta[3])"),
+    ("force theta[2] = -0.5*sin(theta[2])", "force theta[2] = -0.5*sin(t)"),
+    ("sum(0.3*i/2*der(theta[i])^2, i in 1:n)", "sum(0.3*i/2*der(x[i])^2, i in 1:n)"),
+], ids=["force on another joint", "force in time", "damper on a body"])
+def test_forces_beyond_one_joint_take_the_expanded_equations(old, new):
+    text = DRIVEN.replace(old, new)
+    assert text != DRIVEN
+    assert derive_tree_equations(model_from_source(SourceFile("driven.lag", text))) is None
