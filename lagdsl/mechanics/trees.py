@@ -32,8 +32,9 @@ A = ∂g/∂q and γ are derived through the recursive lets (TreeEquations.close
 generated code solves M q'' = f + Aᵀλ, A q'' = γ by the Schur complement A M⁻¹ Aᵀ with the one
 factor of the recursion (docs/numerics.md). Forces Q_j and terms of the dissipation D that read
 one joint's q_j and q_j' alone (joint dampers c_j q_j'²/2) add to its τ_j. The tree form is used
-for a natural system without nonholonomic constraints, with at least TREE_MIN_COORDINATES coordinates, each the joint of one body, every body with a mass on
-each of its parent's components, and T and U exactly of the forms above. Everything else, and
+for a natural system without nonholonomic constraints, with at least TREE_MIN_COORDINATES
+coordinates, each the joint of one body, every body with a mass on each of its parent's
+components, and T and U exactly of the forms above. Everything else, and
 what the tree form does not provide (`lagc eom`, implicit and symplectic integrators, momenta),
 takes the expanded Equations of derive_equations, derived on first use.
 """
