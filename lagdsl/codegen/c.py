@@ -154,7 +154,8 @@ def _linear_algebra(kernel: Kernel) -> str:
     """Only the factorisations the scene calls: unused static functions are warnings."""
     dense = layout_kind(kernel) == "dense"
     needs_lu = kernel.solver == "lu" or bool(kernel.constraints)
-    needs_cholesky = kernel.solver == "cholesky" and dense
+    schur = layout_kind(kernel) == "tree" and bool(kernel.constraints)   # the tree's lag_solve factors A M^-1 A^T
+    needs_cholesky = kernel.solver == "cholesky" and (dense or schur)
     files = (("cholesky.c", needs_cholesky), ("lu.c", needs_lu), ("lu_condition.c", kernel.solver == "lu"))
     return "".join(c_file(name) + "\n" for name, needed in files if needed)
 

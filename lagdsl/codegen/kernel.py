@@ -147,7 +147,7 @@ def lower_to_kernel(equations: Equations | LocalEquations | TreeEquations, plan:
     it, else from the expanded equations."""
     if isinstance(equations, TreeEquations):
         from .tree_loops import TreeLowering
-        if local_form_serves(plan, False):
+        if local_form_serves(plan, False, bool(equations.active_constraints)):
             return TreeLowering(equations, plan).kernel()
         equations = equations.expanded
     if isinstance(equations, LocalEquations):
@@ -158,13 +158,14 @@ def lower_to_kernel(equations: Equations | LocalEquations | TreeEquations, plan:
     return _Lowering(equations, plan).kernel()
 
 
-def local_form_serves(plan: ScenePlan, constant_mass: bool) -> bool:
+def local_form_serves(plan: ScenePlan, constant_mass: bool, constrained: bool = False) -> bool:
     """The local form gives M, f, their derivatives and the energy: enough for an integrator
-    whose outputs need no momenta, multipliers or residuals, other than gauss (the canonical
-    form) and taylor (its series are built from straight-line blocks), and for an implicit one
-    when M is constant (∂(M q'')/∂q = 0)."""
+    whose outputs need no momenta, multipliers or residuals (the tree form with constraints
+    gives those two), other than gauss (the canonical form) and taylor (its series are built
+    from straight-line blocks), and for an implicit one when M is constant (∂(M q'')/∂q = 0)."""
+    kinds = ("expression", "energy", "multiplier", "residual") if constrained else ("expression", "energy")
     return (not plan.canonical and not plan.series and (constant_mass or not plan.implicit)
-            and all(o.kind in ("expression", "energy") for o in plan.outputs))
+            and all(o.kind in kinds for o in plan.outputs))
 
 
 class _Lowering:

@@ -57,6 +57,7 @@ class MassLayout:
     multipliers: int = 0                        # the last positions that are constraint rows (kkt_layout)
     parents: tuple[int, ...] = ()               # of the tree layout: each link's parent link, -1 at the root
     axes: int = 0                               # of the tree layout: the components of a body, d
+    constraint_rows: int = 0                    # of the tree layout: the rows of A after the records
 
     @property
     def coordinates(self) -> int:
@@ -69,7 +70,7 @@ class MassLayout:
         if self.kind == "banded":
             return self.n * (self.bandwidth + 1)
         if self.kind == "tree":
-            return self.n * self.record
+            return self.n * (self.record + self.constraint_rows)
         return self.n * self.n if self.kind == "dense" else self.n + sum(len(c) for c in self.columns)
 
     @property
@@ -131,10 +132,12 @@ def local_layout(n: int, bandwidth: int) -> MassLayout:
 TREE_RECORD = 4         # vectors of a link's record in the tree layout: m, s, w, g
 
 
-def tree_layout(parents: tuple[int, ...], axes: int) -> MassLayout:
-    """The layout of the tree form (mechanics/trees.py): link records, no M."""
+def tree_layout(parents: tuple[int, ...], axes: int, constraint_rows: int = 0) -> MassLayout:
+    """The layout of the tree form (mechanics/trees.py): link records, no M, then the
+    constraint rows of A, n reals each."""
     n = len(parents)
-    return MassLayout("tree", n, tuple(range(n)), ((),) * n, frozenset(), parents=parents, axes=axes)
+    return MassLayout("tree", n, tuple(range(n)), ((),) * n, frozenset(), parents=parents, axes=axes,
+                      constraint_rows=constraint_rows)
 
 
 def mass_layout(mass_matrix: tuple[tuple[sympy.Expr, ...], ...]) -> MassLayout:

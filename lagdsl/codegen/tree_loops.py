@@ -27,15 +27,28 @@ class TreeLowering(LocalLowering):
 
     eq: TreeEquations
 
+    def linear_system(self) -> tuple[str, MassLayout]:
+        """The recursion solves M; with constraints, the templates' Schur complement A M⁻¹ Aᵀ
+        is positive definite while they are independent: Cholesky."""
+        return "cholesky", self.mass_layout()
+
     def mass_layout(self) -> MassLayout:
-        return tree_layout(self.eq.parents, self.eq.axes)
+        return tree_layout(self.eq.parents, self.eq.axes, len(self.active))
 
     def mass_is_constant(self) -> bool:
         return False
 
     def system_block(self) -> Block:
         loops = [self.links_loop(links) for links in self.eq.links]
-        return self.looped_block([], [loop for loop in loops if loop], cleared=("b", "K"))
+        return self.looped_block(self.constraint_stores(), [loop for loop in loops if loop], cleared=("b", "K"))
+
+    def constraint_stores(self) -> list[tuple[str, tuple[int, ...], sympy.Expr]]:
+        """The rows of A, each of n reals after the links' records in K (their nonzero entries:
+        those of the joints on the constrained bodies' paths), and γ after the torques in b."""
+        n, start = self.n, self.n * self.layout.record
+        rows = [("K", (start + i * n + k,), a) for i, c in enumerate(self.active)
+                for k, a in enumerate(c.jacobian) if a != 0]
+        return rows + [("b", (n + i,), c.gamma) for i, c in enumerate(self.active)]
 
     def links_loop(self, links):
         """Link records into K (entry (link, field)) and the torques into b."""

@@ -12,7 +12,7 @@ w_j = (∂²r_j/∂q_j²) q_j'², the kinetic energy T = Σ_j Σ_a m_ja/2 (P_ja'
 U = Σ_j g_j·P_j + Σ_j V_j(q_j) (g_j free of the state: a uniform field such as gravity), the
 Euler-Lagrange equation of q_j is the balance along its joint of the forces on its subtree:
 
-    s_jᵀ F_j = τ_j = -V_j'(q_j),   F_j = Σ_{k in the subtree of j} (m_k P_k'' + g_k),
+    s_jᵀ F_j = τ_j = -V_j'(q_j) + Q_j - ∂D/∂q_j',   F_j = Σ_{k in the subtree of j} (m_k P_k'' + g_k),
     P_j'' = P_parent(j)'' + s_j q_j'' + w_j,
 
 solved by the articulated-body recursion (the tree layout of codegen/structure.py): leaves to
@@ -27,9 +27,14 @@ q_j'' = (τ_j - sᵀ(Â (P_parent'' + w_j) + ĉ_j)) / D. Each link's record (m_j
 from each link's terms r_j and r_j' = s_j q_j' made sums along the path from the root
 (P_j = P_parent + r_j, P_j' = P_parent' + r_j'), a sweep root to leaves in the generated code.
 
-The tree form is used for a natural system without constraints, forces or dissipation, with at
-least TREE_MIN_COORDINATES coordinates, each the joint of one body, every body with a mass on
-each of its parent's components, and T and U exactly of the forms above. Everything else, and
+Holonomic constraints g(q, t) = 0 close loops (a chain pinned at both ends): their rows
+A = ∂g/∂q and γ are derived through the recursive lets (TreeEquations.close_loops), and the
+generated code solves M q'' = f + Aᵀλ, A q'' = γ by the Schur complement A M⁻¹ Aᵀ with the one
+factor of the recursion (docs/numerics.md). Forces Q_j and terms of the dissipation D that read
+one joint's q_j and q_j' alone (joint dampers c_j q_j'²/2) add to its τ_j. The tree form is used
+for a natural system without nonholonomic constraints, with at least TREE_MIN_COORDINATES
+coordinates, each the joint of one body, every body with a mass on each of its parent's
+components, and T and U exactly of the forms above. Everything else, and
 what the tree form does not provide (`lagc eom`, implicit and symplectic integrators, momenta),
 takes the expanded Equations of derive_equations, derived on first use.
 """
@@ -41,8 +46,10 @@ import sympy
 
 from .. import ir
 from ..calculus import Differentiator, partial_derivative
+from .constraints import constraint_equations
 from .families import PARAMETER, POSITION, VELOCITY, LocalEquations, Stencil, additive_terms, \
     parameter_members, slot, _runs
+from .probe import Probe
 
 TREE_MIN_COORDINATES = 8        # smaller chains are cheap in the dense form
 POINT, POINT_RATE = "§P", "§R"  # slots of a body's P_a and P_a' in a link's energy (no user can write §)
@@ -68,11 +75,32 @@ class TreeEquations(LocalEquations):
     def __init__(self, model: ir.Model, parents: tuple[int, ...], axes: int, links: tuple[Links, ...],
                  definitions: tuple[tuple[sympy.Symbol, sympy.Expr], ...], points: dict[sympy.Symbol, int],
                  energy_shift: sympy.Expr):
-        super().__init__(model, (), 0, True)    # the energy: ENERGY, which the links' loops compute
+        # the energy: ENERGY, which the links' loops compute; conserved without forces and dissipation
+        super().__init__(model, (), 0, not model.forces and model.dissipation is None)
         self.parents, self.axes, self.links = parents, axes, links
         self.definitions = definitions          # the bodies' components and velocities, link by link
         self.points = points                    # P_ja -> j·2d + a, P_ja' -> j·2d + d + a
         self.energy_shift = energy_shift        # U_0, the constant terms of U
+        self.constraints = self.active_constraints = ()
+
+    def close_loops(self) -> bool:
+        """Derive the model's constraints through the tree's lets (a constraint on a body reads
+        its path to the root); False where one is not holonomic, which the tree form leaves to
+        the expanded equations. h stays conserved while no constraint depends on t."""
+        if not self.model.constraints:
+            return True
+        calculus = self.calculus()
+        probe = Probe(calculus, (*self.coordinates, *self.velocities, ir.TIME,
+                                 *(p.symbol for p in self.model.parameters)))
+        constraints = constraint_equations(self.model, calculus, probe)
+        if any(c.kind != "holonomic" for c in constraints):
+            return False
+        self.constraints = constraints
+        self.definitions = calculus.definitions()   # with the intermediates the constraints' rates made
+        self.active_constraints = tuple(c for c in constraints if not c.dropped)
+        if any(ir.TIME in calculus.dependencies(c.residual) for c in self.active_constraints):
+            self.conserved = ()
+        return True
 
     @property
     def velocity_in_accelerations(self) -> str:
@@ -87,17 +115,17 @@ class TreeEquations(LocalEquations):
 def derive_tree_equations(model: ir.Model) -> TreeEquations | None:
     """The tree form of `model`'s equations, or None where it does not apply (module docstring)."""
     n = len(model.coordinates)
-    if (n < TREE_MIN_COORDINATES or model.constraints or model.forces or model.dissipation is not None
-            or not model.lagrangian.is_natural):
+    if n < TREE_MIN_COORDINATES or not model.lagrangian.is_natural:
         return None
     tree = _Tree(model)
     bodies = tree.bodies()
     if bodies is None:
         return None
-    potential = tree.potential(bodies)
-    if potential is None:
+    potential, drives = tree.potential(bodies), tree.drives()
+    if potential is None or drives is None:
         return None
-    return tree.equations(bodies, *potential)
+    equations = tree.equations(bodies, *potential, drives)
+    return equations if equations.close_loops() else None
 
 
 class _Tree:
@@ -268,12 +296,40 @@ class _Tree:
             torques[self.index[next(iter(joints))]] += term
         return fields, torques, shift
 
-    def equations(self, bodies, fields, torques, shift) -> TreeEquations:
+    def drives(self) -> list[sympy.Expr] | None:
+        """Joint -> Q_j - ∂D/∂q_j', the forces and the dissipation on it, where each force and
+        each term of D reads one joint's q_j and q_j' alone (no let, no t); else None."""
+        names = {c.name: k for k, c in enumerate(self.model.coordinates)}
+        drives = [sympy.S.Zero] * len(self.model.coordinates)
+        for force in self.model.forces:
+            k = names[force.coordinate]
+            if self._joint_alone(force.expression) not in (k, -1):
+                return None
+            drives[k] += force.expression
+        dissipation = self.model.dissipation
+        for term in additive_terms(dissipation.expression, self.constant) if dissipation is not None else ():
+            k = self._joint_alone(term)
+            if k is None:
+                return None
+            if k >= 0:
+                drives[k] -= partial_derivative(term, self.model.coordinates[k].velocity_symbol)
+        return drives
+
+    def _joint_alone(self, expression: sympy.Expr) -> int | None:
+        """The one joint whose q_j and q_j' an expression reads (-1: none), or None when it
+        reads several, a let or t."""
+        free = expression.free_symbols & self.varying
+        joints = {self.index[c.symbol] for c in self.model.coordinates if free & {c.symbol, c.velocity_symbol}}
+        if len(joints) > 1 or free & (self.let_symbols | {ir.TIME}):
+            return None
+        return joints.pop() if joints else -1
+
+    def equations(self, bodies, fields, torques, shift, drives) -> TreeEquations:
         shapes: dict[tuple, list[tuple[int, int]]] = {}
         for j, body in enumerate(bodies):
             q = self.model.coordinates[j]
             record = [m for _, m in body] + [self.parts(x)[j] for x, _ in body] + \
-                     [fields.get(x, sympy.S.Zero) for x, _ in body] + [torques[j]]
+                     [fields.get(x, sympy.S.Zero) for x, _ in body] + [torques[j], drives[j]]
             renamed, parameter_base = self._in_slots(record, q)
             shapes.setdefault(tuple(renamed), []).append((j, parameter_base))
         links = tuple(_links(shape, run, len(bodies[0])) for shape, members in shapes.items() for run in _runs(members))
@@ -310,7 +366,8 @@ def _links(shape: tuple, run: list[tuple[int, int]], axes: int) -> Links:
     """The Links of one run of bodies of one shape: its record, with s and w derived from r."""
     (first, parameter_first), count = run[0], len(run)
     step, parameter_step = (run[1][0] - first, run[1][1] - parameter_first) if count > 1 else (0, 0)
-    masses, joints, gradient, potential = shape[:axes], shape[axes:2 * axes], shape[2 * axes:3 * axes], shape[-1]
+    masses, joints, gradient = shape[:axes], shape[axes:2 * axes], shape[2 * axes:3 * axes]
+    potential, drive = shape[-2:]
     x, v = slot(POSITION, 0), slot(VELOCITY, 0)
     slopes = [partial_derivative(r, x) for r in joints]
     bias = [partial_derivative(s, x) * v ** 2 for s in slopes]
@@ -319,5 +376,5 @@ def _links(shape: tuple, run: list[tuple[int, int]], axes: int) -> Links:
     energy = sympy.Add(*(m / 2 * slot(POINT_RATE, a) ** 2 + g * slot(POINT, a)
                          for a, (m, g) in enumerate(zip(masses, gradient))), potential)
     placement = Stencil("lagrangian", (0,), count, first, step, (0,), parameter_first, parameter_step,
-                        tuple(members), (), (-partial_derivative(potential, x),), energy)
+                        tuple(members), (), (drive - partial_derivative(potential, x),), energy)
     return Links(placement, (*masses, *slopes, *bias, *gradient), (*joints, *(s * v for s in slopes)))

@@ -286,45 +286,38 @@ static void lag_initial_state(const real *par, real *y0)
 /* The parent of each link (-1: at the root); a parent precedes its children. */
 static const int lag_parent[LAG_NQ] = { -1, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10 };
 
-/* Solve M x = b for x = q'' by the articulated-body recursion, without forming M (K holds the
- * links' records m_j, s_j, w_j, g_j at j * LAG_RECORD and is destroyed, b the torques tau_j;
- * mechanics/trees.py). Leaves to root: A_hat = diag(m_j) + the children's A, c_hat = g_j + the
- * children's c, D_j = s^T A_hat s, u_j = tau_j - s^T (A_hat w + c_hat), and the subtree seen
- * from its parent's point A = A_hat - (A_hat s)(A_hat s)^T / D_j, c = A_hat w + c_hat
- * + (A_hat s) u_j / D_j. Root to leaves: q''_j = (u_j - (A_hat s)^T a_parent) / D_j and
- * a_j = a_parent + s q''_j + w. The D_j are the pivots of the LDL^T of M that eliminates leaves
- * first; *rcond receives min / max of D_j / M_jj, those of the equilibrated M, with
- * M_jj = s^T diag(the subtree's masses) s; LAG_ERR_SINGULAR when it is below LAG_RCOND_MIN or a
- * pivot is not positive (then *rcond is 0). */
-static int lag_solve(int n, real *K, real *b, real *rcond)
+/* The articulated-body recursion (mechanics/trees.py), leaves to root: A_hat = diag(m_j) + the
+ * children's A, D_j = s^T A_hat s and the subtree seen from its parent's point
+ * A = A_hat - (A_hat s)(A_hat s)^T / D_j, without forming M (K holds the links' records m_j, s_j,
+ * w_j, g_j at j * LAG_RECORD; m becomes A_hat s and g becomes g + A_hat w, the pivots D_j go to
+ * pivot[]). The D_j are the pivots of the LDL^T of M that eliminates leaves first; *rcond receives
+ * min / max of D_j / M_jj, those of the equilibrated M, with M_jj = s^T diag(the subtree's masses) s;
+ * LAG_ERR_SINGULAR when it is below LAG_RCOND_MIN or a pivot is not positive (then *rcond is 0). */
+static int lag_tree_factor(real *K, real *pivot, real *rcond)
 {
-    real inertia[LAG_NQ][LAG_AXES][LAG_AXES], bias[LAG_NQ][LAG_AXES], mass[LAG_NQ][LAG_AXES];
-    real pivot[LAG_NQ], acc[LAG_NQ][LAG_AXES], at_root[LAG_AXES] = { 0 }, smallest = 0, largest = 0;
+    real inertia[LAG_NQ][LAG_AXES][LAG_AXES], mass[LAG_NQ][LAG_AXES], smallest = 0, largest = 0;
     int j, a, c;
-    (void)n;
     *rcond = 0;
     for (j = 0; j < LAG_NQ; ++j)
         for (a = 0; a < LAG_AXES; ++a) {
             for (c = 0; c < LAG_AXES; ++c)
                 inertia[j][a][c] = a == c ? K[j * LAG_RECORD + a] : 0;
             mass[j][a] = K[j * LAG_RECORD + a];
-            bias[j][a] = K[j * LAG_RECORD + 3 * LAG_AXES + a];
         }
     for (j = LAG_NQ - 1; j >= 0; --j) {
-        real *link = K + j * LAG_RECORD;        /* m, s, w, g; m becomes A_hat s */
+        real *link = K + j * LAG_RECORD;
         const real *s = link + LAG_AXES, *w = link + 2 * LAG_AXES;
-        real d = 0, u = b[j], diagonal = 0;
+        real d = 0, diagonal = 0;
         const int parent = lag_parent[j];
         for (a = 0; a < LAG_AXES; ++a) {
             link[a] = 0;
             for (c = 0; c < LAG_AXES; ++c) {
                 link[a] += inertia[j][a][c] * s[c];
-                bias[j][a] += inertia[j][a][c] * w[c];     /* c_hat + A_hat w */
+                link[3 * LAG_AXES + a] += inertia[j][a][c] * w[c];
             }
         }
         for (a = 0; a < LAG_AXES; ++a) {
             d += s[a] * link[a];
-            u -= s[a] * bias[j][a];
             diagonal += mass[j][a] * s[a] * s[a];
         }
         if (!(d > 0 && r_isfinite(d)))
@@ -332,19 +325,40 @@ static int lag_solve(int n, real *K, real *b, real *rcond)
         smallest = j == LAG_NQ - 1 ? d / diagonal : r_fmin(smallest, d / diagonal);
         largest = r_fmax(largest, d / diagonal);
         pivot[j] = d;
-        b[j] = u;
         if (parent < 0)
             continue;
         for (a = 0; a < LAG_AXES; ++a) {
             for (c = 0; c < LAG_AXES; ++c)
                 inertia[parent][a][c] += inertia[j][a][c] - link[a] * link[c] / d;
-            bias[parent][a] += bias[j][a] + link[a] * u / d;
             mass[parent][a] += mass[j][a];
         }
     }
     if (!(smallest / largest >= LAG_RCOND_MIN))
         return LAG_ERR_SINGULAR;
     *rcond = smallest / largest;
+    return LAG_OK;
+}
+
+/* x = M^-1 b in place, b the torques tau_j, with the factor of lag_tree_factor; `biased`: the
+ * links' w_j and g_j act too (the motion's own terms), else x = M^-1 b alone. Leaves to root:
+ * c_hat = (g + A_hat w if biased) + the children's c, u_j = tau_j - s^T c_hat and the subtree's
+ * c = c_hat + (A_hat s) u_j / D_j. Root to leaves: q''_j = (u_j - (A_hat s)^T a_parent) / D_j and
+ * a_j = a_parent + s q''_j (+ w if biased). */
+static void lag_tree_substitute(const real *K, const real *pivot, real *b, int biased)
+{
+    real bias[LAG_NQ][LAG_AXES], acc[LAG_NQ][LAG_AXES], at_root[LAG_AXES] = { 0 };
+    int j, a;
+    for (j = 0; j < LAG_NQ; ++j)
+        for (a = 0; a < LAG_AXES; ++a)
+            bias[j][a] = biased ? K[j * LAG_RECORD + 3 * LAG_AXES + a] : 0;
+    for (j = LAG_NQ - 1; j >= 0; --j) {
+        const real *link = K + j * LAG_RECORD, *s = link + LAG_AXES;
+        for (a = 0; a < LAG_AXES; ++a)
+            b[j] -= s[a] * bias[j][a];
+        if (lag_parent[j] >= 0)
+            for (a = 0; a < LAG_AXES; ++a)
+                bias[lag_parent[j]][a] += bias[j][a] + link[a] * b[j] / pivot[j];
+    }
     for (j = 0; j < LAG_NQ; ++j) {
         const real *link = K + j * LAG_RECORD, *s = link + LAG_AXES, *w = link + 2 * LAG_AXES;
         const real *above = lag_parent[j] < 0 ? at_root : acc[lag_parent[j]];
@@ -354,8 +368,20 @@ static int lag_solve(int n, real *K, real *b, real *rcond)
         x /= pivot[j];
         b[j] = x;
         for (a = 0; a < LAG_AXES; ++a)
-            acc[j][a] = above[a] + s[a] * x + w[a];
+            acc[j][a] = above[a] + s[a] * x + (biased ? w[a] : 0);
     }
+}
+
+/* Solve M x = b for x = q'' through the tree (K holds the links' records, destroyed; b the
+ * torques tau_j): lag_tree_factor, then lag_tree_substitute with the links' own terms. */
+static int lag_solve(int n, real *K, real *b, real *rcond)
+{
+    real pivot[LAG_NQ];
+    int status;
+    (void)n;
+    if ((status = lag_tree_factor(K, pivot, rcond)) != LAG_OK)
+        return status;
+    lag_tree_substitute(K, pivot, b, 1);
     return LAG_OK;
 }
 
