@@ -57,7 +57,7 @@ class QuickRuns:
         if stored is None:
             return None
         computed = functools.partial(input_values, model.ir)
-        settings_key = (scene, backend, replace(overrides, values=()))
+        settings_key = (scene, backend, overrides.settings())
         alike = self.alike.get(settings_key)
         if alike is not None:
             quick = alike.with_inputs(*stored.values(overrides, computed))
@@ -404,6 +404,8 @@ def _times(start, stop, interval) -> tuple[float | None, ...]:
 def single_number(name: str, value) -> float | str:
     """`value` as the one number simulate() and bench() take for input `name`; a list or an array
     (several values) is refused with a pointer to sweep(), which runs one member per value."""
+    if type(value) is float or type(value) is int:     # the common case, without numpy's np.ndim (microseconds a call)
+        return float(value)
     if np.ndim(value) > 0:
         raise LagError(f"a run takes one value of each input, got {np.size(value)} values; to run a member "
                        f"for each, use model.sweep(set={{'{name}': [...]}})", Setting(name))

@@ -7,10 +7,11 @@ copy of the scene's settings, with the same checks and the same messages.
 """
 from __future__ import annotations
 
+import functools
 import math
 import sys
 import warnings
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 from fractions import Fraction
 
 from .errors import LagError, LagWarning, Setting, suggest
@@ -131,7 +132,7 @@ def input_in_si(name: str, value: float | str, unit: InputUnit | None) -> float:
         return value_in_si(value, unit, Setting(name))
     if isinstance(value, InSI):
         return float(value)
-    return scaled_to_si(value, unit.factor if unit is not None else Fraction(1))
+    return scaled_to_si(value, unit.factor) if unit is not None else float(value)
 
 
 SECONDS = InputUnit("s", Fraction(1))       # the unit of a time set from outside the model file
@@ -183,6 +184,14 @@ class Overrides:
     integrator: str | None = None
     options: tuple[tuple[str, float], ...] = ()     # rtol, atol, step, stages, max_step, max_steps
     atol_each: tuple[tuple[str, float | str], ...] = ()   # per component, as values: ("x", 1e-18), ("der(x)", "1 um/s")
+
+    def settings(self) -> tuple:
+        """Every override but the values, as a key: the runs that differ only in their inputs
+        share it (a tuple of the fields, a tenth of the time of dataclasses.replace)."""
+        return tuple(getattr(self, name) for name in _SETTINGS_FIELDS)
+
+
+_SETTINGS_FIELDS = tuple(f.name for f in fields(Overrides) if f.name != "values")
 
 
 def grid_rows(start: float, stop: float, interval: float) -> int:
@@ -282,13 +291,19 @@ class SceneSettings:
     def resolve_values(self, overrides: Overrides) -> tuple[dict, dict]:
         """The parameters set and the initial values set of `resolve`, alone (the time grid and
         the integrator left out: a repeated run with the same ones has checked them)."""
-        units = dict(self.units)
-        set_values = dict(self.set_values)
-        initial = {name: (start, velocity) for name, start, velocity in self.initial}
+        units, set_values, initial = self._as_dicts
+        set_values, initial = dict(set_values), dict(initial)
         for name, value in overrides.values:
             self._check_name(name)
             self._apply_override(name, input_in_si(name, value, units.get(name)), set_values, initial)
         return set_values, initial
+
+    @functools.cached_property
+    def _as_dicts(self) -> tuple[dict, dict, dict]:
+        """The units, the values set and the initial values as dicts by name (made once: a
+        repeated run resolves its values from them; resolve_values copies the last two)."""
+        return (dict(self.units), dict(self.set_values),
+                {name: (start, velocity) for name, start, velocity in self.initial})
 
     def check_integrator(self, choice: IntegratorChoice) -> None:
         refusal = registry.get(choice.name).refusal("c", bool(self.constraints))
