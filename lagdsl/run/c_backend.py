@@ -82,8 +82,8 @@ class CRun:
         values = memory[capacity * width:].tolist()     # a list reads faster than a record, field by field
         at = self._layout.offsets
         used = int(values[at["rows"]])
-        result = Result(rows[:used, 0], plan.columns, rows[:used, 1:],
-                        Deferred(lambda: _run_summary(plan, self._layout, values, elapsed)), *self._description)
+        result = Result.of_run(rows[:used, 0], plan.columns, rows[:used, 1:],
+                               Deferred(lambda: _run_summary(plan, self._layout, values, elapsed)), *self._description)
         if status != 0:
             y_fail = values[at["y_fail"]:at["y_fail"] + len(plan.initial_state)]
             raise simulation_error(plan, status, values[at["t_fail"]], y_fail, result, values[at["rcond_fail"]],
