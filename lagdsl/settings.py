@@ -11,7 +11,7 @@ import functools
 import math
 import sys
 import warnings
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, replace
 from fractions import Fraction
 
 from .errors import LagError, LagWarning, Setting, suggest
@@ -185,14 +185,6 @@ class Overrides:
     options: tuple[tuple[str, float], ...] = ()     # rtol, atol, step, stages, max_step, max_steps
     atol_each: tuple[tuple[str, float | str], ...] = ()   # per component, as values: ("x", 1e-18), ("der(x)", "1 um/s")
 
-    def settings(self) -> tuple:
-        """Every override but the values, as a key: the runs that differ only in their inputs
-        share it (a tuple of the fields, a tenth of the time of dataclasses.replace)."""
-        return tuple(getattr(self, name) for name in _SETTINGS_FIELDS)
-
-
-_SETTINGS_FIELDS = tuple(f.name for f in fields(Overrides) if f.name != "values")
-
 
 def grid_rows(start: float, stop: float, interval: float) -> int:
     """Rows of the output grid: start + k*interval while below stop, then stop itself (so a stop
@@ -291,8 +283,7 @@ class SceneSettings:
     def resolve_values(self, overrides: Overrides) -> tuple[dict, dict]:
         """The parameters set and the initial values set of `resolve`, alone (the time grid and
         the integrator left out: a repeated run with the same ones has checked them)."""
-        units, set_values, initial = self._as_dicts
-        set_values, initial = dict(set_values), dict(initial)
+        units, set_values, initial = map(dict, self._as_dicts)     # copies, which the overrides change
         for name, value in overrides.values:
             self._check_name(name)
             self._apply_override(name, input_in_si(name, value, units.get(name)), set_values, initial)
@@ -300,10 +291,8 @@ class SceneSettings:
 
     @functools.cached_property
     def _as_dicts(self) -> tuple[dict, dict, dict]:
-        """The units, the values set and the initial values as dicts by name (made once: a
-        repeated run resolves its values from them; resolve_values copies the last two)."""
-        return (dict(self.units), dict(self.set_values),
-                {name: (start, velocity) for name, start, velocity in self.initial})
+        """The units, the values set and the initial values by name, made once (a repeated run's)."""
+        return dict(self.units), dict(self.set_values), {name: (start, velocity) for name, start, velocity in self.initial}
 
     def check_integrator(self, choice: IntegratorChoice) -> None:
         refusal = registry.get(choice.name).refusal("c", bool(self.constraints))
