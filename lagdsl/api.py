@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +32,7 @@ from .source import SourceFile
 BACKENDS = ("c", "numpy")
 GRID_OVERRIDES = ("start", "stop", "interval", "integrator")
 NO_TIMES = (None, None, None)     # simulate()'s start, stop and interval when none is given
+SETTINGS_FIELDS = tuple(f.name for f in fields(Overrides) if f.name != "values")    # the runs alike but for their inputs
 QUICK_RUNS = 16         # prepared repeated runs a Model keeps (a fit varies its inputs: the last ones)
 
 
@@ -57,7 +58,7 @@ class QuickRuns:
         if stored is None:
             return None
         computed = functools.partial(input_values, model.ir)
-        settings_key = (scene, backend, replace(overrides, values=()))
+        settings_key = (scene, backend, *map(overrides.__getattribute__, SETTINGS_FIELDS))    # faster than replace()
         alike = self.alike.get(settings_key)
         if alike is not None:
             quick = alike.with_inputs(*stored.values(overrides, computed))
@@ -404,6 +405,8 @@ def _times(start, stop, interval) -> tuple[float | None, ...]:
 def single_number(name: str, value) -> float | str:
     """`value` as the one number simulate() and bench() take for input `name`; a list or an array
     (several values) is refused with a pointer to sweep(), which runs one member per value."""
+    if type(value) is float or type(value) is int:     # the common case, without numpy's np.ndim (microseconds a call)
+        return float(value)
     if np.ndim(value) > 0:
         raise LagError(f"a run takes one value of each input, got {np.size(value)} values; to run a member "
                        f"for each, use model.sweep(set={{'{name}': [...]}})", Setting(name))

@@ -7,6 +7,7 @@ copy of the scene's settings, with the same checks and the same messages.
 """
 from __future__ import annotations
 
+import functools
 import math
 import sys
 import warnings
@@ -131,7 +132,7 @@ def input_in_si(name: str, value: float | str, unit: InputUnit | None) -> float:
         return value_in_si(value, unit, Setting(name))
     if isinstance(value, InSI):
         return float(value)
-    return scaled_to_si(value, unit.factor if unit is not None else Fraction(1))
+    return scaled_to_si(value, unit.factor) if unit is not None else float(value)
 
 
 SECONDS = InputUnit("s", Fraction(1))       # the unit of a time set from outside the model file
@@ -282,13 +283,16 @@ class SceneSettings:
     def resolve_values(self, overrides: Overrides) -> tuple[dict, dict]:
         """The parameters set and the initial values set of `resolve`, alone (the time grid and
         the integrator left out: a repeated run with the same ones has checked them)."""
-        units = dict(self.units)
-        set_values = dict(self.set_values)
-        initial = {name: (start, velocity) for name, start, velocity in self.initial}
+        units, set_values, initial = map(dict, self._as_dicts)     # copies, which the overrides change
         for name, value in overrides.values:
             self._check_name(name)
             self._apply_override(name, input_in_si(name, value, units.get(name)), set_values, initial)
         return set_values, initial
+
+    @functools.cached_property
+    def _as_dicts(self) -> tuple[dict, dict, dict]:
+        """The units, the values set and the initial values by name, made once (a repeated run's)."""
+        return dict(self.units), dict(self.set_values), {name: (start, velocity) for name, start, velocity in self.initial}
 
     def check_integrator(self, choice: IntegratorChoice) -> None:
         refusal = registry.get(choice.name).refusal("c", bool(self.constraints))

@@ -5,9 +5,7 @@ doubles and fills the output rows and the run summary, whose fields abi.SummaryL
 """
 from __future__ import annotations
 
-import copy
 import ctypes
-from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -45,24 +43,28 @@ class CRun:
         self._layout = plan_summary(plan)
         self._shape = (grid_rows(plan.time.start, plan.time.stop, plan.time.interval), len(plan.columns) + 1)
         self._buffers = (ctypes.c_double * (self._shape[0] * self._shape[1]), ctypes.c_double * self._layout.size)
-        self._take_inputs(plan.parameters, plan.initial_state, settings_vector(plan))
+        self._input_types = (ctypes.c_double * max(len(plan.parameters), 1), ctypes.c_double * len(plan.initial_state))
+        self._settings = _doubles(settings_vector(plan))      # keeps the vector alive (from_buffer holds it)
+        self._take_inputs(plan.parameters, plan.initial_state)
         self._interrupt = interrupt_flag(library)
         self._reached = ctypes.c_double.in_dll(library, "lag_progress_t")
 
     def with_inputs(self, parameters: tuple[float, ...], initial_state: tuple[float, ...]) -> CRun:
         """This run with other parameter values and initial state: the same program, grid,
-        integrator and settings vector, new input arrays (a fit's next call)."""
-        run = copy.copy(self)
-        run.plan = replace(self.plan, parameters=parameters, initial_state=initial_state)
-        run._take_inputs(parameters, initial_state, self._inputs[2])
+        integrator and settings vector, new input arrays (a fit's next call). The run and its plan are copied by their __dict__:
+        copy.copy and dataclasses.replace took a tenth of a short call."""
+        run = object.__new__(CRun)
+        run.__dict__.update(self.__dict__)
+        run.plan = object.__new__(RunPlan)      # a frozen dataclass without __post_init__: its fields copied
+        run.plan.__dict__.update(self.plan.__dict__, parameters=parameters, initial_state=initial_state)
+        run._take_inputs(parameters, initial_state)
         return run
 
-    def _take_inputs(self, parameters: tuple[float, ...], initial_state: tuple[float, ...],
-                     settings: np.ndarray) -> None:
-        """The input arrays and the pointers over their memory, made once (a call only reads
-        them; the rows and the summary are each call's own, as calls may come from several threads)."""
-        self._inputs = (np.array(parameters or (0.0,), dtype=float), np.array(initial_state, dtype=float), settings)
-        self._pointers = tuple(_doubles(a) for a in self._inputs)
+    def _take_inputs(self, parameters: tuple[float, ...], initial_state: tuple[float, ...]) -> None:
+        """The input arrays, made once (a call only reads them; the rows and the summary are
+        each call's own, as calls may come from several threads)."""
+        parameter_array, state_array = self._input_types
+        self._pointers = (parameter_array(*(parameters or (0.0,))), state_array(*initial_state), self._settings)
 
     def __call__(self, progress: Progress | None = None) -> Result:
         """The run's Result, whose t and values are views of one array made for this call (the
@@ -80,8 +82,8 @@ class CRun:
         values = memory[capacity * width:].tolist()     # a list reads faster than a record, field by field
         at = self._layout.offsets
         used = int(values[at["rows"]])
-        result = Result(rows[:used, 0], plan.columns, rows[:used, 1:],
-                        Deferred(lambda: _run_summary(plan, self._layout, values, elapsed)), *self._description)
+        result = Result.of_run(rows[:used, 0], plan.columns, rows[:used, 1:],
+                               Deferred(lambda: _run_summary(plan, self._layout, values, elapsed)), *self._description)
         if status != 0:
             y_fail = values[at["y_fail"]:at["y_fail"] + len(plan.initial_state)]
             raise simulation_error(plan, status, values[at["t_fail"]], y_fail, result, values[at["rcond_fail"]],

@@ -206,6 +206,16 @@ class Result:
     origin: str = ""                        # what ran, for titles: "Kepler, scene ellipse"
     drawing: object | None = field(default=None, kw_only=True)     # keyword-only: subclasses add fields
 
+    @classmethod
+    def of_run(cls, t: np.ndarray, columns: tuple[str, ...], values: np.ndarray, summary, units: tuple[str, ...] | None,
+               origin: str) -> Result:
+        """The Result of a repeated C run, its fields put in its __dict__ at once: a frozen
+        dataclass's __init__ sets each through object.__setattr__, a few microseconds of a short run."""
+        result = object.__new__(cls)
+        result.__dict__.update(t=t, columns=columns, values=values, summary=summary, units=units, origin=origin,
+                               drawing=None)
+        return result
+
     def __getstate__(self) -> dict:
         """The fields to pickle (a Result goes back from a sweep's worker), the summary made."""
         return {**self.__dict__, "summary": self.summary}
