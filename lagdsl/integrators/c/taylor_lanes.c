@@ -102,21 +102,23 @@ static real lag_lane_radius(real size, real before, real last, int p)
     return rho / ((first <= REAL_MAX) & (other <= REAL_MAX));   /* arithmetic, no branch */
 }
 
-/* The norms of each lane's last two coefficients (taylor_norms) in a loop over the lanes, each lane
- * at its own order (a lane that takes no step at the highest, which the series reached). */
+/* The norms of each lane's last two coefficients (taylor_norms) in loops over the lanes, each lane
+ * at its own order (a lane that takes no step at the highest, which the series reached). Component
+ * i's series is read as one row, s[i][k][l] at k * LAG_LANES + l: gcc gathers from a row by index,
+ * not from s[i][k][l] with k varying by lane. */
 static void lag_lanes_norms(lag_lanes *lanes)
 {
     int i, l;
-    LAG_SIMD
-    for (l = 0; l < LAG_LANES; ++l) {
-        const int p = lanes->order[l];
-        real before = 0, last = 0;
-        for (i = 0; i < LAG_NY; ++i) {
-            last = taylor_larger(r_fabs(lanes->s[i][p][l]) * lanes->weight[i][l], last);
-            before = taylor_larger(r_fabs(lanes->s[i][p - 1][l]) * lanes->weight[i][l], before);
+    for (l = 0; l < LAG_LANES; ++l)
+        lanes->before[l] = lanes->last[l] = 0;
+    for (i = 0; i < LAG_NY; ++i) {
+        const real *row = lanes->s[i][0];
+        LAG_SIMD
+        for (l = 0; l < LAG_LANES; ++l) {
+            const int at = lanes->order[l] * LAG_LANES + l;
+            lanes->last[l] = taylor_larger(r_fabs(row[at]) * lanes->weight[i][l], lanes->last[l]);
+            lanes->before[l] = taylor_larger(r_fabs(row[at - LAG_LANES]) * lanes->weight[i][l], lanes->before[l]);
         }
-        lanes->before[l] = before;
-        lanes->last[l] = last;
     }
 }
 
@@ -176,17 +178,18 @@ static void lag_lanes_finish(lag_lanes *lanes, int highest)
             for (l = 0; l < LAG_LANES; ++l)
                 sum[i][l] = j >= lanes->order[l] ? lanes->s[i][j][l] : sum[i][l] * lanes->h[l] + lanes->s[i][j][l];
         }
+    for (l = 0; l < LAG_LANES; ++l)      /* every lane's end before the first move: the move reads */
+        if (lanes->lane[l].trying && lanes->status[l] == LAG_OK)  /* y_end as one vector, which */
+            for (i = 0; i < LAG_NY; ++i)                          /* stores just made would stall */
+                lanes->stepper[l].y_end[i] = sum[i][l];
     for (l = 0; l < LAG_LANES; ++l) {
         lag_lane *lane = &lanes->lane[l];
         lag_stepper *s = &lanes->stepper[l];
         int status = lanes->status[l];
         if (!lane->trying)
             continue;
-        if (status == LAG_OK) {
-            for (i = 0; i < LAG_NY; ++i)
-                s->y_end[i] = sum[i][l];
+        if (status == LAG_OK)
             status = taylor_take_step(s, lanes->h[l], lanes->landing[l]);
-        }
         if (status != LAG_OK) {
             lag_lane_end(lanes, l, status);
             continue;
