@@ -2,6 +2,7 @@
 
     python benchmarks/ensemble.py [--side 100] [--workers 2] [--scipy-sample 20] [--loop-sample 200]
                                   [--picture benchmarks/ensemble_basin.png] [--no-matched | --matched-only]
+                                  [--error-sample 20] [--rounds 7]
 
 Model models/double_pendulum.lag, scene `chaos` with t = 0 .. 10, dop853 at rtol = atol = 1e-8,
 output at t = 0 and t = 10 only. The members are a side x side grid of starting angles
@@ -17,7 +18,9 @@ theta1, theta2 in [-pi, pi] (at rest), 10^4 for side = 100. Measured in one run:
   (e) at matched accuracy (ensemble_heyoka.py): the sweep (taylor and dop853 in lanes) against heyoka's batch mode
       (taylor_adaptive_batch, one thread) and ensemble_propagate_until_batch (all threads), each at
       the loosest tolerance whose error at t = 10 is at most 1e-6 on --error-sample random members
-      against lagdsl's extended-precision reference; heyoka optional (--no-matched skips it).
+      against lagdsl's extended-precision reference; heyoka optional (--no-matched skips it);
+      then --rounds alternating rounds of the two one-thread loops (lagdsl, heyoka, lagdsl, ...)
+      and the median ratio of their CPU times.
 
 The loops run on one core; the sweep on --workers cores. Times are compared as CPU seconds of
 the process (all its threads), which a loaded machine does not inflate; wall-clock times are
@@ -144,6 +147,8 @@ def main() -> int:
     parser.add_argument("--loop-sample", type=int, default=200)
     parser.add_argument("--picture", type=Path, default=Path(__file__).resolve().parent / "ensemble_basin.png")
     parser.add_argument("--error-sample", type=int, default=20, help="random members whose error is measured (e)")
+    parser.add_argument("--rounds", type=int, default=7,
+                        help="alternating rounds of lagdsl's taylor and heyoka's batch mode after (e), one thread each")
     parser.add_argument("--no-matched", action="store_true", help="leave out (e), the comparison at matched accuracy")
     parser.add_argument("--matched-only", action="store_true", help="only (e), the comparison at matched accuracy")
     args = parser.parse_args()
@@ -203,6 +208,13 @@ def print_matched(model, varied, args) -> None:
                          ensemble_heyoka.table_rows(rows)))
     if note:
         print(note)
+    print(f"\nalternating rounds ({args.rounds}), CPU seconds of all {total} members:", flush=True)
+    times = ensemble_heyoka.alternated(model, varied, rows, args.rounds)
+    if times is None:
+        print("no alternating rounds: they need lagdsl's taylor and heyoka's batch rows")
+        return
+    table, ratio = ensemble_heyoka.alternated_table(times)
+    print(f"load average after the rounds {os.getloadavg()[0]:.1f}\n\n{table}\n\n{ratio}")
 
 
 def lane_width(model) -> str:

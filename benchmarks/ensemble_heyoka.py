@@ -13,6 +13,9 @@ all members:
   heyoka   taylor_adaptive_batch of hy.recommended_simd_size() members, one chunk after another
            on one thread (its batch mode), and ensemble_propagate_until_batch on all threads
            (heyoka.set_nthreads); the integrator's construction (JIT compilation) is not timed.
+
+Then the two one-thread loops are timed again in alternating rounds (lagdsl, heyoka, lagdsl,
+heyoka, ...; ensemble.py --rounds), and the median ratio of their CPU times is printed.
 """
 from __future__ import annotations
 
@@ -172,6 +175,40 @@ def matched_rows(model, varied: dict, chosen, workers: int) -> tuple[list[Matche
     except ImportError:
         return rows, "heyoka is not installed (pip install heyoka): no heyoka rows"
     return rows + heyoka_matched(varied, chosen, reference, workers), ""
+
+
+def alternated(model, varied: dict, rows: list[Matched], rounds: int) -> dict[str, list[float]] | None:
+    """CPU seconds of `rounds` rounds on all members, each round lagdsl's taylor in lanes on one
+    thread then heyoka's batch mode, each at its matched tolerance (from `rows`): on a shared
+    machine a load that comes and goes falls on both alike, which two timings minutes apart do
+    not ensure. None without both rows."""
+    lagdsl_tol = next((row.tol for row in rows if row.method == "lagdsl model.sweep, taylor in lanes, 1 thread"), None)
+    heyoka_tol = next((row.tol for row in rows if row.method.startswith("heyoka taylor_adaptive_batch")), None)
+    if lagdsl_tol is None or heyoka_tol is None or rounds < 1:
+        return None
+    integrator, width = heyoka_batch(heyoka_tol)
+    members = np.arange(len(varied["theta1.start"]))
+    runs = {"lagdsl": lambda: lagdsl_finals(model, varied, "taylor", lagdsl_tol, 1),
+            "heyoka": lambda: heyoka_batch_finals(integrator, width, varied, members)}
+    times: dict[str, list[float]] = {name: [] for name in runs}
+    for round_ in range(rounds):
+        for name, run in runs.items():
+            times[name].append(wall_and_cpu(run)[1])
+        print(f"    round {round_ + 1}: lagdsl {times['lagdsl'][-1]:.3f} s, heyoka {times['heyoka'][-1]:.3f} s", flush=True)
+    return times
+
+
+def alternated_table(times: dict[str, list[float]]) -> tuple[str, str]:
+    """The rounds as a Markdown table, and the median ratio heyoka / lagdsl of the CPU times."""
+    from benchtools import markdown_table
+    rounds = len(times["lagdsl"])
+    rows = [(name, *(f"{cpu:.3f}" for cpu in cpus), f"{min(cpus):.3f}", f"{np.median(cpus):.3f}")
+            for name, cpus in (("lagdsl taylor in lanes, 1 thread", times["lagdsl"]),
+                               ("heyoka batch mode, 1 thread", times["heyoka"]))]
+    table = markdown_table(("round", *(str(r + 1) for r in range(rounds)), "min", "median"), rows)
+    ratios = np.array(times["heyoka"]) / np.array(times["lagdsl"])
+    return table, (f"heyoka / lagdsl CPU time: {np.median(times['heyoka']) / np.median(times['lagdsl']):.2f} (medians), "
+                   f"{np.median(ratios):.2f} (median of the rounds' ratios)")
 
 
 def table_rows(rows: list[Matched]) -> list[tuple[str, ...]]:

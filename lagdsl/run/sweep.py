@@ -143,6 +143,15 @@ class Members:
     inputs: dict[str, np.ndarray]
 
 
+def _values_in_si(name: str, given: np.ndarray, unit: InputUnit | None) -> np.ndarray | list[float]:
+    """Each member's value of input `name` in SI (settings.input_in_si): numbers in SI already (no
+    unit, or one whose factor is 1) as they are, in one conversion of the array; any other value
+    one by one (a text's own unit, a factor rounded once with the value)."""
+    if given.dtype.kind in "fiu" and (unit is None or unit.factor == 1):
+        return given.astype(float)
+    return [input_in_si(name, value, unit) for value in given.tolist()]
+
+
 def member_inputs(plan: Callable[[Overrides], RunPlan], base: Overrides, varied: dict,
                   placement: Placement | None = None) -> Members:
     """Plan every member. `plan(overrides)` plans one run; `varied` maps names simulate(set=...)
@@ -168,7 +177,7 @@ def member_inputs(plan: Callable[[Overrides], RunPlan], base: Overrides, varied:
     _check_finite(inputs)
     parameter_names, coordinates, declared = names
     for name, given in inputs.items():
-        values = [input_in_si(name, value, declared.get(name)) for value in given.tolist()]
+        values = _values_in_si(name, given, declared.get(name))
         coordinate, _, part = name.rpartition(".")
         if name in parameter_names:
             parameters[:, parameter_names.index(name)] = values

@@ -48,11 +48,18 @@ typedef struct lag_lane_batch {
  *     const lag_system *sys[LAG_LANES]; real par[LAG_NP > 0 ? LAG_NP : 1][LAG_LANES];
  * (each lane's run, its stepper, its system, its parameters side by side). */
 typedef struct lag_lanes lag_lanes;
+static real lag_lane_row_time(const lag_lane *lane);
 static void lag_lane_end(lag_lanes *lanes, int l, int status);
 static void lag_lane_rows(lag_lanes *lanes, int l, int stepped);
 static void lag_lanes_round(lag_lanes *lanes);
 
 /* LAG_LANES_METHOD */
+
+/* The time of the lane's next row (lag_grid_row's grid, ending at t1). */
+static real lag_lane_row_time(const lag_lane *lane)
+{
+    return lane->k == lane->last ? lane->t1 : lane->t0 + lane->k * lane->dt;
+}
 
 /* The lane's member is done (status, at the stepper's place): its summary, and the lane empties. */
 static void lag_lane_end(lag_lanes *lanes, int l, int status)
@@ -82,7 +89,7 @@ static void lag_lane_rows(lag_lanes *lanes, int l, int stepped)
             status = LAG_ERR_INTERRUPTED;
     }
     while (status == LAG_OK && lane->k <= lane->last) {
-        real tk = lane->k == lane->last ? lane->t1 : lane->t0 + lane->k * lane->dt;
+        real tk = lag_lane_row_time(lane);
         if (s->t < tk)
             return;
         status = lag_deliver_at(&lane->sys, s, tk, lag_grid_row, &lane->rows, &lane->report);

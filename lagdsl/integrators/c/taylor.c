@@ -77,34 +77,33 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
     return LAG_OK;
 }
 
+/* The larger of x and largest, x when it is NaN (a select, which a loop over the lanes vectorises). */
+static real taylor_larger(real x, real largest)
+{
+    return x <= largest ? largest : x;
+}
+
 /* max_i |x_i| / w_i over the state's coefficients x = s[.][j]; NaN when one of them is. */
 static real taylor_norm(const lag_stepper *s, const real *weight, int j)
 {
     real largest = 0;
     int i;
-    for (i = 0; i < LAG_NY; ++i) {
-        real x = r_fabs(s->s[i][j]) * weight[i];
-        if (!(x <= largest))
-            largest = x;
-    }
+    for (i = 0; i < LAG_NY; ++i)
+        largest = taylor_larger(r_fabs(s->s[i][j]) * weight[i], largest);
     return largest;
 }
 
-/* The order for the state y, from its size M in units of the tolerance (1/w = weight): order p
- * holds for e^(2p - 4) < M <= e^(2p - 2), a range the order keeps from step to step, so the
- * logarithm is taken only when M leaves it (the clamped orders 2 and the highest extend it). */
-static int taylor_order(lag_stepper *s, const real *weight, real *size)
+/* The order for the state y, from its size M in units of the tolerance: order p holds for
+ * e^(2p - 4) < M <= e^(2p - 2), a range the order keeps from step to step, so the logarithm is
+ * taken only when M leaves it (the clamped orders 2 and the highest extend it). The sweep's lanes
+ * take M in a loop over the lanes (taylor_lanes.c) and the order from it here. */
+static int taylor_order_of(lag_stepper *s, real size)
 {
-    real largest = 1 / (s->atol_least + s->rtol), wanted;
-    int i, order;
-    for (i = 0; i < LAG_NY; ++i) {
-        real x = r_fabs(s->y[i]) * weight[i];
-        largest = x > largest ? x : largest;     /* not r_fmax: a libm call in this loop */
-    }
-    *size = largest;
-    if (largest > s->order_low && largest <= s->order_high)
+    real wanted;
+    int order;
+    if (size > s->order_low && size <= s->order_high)
         return s->order;
-    wanted = r_log(largest) / 2 + 1;
+    wanted = r_log(size) / 2 + 1;
     if (!(wanted < LAG_TAYLOR_MAX_ORDER)) {
         order = LAG_TAYLOR_MAX_ORDER;
     } else {
@@ -115,6 +114,18 @@ static int taylor_order(lag_stepper *s, const real *weight, real *size)
     s->order_low = order == 2 ? 0 : r_exp((real)(2 * order - 4));
     s->order_high = order == LAG_TAYLOR_MAX_ORDER ? REAL_MAX : r_exp((real)(2 * order - 2));
     return order;
+}
+
+/* The state's size M = max(max_i |y_i| / w_i, 1 / (min_i atol_i + rtol)) (1/w = weight). */
+static real taylor_size(const lag_stepper *s, const real *weight)
+{
+    real largest = 1 / (s->atol_least + s->rtol);
+    int i;
+    for (i = 0; i < LAG_NY; ++i) {
+        real x = r_fabs(s->y[i]) * weight[i];
+        largest = x > largest ? x : largest;     /* not r_fmax: a libm call in this loop */
+    }
+    return largest;
 }
 
 /* x^n for n >= 1, by squaring. */
@@ -183,20 +194,27 @@ static void taylor_evaluate(const lag_stepper *s, real tau, real *y)
             y[i] = y[i] * tau + s->s[i][j];
 }
 
+/* Whether a step is to be taken: *taking is 0 when the run is at its end (no step to take,
+ * LAG_OK); LAG_ERR_MAX_STEPS at the step limit. */
+static int taylor_may_step(const lag_stepper *s, int *taking)
+{
+    *taking = s->t < s->t_end;
+    if (*taking && s->max_steps > 0 && s->stats.accepted >= s->max_steps)
+        return LAG_ERR_MAX_STEPS;
+    return LAG_OK;
+}
+
 /* The first half of a step, before the series: the step limit, the weights 1/w of the state's
- * components and the order for them (size: the state's size in units of the tolerance).
- * *taking is 0 when the run is at its end (no step to take, LAG_OK). */
+ * components and the order for them (size: the state's size in units of the tolerance). */
 static int taylor_begin_step(lag_stepper *s, real *weight, real *size, int *taking)
 {
-    int i;
-    *taking = s->t < s->t_end;
-    if (!*taking)
-        return LAG_OK;
-    if (s->max_steps > 0 && s->stats.accepted >= s->max_steps)
-        return LAG_ERR_MAX_STEPS;
+    int i, status = taylor_may_step(s, taking);
+    if (status != LAG_OK || !*taking)
+        return status;
     for (i = 0; i < LAG_NY; ++i)
         weight[i] = 1 / (s->atol[i] + s->rtol * r_fabs(s->y[i]));
-    s->order = taylor_order(s, weight, size);
+    *size = taylor_size(s, weight);
+    s->order = taylor_order_of(s, *size);
     return LAG_OK;
 }
 
