@@ -3,6 +3,7 @@ about the upright, design an LQR gain with python-control, put the feedback back
 as a force, and run the nonlinear closed loop from 10 degrees back to the upright."""
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -11,14 +12,16 @@ import pytest
 from lagdsl.linear import analyse
 from tests.linear.support import model
 
-control = pytest.importorskip("control")
-
 OPEN_LOOP = {"k_x": 0.0, "k_theta": 0.0, "k_v": 0.0, "k_omega": 0.0}
 Q, R = np.diag([1.0, 10.0, 1.0, 1.0]), 1.0
 
 
+@functools.cache
 def lqr_design() -> tuple[dict[str, float], np.ndarray]:
-    """The gains (u = -K x) and the closed-loop poles python-control designs on our A, B."""
+    """The gains (u = -K x) and the closed-loop poles python-control designs on our A, B, once per
+    session. python-control (and scipy.signal under it, 2.5 s of CPU) is imported by the tests
+    that use it, not when a worker collects this module; without it they are skipped."""
+    control = pytest.importorskip("control")
     linear = model("cart_pole_lqr").linearize(at={"theta": 0}, set=OPEN_LOOP, inputs=["u"], outputs=["x", "theta"])
     assert analyse(linear).verdict == "unstable"
     plant = linear.to_control()

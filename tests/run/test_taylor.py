@@ -158,8 +158,10 @@ def test_the_straight_line_orders_give_the_series_of_the_loops(monkeypatch):
     assert np.max(np.abs(straight.values - looped.values)) < 1e-12
 
 
-@pytest.mark.parametrize("model", [lambda: library_model("double_pendulum"), lambda: load(ANGLE_SUM)],
-                         ids=["difference", "sum"])
+# The default run keeps the small model of a sum of angles; the double pendulum's difference,
+# derived and built twice in C, is slow (the straight-line test above builds the same model).
+@pytest.mark.parametrize("model", [pytest.param(lambda: library_model("double_pendulum"), marks=pytest.mark.slow),
+                                   lambda: load(ANGLE_SUM)], ids=["difference", "sum"])
 def test_sines_of_a_sum_of_angles_from_the_sines_of_the_angles(model, monkeypatch):
     model = model()
     plan = model.plan(None, Overrides(stop=2.0, interval=0.1, integrator="taylor",
