@@ -11,17 +11,22 @@ Every method runs a ladder of tolerances (rtol = atol = tol for lagdsl, heyoka's
 error of a run is the largest absolute difference from lagdsl's extended-precision reference
 over the output rows and the position columns (the angles, the coordinates). Times are CPU
 seconds of the integration alone (the machine is shared: CPU time is what the code costs):
-for lagdsl the call of the compiled library (run_c), for heyoka propagate_grid on the same
-output times, for CyRK nbsolve2_ivp (its C++ DOP853, a numba C callback as right-hand side,
-cyrk_systems.py) with t_eval the same times; best of the repeats. heyoka's compile time (building its integrator, which
-JIT-compiles the recurrences for the tolerance's order) is reported apart, as is lagdsl's
-build (generation and the C compiler; both are cached by lagdsl across runs).
+for lagdsl a call of the run made once for the setting (CRun, which a repeated simulate()
+calls), for heyoka propagate_grid on the same output times by the integrator made once, for
+CyRK nbsolve2_ivp (its C++ DOP853, a numba C callback as right-hand side, cyrk_systems.py)
+with t_eval the same times. Each setting is timed once per round, every setting of every tool
+in each round, so that the load of a shared machine falls on the tools alike; a time is the
+median over the rounds (the ladder's two first calls, a warm-up (CyRK's numba compiles at its
+first call) and the one that measures the error, are not counted).
+heyoka's compile time (building its integrator, which JIT-compiles the recurrences for the
+tolerance's order) is reported apart, as is lagdsl's build (generation, the C compiler and
+making the run; the first two are cached by lagdsl across runs).
 
 At matched accuracy: on each method's work-precision curve (its Pareto front), the time to
 reach an error level, interpolated linearly in log(time) against log(error) between the two
 settings around the level; a level beyond the tightest setting is not reached ("-").
 
-    python benchmarks/heyoka_comparison.py [--repeat N] [--only NAME,...]
+    python benchmarks/heyoka_comparison.py [--rounds N] [--only NAME,...]
 
 Writes benchmarks/heyoka/<problem>.csv and .md (and .png with matplotlib), and the section
 between the markers in benchmarks/README.md.
@@ -36,7 +41,8 @@ import os
 import re
 import sys
 import time
-from dataclasses import dataclass, replace
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -46,7 +52,7 @@ import heyoka_systems
 import lagdsl
 from lagdsl.pipeline import generate
 from lagdsl.reference import reference_solution
-from lagdsl.run.c_backend import run_c
+from lagdsl.run.c_backend import CRun
 from lagdsl.run.loading import load as load_library
 from lagdsl.scene import Overrides
 
@@ -122,58 +128,74 @@ class Point:
     build: float            # lagdsl: generation + compiler; heyoka: constructing (JIT-compiling) the integrator
 
 
-def lagdsl_point(model, problem: Problem, method: str, tol: float, reference, repeat: int) -> Point:
+@dataclass
+class Setting:
+    """One tool at one tolerance, made (built, compiled) once and timed once per round."""
+    method: str
+    tol: float
+    build: float                            # seconds to make `call` (reported apart)
+    call: Callable[[], object]              # one integration; returns its outcome
+    judge: Callable[[object], tuple[float, int]]    # outcome -> (error, steps)
+    reset: Callable[[], None] = lambda: None        # before a call, untimed (heyoka's initial state)
+    times: list[float] = field(default_factory=list)
+    outcome: object = None
+
+    def time_once(self) -> None:
+        self.reset()
+        started = time.process_time()
+        self.outcome = self.call()
+        self.times.append(time.process_time() - started)
+
+    def point(self) -> Point:
+        """The median of the calls timed so far."""
+        error_, steps = self.judge(self.outcome)
+        return Point(self.method, self.tol, float(np.median(self.times)), error_, steps, self.build)
+
+
+def lagdsl_setting(model, problem: Problem, method: str, tol: float, reference) -> Setting:
     plan = model.plan(problem.scene, replace(problem.overrides, integrator=method,
                                              options=(("rtol", tol), ("atol", tol))))
     started = time.process_time()
-    kernel, source = generate(model.equations, plan, "c", problem.path.name)
-    library = load_library(source)
+    _, source = generate(model.equations, plan, "c", problem.path.name)
+    run = CRun(load_library(source), plan.run_plan())
     build = time.process_time() - started
-    run_plan = plan.run_plan()
-    best, result = math.inf, None
-    for _ in range(repeat):
-        started = time.process_time()
-        result = run_c(kernel, source, run_plan, None, library)
-        best = min(best, time.process_time() - started)
-    values = result.values[:, [plan.columns.index(c) for c in problem.columns]]
-    return Point(method, tol, best, error(values, problem, reference), result.summary.count("accepted"), build)
+    indices = [plan.columns.index(c) for c in problem.columns]
+    return Setting(method, tol, build, run,
+                   lambda result: (error(result.values[:, indices], problem, reference), result.summary.count("accepted")))
 
 
-def heyoka_point(model, problem: Problem, tol: float, reference, repeat: int) -> Point:
+def heyoka_setting(model, problem: Problem, tol: float, reference) -> Setting:
     import heyoka as hy
     system, state, columns = problem.heyoka(model)
     started = time.process_time()
     integrator = hy.taylor_adaptive(system, state, tol=tol)
     build = time.process_time() - started
     grid = np.asarray(reference.t, dtype=float)
-    best, outcome = math.inf, None
-    for _ in range(repeat):
+
+    def reset() -> None:
         integrator.time, integrator.state[:] = grid[0], state
-        started = time.process_time()
-        outcome = integrator.propagate_grid(grid)
-        best = min(best, time.process_time() - started)
-    states = outcome[-1]
-    values = np.column_stack([states[:, columns[c]] for c in problem.columns])
-    return Point("heyoka", tol, best, error(values, problem, reference), int(outcome[3]), build)
+
+    def judge(outcome) -> tuple[float, int]:
+        values = np.column_stack([outcome[-1][:, columns[c]] for c in problem.columns])
+        return error(values, problem, reference), int(outcome[3])
+    return Setting("heyoka", tol, build, lambda: integrator.propagate_grid(grid), judge, reset)
 
 
-def cyrk_point(model, problem: Problem, tol: float, reference, repeat: int, columns) -> Point:
+def cyrk_setting(model, problem: Problem, tol: float, reference, columns) -> Setting:
     from CyRK import nbsolve2_ivp
     started = time.process_time()
     address, state = problem.cyrk(model)
     build = time.process_time() - started
     grid = np.asarray(reference.t, dtype=float)
     y0 = np.asarray(state, dtype=float)
-    best, solution = math.inf, None
-    for _ in range(repeat):
-        started = time.process_time()
-        solution = nbsolve2_ivp(address, (grid[0], grid[-1]), y0, method="DOP853", t_eval=grid,
-                                rtol=tol, atol=tol)
-        best = min(best, time.process_time() - started)
-    if not solution.success:
-        raise OtherToolFailed(f"CyRK: {solution.message}")
-    values = np.column_stack([solution.y[columns[c]] for c in problem.columns])
-    return Point("CyRK", tol, best, error(values, problem, reference), int(solution.steps_taken), build)
+
+    def judge(solution) -> tuple[float, int]:
+        if not solution.success:
+            raise OtherToolFailed(f"CyRK: {solution.message}")
+        values = np.column_stack([solution.y[columns[c]] for c in problem.columns])
+        return error(values, problem, reference), int(solution.steps_taken)
+    return Setting("CyRK", tol, build, lambda: nbsolve2_ivp(address, (grid[0], grid[-1]), y0, method="DOP853",
+                                                            t_eval=grid, rtol=tol, atol=tol), judge)
 
 
 def error(values: np.ndarray, problem: Problem, reference) -> float:
@@ -202,21 +224,38 @@ def time_at(points: list[Point], level: float) -> float | None:
     return math.exp(math.log(last.seconds) + weight * (math.log(first.seconds) - math.log(last.seconds)))
 
 
-def ladder(run, tolerances, limit: float) -> list[Point]:
-    """The points of one method, loosest first; stops after a run slower than `limit` seconds."""
-    points = []
+def ladder(make: Callable[[float], Setting], tolerances, limit: float) -> list[Setting]:
+    """The settings of one method, loosest first, each called twice (a warm-up, then its error);
+    stops after a call slower than `limit` seconds."""
+    settings = []
     for tol in tolerances:
         try:
-            point = run(tol)
+            setting = make(tol)
+            setting.time_once()
+            setting.times.clear()
+            setting.time_once()
+            point = setting.point()
         except (lagdsl.SimulationError, OtherToolFailed) as failure:
             print(f"    tol {tol:g}: failed: {failure}", file=sys.stderr)
             continue
-        points.append(point)
+        settings.append(setting)
         print(f"    {point.method} tol {tol:g}: {benchtools.seconds(point.seconds)}, error {point.error:.2g}, "
               f"{point.steps} steps (build {benchtools.seconds(point.build)})", file=sys.stderr, flush=True)
         if point.seconds > limit:
             break
-    return points
+    return settings
+
+
+def timed_in_rounds(ladders: dict[str, list[Setting]], rounds: int) -> dict[str, list[Point]]:
+    """Every setting of every method timed once per round, the methods taking turns at each
+    tolerance; the curves of medians."""
+    settings = sorted((s for ladder_ in ladders.values() for s in ladder_), key=lambda s: -s.tol)
+    for setting in settings:
+        setting.times.clear()
+    for _ in range(rounds):
+        for setting in settings:
+            setting.time_once()
+    return {method: [s.point() for s in ladder_] for method, ladder_ in ladders.items()}
 
 
 def section(problem: Problem, reference, curves: dict[str, list[Point]]) -> str:
@@ -293,7 +332,8 @@ def _version(package: str) -> str:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--repeat", type=int, default=5, help="runs per setting, best counts (default 5)")
+    parser.add_argument("--rounds", type=int, default=7,
+                        help="rounds, each timing every setting once; the median counts (default 7)")
     parser.add_argument("--limit", type=float, default=5.0, help="CPU seconds after which a ladder stops")
     parser.add_argument("--only", help="comma-separated problem names")
     arguments = parser.parse_args()
@@ -308,14 +348,14 @@ def main() -> int:
         reference = reference_solution(model.equations, model.plan(problem.scene, problem.overrides),
                                        problem.path.name)
         print(f"  {reference.describe()}", file=sys.stderr, flush=True)
-        curves = {method: ladder(lambda tol, m=method: lagdsl_point(model, problem, m, tol, reference,
-                                                                      arguments.repeat), LADDER, arguments.limit)
-                  for method in problem.methods}
-        curves["heyoka"] = ladder(lambda tol: heyoka_point(model, problem, tol, reference, arguments.repeat),
+        ladders = {method: ladder(lambda tol, m=method: lagdsl_setting(model, problem, m, tol, reference),
                                   LADDER, arguments.limit)
+                   for method in problem.methods}
+        ladders["heyoka"] = ladder(lambda tol: heyoka_setting(model, problem, tol, reference), LADDER, arguments.limit)
         columns = problem.heyoka(model)[2]
-        curves["CyRK"] = ladder(lambda tol: cyrk_point(model, problem, tol, reference, arguments.repeat, columns),
-                                LADDER, arguments.limit)
+        ladders["CyRK"] = ladder(lambda tol: cyrk_setting(model, problem, tol, reference, columns),
+                                 LADDER, arguments.limit)
+        curves = timed_in_rounds(ladders, arguments.rounds)
         text = section(problem, reference, curves)
         print(text, flush=True)
         write_outputs(problem, text, curves)

@@ -138,12 +138,40 @@ static real taylor_power(real x, int n)
     return result;
 }
 
+#if !defined(LAG_FLOAT128) && !defined(LAG_LONG_DOUBLE)
+/* taylor_power for n < 32 (the orders of a double build) without its loop: the same products, in
+ * five rounds for every n (a product by 1 changes nothing; written out: a loop over the sweep's
+ * lanes around it vectorises, where a loop inside it, or a product under a condition, does not). */
+static real taylor_power_unrolled(real x, int n)
+{
+    const real x2 = x * x, x4 = x2 * x2, x8 = x4 * x4, x16 = x8 * x8;
+    return (n & 1 ? x : 1) * (n & 2 ? x2 : 1) * (n & 4 ? x4 : 1) * (n & 8 ? x8 : 1) * (n & 16 ? x16 : 1);
+}
+
+/* taylor_radius with taylor_root_near, both roots taken at once and the second chosen as
+ * taylor_radius chooses it, so that the two chains of arithmetic overlap (the radius was a quarter
+ * of a double pendulum's step while its roots ran one after the other); the sweep's lanes take it
+ * in a loop over the lanes. inf or NaN where a root is beyond taylor_root_near (a norm of 0,
+ * order 2): taylor_radius then takes its own way. */
+static real taylor_radius_near(real size, real before, real last, int p)
+{
+    const real first = taylor_root_near(size / before, p - 1), other = taylor_root_near(size / last, p);
+    const real rho = (size / last < taylor_power_unrolled(first, p)) & (other < first) ? other : first;
+    return rho / ((first <= REAL_MAX) & (other <= REAL_MAX));   /* arithmetic, no branch */
+}
+#endif
+
 /* The radius of convergence from the norms of the last two coefficients (Jorba and Zou (3.11)):
- * min over j = p-1, p of (size / norm_j)^(1/j), REAL_MAX when both norms are 0. The sweep's lanes
- * take it in a loop over the lanes (taylor_lanes.c) with the same arithmetic. */
+ * min over j = p-1, p of (size / norm_j)^(1/j), REAL_MAX when both norms are 0. In a double build,
+ * taylor_radius_near where its roots hold, as in the sweep's lanes (taylor_lanes.c). */
 static real taylor_radius(real size, real before, real last, int p)
 {
-    real rho = REAL_MAX;
+    real rho;
+#if !defined(LAG_FLOAT128) && !defined(LAG_LONG_DOUBLE)
+    if ((rho = taylor_radius_near(size, before, last, p)) <= REAL_MAX)
+        return rho;               /* the common case: both norms positive, order 3 or more */
+#endif
+    rho = REAL_MAX;
     if (before > 0)
         rho = taylor_root(size / before, p - 1);
     /* the radius from the last is the smaller one iff size / last < rho^p: the second power only

@@ -83,25 +83,6 @@ static int lag_lanes_plan(lag_lanes *lanes)
     return highest;
 }
 
-/* taylor_power for n < 32 in a loop over the lanes: the same products, in five rounds for every n
- * (a product by 1 changes nothing; written out: a loop inside the loop over the lanes, or a
- * product under a condition, keeps it from vectorising). */
-static real lag_lane_power(real x, int n)
-{
-    const real x2 = x * x, x4 = x2 * x2, x8 = x4 * x4, x16 = x8 * x8;
-    return (n & 1 ? x : 1) * (n & 2 ? x2 : 1) * (n & 4 ? x4 : 1) * (n & 8 ? x8 : 1) * (n & 16 ? x16 : 1);
-}
-
-/* taylor_radius in a loop over the lanes: the same arithmetic with taylor_root_near, both roots
- * taken and the second chosen as taylor_radius chooses it; inf or NaN where a root is beyond
- * taylor_root_near (a norm of 0, order 2), and the lane then takes taylor_radius. */
-static real lag_lane_radius(real size, real before, real last, int p)
-{
-    const real first = taylor_root_near(size / before, p - 1), other = taylor_root_near(size / last, p);
-    const real rho = (size / last < lag_lane_power(first, p)) & (other < first) ? other : first;
-    return rho / ((first <= REAL_MAX) & (other <= REAL_MAX));   /* arithmetic, no branch */
-}
-
 /* The norms of each lane's last two coefficients (taylor_norms) in loops over the lanes, each lane
  * at its own order (a lane that takes no step at the highest, which the series reached). Component
  * i's series is read as one row, s[i][k][l] at k * LAG_LANES + l: gcc gathers from a row by index,
@@ -134,7 +115,7 @@ static void lag_lanes_step_sizes(lag_lanes *lanes, int highest)
     lag_lanes_norms(lanes);
     LAG_SIMD
     for (l = 0; l < LAG_LANES; ++l)
-        lanes->rho[l] = lag_lane_radius(lanes->size[l], lanes->before[l], lanes->last[l], lanes->order[l]);
+        lanes->rho[l] = taylor_radius_near(lanes->size[l], lanes->before[l], lanes->last[l], lanes->order[l]);
     for (l = 0; l < LAG_LANES; ++l) {
         lag_stepper *s = &lanes->stepper[l];
         if (!lanes->lane[l].trying || lanes->status[l] != LAG_OK)
