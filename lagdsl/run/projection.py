@@ -13,14 +13,18 @@ def project(program, par, t, y, iterations: int = 10) -> tuple[np.ndarray, float
     n = len(y) // 2
     moved = 0.0
     h = program.HOLONOMIC
+    eps, previous = np.finfo(float).eps, np.inf
     for _ in range(iterations if h else 0):
         g, _, A = program.constraint_rows(par, t, y)
         Ah = A[:h]
         dq = Ah.T @ np.linalg.solve(Ah @ Ah.T, g)
         y[:n] -= dq
-        moved = max(moved, float(np.max(np.abs(dq))))
-        if np.max(np.abs(dq)) <= 4 * np.finfo(float).eps * (1 + np.max(np.abs(y[:n]))):
+        step, size = float(np.max(np.abs(dq))), 1 + float(np.max(np.abs(y[:n])))
+        moved = max(moved, step)
+        # converged within rounding of q, or at the rounding floor of g (as lag_project decides)
+        if step <= 4 * eps * size or previous / 2 < step <= np.sqrt(eps) * size:
             break
+        previous = step
     _, c, A = program.constraint_rows(par, t, y)
     dv = A.T @ np.linalg.solve(A @ A.T, c)
     y[n:] -= dv
