@@ -149,7 +149,9 @@ def pytest_addoption(parser):
 
 
 def pytest_configure(config):
-    """Builds go to a cache of the test suite's own, never to the user's ~/.cache/lagdsl, unless
+    """SIGINT gets Python's own handler (see python_handles_ctrl_c); then:
+
+    Builds go to a cache of the test suite's own, never to the user's ~/.cache/lagdsl, unless
     LAGDSL_CACHE names one (.ci/run does, to keep builds between its steps). The suite's cache
     lives in pytest's cache directory (.pytest_cache/d/lagdsl-builds), so a developer's next run
     starts warm, as ccache would, and `pytest --cache-clear` empties it; without pytest's cache
@@ -157,6 +159,7 @@ def pytest_configure(config):
     workers inherit it from the controller, so they share it (the cache takes concurrent builds);
     a test that needs a cold cache makes its own. The models that model_file writes live beside it
     (.pytest_cache/d/lagdsl-models), or in a temporary directory without pytest's cache."""
+    _handle_ctrl_c_as_python_does()
     _MODEL_FILES[:] = [Path(config.cache.mkdir("lagdsl-models")) if getattr(config, "cache", None) is not None
                        else Path(_own_temporary_directory("lagdsl-test-models-"))]
     if os.environ.get("LAGDSL_CACHE"):
@@ -204,14 +207,24 @@ def _node_id(config, argument: str) -> str:
     return f"{relative.as_posix()}::{rest}"
 
 
+def _handle_ctrl_c_as_python_does() -> None:
+    """Python's own SIGINT handler in this process, where it started with SIGINT ignored.
+
+    A shell without job control starts a background command (`.ci/run &`, `nohup pytest &`) with
+    SIGINT ignored, and Python then installs no handler of its own; xdist's workers inherit that.
+    lagdsl rightly leaves an ignored SIGINT alone (no Ctrl-C reaches a background job), so the
+    Ctrl-C tests, which send SIGINT to their own process, would see their press ignored and run
+    on: a CI run once hung for that in test_ctrl_c_stops_a_run_and_keeps_its_rows[numpy]."""
+    if threading.current_thread() is threading.main_thread() and signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
 @pytest.fixture(autouse=True)
 def python_handles_ctrl_c():
     """Each test starts with Python's own SIGINT handler, which the runs' Ctrl-C handling builds on.
 
-    A CI run in random order once found another handler in place in a worker (its source is not
-    yet known): a later Ctrl-C test's press was then lost and its NumPy run of 10^7 s went on for
-    ever. The handler found is put back to Python's and named in a warning, so the suite reports
-    the leak instead of hanging on it."""
+    Any other handler found (one that a test left behind) is put back to Python's and named in a
+    warning, so that the suite reports the leak instead of losing a later test's Ctrl-C to it."""
     if threading.current_thread() is threading.main_thread():
         found = signal.getsignal(signal.SIGINT)
         if found is not signal.default_int_handler:
