@@ -3,7 +3,8 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass, field
+import functools
+from dataclasses import MISSING, dataclass, field, fields
 
 import numpy as np
 
@@ -212,8 +213,8 @@ class Result:
         """The Result of a repeated C run, its fields put in its __dict__ at once: a frozen
         dataclass's __init__ sets each through object.__setattr__, a few microseconds of a short run."""
         result = object.__new__(cls)
-        result.__dict__.update(t=t, columns=columns, values=values, summary=summary, units=units, origin=origin,
-                               drawing=None)
+        result.__dict__.update(_field_defaults(cls), t=t, columns=columns, values=values, summary=summary,
+                               units=units, origin=origin)
         return result
 
     def __getstate__(self) -> dict:
@@ -262,3 +263,9 @@ class Result:
         from .. import plots
         from .files import write_output
         write_output(path, plots.outputs_png(self) if xy is None else plots.trajectory_png(self, *xy))
+
+
+@functools.cache
+def _field_defaults(cls: type) -> dict:
+    """The fields of a dataclass that have a default, with it (those Result.of_run is not given)."""
+    return {f.name: f.default for f in fields(cls) if f.default is not MISSING}
