@@ -119,8 +119,8 @@ class Model(LyapunovMethod):
                  start: float | None = None, stop: float | None = None, interval: float | None = None,
                  integrator: str | None = None, rtol: float | None = None, atol: float | dict[str, float | str] | None = None,
                  step: float | None = None, stages: int | None = None, max_step: float | None = None,
-                 max_steps: int | None = None, estimate_error: bool = False, draw: bool = False,
-                 sensitivities=None, sensitivity_error_control: bool = True, **parameters: float) -> Result:
+                 max_steps: int | None = None, norm: str | None = None, estimate_error: bool = False,
+                 draw: bool = False, sensitivities=None, sensitivity_error_control: bool = True, **parameters: float) -> Result:
         """Run a scene and return its outputs.
 
         `set` maps parameter names, "q.start" and "q.velocity" to values (numbers in the declared
@@ -129,7 +129,8 @@ class Model(LyapunovMethod):
         "0.8 ns") and integrator; `atol` is one number for every component of the state, or a
         dict of components ("x", "der(x)") to numbers in each one's declared unit or texts with a
         unit (tolerances.py); `max_steps` bounds the steps (default: settings.step_limit,
-        DEFAULT_MAX_STEPS or STEPS_PER_ROW per output row). `estimate_error` fills
+        DEFAULT_MAX_STEPS or STEPS_PER_ROW per output row); `norm` is taylor's error norm, "component"
+        or "state" (integrators/registry.py). `estimate_error` fills
         `result.summary.error` (an ErrorEstimate: `.value`, the largest absolute error over rows
         and columns, in `.column`; `.columns`, each column's largest, in its unit; against a 100x
         tighter rerun or the extended-precision reference; `float(...)` gives the value). Raises
@@ -145,7 +146,8 @@ class Model(LyapunovMethod):
         """
         _check_backend(backend)
         values = {**set, **parameters} if set else parameters
-        options = dict(rtol=rtol, atol=atol, step=step, stages=stages, max_step=max_step, max_steps=max_steps)
+        options = dict(rtol=rtol, atol=atol, step=step, stages=stages, max_step=max_step, max_steps=max_steps,
+                       norm=norm)
         overrides = _overrides(values, (start, stop, interval), integrator, options)
         if sensitivities is not None:
             if draw:

@@ -16,6 +16,7 @@ import sympy
 
 from . import ir
 from .frontend import units
+from .integrators.registry import OPTIONS
 from .calculus import Differentiator, tree_size
 from .escape import visible
 from .mechanics import Equations
@@ -60,7 +61,8 @@ def describe_model(model: ir.Model, equations: Equations) -> str:
         lines.append("accelerations: independent of the velocities, q'' = a(t, q): the Nystrom integrator rkn8 applies")
     lines.append("scenes:" + ("" if model.scenes else " none (lagc run uses the default set-up)"))
     for s in model.scenes:
-        options = ", ".join([f"{k} = {format_number(v)}" for k, v in s.integrator.options]
+        options = ", ".join([f"{k} = {OPTIONS[k].word(v) if OPTIONS[k].choices else format_number(v)}"
+                             for k, v in s.integrator.options]
                             + [f"atol({k}) = {format_number(v)}" for k, v in s.integrator.atol_each])
         lines.append(f"  {s.name}" + (f' "{s.description}"' if s.description else "")
                      + f": t = {format_number(s.time.start)} .. {format_number(s.time.stop)}"

@@ -91,10 +91,21 @@ DEFAULT_TIME = TimeGrid(0.0, 10.0, 0.01, None)
 def given_options(values) -> tuple[tuple[str, float], ...]:
     """The run options among `values` (a mapping of name to value or None) that were given; of
     atol, the value for every component (given_atol_each has those per component); a time (step,
-    max_step) may carry its unit ("1 ms")."""
+    max_step) may carry its unit ("1 ms"); an option of words (norm) is given its word ("state")."""
     values = {**values, "atol": split_atol(values.get("atol"))[0]}
-    return tuple((name, input_in_si(name, values[name], SECONDS) if OPTIONS[name].time else float(values[name]))
-                 for name in RUN_OPTIONS if values.get(name) is not None)
+    return tuple((name, _option_number(name, values[name])) for name in RUN_OPTIONS if values.get(name) is not None)
+
+
+def _option_number(name: str, value) -> float:
+    """The number an option holds for `value`: in SI for a time, the index of its word for an option of words."""
+    option = OPTIONS[name]
+    if option.time:
+        return input_in_si(name, value, SECONDS)
+    if not option.choices or not isinstance(value, str):
+        return float(value)             # an index, as given_options gave it (validate_integrator checks it)
+    if value not in option.choices:
+        raise LagError(f"--{option.flag} must be {option.requirement}, got {value!r}", Setting("--" + option.flag))
+    return float(option.choices.index(value))
 
 
 @dataclass(frozen=True)

@@ -72,7 +72,7 @@ def integrator_options(parser: argparse.ArgumentParser) -> None:
                                      "like --set, or with a unit: 'x=1e-15 mm'; "
                                      f"repeat the option for more) ({users})")
             continue
-        kind = int if option.c_cast else (lambda text, flag=option.flag: time_value(f"--{flag}", text)) \
+        kind = str if option.choices else int if option.c_cast else (lambda text, flag=option.flag: time_value(f"--{flag}", text)) \
             if option.time else float
         seconds = " in seconds, or a number and a unit of time ('1 ms')" if option.time else ""
         parser.add_argument("--" + option.flag, type=kind, help=f"{option.meaning}: {option.requirement}{seconds} ({users})")

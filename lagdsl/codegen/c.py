@@ -185,18 +185,26 @@ def stem(kernel: Kernel) -> str:
 
 def _option_fields(allowed: tuple[str, ...]) -> list[dict[str, str]]:
     """The options the standalone program accepts (each sets the lag_options field of its name),
-    with their checks."""
+    with their checks; an option of words takes its index there (--norm=1), and is printed as its word."""
     return [{"key": key, "flag": OPTIONS[key].flag, "field": key, "check": OPTIONS[key].c_accepts,
-             "requirement": OPTIONS[key].requirement, "cast": OPTIONS[key].c_cast}
+             "requirement": _c_requirement(OPTIONS[key]), "cast": OPTIONS[key].c_cast,
+             "words": [c_string(word) for word in OPTIONS[key].choices]}
             for key in OPTION_ORDER if key in allowed]
 
 
+def _c_requirement(option) -> str:
+    """What the standalone program asks of an option: its numbers, for an option of words: 0 (component) or 1 (state)."""
+    indices = [f"{index} ({word})" for index, word in enumerate(option.choices)]
+    return option.requirement if not indices else ", ".join(indices[:-1]) + " or " + indices[-1]
+
+
 def _options_initializer(options: dict[str, float], atol_each: str = "NULL") -> str:
-    """lag_options in field order: rtol, atol, step, max_step, stages, max_steps (0: the default),
+    """lag_options in field order: rtol, atol, step, max_step, stages, norm, max_steps (0: the default),
     atol_each (the name of the array of the atol of each component of y, or NULL)."""
     values = [options.get("rtol", 0.0), options.get("atol", 0.0), options.get("step", 0.0),
               options.get("max_step", 0.0)]
-    counts = [str(int(options.get("stages", 0))), f"{int(options.get('max_steps', 0))}L"]
+    counts = [str(int(options.get("stages", 0))), str(int(options.get("norm", 0))),
+              f"{int(options.get('max_steps', 0))}L"]
     return ", ".join([_literal(v) for v in values] + counts + [atol_each])
 
 

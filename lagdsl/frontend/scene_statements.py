@@ -120,10 +120,23 @@ class SceneStatements:
         atol_each = self.atol_each(per_component, name, "atol" in record.options)
         plain = _without(node, per_component)
         options = self.modifiers(plain, record.options, f"integrator {name}", with_units=True)
-        values = self.scene_numbers(plain, options, lambda k: f"{name}({k} = ...)", {},
-                                    {k: TIME for k in options if OPTIONS[k].time})
+        words = {k: self.option_word(v, k, f"{name}({k} = ...)") for k, v in options.items() if OPTIONS[k].choices}
+        for key, unit in self.written_units(plain).items():
+            if key in words:
+                raise LagError(f"{name}({key} = ...) takes a word, without a unit", unit.span)
+        values = self.scene_numbers(plain, {k: v for k, v in options.items() if k not in words},
+                                    lambda k: f"{name}({k} = ...)", {}, {k: TIME for k in options if OPTIONS[k].time})
+        values.update(words)
         choice = validate_integrator(name, values, self.span(node), {k: self.span(v) for k, v in options.items()})
         return replace(choice, atol_each=atol_each)
+
+    def option_word(self, node, key: str, what: str) -> float:
+        """The index of the word an option of words is given (`norm = state`: 1), the value it holds."""
+        option = OPTIONS[key]
+        word = str(node.children[0]) if isinstance(node, lark.Tree) and node.data == "name" else None
+        if word not in option.choices:
+            raise LagError(f"{what} must be {option.requirement}", self.span(node))
+        return float(option.choices.index(word))
 
     def atol_each(self, modifiers, name: str, takes_atol: bool) -> tuple[tuple[str, float], ...]:
         """`atol(x) = 1e-18`, `atol(der(x)) = 1e-6`: the atol of one component of y (tolerances.py), a

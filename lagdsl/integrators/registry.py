@@ -25,6 +25,11 @@ class Option:
     c_accepts: str                      # the same check in C, on a double `value`
     c_cast: str = ""                    # how the standalone program stores it: "", "(int)", "(long)"
     time: bool = False                  # a time: in seconds, or written with a unit of time
+    choices: tuple[str, ...] = ()       # a word among these, written as the word, held as its index
+
+    def word(self, value: float) -> str:
+        """How a scene and the run summary write `value`: the word of its index, else the number."""
+        return self.choices[int(value)] if self.choices else format(value, "g")
 
     @property
     def flag(self) -> str:
@@ -62,9 +67,14 @@ OPTIONS: dict[str, Option] = {option.name: option for option in (
            "a whole number from 1 to " + _count(MAX_STEPS_CEILING),
            lambda v: 1 <= v <= MAX_STEPS_CEILING and v == int(v),
            "value >= 1 && value <= (real)LAG_MAX_STEPS_CEILING && value == r_floor(value)", "(long)"),
+    Option("norm", "the norm of the Taylor integrator's step control: component (the default; each component "
+                   "against atol_i + rtol |y_i|, for states that mix units) or state (Jorba and Zou's: the whole "
+                   "state's largest coefficient against atol + rtol max_i |y_i|, for states on one scale)",
+           "component or state", lambda v: v in (0, 1), "value == 0 || value == 1", "(int)",
+           choices=("component", "state")),
 )}
 # The order of the options in lag_options, the settings array of lag_run and the run summary.
-OPTION_ORDER = ("rtol", "atol", "step", "max_step", "stages", "max_steps")
+OPTION_ORDER = ("rtol", "atol", "step", "max_step", "stages", "norm", "max_steps")
 ADAPTIVE_OPTIONS = ("rtol", "atol", "max_step", "max_steps")
 ADAPTIVE_DEFAULTS = (("rtol", 1e-8), ("atol", 1e-10))
 
@@ -223,6 +233,7 @@ for _record in (
                order=2, stage_order=True),
     Integrator("taylor", "the Taylor integrator taylor",
                "Taylor series of variable order and step (Jorba-Zou), from the equations' recurrences; C backend",
+               options=(*ADAPTIVE_OPTIONS, "norm"),
                counters=("accepted", "orders"), series=True, lanes="taylor_lanes.c",
                numpy="the Taylor integrator taylor runs on the C backend only (its series are generated C); "
                      "use --backend c, or dop853 on the NumPy backend"),

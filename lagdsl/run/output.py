@@ -10,7 +10,7 @@ import numpy as np
 
 from ..abi import VERDICT_REMEDIES, VERDICTS
 from ..integrators import COUNTER_LABELS, VERDICT_STIFF
-from ..integrators.registry import OPTION_ORDER
+from ..integrators.registry import OPTION_ORDER, OPTIONS
 from ..settings import RunPlan, grid_rows
 
 
@@ -161,7 +161,8 @@ class RunSummary:
     def settings_text(self) -> str:
         """"rtol = 1e-10, atol = 1e-12, atol(x) = 1e-18" or "step = 0.01, stages = 2", as in a scene."""
         values = dict(self.settings)
-        return ", ".join([f"{key} = {values[key]:g}" for key in OPTION_ORDER if key in values and key != "max_steps"]
+        return ", ".join([f"{key} = {OPTIONS[key].word(values[key])}" for key in OPTION_ORDER
+                          if key in values and key != "max_steps"]
                          + [f"atol({name}) = {value:g}" for name, value in self.atol_each])
 
 

@@ -108,6 +108,8 @@ static int lag_fmu_set_option(lag_fmu *fmu, const char *function, const lag_fmu_
         *field = value;
     else if (variable->index == LAG_SET_STAGES)
         fmu->options.stages = (int)value;
+    else if (variable->index == LAG_SET_NORM)
+        fmu->options.norm = (int)value;
     else
         fmu->options.max_steps = (long)value;
     return LAG_FMU_OK;
@@ -162,7 +164,8 @@ static int lag_fmu_get_integer(lag_fmu *fmu, const char *function, unsigned long
         return LAG_FMU_ERROR;
     if (variable == NULL)
         return lag_fmu_bad_reference(fmu, function, reference);
-    *value = variable->index == LAG_SET_STAGES ? (long)fmu->options.stages : fmu->options.max_steps;
+    *value = variable->index == LAG_SET_STAGES ? (long)fmu->options.stages
+             : variable->index == LAG_SET_NORM ? (long)fmu->options.norm : fmu->options.max_steps;
     return LAG_FMU_OK;
 }
 

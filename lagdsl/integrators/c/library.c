@@ -44,6 +44,7 @@ static void lag_member_inputs(const double *parameters, const double *initial, c
     options->step = settings[LAG_SET_STEP];
     options->max_step = settings[LAG_SET_MAX_STEP];
     options->stages = (int)settings[LAG_SET_STAGES];
+    options->norm = (int)settings[LAG_SET_NORM];
     options->max_steps = (long)settings[LAG_SET_MAX_STEPS];
     options->atol_each = settings + LAG_SETTINGS;
 }

@@ -55,6 +55,7 @@ typedef struct lag_options {
     real step;         /* fixed-step methods (rk4, gauss): the step; adaptive: initial step, 0 = automatic */
     real max_step;     /* adaptive: largest step, 0 = no limit */
     int stages;        /* gauss: number of stages s (order 2s) */
+    int norm;          /* taylor: the error norm, 0 component, 1 state (integrators/registry.py: norm) */
     long max_steps;    /* give up after this many attempted steps (every try counts), 0 = no limit;
                         * the driver always sets a limit */
     const double *atol_each;   /* adaptive methods: the atol of each of the LAG_NY components of y,

@@ -189,6 +189,7 @@ static int lag_batch_main(const char *program, const lag_member *given, real t0,
     settings[LAG_SET_STEP] = (double)options->step;
     settings[LAG_SET_MAX_STEP] = (double)options->max_step;
     settings[LAG_SET_STAGES] = options->stages;
+    settings[LAG_SET_NORM] = options->norm;
     settings[LAG_SET_MAX_STEPS] = (double)lag_step_limit(options, t0, t1, last);
     for (i = 0; i < LAG_NY; ++i)
         settings[LAG_SETTINGS + i] = (double)LAG_ATOL(options, i);

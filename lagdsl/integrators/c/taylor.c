@@ -19,6 +19,15 @@
  *          tolerance (Jorba and Zou, (3.9)-(3.12)), and the order minimises the work per unit time.
  * h is at most max_step and lands exactly on t_end, as in lag_control_trial.
  *
+ * The norm (option norm, integrators/registry.py): with `component` (the default) each component
+ * has its own w_i as above, which states that mix units (a length and an angle) need. With `state`,
+ * Jorba and Zou's own control, one tolerance for the whole state,
+ *   w_i = w = atol + rtol max_k |y_k|   (atol: the smallest atol_i),
+ * so that the sizes above are infinity norms of the whole state and of its coefficients,
+ * ||x_j|| / w: a state whose components are all on one scale (the positions and velocities of a
+ * many-body problem) is held to the same accuracy with fewer steps, as no small component's
+ * own tolerance holds the step.
+ *
  * Dense output: the step's own polynomial, evaluated at t - t_old (Horner); the series stays in
  * the stepper until the next step. When the driver projects the end state onto the constraints,
  * the output adds (t - t_old)/h times the move, so that it ends where the next step starts.
@@ -36,6 +45,7 @@ typedef struct lag_stepper {
     LAG_STEPPER_PUBLIC(lag_stats)     /* t, t_old (the series below is about t_old), y, h, stats (runtime.h) */
     const lag_system *sys;
     real t_end, span, hmax, rtol;
+    int state_norm;                   /* the norm: 1 state (one w for all), 0 component */
     real atol[LAG_NY], atol_least;    /* per component of y, and the smallest */
     long max_steps;
     int order;                        /* the last step's order */
@@ -59,11 +69,14 @@ static int lag_stepper_init(lag_stepper *s, const lag_system *sys, real t0, cons
     s->span = t_end - t0;
     s->hmax = opt->max_step > 0 ? opt->max_step : t_end - t0;
     s->rtol = opt->rtol;
+    s->state_norm = opt->norm;
     s->atol_least = REAL_MAX;
     for (i = 0; i < LAG_NY; ++i) {
         s->atol[i] = LAG_ATOL(opt, i);
         s->atol_least = r_fmin(s->atol_least, s->atol[i]);
     }
+    for (i = 0; s->state_norm && i < LAG_NY; ++i)
+        s->atol[i] = s->atol_least;   /* the state norm: one atol, the smallest */
     s->max_steps = opt->max_steps;
     s->h = 0;
     s->order = 0;                     /* until the first step, the dense output is y0 */
@@ -232,15 +245,26 @@ static int taylor_may_step(const lag_stepper *s, int *taking)
     return LAG_OK;
 }
 
+/* The magnitude each component's tolerance is relative to: |y_i|, or with the state norm the
+ * largest max_k |y_k| for every one (`state_norm` 0 or 1: arithmetic, so that a loop over the
+ * sweep's lanes around it vectorises and does the same arithmetic, taylor_lanes.c). */
+static real taylor_scale(real magnitude, real largest, int state_norm)
+{
+    return state_norm ? largest : magnitude;
+}
+
 /* The first half of a step, before the series: the step limit, the weights 1/w of the state's
  * components and the order for them (size: the state's size in units of the tolerance). */
 static int taylor_begin_step(lag_stepper *s, real *weight, real *size, int *taking)
 {
+    real largest = 0;
     int i, status = taylor_may_step(s, taking);
     if (status != LAG_OK || !*taking)
         return status;
+    for (i = 0; s->state_norm && i < LAG_NY; ++i)
+        largest = taylor_larger(r_fabs(s->y[i]), largest);
     for (i = 0; i < LAG_NY; ++i)
-        weight[i] = 1 / (s->atol[i] + s->rtol * r_fabs(s->y[i]));
+        weight[i] = 1 / (s->atol[i] + s->rtol * taylor_scale(r_fabs(s->y[i]), largest, s->state_norm));
     *size = taylor_size(s, weight);
     s->order = taylor_order_of(s, *size);
     return LAG_OK;

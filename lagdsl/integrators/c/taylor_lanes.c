@@ -18,6 +18,7 @@ struct lag_lanes {
     real par[LAG_NP > 0 ? LAG_NP : 1][LAG_LANES];
     real t[LAG_LANES], y[LAG_NY][LAG_LANES];
     real atol[LAG_NY][LAG_LANES], rtol[LAG_LANES], atol_least[LAG_LANES];   /* each stepper's */
+    int state_norm[LAG_LANES];                                               /* each stepper's */
     real weight[LAG_NY][LAG_LANES], size[LAG_LANES];   /* taylor_begin_step's, for the step's size */
     real h[LAG_LANES];                                 /* the step's size (0 in a lane that takes none) */
     real before[LAG_LANES], last[LAG_LANES], rho[LAG_LANES];   /* taylor_norms', taylor_radius' */
@@ -33,9 +34,12 @@ static void lag_lanes_weights(lag_lanes *lanes)
     int i, l;
     LAG_SIMD
     for (l = 0; l < LAG_LANES; ++l) {
-        real largest = 1 / (lanes->atol_least[l] + lanes->rtol[l]);
+        real largest = 1 / (lanes->atol_least[l] + lanes->rtol[l]), magnitude = 0;
+        for (i = 0; i < LAG_NY; ++i)
+            magnitude = taylor_larger(r_fabs(lanes->y[i][l]), magnitude);
         for (i = 0; i < LAG_NY; ++i) {
-            real weight = 1 / (lanes->atol[i][l] + lanes->rtol[l] * r_fabs(lanes->y[i][l]));
+            real scale = taylor_scale(r_fabs(lanes->y[i][l]), magnitude, lanes->state_norm[l]);
+            real weight = 1 / (lanes->atol[i][l] + lanes->rtol[l] * scale);
             real x = r_fabs(lanes->y[i][l]) * weight;
             lanes->weight[i][l] = weight;
             largest = x > largest ? x : largest;
@@ -67,6 +71,7 @@ static int lag_lanes_plan(lag_lanes *lanes)
         lanes->t[l] = s->t;
         lanes->rtol[l] = s->rtol;
         lanes->atol_least[l] = s->atol_least;
+        lanes->state_norm[l] = s->state_norm;
         for (i = 0; i < LAG_NY; ++i) {
             lanes->y[i][l] = s->y[i];
             lanes->atol[i][l] = s->atol[i];
