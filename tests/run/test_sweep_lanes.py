@@ -1,6 +1,6 @@
 """The C sweep in SIMD lanes (integrators/c/lanes.c; dop853_lanes.c with codegen/c_lanes.py,
 taylor_lanes.c with codegen/c_taylor_lanes.py): with dop853 and taylor, a member's rows, status and
-counters equal its simulate() bit for bit, whichever lane ran it and whatever ran beside it; failing
+counters equal its simulate() bit for bit (taylor with either norm), whichever lane ran it and whatever ran beside it; failing
 members end alone; 10^5 members take the result's memory plus a constant."""
 from __future__ import annotations
 
@@ -40,29 +40,32 @@ def draw(ranges: dict, count: int, seed: int) -> dict[str, np.ndarray]:
     return {name: rng.uniform(low, high, count) for name, (low, high) in ranges.items()}
 
 
-def simulated(model, scene: str, values: dict, stop: float, integrator: str = "dop853"):
+def simulated(model, scene: str, values: dict, stop: float, integrator: str = "dop853", **options):
     """(values, status, counters) of simulate(); a failure's partial rows and its message."""
     try:
-        result, status = model.simulate(scene, set=values, stop=stop, integrator=integrator), "ok"
+        result, status = model.simulate(scene, set=values, stop=stop, integrator=integrator, **options), "ok"
     except SimulationError as error:
         result, status = error.partial, None
     return result, status
 
 
-@pytest.mark.parametrize("integrator,name",
-                         [pytest.param("dop853", name, marks=() if name in DEFAULT_SET else pytest.mark.slow)
+@pytest.mark.parametrize("integrator,name,options",
+                         [pytest.param("dop853", name, {}, marks=() if name in DEFAULT_SET else pytest.mark.slow)
                           for name in LANE_MODELS]
-                         + [pytest.param("taylor", name, marks=() if name == "double_pendulum" else pytest.mark.slow)
+                         + [pytest.param("taylor", name, {}, marks=() if name == "double_pendulum" else pytest.mark.slow)
+                            for name in TAYLOR_LANE_MODELS]
+                         + [pytest.param("taylor", name, {"norm": "state"},
+                                         marks=() if name == "kepler" else pytest.mark.slow, id=f"taylor-{name}-state")
                             for name in TAYLOR_LANE_MODELS])
-def test_each_member_of_a_lane_sweep_equals_its_simulate_bit_for_bit(integrator, name):
+def test_each_member_of_a_lane_sweep_equals_its_simulate_bit_for_bit(integrator, name, options):
     scene, ranges, stop = LANE_MODELS[name]
     model = library_model(name)
     # 1, or for taylor the condition that the build is a double one (c_taylor_lanes.py)
     assert "#define LAG_HAS_LANES 0" not in model.emit("c", scene, Overrides(integrator=integrator)).text
     varied = draw(ranges, MEMBERS, seed=len(name))
-    sweep = model.sweep(scene, set=varied, stop=stop, integrator=integrator, workers=2)
+    sweep = model.sweep(scene, set=varied, stop=stop, integrator=integrator, workers=2, **options)
     for b in range(MEMBERS):
-        result, status = simulated(model, scene, {k: v[b] for k, v in varied.items()}, stop, integrator)
+        result, status = simulated(model, scene, {k: v[b] for k, v in varied.items()}, stop, integrator, **options)
         rows = len(result.t)
         assert np.array_equal(sweep.values[b, :rows], result.values, equal_nan=True), (name, b)
         assert np.all(np.isnan(sweep.values[b, rows:]))

@@ -12,6 +12,10 @@
   libm's sin and cos of a ± b, to rounding.
 - The generated C file compiles warning-free in double and long double.
 - The NumPy backend refuses it, naming --backend c.
+- The norm option: `norm = state` (Jorba and Zou's one tolerance for the whole state) lets a tiny
+  fast oscillator beside a unit slow one be held to the whole state's scale, in far fewer steps
+  than `component` (each its own), both to their closed forms; Kepler's orbit with it; a value
+  other than component or state is refused at its place in the file, and from the command line.
 """
 from __future__ import annotations
 
@@ -61,7 +65,21 @@ end AngleSum;
 """
 
 
-def kepler_model(eccentricity: float, orbits: int, per_orbit: int, tol: float) -> str:
+TWO_SCALES = """model TwoScales "a unit slow oscillator and a fast one 1e8 times smaller"
+  coordinate x(start = 1);
+  coordinate y(start = 1e-8);
+  T = (der(x)^2 + der(y)^2)/2;
+  U = (x^2 + 100*y^2)/2;
+  scene swing
+    time(stop = 20, interval = 0.25);
+    integrator taylor(rtol = 1e-12, atol = 1e-20);
+    output x, y;
+  end swing;
+end TwoScales;
+"""
+
+
+def kepler_model(eccentricity: float, orbits: int, per_orbit: int, tol: float, norm: str = "component") -> str:
     """Kepler's problem, GM = 1, from periapsis r = 1: theta' = sqrt(1 + e) there."""
     period = 2 * math.pi * (1 - eccentricity) ** -1.5
     return f"""model Kepler
@@ -71,7 +89,7 @@ def kepler_model(eccentricity: float, orbits: int, per_orbit: int, tol: float) -
   U = -1/r;
   scene orbits
     time(stop = {orbits * period!r}, interval = {period / per_orbit!r});
-    integrator taylor(rtol = {tol!r}, atol = {tol!r});
+    integrator taylor(rtol = {tol!r}, atol = {tol!r}, norm = {norm});
     output r, theta, energy;
   end orbits;
 end Kepler;
@@ -117,12 +135,16 @@ def test_the_grid_changes_neither_the_steps_nor_the_rows():
         assert np.array_equal(fine[column][common], coarse[column])
 
 
-def test_kepler_orbit_from_keplers_equation():
+@pytest.mark.parametrize("norm", ["component", "state"])
+def test_kepler_orbit_from_keplers_equation(norm):
+    """With the state norm every component is held to rtol of the largest, here the angle that
+    grows to 20 pi over the ten orbits: the errors to 1e-12 of that."""
     e = 0.44
-    result = load(kepler_model(e, orbits=10, per_orbit=40, tol=3e-15)).simulate("orbits")
+    result = load(kepler_model(e, orbits=10, per_orbit=40, tol=3e-15, norm=norm)).simulate("orbits")
     r, theta = kepler_orbit(result.t, e)
-    assert np.max(np.abs(result["r"] - r)) < 1e-12
-    assert np.max(np.abs(result["theta"] - theta)) < 1e-12
+    scale = np.max(np.abs(theta)) if norm == "state" else 1.0
+    assert np.max(np.abs(result["r"] - r)) < 1e-12 * scale
+    assert np.max(np.abs(result["theta"] - theta)) < 1e-12 * scale
 
 
 @pytest.mark.slow      # 44,000 steps of order 18: 0.1 s of integration, 7 s with the derivation and the build
@@ -198,3 +220,38 @@ def test_the_generated_file_compiles_warning_free(tmp_path, precision):
 def test_the_numpy_backend_refuses_it_naming_the_c_backend():
     with pytest.raises(lagdsl.LagError, match="--backend c"):
         load(OSCILLATOR).simulate("swing", "numpy")
+
+
+def test_the_state_norm_holds_a_tiny_component_to_the_whole_states_scale():
+    """x = cos t, y = 1e-8 cos 10t. component: y is held to rtol of its own size (atol is far
+    below it), so its fast series sets every step; state: w = atol + rtol max|y_k| for both, so y is
+    held to 1e-12 of x's size, and its coefficients 1e-8 10^j / j! bound the step only where they
+    exceed x's 1 / j!: at order 15 a radius (10^8)^(1/15) = 3.4 times longer (Jorba and Zou (3.11))."""
+    model = load(TWO_SCALES)
+    runs = {norm: model.simulate("swing", norm=norm) for norm in ("component", "state")}
+    t = runs["state"].t
+    for result in runs.values():
+        assert np.max(np.abs(result["x"] - np.cos(t))) < 1e-11
+    assert np.max(np.abs(runs["component"]["y"] - 1e-8 * np.cos(10 * t))) < 1e-19
+    assert np.max(np.abs(runs["state"]["y"] - 1e-8 * np.cos(10 * t))) < 1e-11
+    assert runs["state"].summary.count("accepted") * 2.5 < runs["component"].summary.count("accepted")
+    assert runs["state"].summary.settings_text() == "rtol = 1e-12, atol = 1e-20, norm = state"
+
+
+@pytest.mark.parametrize("value", ["sideways", "1", "state [m]"])
+def test_a_norm_other_than_component_or_state_is_refused_where_it_is_written(value):
+    text = OSCILLATOR.replace("taylor(rtol = 1e-14, atol = 1e-14)", f"taylor(rtol = 1e-14, norm = {value})")
+    with pytest.raises(lagdsl.LagError) as raised:
+        load(text)
+    diagnostic = raised.value.diagnostics[0]
+    assert "taylor(norm = ...)" in diagnostic.message
+    column = text.splitlines()[8].rindex("[" if "[" in value else value) + 1
+    assert (diagnostic.span.line, diagnostic.span.column) == (9, column)
+
+
+def test_a_norm_from_the_command_line_is_checked_and_only_taylor_takes_one():
+    model = load(OSCILLATOR)
+    with pytest.raises(lagdsl.LagError, match="--norm must be component or state"):
+        model.simulate("swing", norm="sideways")
+    with pytest.raises(lagdsl.LagError, match="dop853 has no option 'norm'"):
+        model.simulate("swing", integrator="dop853", norm="state")
