@@ -106,6 +106,7 @@ typedef struct lag_options {
     real step;         /* fixed-step methods (rk4, gauss): the step; adaptive: initial step, 0 = automatic */
     real max_step;     /* adaptive: largest step, 0 = no limit */
     int stages;        /* gauss: number of stages s (order 2s) */
+    int norm;          /* taylor: the error norm, 0 component, 1 state (integrators/registry.py: norm) */
     long max_steps;    /* give up after this many attempted steps (every try counts), 0 = no limit;
                         * the driver always sets a limit */
     const double *atol_each;   /* adaptive methods: the atol of each of the LAG_NY components of y,
@@ -205,7 +206,7 @@ enum lag_status {
 #define LAG_RADAU5_TOLERANCE_POWER (LAG_LIT(2.0) / LAG_LIT(3.0)) /* ... and atol' = rtol' atol / rtol */
 
 /* The positions in the settings vector of lag_run and lag_run_batch (lagdsl.abi.SETTINGS). */
-enum lag_setting { LAG_SET_T_START, LAG_SET_T_STOP, LAG_SET_T_INTERVAL, LAG_SET_RTOL, LAG_SET_ATOL, LAG_SET_STEP, LAG_SET_MAX_STEP, LAG_SET_STAGES, LAG_SET_MAX_STEPS, LAG_SETTINGS };
+enum lag_setting { LAG_SET_T_START, LAG_SET_T_STOP, LAG_SET_T_INTERVAL, LAG_SET_RTOL, LAG_SET_ATOL, LAG_SET_STEP, LAG_SET_MAX_STEP, LAG_SET_STAGES, LAG_SET_NORM, LAG_SET_MAX_STEPS, LAG_SETTINGS };
 
 /* ---- dense linear algebra ---- */
 
@@ -1088,6 +1089,7 @@ static void lag_member_inputs(const double *parameters, const double *initial, c
     options->step = settings[LAG_SET_STEP];
     options->max_step = settings[LAG_SET_MAX_STEP];
     options->stages = (int)settings[LAG_SET_STAGES];
+    options->norm = (int)settings[LAG_SET_NORM];
     options->max_steps = (long)settings[LAG_SET_MAX_STEPS];
     options->atol_each = settings + LAG_SETTINGS;
 }
@@ -1203,7 +1205,7 @@ void lag_run_batch(long members, const double *parameters, const double *initial
 #define LAG_SCENE_T_START LAG_LIT(0.0)
 #define LAG_SCENE_T_STOP LAG_LIT(0.5)
 #define LAG_SCENE_T_INTERVAL LAG_LIT(0.01)
-#define LAG_SCENE_OPTIONS { LAG_LIT(0.0), LAG_LIT(0.0), LAG_LIT(0.001), LAG_LIT(0.0), 0, 0L, NULL }
+#define LAG_SCENE_OPTIONS { LAG_LIT(0.0), LAG_LIT(0.0), LAG_LIT(0.001), LAG_LIT(0.0), 0, 0, 0L, NULL }
 
 /* The declared unit of each input (runtime.h): the parameters, each coordinate's start, each
  * one's velocity, the slots of lag_member (standalone_input.c). */
@@ -1938,6 +1940,7 @@ static int lag_batch_main(const char *program, const lag_member *given, real t0,
     settings[LAG_SET_STEP] = (double)options->step;
     settings[LAG_SET_MAX_STEP] = (double)options->max_step;
     settings[LAG_SET_STAGES] = options->stages;
+    settings[LAG_SET_NORM] = options->norm;
     settings[LAG_SET_MAX_STEPS] = (double)lag_step_limit(options, t0, t1, last);
     for (i = 0; i < LAG_NY; ++i)
         settings[LAG_SETTINGS + i] = (double)LAG_ATOL(options, i);
