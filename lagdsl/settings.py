@@ -104,7 +104,7 @@ def _option_number(name: str, value) -> float:
     if not option.choices or not isinstance(value, str):
         return float(value)             # an index, as given_options gave it (validate_integrator checks it)
     if value not in option.choices:
-        raise LagError(f"--{option.flag} must be {option.requirement}, got {value!r}", Setting("--" + option.flag))
+        raise LagError(f"must be {option.requirement}, got {value!r}", Setting("--" + option.flag))
     return float(option.choices.index(value))
 
 

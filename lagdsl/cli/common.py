@@ -75,7 +75,8 @@ def integrator_options(parser: argparse.ArgumentParser) -> None:
         kind = str if option.choices else int if option.c_cast else (lambda text, flag=option.flag: time_value(f"--{flag}", text)) \
             if option.time else float
         seconds = " in seconds, or a number and a unit of time ('1 ms')" if option.time else ""
-        parser.add_argument("--" + option.flag, type=kind, help=f"{option.meaning}: {option.requirement}{seconds} ({users})")
+        parser.add_argument("--" + option.flag, type=kind, choices=option.choices or None,
+                            help=f"{option.meaning}: {option.requirement}{seconds} ({users})")
 
 
 def atol_item(text: str) -> float | tuple[str, float | str]:

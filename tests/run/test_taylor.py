@@ -251,7 +251,7 @@ def test_a_norm_other_than_component_or_state_is_refused_where_it_is_written(val
 
 def test_a_norm_from_the_command_line_is_checked_and_only_taylor_takes_one():
     model = load(OSCILLATOR)
-    with pytest.raises(lagdsl.LagError, match="--norm must be component or state"):
+    with pytest.raises(lagdsl.LagError, match="must be component or state, got 'sideways'"):
         model.simulate("swing", norm="sideways")
     with pytest.raises(lagdsl.LagError, match="dop853 has no option 'norm'"):
         model.simulate("swing", integrator="dop853", norm="state")

@@ -315,7 +315,7 @@ static int taylor_end_step(lag_stepper *s, const real *weight, real size)
 
 static int lag_stepper_step(lag_stepper *s)
 {
-    real weight[LAG_NY], size = 0;
+    real weight[LAG_NY] = { 0 }, size = 0;    /* set by taylor_begin_step (gcc -O2 cannot tell, for LAG_NY 2) */
     int taking, status = taylor_begin_step(s, weight, &size, &taking);
     if (status != LAG_OK || !taking)
         return status;
