@@ -187,15 +187,9 @@ def _option_fields(allowed: tuple[str, ...]) -> list[dict[str, str]]:
     """The options the standalone program accepts (each sets the lag_options field of its name),
     with their checks; an option of words takes its index there (--norm=1), and is printed as its word."""
     return [{"key": key, "flag": OPTIONS[key].flag, "field": key, "check": OPTIONS[key].c_accepts,
-             "requirement": _c_requirement(OPTIONS[key]), "cast": OPTIONS[key].c_cast,
+             "requirement": OPTIONS[key].number_requirement, "cast": OPTIONS[key].c_cast,
              "words": [c_string(word) for word in OPTIONS[key].choices]}
             for key in OPTION_ORDER if key in allowed]
-
-
-def _c_requirement(option) -> str:
-    """What the standalone program asks of an option: its numbers, for an option of words: 0 (component) or 1 (state)."""
-    indices = [f"{index} ({word})" for index, word in enumerate(option.choices)]
-    return option.requirement if not indices else ", ".join(indices[:-1]) + " or " + indices[-1]
 
 
 def _options_initializer(options: dict[str, float], atol_each: str = "NULL") -> str:

@@ -161,7 +161,8 @@ def _option_variables(plan: ScenePlan, units: VariableUnits) -> list[FmuVariable
     variables = []
     for key in (key for key in OPTION_ORDER if key in record.options):
         option = OPTIONS[key]
-        unset = f"; 0: {UNSET_OPTIONS[key]}" if key in UNSET_OPTIONS else ""
+        unset = f"; 0: {UNSET_OPTIONS[key]}" if key in UNSET_OPTIONS else \
+            f"; {option.number_requirement}" if option.choices else ""
         variables.append(FmuVariable(
             f"integrator.{key}", "option", f"LAG_SET_{key.upper()}", "parameter", "fixed", "exact", given[key],
             units.time if key in ("step", "max_step") else "?",
@@ -261,7 +262,7 @@ def _option_refusal(plan: ScenePlan) -> str:
     record = registry.get(plan.integrator.name)
     cases = []
     for key in (key for key in OPTION_ORDER if key in record.options):
-        check, requirement = OPTIONS[key].c_accepts, OPTIONS[key].requirement
+        check, requirement = OPTIONS[key].c_accepts, OPTIONS[key].number_requirement
         if key in UNSET_OPTIONS:
             check, requirement = f"value == 0 || ({check})", f"0 ({UNSET_OPTIONS[key]}) or {requirement}"
         if key == "atol" and record.implicit:

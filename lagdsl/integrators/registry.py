@@ -32,6 +32,13 @@ class Option:
         return self.choices[int(value)] if self.choices else format(value, "g")
 
     @property
+    def number_requirement(self) -> str:
+        """The values it takes as numbers, where its words are indices (the standalone program's
+        --norm=1, an FMU's Integer): "0 (component) or 1 (state)"."""
+        indices = [f"{index} ({word})" for index, word in enumerate(self.choices)]
+        return ", ".join(indices[:-1]) + " or " + indices[-1] if indices else self.requirement
+
+    @property
     def flag(self) -> str:
         """Its name on a command line, lagc's or the standalone program's: --max-step."""
         return self.name.replace("_", "-")
