@@ -318,7 +318,8 @@ def write_readme(names: list[str], load: str) -> None:
     intro = ["## Taylor against heyoka and CyRK (`heyoka_comparison.py`)", "",
              f"Measured {time.strftime('%Y-%m-%d %H:%M')} on {benchtools.machine_description()}; heyoka "
              f"{_version('heyoka')}, CyRK {_version('CyRK')}; load average {load} when this section was written. "
-             "See the script's docstring for the method. `taylor`, `dop853` and `rkn8` are lagdsl's C backend; "
+             "See the script's docstring for the method. `taylor`, `taylor-state` (taylor(norm = state)), `dop853` "
+             "and `rkn8` are lagdsl's C backend; "
              "CyRK is `nbsolve2_ivp` (its C++ DOP853). A ratio below 1 in the last columns: the other tool "
              "takes less time than lagdsl's best method at that error.", ""]
     text = "\n".join([BEGIN, *intro, "\n".join(parts).rstrip("\n"), "", END]) + "\n"
