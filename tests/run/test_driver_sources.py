@@ -186,7 +186,7 @@ SCENE = """
 #define LAG_SCENE_T_START LAG_LIT(0.0)
 #define LAG_SCENE_T_STOP LAG_LIT(2.0)
 #define LAG_SCENE_T_INTERVAL LAG_LIT(0.5)
-#define LAG_SCENE_OPTIONS { LAG_LIT(1e-08), LAG_LIT(1e-10), LAG_LIT(0.001), 0, 0, 0L, NULL }
+#define LAG_SCENE_OPTIONS { LAG_LIT(1e-08), LAG_LIT(1e-10), LAG_LIT(0.001), 0, 0, 0, 0L, NULL }
 #if LAG_HAS_STOP
 static const char lag_stop_text[] = "q1 < 0";
 #endif
