@@ -292,7 +292,7 @@ static int taylor_end_step(lag_stepper *s, const real *weight, real size)
 
 static int lag_stepper_step(lag_stepper *s)
 {
-    real weight[LAG_NY], size = 0;
+    real weight[LAG_NY] = {0}, size = 0;   /* zeros: gcc -O3 cannot see taylor_begin_step set them */
     int taking, status = taylor_begin_step(s, weight, &size, &taking);
     if (status != LAG_OK || !taking)
         return status;
