@@ -203,7 +203,7 @@ def print_matched(model, varied, args) -> None:
     load_after = os.getloadavg()
     print(f"\n(e) {total} members at matched accuracy: error at t = 10 at most {ensemble_heyoka.TARGET:g} on "
           f"{len(chosen)} random members (against lagdsl's extended-precision reference); lagdsl's lanes hold "
-          f"{lane_width(model)} members; load average before {load_before[0]:.1f}, after {load_after[0]:.1f}\n")
+          f"{lane_width(model)}; load average before {load_before[0]:.1f}, after {load_after[0]:.1f}\n")
     print(markdown_table(("what", "tol", "sampled error", "wall-clock", "CPU time", "CPU / the least"),
                          ensemble_heyoka.table_rows(rows)))
     if note:
@@ -218,14 +218,17 @@ def print_matched(model, varied, args) -> None:
 
 
 def lane_width(model) -> str:
-    """LAG_LANES as the compiler of the sweep's library chose it (the widest vector register)."""
+    """LAG_LANES as the compiler of the sweep's library chose it (the widest vector register; taylor's
+    lanes hold c_taylor_lanes.VECTORS of them)."""
     import subprocess
+    from lagdsl.codegen.c_taylor_lanes import VECTORS
     from lagdsl.run.toolchain import LIBRARY_FLAGS, find_compiler
     flags = [flag for flag in LIBRARY_FLAGS if flag.startswith("-m")]
     macros = subprocess.run([find_compiler(), *flags, "-dM", "-E", "-x", "c", "/dev/null"], capture_output=True,
                             text=True).stdout
     width = 8 if "__AVX512F__" in macros else 4 if "__AVX__" in macros else 2
-    return f"{width} (LAG_LANES, {width * 64}-bit vectors of doubles)"
+    return (f"{width} members in dop853's, {VECTORS * width} in taylor's (LAG_LANES; {width * 64}-bit vectors of "
+            f"doubles, {VECTORS} of them per row in taylor's)")
 
 
 if __name__ == "__main__":

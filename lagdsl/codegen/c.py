@@ -134,7 +134,7 @@ def _lanes(kernel: Kernel, method: registry.Integrator, blocks: dict, printer, e
         series = lane_series(kernel, TaylorPrinter(), _k_positions(kernel))
         return None if series is None else {"kept": (), "groups": (), "source": source, **series}
     kept, groups = lane_groups(system, blocks["system"])
-    return {"kept": kept, "groups": groups, "series": "", "switch": 1, "source": source}
+    return {"kept": kept, "groups": groups, "series": "", "switch": 1, "source": source, "vectors": 1}
 
 
 def _driver_flags(kernel: Kernel, method: registry.Integrator, lanes: dict | None) -> list[tuple[str, int | str, str]]:

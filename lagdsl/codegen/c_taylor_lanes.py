@@ -21,6 +21,12 @@ import re
 from . import template_environment
 from .c_taylor import DOUBLE_DIGITS, MAX_ORDER, max_order, series_context
 
+# Vector registers per row of the lanes (LAG_LANES = VECTORS x the doubles of one): each order of
+# the series depends on the last, so with one register per statement the statements of an order wait
+# on each other's latency; two independent halves overlap (10^4 double pendulums: 0.65 s against
+# 0.95 s of CPU, benchmarks/README.md), and more bring no more.
+VECTORS = 2
+VECTORS_WHY = "each order of the series waits on the last; two independent halves overlap"
 COEFFICIENT = re.compile(r"\bs\[(\d+)\]\[(\d+)\]")
 RIGHT_SIDE = re.compile(r"\br\[(\d+)\]")
 CONSTANT = re.compile(r"\bc->(\w+)")
@@ -68,4 +74,4 @@ def lane_series(kernel, printer, positions: list[str]) -> dict | None:
         "lane_straight": [(k, [lane_statement(line) for line in prologue], [lane_statement(line) for line in lines])
                           for k, prologue, lines in straight]}
     return {"series": template_environment().get_template("c/taylor_lanes.c.j2").render({**context, **lanes}),
-            "switch": f"({MAX_ORDER} - 1 <= {len(straight)})"}
+            "switch": f"({MAX_ORDER} - 1 <= {len(straight)})", "vectors": VECTORS, "vectors_why": VECTORS_WHY}

@@ -2118,7 +2118,7 @@ void lag_run_batch(long members, const double *parameters, const double *initial
  * Each lane is one member with its own scalar lag_stepper, report and output rows: its own t,
  * step size, error norm, accept or reject and step limit. The method's file (dop853_lanes.c,
  * taylor_lanes.c; codegen/c.py puts it where LAG_LANES_METHOD stands below) defines struct
- * lag_lanes (the fields below first, then its own arrays) and lag_lanes_round, one step or trial
+ * lag_lanes (the fields below and its own arrays) and lag_lanes_round, one step or trial
  * of every busy lane; the delivery of rows, the work forecast and the summaries are the scalar
  * code of driver.c and library.c, applied lane by lane, so that a member's rows, counters and
  * summary equal those of its lag_run bit for bit where the method's lanes compute what its
@@ -2155,11 +2155,13 @@ typedef struct lag_lane_batch {
     long *next;                    /* the next member not yet begun, shared by the threads */
 } lag_lane_batch;
 
-/* The lanes of one thread: the method's file defines it, beginning with
+/* The lanes of one thread: the method's file defines it, with the fields
  *     lag_lane lane[LAG_LANES]; lag_stepper stepper[LAG_LANES];
  *     const lag_system *sys[LAG_LANES]; real par[LAG_NP > 0 ? LAG_NP : 1][LAG_LANES];
- * (each lane's run, its stepper, its system, its parameters side by side). */
+ * (each lane's run, its stepper, its system, its parameters side by side), in any order; it begins
+ * at a LAG_LANES_ALIGN-byte boundary, so arrays over the lanes put first are aligned vectors. */
 typedef struct lag_lanes lag_lanes;
+#define LAG_LANES_ALIGN 64         /* a cache line, the widest vector: where a lag_lanes begins */
 static real lag_lane_row_time(const lag_lane *lane);
 static void lag_lane_end(lag_lanes *lanes, int l, int status);
 static void lag_lane_rows(lag_lanes *lanes, int l, int stepped);
@@ -2517,6 +2519,13 @@ static void lag_lanes_run(lag_lanes *lanes, const lag_lane_batch *batch)
     }
 }
 
+/* The lanes in an allocation of sizeof(lag_lanes) + LAG_LANES_ALIGN bytes, at its first
+ * LAG_LANES_ALIGN-byte boundary (C99 has no aligned allocation; malloc promises 16 bytes). */
+static lag_lanes *lag_lanes_aligned(char *block)
+{
+    return (lag_lanes *)(block + (LAG_LANES_ALIGN - (size_t)block % LAG_LANES_ALIGN));
+}
+
 /* lag_run_batch in lanes: each thread runs LAG_LANES members at a time and takes the next member
  * not yet begun as one ends (one at a time, as lag_run_members, if its lanes cannot be allocated). */
 static void lag_run_lanes(long members, const double *parameters, const double *initial, const double *settings,
@@ -2540,12 +2549,12 @@ static void lag_run_lanes(long members, const double *parameters, const double *
     (void)threads;
 #endif
     {
-        lag_lanes *lanes = malloc(sizeof *lanes);
-        if (lanes != NULL)
-            lag_lanes_run(lanes, &batch);
+        char *block = malloc(sizeof(lag_lanes) + LAG_LANES_ALIGN);
+        if (block != NULL)
+            lag_lanes_run(lag_lanes_aligned(block), &batch);
         else
             lag_lanes_one_by_one(&batch);
-        free(lanes);
+        free(block);
     }
 }
 

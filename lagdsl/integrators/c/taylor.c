@@ -164,9 +164,10 @@ static real taylor_power_unrolled(real x, int n)
 /* taylor_radius with taylor_root_near, both roots taken at once and the second chosen as
  * taylor_radius chooses it, so that the two chains of arithmetic overlap (the radius was a quarter
  * of a double pendulum's step while its roots ran one after the other); the sweep's lanes take it
- * in a loop over the lanes. inf or NaN where a root is beyond taylor_root_near (a norm of 0,
- * order 2): taylor_radius then takes its own way. */
-static real taylor_radius_near(real size, real before, real last, int p)
+ * in a loop over the lanes (inline: gcc, left to itself, called it from that loop, which then did
+ * not vectorise, a fifth of the sweep's time). inf or NaN where a root is beyond taylor_root_near
+ * (a norm of 0, order 2): taylor_radius then takes its own way. */
+static inline real taylor_radius_near(real size, real before, real last, int p)
 {
     const real first = taylor_root_near(size / before, p - 1), other = taylor_root_near(size / last, p);
     const real rho = (size / last < taylor_power_unrolled(first, p)) & (other < first) ? other : first;
@@ -315,7 +316,7 @@ static int taylor_end_step(lag_stepper *s, const real *weight, real size)
 
 static int lag_stepper_step(lag_stepper *s)
 {
-    real weight[LAG_NY] = { 0 }, size = 0;    /* set by taylor_begin_step (gcc -O2 cannot tell, for LAG_NY 2) */
+    real weight[LAG_NY] = { 0 }, size = 0;    /* set by taylor_begin_step (gcc -O2 and -O3 cannot tell) */
     int taking, status = taylor_begin_step(s, weight, &size, &taking);
     if (status != LAG_OK || !taking)
         return status;

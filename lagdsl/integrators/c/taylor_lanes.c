@@ -10,11 +10,12 @@
  * taylor_functions.c's, plain arithmetic in the lanes as in the scalar series, so a lane's step
  * equals its scalar step bit for bit, and a member's results equal its lag_run's. */
 
-/* The lanes of one thread: each lane's run, the state and series of its step side by side. */
+/* The lanes of one thread: each lane's run, the state and series of its step side by side. The
+ * arrays over the lanes come first, from the allocation's LAG_LANES_ALIGN-byte boundary (lanes.c):
+ * a row of the lanes is then one aligned vector, where a row across two cache lines made each of
+ * the series' loads two, and a store that the next order reads back could not be forwarded. */
 struct lag_lanes {
-    lag_lane lane[LAG_LANES];
-    lag_stepper stepper[LAG_LANES];
-    const lag_system *sys[LAG_LANES];
+    real s[LAG_TAYLOR_NODES][LAG_TAYLOR_ORDERS][LAG_LANES];
     real par[LAG_NP > 0 ? LAG_NP : 1][LAG_LANES];
     real t[LAG_LANES], y[LAG_NY][LAG_LANES];
     real atol[LAG_NY][LAG_LANES], rtol[LAG_LANES], atol_least[LAG_LANES];   /* each stepper's */
@@ -23,8 +24,10 @@ struct lag_lanes {
     real h[LAG_LANES];                                 /* the step's size (0 in a lane that takes none) */
     real before[LAG_LANES], last[LAG_LANES], rho[LAG_LANES];   /* taylor_norms', taylor_radius' */
     int order[LAG_LANES], landing[LAG_LANES];
-    real s[LAG_TAYLOR_NODES][LAG_TAYLOR_ORDERS][LAG_LANES];
     int status[LAG_LANES];
+    lag_lane lane[LAG_LANES];
+    lag_stepper stepper[LAG_LANES];
+    const lag_system *sys[LAG_LANES];
 };
 
 /* The weights 1/w of each lane's components and its state's size (taylor_begin_step and
