@@ -102,12 +102,13 @@ def model_file(text: str, name: str = "model") -> Path:
     same path in every test, worker and run. The generated C names the path of its model, so a model
     written to tmp_path is compiled afresh in each test; one written here is built once and found
     in the build cache from then on. The file is shared: a test that edits its model, or writes
-    beside it, uses tmp_path."""
+    beside it, uses tmp_path. A `name` with slashes puts the model in directories of those names
+    (a test of hostile paths)."""
     path = _MODEL_FILES[0] / hashlib.sha256(f"{name}\0{text}".encode()).hexdigest()[:24] / f"{name}.lag"
-    if not path.exists() or path.read_text() != text:
+    if not path.exists() or path.read_text(encoding="utf-8") != text:
         path.parent.mkdir(parents=True, exist_ok=True)
         partial = path.with_name(f"{path.name}.{os.getpid()}.part")     # workers may write it at once
-        partial.write_text(text)
+        partial.write_text(text, encoding="utf-8")
         os.replace(partial, path)
     return path
 

@@ -106,8 +106,7 @@ def test_work_precision_lines_follow_the_tolerances_and_legends_sit_below(drawn)
                                                                            "momentum(theta) [kg*m^2/s]"]
 
 
-def test_lagc_run_plots_a_trajectory(tmp_path, monkeypatch, capsys):
-    monkeypatch.setenv("LAGDSL_CACHE", str(tmp_path / "cache"))
+def test_lagc_run_plots_a_trajectory(tmp_path, capsys):
     model = str(MODELS / "charged_particle.lag")
     picture = tmp_path / "helix.png"
     assert main(["run", model, "--stop", "1", "-o", str(tmp_path / "out.csv"), "--plot", str(picture),

@@ -33,6 +33,7 @@ from lagdsl.codegen.c import render_c
 from lagdsl.codegen.numpy import render_numpy
 from lagdsl.pipeline import generate
 from lagdsl.source import SourceFile
+from tests.conftest import model_file
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 
 MODEL = """model Spring {description}
@@ -186,8 +187,9 @@ def test_lagc_run_of_a_hostile_model_runs_and_executes_nothing(tmp_path, monkeyp
                                                                directory, comment, description):
     if backend == "c" and find_cc() is None:
         pytest.skip("no C compiler")
-    monkeypatch.setenv("LAGDSL_CACHE", str(tmp_path / "cache"))
-    path = write_model(tmp_path / directory, description, comment)
+    # At one path in every run, so that the suite's build cache holds its code: loading the
+    # library (where an injected constructor would run) and the run happen all the same.
+    path = model_file(MODEL.format(description=f'"{description}"', comment=comment), f"{directory}/m")
     monkeypatch.chdir(tmp_path)
     assert lagc(["run", str(path), "--backend", backend]) == 0
     assert not (tmp_path / "PWNED").exists()

@@ -13,12 +13,12 @@ from lagdsl.run import sweep as batch
 from lagdsl.scene import Overrides
 from tests.conftest import library_model
 
-distributed = pytest.importorskip("dask.distributed")
 pytestmark = pytest.mark.slow      # a local cluster of two processes, workers killed and restarted
 
 
 @pytest.fixture(scope="module")
 def client():
+    distributed = pytest.importorskip("dask.distributed")      # here, not at collection: the default run has no use for it
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
                                   silence_logs=50) as cluster, distributed.Client(cluster) as client:
         yield client

@@ -164,13 +164,19 @@ def test_the_stop_condition_is_located_on_the_polynomial():
     assert abs(result["theta"][-1]) < 1e-10
 
 
-def test_the_straight_line_orders_give_the_series_of_the_loops(monkeypatch):
-    """sin and cos of theta1, theta2 and theta1 - theta2: written out, Σ j a_j c_{k-j} reads the
-    velocities' coefficients; in the loops (no order written out), the weights j. 2 s, before the
-    pendulum's chaos spreads the rounding."""
-    model = library_model("double_pendulum")
-    plan = model.plan("chaos", Overrides(stop=2.0, interval=0.1, integrator="taylor",
-                                         options=(("rtol", 1e-13), ("atol", 1e-13))))
+# The default run writes out the orders of the small model of a sum of angles (sin and cos of x, y
+# and x + y, M inverted as the pendulum's is); the double pendulum, whose series takes seconds to
+# write twice, is slow.
+@pytest.mark.parametrize("model, scene", [pytest.param(lambda: library_model("double_pendulum"), "chaos",
+                                                       marks=pytest.mark.slow),
+                                          (lambda: load(ANGLE_SUM), None)], ids=["double_pendulum", "angle_sum"])
+def test_the_straight_line_orders_give_the_series_of_the_loops(model, scene, monkeypatch):
+    """sin and cos of the angles and of their sum or difference: written out, Σ j a_j c_{k-j}
+    reads the velocities' coefficients; in the loops (no order written out), the weights j. 2 s,
+    before the double pendulum's chaos spreads the rounding."""
+    model = model()
+    plan = model.plan(scene, Overrides(stop=2.0, interval=0.1, integrator="taylor",
+                                       options=(("rtol", 1e-13), ("atol", 1e-13))))
 
     straight_text, straight = generated_run(model, plan)
     monkeypatch.setattr(c_taylor_straight, "STRAIGHT_TERMS", 0)
@@ -181,7 +187,7 @@ def test_the_straight_line_orders_give_the_series_of_the_loops(monkeypatch):
 
 
 # The default run keeps the small model of a sum of angles; the double pendulum's difference,
-# derived and built twice in C, is slow (the straight-line test above builds the same model).
+# derived and built twice in C, is slow (as in the straight-line test above).
 @pytest.mark.parametrize("model", [pytest.param(lambda: library_model("double_pendulum"), marks=pytest.mark.slow),
                                    lambda: load(ANGLE_SUM)], ids=["difference", "sum"])
 def test_sines_of_a_sum_of_angles_from_the_sines_of_the_angles(model, monkeypatch):
