@@ -17,6 +17,7 @@ import threading
 import time as clock
 from collections.abc import Callable
 
+from ..abi import INTERRUPTED
 from ..errors import InternalError
 
 POLL_SECONDS = 0.1      # how often the main thread looks at a C run: Ctrl-C and progress
@@ -39,8 +40,9 @@ class RunInterrupt:
 
 def interruptible(interrupt: RunInterrupt, call: Callable[..., int],
                   poll: Callable[[], None] | None, arguments: tuple = ()) -> tuple[int, float]:
-    """Make the C call `call(*arguments)` in a worker thread, so that the main thread stays free
-    for Ctrl-C and `poll` (called every POLL_SECONDS: progress reports).
+    """Make the C call `call(*arguments)` (its status INTERRUPTED where lag_interrupt stopped it)
+    in a worker thread, so that the main thread stays free for Ctrl-C and `poll` (called every
+    POLL_SECONDS: progress reports).
     Returns its status and its duration, timed in the worker: the main thread notices the end
     only at its next poll, up to POLL_SECONDS later.
 
@@ -127,20 +129,18 @@ class _Guarded:
         if replaced != -1:                      # someone else's (asyncio's): given back, the call made by a worker
             _signal.set_wakeup_fd(replaced)
             return None
-        stopped = False
         try:
             cls._active.append(interrupt)
             interrupt.enter(_signal.getsignal(signal.SIGTERM) is _terminated)
             started = clock.perf_counter()
             status = call(*arguments)
             elapsed = clock.perf_counter() - started
-            stopped = interrupt.flag.value      # read before the guard is gone (a later press sets nothing)
         finally:
             noted = interrupt.exit()
             cls._active.clear()
             if noted & TERMINATE_NOTED:
                 _terminated_note()
-        if noted and not stopped:
+        if noted and status != INTERRUPTED:     # the run ended before its next look at the flag
             raise KeyboardInterrupt
         return status, elapsed
 

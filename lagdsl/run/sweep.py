@@ -282,7 +282,7 @@ def run_c_batch(library: ctypes.CDLL, layout: BatchLayout, parameters: np.ndarra
     def call() -> int:
         entry(count, pointer(packed), pointer(state), pointer(settings), pointer(values), layout.rows,
               pointer(summaries), layout.summary.size, threads)
-        return 0
+        return INTERRUPTED if np.any(summaries["status"] == INTERRUPTED) else 0
 
     interruptible(RunInterrupt(library), call, None if on_progress is None else lambda: on_progress(done.value))
     if on_progress is not None:

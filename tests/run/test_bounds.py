@@ -19,7 +19,9 @@ import numpy as np
 import pytest
 
 import lagdsl
+from lagdsl.abi import INTERRUPTED
 from lagdsl.errors import LagError, LagWarning, Setting, SimulationError, SimulationInterrupted
+from lagdsl.run import interrupt as signal_handling
 from lagdsl.scene import MAX_ROWS, RTOL_FLOOR, Overrides, grid_rows
 from tests.conftest import model_file
 
@@ -264,7 +266,7 @@ def _press_ctrl_c_when(reached: Callable[[], bool]) -> threading.Thread:
 
 def test_ctrl_c_stops_a_c_run_made_in_the_calling_thread(oscillator):
     """Without progress reports the C call is made in the main thread itself (run/interrupt.py,
-    _InPlace): a real SIGINT, sent once the run has passed PRESS_AT, still stops it with its rows,
+    _Guarded): a real SIGINT, sent once the run has passed PRESS_AT, still stops it with its rows,
     and leaves Python's handlers as they were."""
     long_run = Overrides(stop=1e7, interval=10.0, options=(("rtol", 1e-13), ("max_steps", 1e12)))
     oscillator.simulate_plan(None, "c", Overrides(stop=1.0))        # builds and loads the code
@@ -280,6 +282,86 @@ def test_ctrl_c_stops_a_c_run_made_in_the_calling_thread(oscillator):
     assert np.allclose(partial["x"], np.cos(partial.t), atol=1e-6)
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
     assert signal.set_wakeup_fd(-1) == -1
+
+
+def _loaded_library(oscillator) -> ctypes.CDLL:
+    oscillator.simulate_plan(None, "c", Overrides(stop=1.0))        # builds and loads the code
+    return oscillator._programs[(oscillator.plan().scene_name, "dop853", "c", False)].loaded
+
+
+def test_sigterm_stops_a_c_run_made_in_the_calling_thread_where_it_is_an_interrupt(oscillator, monkeypatch):
+    """terminate_as_interrupt() (lagc's): SIGTERM, sent once the run has passed PRESS_AT, stops
+    the guarded call as Ctrl-C does, is noted as received, and the handler is put back."""
+    reached = ctypes.c_double.in_dll(_loaded_library(oscillator), "lag_progress_t")
+    reached.value = 0.0
+    monkeypatch.setattr(signal_handling, "_received_sigterm", False)
+    previous = signal.getsignal(signal.SIGTERM)
+    try:
+        signal_handling.terminate_as_interrupt()
+        handler = signal.getsignal(signal.SIGTERM)
+        presser = threading.Thread(target=_send_when, args=(lambda: reached.value >= PRESS_AT, signal.SIGTERM))
+        presser.start()
+        with pytest.raises(SimulationInterrupted) as stopped:
+            oscillator.simulate_plan(None, "c", Overrides(stop=1e7, interval=10.0,
+                                                           options=(("rtol", 1e-13), ("max_steps", 1e12))))
+        presser.join()
+        assert signal_handling.terminated() and signal.getsignal(signal.SIGTERM) is handler
+        assert PRESS_AT <= stopped.value.time < PRESS_AT + 1e5
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _send_when(reached: Callable[[], bool], number: int) -> None:
+    while not reached():
+        threading.Event().wait(0.001)       # a short wait between looks: the condition decides
+    os.kill(os.getpid(), number)
+
+
+def test_a_press_the_call_did_not_see_is_raised_after_it_and_one_it_saw_is_not(oscillator):
+    """The guard notes a press without raising; after the call it is raised as KeyboardInterrupt
+    unless the call says it was stopped by it (status INTERRUPTED)."""
+    interrupt = signal_handling.RunInterrupt(_loaded_library(oscillator))
+
+    def pressed_then(status: int) -> Callable[[], int]:
+        def call() -> int:
+            os.kill(os.getpid(), signal.SIGINT)
+            while not interrupt.flag.value:         # the guard's handler may run in another thread
+                threading.Event().wait(0.001)
+            return status
+        return call
+    with pytest.raises(KeyboardInterrupt):
+        signal_handling.interruptible(interrupt, pressed_then(0), None)
+    assert signal_handling.interruptible(interrupt, pressed_then(INTERRUPTED), None)[0] == INTERRUPTED
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+@pytest.mark.skipif(not os.path.exists(f"/proc/self/task/{threading.get_native_id()}/wchan"),
+                    reason="tells a thread blocked in a pipe's read by /proc (Linux)")
+def test_python_still_interrupts_a_blocking_call_after_a_guarded_one(oscillator):
+    """The guard puts Python's SIGINT handler back whole: without SA_RESTART, which C's signal()
+    would add, so a press still cuts a blocking read short (EINTR) and raises KeyboardInterrupt.
+    Should the read not end, the presser ends it with a byte, and the test fails."""
+    oscillator.simulate_plan(None, "c", Overrides(stop=1.0))        # a guarded call
+    read_end, write_end = os.pipe()
+    raised, unblocked = threading.Event(), []
+    waiting_in = f"/proc/self/task/{threading.get_native_id()}/wchan"
+
+    def press() -> None:
+        _send_when(lambda: "pipe" in open(waiting_in).read(), signal.SIGINT)      # blocked in the read
+        if not raised.wait(30):
+            unblocked.append(True)
+            os.write(write_end, b"x")
+    presser = threading.Thread(target=press)
+    presser.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            os.read(read_end, 1)
+    finally:
+        raised.set()
+        presser.join()
+        os.close(read_end)
+        os.close(write_end)
+    assert not unblocked
 
 
 def test_a_c_run_in_another_thread_runs_there(oscillator):
