@@ -335,33 +335,30 @@ def test_a_press_the_call_did_not_see_is_raised_after_it_and_one_it_saw_is_not(o
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
-@pytest.mark.skipif(not os.path.exists(f"/proc/self/task/{threading.get_native_id()}/wchan"),
-                    reason="tells a thread blocked in a pipe's read by /proc (Linux)")
-def test_python_still_interrupts_a_blocking_call_after_a_guarded_one(oscillator):
-    """The guard puts Python's SIGINT handler back whole: without SA_RESTART, which C's signal()
-    would add, so a press still cuts a blocking read short (EINTR) and raises KeyboardInterrupt.
-    Should the read not end, the presser ends it with a byte, and the test fails."""
-    oscillator.simulate_plan(None, "c", Overrides(stop=1.0))        # a guarded call
-    read_end, write_end = os.pipe()
-    raised, unblocked = threading.Event(), []
-    waiting_in = f"/proc/self/task/{threading.get_native_id()}/wchan"
+class _SigAction(ctypes.Structure):
+    """Linux's struct sigaction as the C library lays it out (its 1024-bit sigset_t)."""
+    _fields_ = [("handler", ctypes.c_void_p), ("mask", ctypes.c_ulong * (1024 // (8 * ctypes.sizeof(ctypes.c_ulong)))),
+                ("flags", ctypes.c_int), ("restorer", ctypes.c_void_p)]
 
-    def press() -> None:
-        _send_when(lambda: "pipe" in open(waiting_in).read(), signal.SIGINT)      # blocked in the read
-        if not raised.wait(30):
-            unblocked.append(True)
-            os.write(write_end, b"x")
-    presser = threading.Thread(target=press)
-    presser.start()
-    try:
-        with pytest.raises(KeyboardInterrupt):
-            os.read(read_end, 1)
-    finally:
-        raised.set()
-        presser.join()
-        os.close(read_end)
-        os.close(write_end)
-    assert not unblocked
+
+def _disposition(number: int) -> tuple[int, int, int]:
+    """The process's handler of signal `number` as the C library holds it: (the handler, the
+    signals it blocks (the kernel's 64), its flags)."""
+    held = _SigAction()
+    if ctypes.CDLL(None, use_errno=True).sigaction(number, None, ctypes.byref(held)) != 0:
+        raise OSError(ctypes.get_errno(), "sigaction")
+    return held.handler, held.mask[0], held.flags
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="struct sigaction as Linux lays it out")
+def test_a_guarded_call_puts_pythons_handler_back_whole(oscillator):
+    """With its flags too: signal() would add SA_RESTART (BSD semantics) or SA_RESETHAND, and a
+    blocking call would then no longer be cut short by Ctrl-C (EINTR), or a second press kill."""
+    _loaded_library(oscillator)
+    signal.signal(signal.SIGINT, signal.default_int_handler)        # installed afresh, by Python
+    before = _disposition(signal.SIGINT)
+    oscillator.simulate_plan(None, "c", Overrides(stop=1.0))        # a guarded call
+    assert _disposition(signal.SIGINT) == before
 
 
 def test_a_c_run_in_another_thread_runs_there(oscillator):
