@@ -1,8 +1,8 @@
 """Ctrl-C during a run: never lost, and a C run stays interruptible while it holds no GIL.
 
 `interruptible` makes a foreign call in the calling thread when nothing is to be reported while
-it runs (the library's Ctrl-C guard sets the run's stop flag, `_Guarded`), else in a worker thread, so that
-the main thread stays free for Ctrl-C and progress reports; `CtrlC` installs, during a run, a
+it runs (the library's Ctrl-C guard sets the run's stop flag, `_Guarded`), else in a worker
+thread, so that the main thread stays free for Ctrl-C and progress reports; `CtrlC` installs, during a run, a
 SIGINT handler that sets the run's stop flag before Python gets a chance to drop the
 KeyboardInterrupt.
 """
@@ -23,12 +23,10 @@ from ..errors import InternalError
 POLL_SECONDS = 0.1      # how often the main thread looks at a C run: Ctrl-C and progress
 
 
-TERMINATE_NOTED = 2     # lag_guard_exit's bit for SIGTERM (1 is SIGINT's)
-
-
 class RunInterrupt:
     """A library's lag_interrupt (`flag`), which its driver reads after each step, and its Ctrl-C
-    guard (`enter(terminate)`, `exit()`: library.c; both None where the library has none)."""
+    guard (`enter(terminate)`, `exit()` giving the signal noted or 0: library.c; both None where
+    the library has none)."""
 
     def __init__(self, library: ctypes.CDLL):
         self.flag = ctypes.c_int.in_dll(library, "lag_interrupt")
@@ -138,7 +136,7 @@ class _Guarded:
         finally:
             noted = interrupt.exit()
             cls._active.clear()
-            if noted & TERMINATE_NOTED:
+            if noted == signal.SIGTERM:
                 _terminated_note()
         if noted and status != INTERRUPTED:     # the run ended before its next look at the flag
             raise KeyboardInterrupt

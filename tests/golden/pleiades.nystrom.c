@@ -1782,8 +1782,8 @@ void lag_guard_enter(int terminate)
         lag_guarded = 2;
 }
 
-/* Put back the handlers lag_guard_enter found (nothing if it installed none); returns the signals
- * noted since: 1 SIGINT, 2 SIGTERM, 3 both. */
+/* Put back the handlers lag_guard_enter found (nothing if it installed none); returns the signal
+ * noted since (SIGTERM if both were), or 0. */
 int lag_guard_exit(void)
 {
     if (lag_guarded == 2)
@@ -1791,7 +1791,7 @@ int lag_guard_exit(void)
     if (lag_guarded >= 1)
         sigaction(SIGINT, &lag_saved_interrupt, NULL);
     lag_guarded = 0;
-    return lag_noted_interrupt + 2 * lag_noted_terminate;
+    return lag_noted_terminate ? SIGTERM : lag_noted_interrupt ? SIGINT : 0;
 }
 #endif
 
