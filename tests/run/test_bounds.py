@@ -353,6 +353,19 @@ def test_a_guarded_call_puts_pythons_handler_back_whole(oscillator):
     assert _disposition(signal.SIGINT) == before
 
 
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="struct sigaction as Linux lays it out")
+def test_a_child_forked_during_a_guarded_call_gets_pythons_handler_back(oscillator):
+    """A thread that forks while the main thread is in a guarded call: the child, which will
+    never end that call, must not keep the guard's handler (os.register_at_fork runs this)."""
+    interrupt = signal_handling.RunInterrupt(_loaded_library(oscillator))
+    before = _disposition(signal.SIGINT)
+    interrupt.enter(0)
+    signal_handling._Guarded._active.append(interrupt)
+    assert _disposition(signal.SIGINT) != before
+    signal_handling._Guarded.forked()
+    assert _disposition(signal.SIGINT) == before and not signal_handling._Guarded._active
+
+
 def test_a_call_leaves_someone_elses_wakeup_descriptor_to_python_and_runs_in_a_worker(oscillator):
     """asyncio's wakeup descriptor must still see a press, so the guard (whose handler writes to
     none) stays out: the call goes to a worker thread, the descriptor left as it was."""
