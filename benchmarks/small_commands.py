@@ -7,7 +7,8 @@ with a new, empty cache instead (as after `lagc cache clear`). The commands' pro
 Python's bytecode caches (PYTHONDONTWRITEBYTECODE is left out of their environment), as an
 installed lagdsl has them: compiling lagdsl's modules anew in every process is not a cost users pay. A command's CPU time is that of its
 process (resource.getrusage of the children), which a loaded machine inflates less than the
-wall time; both are printed. The repeated simulate() runs in this process: its overhead is the
+wall time; both are printed. The repeated simulate() runs in a process of its own, with nothing
+run in it before (see simulate_overhead_apart): its overhead is the
 call's wall time less the integration's (summary.wall_time, timed around the C call), and its
 CPU time per call over a run of calls (the integration's included).
 
@@ -126,6 +127,17 @@ def simulate_overhead(name: str, calls: int) -> tuple[float, float, float, float
     return statistics.median(overheads), statistics.quantiles(overheads, n=10)[0], statistics.median(integrations), cpu
 
 
+def simulate_overhead_apart(name: str, calls: int) -> tuple[float, float, float, float]:
+    """simulate_overhead(name, calls) in a process of its own, as simulate_overhead.py measures
+    it. Made in this one after bench_overhead(), the same calls (the same 45 Python-level calls
+    each, counted with sys.setprofile; no collection by gc in most) took 56 us median on the
+    elastic pendulum against 25 us in a new process (load average 0.65), and 66 against
+    simulate_overhead.py's 22 on a quiet machine: the state bench() leaves, not the code."""
+    done = subprocess.run([sys.executable, __file__, "--simulate-worker", name, str(calls)], capture_output=True,
+                          text=True, check=True)
+    return tuple(json.loads(done.stdout))
+
+
 def overhead_worker(name: str, case: str) -> None:
     """Serve `--against`: load `name` (warm), then for each line "N" on stdin make N simulate()
     calls with the arguments of CASES[name][case] and print their overheads (s) as one line of JSON."""
@@ -189,9 +201,13 @@ def main() -> None:
     parser.add_argument("--against", metavar="TREE", help="only the repeated simulate(): its overhead with the "
                         "lagdsl in TREE (a checkout of main) and with this tree's, taking turns")
     parser.add_argument("--overhead-worker", nargs=2, metavar=("MODEL", "CASE"), help=argparse.SUPPRESS)
+    parser.add_argument("--simulate-worker", nargs=2, metavar=("MODEL", "CALLS"), help=argparse.SUPPRESS)
     arguments = parser.parse_args()
     if arguments.overhead_worker:
         return overhead_worker(*arguments.overhead_worker)
+    if arguments.simulate_worker:
+        name, calls = arguments.simulate_worker
+        return print(json.dumps(simulate_overhead(name, int(calls))))
     if arguments.against:
         return compare(arguments.against, arguments.calls)
     with tempfile.TemporaryDirectory(prefix="lagdsl-small-") as work:
@@ -215,7 +231,7 @@ def main() -> None:
                           repeat)
         report("lagdsl.load(double_pendulum.lag) in a new process: wall", wall, 1.0, note=f"({cpu:.3g} s CPU)")
         for name in SIMULATED:
-            overhead, lowest, integration, per_call = simulate_overhead(name, arguments.calls)
+            overhead, lowest, integration, per_call = simulate_overhead_apart(name, arguments.calls)
             report(f"repeated simulate() {name}: overhead", overhead * 1e6, 50, "us",
                    f"(lowest tenth {lowest * 1e6:.0f} us; integration {integration * 1e6:.0f} us, "
                    f"CPU {per_call * 1e6:.0f} us a call)")

@@ -13,7 +13,7 @@ import numpy as np
 from ..abi import SummaryLayout, plan_summary, settings_vector
 from ..integrators import SWITCH_TIMES
 from ..settings import RunPlan, grid_rows
-from .interrupt import interrupt_flag, interruptible
+from .interrupt import RunInterrupt, interruptible
 from .loading import load
 from .output import Deferred, Result, RunSummary, Stiffness, Stop, Switches
 from .scipy_steps import Progress
@@ -46,7 +46,7 @@ class CRun:
         self._input_types = (ctypes.c_double * max(len(plan.parameters), 1), ctypes.c_double * len(plan.initial_state))
         self._settings = _doubles(settings_vector(plan))      # keeps the vector alive (from_buffer holds it)
         self._take_inputs(plan.parameters, plan.initial_state)
-        self._interrupt = interrupt_flag(library)
+        self._interrupt = RunInterrupt(library)
         self._reached = ctypes.c_double.in_dll(library, "lag_progress_t")
 
     def with_inputs(self, parameters: tuple[float, ...], initial_state: tuple[float, ...]) -> CRun:

@@ -1,8 +1,8 @@
 """Ctrl-C during a run: never lost, and a C run stays interruptible while it holds no GIL.
 
 `interruptible` makes a foreign call in the calling thread when nothing is to be reported while
-it runs (a signal watcher sets the run's stop flag, `_InPlace`), else in a worker thread, so that
-the main thread stays free for Ctrl-C and progress reports; `CtrlC` installs, during a run, a
+it runs (the library's Ctrl-C guard sets the run's stop flag, `_Guarded`), else in a worker
+thread, so that the main thread stays free for Ctrl-C and progress reports; `CtrlC` installs, during a run, a
 SIGINT handler that sets the run's stop flag before Python gets a chance to drop the
 KeyboardInterrupt.
 """
@@ -17,20 +17,30 @@ import threading
 import time as clock
 from collections.abc import Callable
 
+from ..abi import INTERRUPTED
 from ..errors import InternalError
 
 POLL_SECONDS = 0.1      # how often the main thread looks at a C run: Ctrl-C and progress
 
 
-def interrupt_flag(library: ctypes.CDLL) -> ctypes.c_int:
-    """The library's lag_interrupt, which its driver reads after each step."""
-    return ctypes.c_int.in_dll(library, "lag_interrupt")
+class RunInterrupt:
+    """A library's lag_interrupt (`flag`), which its driver reads after each step, and its Ctrl-C
+    guard (`enter(terminate)`, `exit()` giving the signal noted or 0: library.c; both None where
+    the library has none)."""
+
+    def __init__(self, library: ctypes.CDLL):
+        self.flag = ctypes.c_int.in_dll(library, "lag_interrupt")
+        self.enter = self.exit = None
+        if hasattr(library, "lag_guard_enter"):
+            self.enter = ctypes.PYFUNCTYPE(None, ctypes.c_int)(("lag_guard_enter", library))
+            self.exit = ctypes.PYFUNCTYPE(ctypes.c_int)(("lag_guard_exit", library))
 
 
-def interruptible(interrupt: ctypes.c_int, call: Callable[..., int],
+def interruptible(interrupt: RunInterrupt, call: Callable[..., int],
                   poll: Callable[[], None] | None, arguments: tuple = ()) -> tuple[int, float]:
-    """Make the C call `call(*arguments)` in a worker thread, so that the main thread stays free
-    for Ctrl-C and `poll` (called every POLL_SECONDS: progress reports).
+    """Make the C call `call(*arguments)` (its status INTERRUPTED where lag_interrupt stopped it)
+    in a worker thread, so that the main thread stays free for Ctrl-C and `poll` (called every
+    POLL_SECONDS: progress reports).
     Returns its status and its duration, timed in the worker: the main thread notices the end
     only at its next poll, up to POLL_SECONDS later.
 
@@ -39,9 +49,9 @@ def interruptible(interrupt: ctypes.c_int, call: Callable[..., int],
     which the driver reads after each step (status LAG_ERR_INTERRUPTED, the rows so far kept);
     further Ctrl-Cs while it winds down change nothing.
     """
-    interrupt.value = 0
+    interrupt.flag.value = 0
     if poll is None:
-        done = _InPlace.call(interrupt, call, arguments)
+        done = _Guarded.call(interrupt, call, arguments)
         if done is not None:
             return done
     outcome: list[tuple[int, float]] = []
@@ -66,106 +76,78 @@ def interruptible(interrupt: ctypes.c_int, call: Callable[..., int],
     # next (and CtrlC has set the flag even if that bytecode was a finaliser's, which drops the
     # exception); `ended`, not the lock, says when to stop waiting, since the exception may come
     # just after the lock was taken.
-    with CtrlC(lambda: setattr(interrupt, "value", 1)):
+    with CtrlC(lambda: setattr(interrupt.flag, "value", 1)):
         while not ended:
             try:
                 finished.acquire(timeout=POLL_SECONDS)
                 if poll is not None:
                     poll()
             except KeyboardInterrupt:
-                interrupt.value = 1
+                interrupt.flag.value = 1
     _idle_workers.append(worker)
     if not outcome:
         raise InternalError("the C run ended without a status")
     return outcome[0]
 
 
-class _InPlace:
+class _Guarded:
     """A C call made in the calling thread, Ctrl-C still stopping it: no hand-over to a worker,
     which costs a few microseconds idle and hundreds on a loaded machine, where a fit makes
     thousands of short calls.
 
     While the call runs, the main thread executes no Python, so no Python signal handler can set
-    the run's stop flag. Python's own C-level handler writes each signal's number to the wakeup
-    file descriptor (signal.set_wakeup_fd) at once, though: a watcher thread, blocked on reading
-    it (outside the GIL, which the foreign call released too), sets lag_interrupt, and the driver
-    stops after its step with the rows so far. Meanwhile SIGINT (and SIGTERM, where
-    terminate_as_interrupt made it an interrupt) only note the press, raising nothing, so that no
-    KeyboardInterrupt can fall between the call's end and its status being kept. A press that
-    came too late to stop the run is raised as KeyboardInterrupt after it.
+    the run's stop flag. The library's own guard (lag_guard_enter and lag_guard_exit, library.c)
+    therefore makes SIGINT (and SIGTERM, where terminate_as_interrupt made it an interrupt) set
+    lag_interrupt for the duration of the call, the driver stopping after its step with the rows
+    so far, and note the press, raising nothing, so that no KeyboardInterrupt can fall between the
+    call's end and its status being kept; then it puts Python's handlers back as they were. A
+    press that came too late to stop the run is raised as KeyboardInterrupt after it; one that
+    came before the guard was in place reaches Python's handler, which raises it before the call.
+    The guard's two functions hold the GIL (a thread that took it meanwhile would delay the call
+    by up to the switch interval) and cost two system calls in all, four with SIGTERM.
 
     Used where nothing else needs the signals: another thread (no signal reaches it; the main
     thread's Ctrl-C does not stop it, as with a worker), or the main thread with Python's own
-    SIGINT handler and no wakeup descriptor of someone else's (asyncio's); otherwise None
-    (`interruptible` hands the call to a worker).
+    SIGINT handler and no wakeup descriptor of someone else's (asyncio's, which a press must
+    still reach), with a library that has the guard (POSIX); otherwise None (`interruptible`
+    hands the call to a worker).
     """
 
-    _watched: int | None = None                    # the write end of the watcher's pipe (None in a forked child)
-    _flag: ctypes.c_int | None = None              # lag_interrupt of the call running now
-    _pressed: list[int] = []                       # the signals noted during the call
+    _active: list[RunInterrupt] = []            # the guard in place now, in the main thread (at most one)
 
     @classmethod
-    def call(cls, interrupt: ctypes.c_int, call: Callable[..., int], arguments: tuple) -> tuple[int, float] | None:
+    def call(cls, interrupt: RunInterrupt, call: Callable[..., int], arguments: tuple) -> tuple[int, float] | None:
         if _thread.get_ident() != threading.main_thread().ident:
             started = clock.perf_counter()
             status = call(*arguments)
             return status, clock.perf_counter() - started
-        handled = [number for number, ours in ((signal.SIGINT, signal.default_int_handler),
-                                                (signal.SIGTERM, _terminated)) if _signal.getsignal(number) is ours]
-        descriptor = cls._watcher() if signal.SIGINT in handled else None
-        if descriptor is None:
+        if interrupt.enter is None or _signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
             return None
-        cls._flag, cls._pressed = interrupt, []
-        previous = {number: _signal.signal(number, cls._note) for number in handled}
-        done, stopped = None, False
+        replaced = _signal.set_wakeup_fd(-1)
+        if replaced != -1:                      # someone else's (asyncio's): given back, the call made by a worker
+            _signal.set_wakeup_fd(replaced)
+            return None
         try:
-            replaced = _signal.set_wakeup_fd(descriptor, warn_on_full_buffer=False)
-            if replaced != -1:                  # someone else's (asyncio's): given back, the call made by a worker
-                _signal.set_wakeup_fd(replaced)
-            else:
-                try:
-                    started = clock.perf_counter()
-                    status = call(*arguments)
-                    stopped = interrupt.value   # read before a late press is noted (which sets nothing)
-                    done = status, clock.perf_counter() - started
-                finally:
-                    _signal.set_wakeup_fd(-1)
+            cls._active.append(interrupt)
+            interrupt.enter(_signal.getsignal(signal.SIGTERM) is _terminated)
+            started = clock.perf_counter()
+            status = call(*arguments)
+            elapsed = clock.perf_counter() - started
         finally:
-            for number, handler in previous.items():
-                _signal.signal(number, handler)
-            cls._flag = None
-        if cls._pressed and not stopped:
+            noted = interrupt.exit()
+            cls._active.clear()
+            if noted == signal.SIGTERM:
+                _terminated_note()
+        if noted and status != INTERRUPTED:     # the run ended before its next look at the flag
             raise KeyboardInterrupt
-        return done
+        return status, elapsed
 
     @classmethod
-    def _note(cls, signal_number, frame) -> None:
-        """SIGINT or SIGTERM during the call: noted (the watcher has set the flag already)."""
-        cls._pressed.append(signal_number)
-        if signal_number == signal.SIGTERM:
-            _terminated_note()
-
-    @classmethod
-    def _watcher(cls) -> int | None:
-        """The write end of the watcher's pipe (the watcher started once per process); None where
-        a pipe cannot be made."""
-        if cls._watched is None:
-            try:
-                read_end, write_end = os.pipe()
-                os.set_blocking(write_end, False)       # set_wakeup_fd's requirement
-            except OSError:
-                return None
-            _thread.start_new_thread(cls._watch, (read_end,))
-            cls._watched = write_end
-        return cls._watched
-
-    @classmethod
-    def _watch(cls, read_end: int) -> None:
-        while True:
-            for number in os.read(read_end, 64):
-                flag = cls._flag
-                if flag is not None and number in (signal.SIGINT, signal.SIGTERM):
-                    flag.value = 1
+    def forked(cls) -> None:
+        """In a child forked (by another thread) during a guarded call: Python's handlers back."""
+        for interrupt in cls._active:
+            interrupt.exit()
+        cls._active.clear()
 
 
 class _Worker:
@@ -194,7 +176,7 @@ class _Worker:
 
 _idle_workers: list[_Worker] = []       # list.pop and append are atomic: callers in several threads each take one
 os.register_at_fork(after_in_child=_idle_workers.clear)     # a child has none of the parent's threads
-os.register_at_fork(after_in_child=lambda: setattr(_InPlace, "_watched", None))   # nor its watcher
+os.register_at_fork(after_in_child=_Guarded.forked)         # nor the call its main thread was making
 
 
 def terminate_as_interrupt() -> None:

@@ -22,7 +22,7 @@ from ..abi import HOPELESS, INTERRUPTED, SummaryLayout, member_summary, plan_sum
 from ..errors import LagError, SimulationError, SimulationInterrupted
 from ..integrators import registry
 from ..settings import InputUnit, Overrides, RunPlan, input_in_si
-from .interrupt import CtrlC, interrupt_flag, interruptible
+from .interrupt import CtrlC, RunInterrupt, interruptible
 from .numpy_backend import run_numpy
 from .output import output_times
 from .tables import csv_text, parquet_bytes
@@ -282,9 +282,9 @@ def run_c_batch(library: ctypes.CDLL, layout: BatchLayout, parameters: np.ndarra
     def call() -> int:
         entry(count, pointer(packed), pointer(state), pointer(settings), pointer(values), layout.rows,
               pointer(summaries), layout.summary.size, threads)
-        return 0
+        return INTERRUPTED if np.any(summaries["status"] == INTERRUPTED) else 0
 
-    interruptible(interrupt_flag(library), call, None if on_progress is None else lambda: on_progress(done.value))
+    interruptible(RunInterrupt(library), call, None if on_progress is None else lambda: on_progress(done.value))
     if on_progress is not None:
         on_progress(count)
     return values, summaries

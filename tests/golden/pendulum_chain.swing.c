@@ -1870,7 +1870,7 @@ static void lag_pack_summary(const lag_report *report, double *summary)
  * (its entries LAG_SET_T_START ... LAG_SET_MAX_STEPS, lagdsl.abi.SETTINGS; max_steps 0 for the
  * default limit; then the atol of each of the LAG_NY components of y), already checked as `lagc run` checks them, and writes its summary as
  * lagdsl.abi.SummaryLayout lays it out (LAG_SUMMARY_SIZE doubles). The caller resets
- * lag_interrupt before a call.
+ * lag_interrupt before a call, and may put it between lag_guard_enter and lag_guard_exit.
  */
 
 int lag_run(const double *parameters, const double *initial, const double *settings,
@@ -2020,6 +2020,60 @@ void lag_run_batch(long members, const double *parameters, const double *initial
                     stride, threads);
 #endif
 }
+
+#ifdef SA_RESTART       /* POSIX sigaction (model.c.j2 asks for it on Unix); elsewhere Python watches Ctrl-C itself */
+/* Ctrl-C during a call made in Python's main thread (lagdsl/run/interrupt.py): while the call
+ * runs, the main thread executes no Python, so Python's own handler could only note the press
+ * for later. Between lag_guard_enter and lag_guard_exit, SIGINT (and SIGTERM if `terminate`)
+ * instead set lag_interrupt, which the driver reads after each step, and are noted for
+ * lag_guard_exit, which puts the handlers found on entry back whole (sigaction: their flags too;
+ * signal() would add SA_RESTART to Python's, whose blocking calls rely on EINTR). Two system
+ * calls a guarded call, four with SIGTERM. */
+static volatile sig_atomic_t lag_noted_interrupt = 0, lag_noted_terminate = 0;
+static struct sigaction lag_saved_interrupt, lag_saved_terminate;
+static int lag_guarded = 0;     /* which of the two lag_guard_exit puts back: 1 SIGINT, 2 both */
+
+static void lag_on_guarded_signal(int signal_number)
+{
+    lag_interrupt = 1;
+    if (signal_number == SIGTERM)
+        lag_noted_terminate = 1;
+    else
+        lag_noted_interrupt = 1;
+}
+
+void lag_guard_enter(int terminate);
+int lag_guard_exit(void);
+
+void lag_guard_enter(int terminate)
+{
+    struct sigaction action;
+    memset(&action, 0, sizeof action);
+    action.sa_handler = lag_on_guarded_signal;
+    sigemptyset(&action.sa_mask);
+    sigaddset(&action.sa_mask, SIGINT);
+    sigaddset(&action.sa_mask, SIGTERM);
+    action.sa_flags = SA_RESTART;       /* another thread's blocking call is not cut short */
+    lag_noted_interrupt = lag_noted_terminate = 0;
+    if (sigaction(SIGINT, &action, &lag_saved_interrupt) != 0)
+        return;
+    lag_guarded = 1;
+    if (terminate && sigaction(SIGTERM, &action, &lag_saved_terminate) == 0)
+        lag_guarded = 2;
+}
+
+/* Put back the handlers lag_guard_enter found (nothing if it installed none); returns the signal
+ * noted since (SIGTERM if both were), or 0. */
+int lag_guard_exit(void)
+{
+    if (lag_guarded == 2)
+        sigaction(SIGTERM, &lag_saved_terminate, NULL);
+    if (lag_guarded >= 1)
+        sigaction(SIGINT, &lag_saved_interrupt, NULL);
+    lag_guarded = 0;
+    return lag_noted_terminate ? SIGTERM : lag_noted_interrupt ? SIGINT : 0;
+}
+#endif
 
 /* ---- the standalone program: the scene's grid and options ---- */
 #define LAG_SCENE_T_START LAG_LIT(0.0)

@@ -10,6 +10,7 @@ import ctypes
 import math
 import os
 import signal
+import socket
 import sys
 import threading
 import warnings
@@ -19,7 +20,9 @@ import numpy as np
 import pytest
 
 import lagdsl
+from lagdsl.abi import INTERRUPTED
 from lagdsl.errors import LagError, LagWarning, Setting, SimulationError, SimulationInterrupted
+from lagdsl.run import interrupt as signal_handling
 from lagdsl.scene import MAX_ROWS, RTOL_FLOOR, Overrides, grid_rows
 from tests.conftest import model_file
 
@@ -227,6 +230,8 @@ def test_a_fixed_step_run_takes_the_steps_its_step_implies(oscillator):
 # Ctrl-C comes once the run has reached this time: two rows after the start of the long runs
 # below (interval 10), however fast or loaded the machine.
 PRESS_AT = 20.0
+# about 10 s of C without progress reports (a call in the calling thread): far longer than the rows before a press
+LONG_C_RUN = Overrides(stop=1e7, interval=10.0, options=(("rtol", 1e-13), ("max_steps", 1e12)))
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
@@ -251,12 +256,12 @@ def test_ctrl_c_stops_a_run_and_keeps_its_rows(oscillator, backend):
     assert np.allclose(partial["x"], np.cos(partial.t), atol=1e-6)
 
 
-def _press_ctrl_c_when(reached: Callable[[], bool]) -> threading.Thread:
-    """A thread that sends SIGINT to this process, as Ctrl-C does, once `reached()` holds."""
+def _press_ctrl_c_when(reached: Callable[[], bool], number: int = signal.SIGINT) -> threading.Thread:
+    """A thread that sends SIGINT (or `number`) to this process, as Ctrl-C does, once `reached()` holds."""
     def press() -> None:
         while not reached():
             threading.Event().wait(0.001)       # a short wait between looks: the condition decides
-        os.kill(os.getpid(), signal.SIGINT)
+        os.kill(os.getpid(), number)
     presser = threading.Thread(target=press, daemon=True)
     presser.start()
     return presser
@@ -264,22 +269,118 @@ def _press_ctrl_c_when(reached: Callable[[], bool]) -> threading.Thread:
 
 def test_ctrl_c_stops_a_c_run_made_in_the_calling_thread(oscillator):
     """Without progress reports the C call is made in the main thread itself (run/interrupt.py,
-    _InPlace): a real SIGINT, sent once the run has passed PRESS_AT, still stops it with its rows,
+    _Guarded): a real SIGINT, sent once the run has passed PRESS_AT, still stops it with its rows,
     and leaves Python's handlers as they were."""
-    long_run = Overrides(stop=1e7, interval=10.0, options=(("rtol", 1e-13), ("max_steps", 1e12)))
-    oscillator.simulate_plan(None, "c", Overrides(stop=1.0))        # builds and loads the code
-    library = oscillator._programs[(oscillator.plan().scene_name, "dop853", "c", False)].loaded
-    reached = ctypes.c_double.in_dll(library, "lag_progress_t")
+    reached = ctypes.c_double.in_dll(_loaded_library(oscillator), "lag_progress_t")
     reached.value = 0.0
     presser = _press_ctrl_c_when(lambda: reached.value >= PRESS_AT)
     with pytest.raises(SimulationInterrupted) as stopped:
-        oscillator.simulate_plan(None, "c", long_run)
+        oscillator.simulate_plan(None, "c", LONG_C_RUN)
     presser.join()
     partial = stopped.value.partial
     assert PRESS_AT <= stopped.value.time < PRESS_AT + 1e5 and 1 < len(partial.t)
     assert np.allclose(partial["x"], np.cos(partial.t), atol=1e-6)
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
     assert signal.set_wakeup_fd(-1) == -1
+
+
+def _loaded_library(oscillator) -> ctypes.CDLL:
+    oscillator.simulate_plan(None, "c", Overrides(stop=1.0))        # builds and loads the code
+    return oscillator._programs[(oscillator.plan().scene_name, "dop853", "c", False)].loaded
+
+
+def test_sigterm_stops_a_c_run_made_in_the_calling_thread_where_it_is_an_interrupt(oscillator, monkeypatch):
+    """terminate_as_interrupt() (lagc's): SIGTERM, sent once the run has passed PRESS_AT, stops
+    the guarded call as Ctrl-C does, is noted as received, and the handler is put back."""
+    reached = ctypes.c_double.in_dll(_loaded_library(oscillator), "lag_progress_t")
+    reached.value = 0.0
+    monkeypatch.setattr(signal_handling, "_received_sigterm", False)
+    previous = signal.getsignal(signal.SIGTERM)
+    try:
+        signal_handling.terminate_as_interrupt()
+        handler = signal.getsignal(signal.SIGTERM)
+        presser = _press_ctrl_c_when(lambda: reached.value >= PRESS_AT, signal.SIGTERM)
+        with pytest.raises(SimulationInterrupted) as stopped:
+            oscillator.simulate_plan(None, "c", LONG_C_RUN)
+        presser.join()
+        assert signal_handling.terminated() and signal.getsignal(signal.SIGTERM) is handler
+        assert PRESS_AT <= stopped.value.time < PRESS_AT + 1e5
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def test_a_press_the_call_did_not_see_is_raised_after_it_and_one_it_saw_is_not(oscillator):
+    """The guard notes a press without raising; after the call it is raised as KeyboardInterrupt
+    unless the call says it was stopped by it (status INTERRUPTED)."""
+    interrupt = signal_handling.RunInterrupt(_loaded_library(oscillator))
+
+    def pressed_then(status: int) -> Callable[[], int]:
+        def call() -> int:
+            os.kill(os.getpid(), signal.SIGINT)
+            while not interrupt.flag.value:         # the guard's handler may run in another thread
+                threading.Event().wait(0.001)
+            return status
+        return call
+    with pytest.raises(KeyboardInterrupt):
+        signal_handling.interruptible(interrupt, pressed_then(0), None)
+    assert signal_handling.interruptible(interrupt, pressed_then(INTERRUPTED), None)[0] == INTERRUPTED
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+class _SigAction(ctypes.Structure):
+    """Linux's struct sigaction as the C library lays it out (its 1024-bit sigset_t)."""
+    _fields_ = [("handler", ctypes.c_void_p), ("mask", ctypes.c_ulong * (1024 // (8 * ctypes.sizeof(ctypes.c_ulong)))),
+                ("flags", ctypes.c_int), ("restorer", ctypes.c_void_p)]
+
+
+def _disposition(number: int) -> tuple[int, int, int]:
+    """The process's handler of signal `number` as the C library holds it: (the handler, the
+    signals it blocks (the kernel's 64), its flags)."""
+    held = _SigAction()
+    if ctypes.CDLL(None, use_errno=True).sigaction(number, None, ctypes.byref(held)) != 0:
+        raise OSError(ctypes.get_errno(), "sigaction")
+    return held.handler, held.mask[0], held.flags
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="struct sigaction as Linux lays it out")
+def test_a_guarded_call_puts_pythons_handler_back_whole(oscillator):
+    """With its flags too: signal() would add SA_RESTART (BSD semantics) or SA_RESETHAND, and a
+    blocking call would then no longer be cut short by Ctrl-C (EINTR), or a second press kill."""
+    _loaded_library(oscillator)
+    signal.signal(signal.SIGINT, signal.default_int_handler)        # installed afresh, by Python
+    before = _disposition(signal.SIGINT)
+    oscillator.simulate_plan(None, "c", Overrides(stop=1.0))        # a guarded call
+    assert _disposition(signal.SIGINT) == before
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="struct sigaction as Linux lays it out")
+def test_a_child_forked_during_a_guarded_call_gets_pythons_handler_back(oscillator):
+    """A thread that forks while the main thread is in a guarded call: the child, which will
+    never end that call, must not keep the guard's handler (os.register_at_fork runs this)."""
+    interrupt = signal_handling.RunInterrupt(_loaded_library(oscillator))
+    before = _disposition(signal.SIGINT)
+    interrupt.enter(0)
+    signal_handling._Guarded._active.append(interrupt)
+    assert _disposition(signal.SIGINT) != before
+    signal_handling._Guarded.forked()
+    assert _disposition(signal.SIGINT) == before and not signal_handling._Guarded._active
+
+
+def test_a_call_leaves_someone_elses_wakeup_descriptor_to_python_and_runs_in_a_worker(oscillator):
+    """asyncio's wakeup descriptor must still see a press, so the guard (whose handler writes to
+    none) stays out: the call goes to a worker thread, the descriptor left as it was."""
+    interrupt = signal_handling.RunInterrupt(_loaded_library(oscillator))
+    ours, theirs = socket.socketpair()
+    ours.setblocking(False)
+    callers = []
+    replaced = signal.set_wakeup_fd(ours.fileno())
+    try:
+        signal_handling.interruptible(interrupt, lambda: callers.append(threading.get_ident()) or 0, None)
+        assert signal.set_wakeup_fd(replaced) == ours.fileno()
+    finally:
+        ours.close()
+        theirs.close()
+    assert callers != [threading.get_ident()] and len(callers) == 1
 
 
 def test_a_c_run_in_another_thread_runs_there(oscillator):
