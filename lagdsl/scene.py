@@ -152,7 +152,7 @@ def declared_inputs(model: ir.Model) -> tuple[tuple[str, ir.Unit | None], ...]:
 
 
 def input_units(model: ir.Model) -> tuple[tuple[str, InputUnit], ...]:
-    """What settings.input_in_si needs of each declared unit of declared_inputs."""
+    """What given_values.input_in_si needs of each declared unit of declared_inputs."""
     return tuple((name, units.input_unit(unit)) for name, unit in declared_inputs(model) if unit is not None)
 
 

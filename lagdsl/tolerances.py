@@ -10,7 +10,7 @@ eleven orders apart. A component is therefore given its own, by name, the same w
 
 A name is a coordinate (`x`, a member `q[2]`, or a family `q` for all its members) or its velocity
 `der(x)`; a plain number is in the component's declared unit (the coordinate's, or that per second
-for a velocity), as every value given from outside the model file is (settings.input_in_si); a
+for a velocity), as every value given from outside the model file is (given_values.input_in_si); a
 text may carry its own unit ("1e-15 mm"). `component_input` names the input whose unit that is.
 The plan holds the values in SI. A component not
 named keeps the scalar atol. A coordinate named without its velocity gives the velocity

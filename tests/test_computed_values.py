@@ -39,7 +39,7 @@ def computed_model():
 
 
 def test_constants_and_unit_conversions_are_correctly_rounded():
-    """A constant start in degrees is converted as a value set in degrees is (settings.input_in_si,
+    """A constant start in degrees is converted as a value set in degrees is (given_values.input_in_si,
     exact in the unit's factor); a computed value whose exact value is a double (sqrt(9/4) = 1.5)
     is that double; others are the double evaluation of the expression, its constant 1/3 rounded
     once (within an ulp or two of the exact value rounded once)."""

@@ -81,7 +81,7 @@ def integrator_options(parser: argparse.ArgumentParser) -> None:
 
 def atol_item(text: str) -> float | tuple[str, float | str]:
     """--atol VALUE, or --atol COMPONENT=VALUE (tolerances.py), whose VALUE is a number in the
-    component's declared unit or a text of a number and a unit (settings.input_in_si reads it)."""
+    component's declared unit or a text of a number and a unit (given_values.input_in_si reads it)."""
     name, equals, number = text.rpartition("=")
     value = parse_number(number.strip())
     if (value is None and not (equals and number.strip())) or (equals and not name.strip()):

@@ -13,7 +13,7 @@ import sympy
 
 from .. import ir
 from ..errors import LagError
-from ..settings import scaled_to_si
+from ..given_values import scaled_to_si
 from .tree import subtrees
 from .units import si_factor
 from .values import Scope
@@ -45,7 +45,7 @@ class CompileTime:
     def number(self, node, what: str, scope: Scope, unit: ir.Unit | None = None) -> float:
         """A number in a scene or modifier: parameters allowed, evaluated at their defaults, in SI.
         An expression of parameters is in SI already; one of numbers only is in `unit`, converted
-        as a value set from outside the model file is (settings.scaled_to_si), so that a scene's
+        as a value set from outside the model file is (given_values.scaled_to_si), so that a scene's
         `set theta(start = 30)` runs bit for bit as `--set theta.start=30`."""
         value = self.builder.scalar(node, scope, what)
         if value.free_symbols - set(self.exact_parameters):

@@ -17,7 +17,7 @@ import sympy
 
 from ..errors import InputError, LagError, Setting
 from ..ir import Unit
-from ..settings import SECONDS, InputUnit, scaled_to_si
+from ..given_values import SECONDS, InputUnit, scaled_to_si
 from ..source import SourceFile, Span
 from . import known_units
 
@@ -161,7 +161,7 @@ _VALUE_WITH_UNIT = re.compile(r"\s*(?P<number>[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-
 
 
 def input_unit(unit: Unit | None) -> InputUnit | None:
-    """What a value set from outside the model needs of its declared unit (settings.input_in_si)."""
+    """What a value set from outside the model needs of its declared unit (given_values.input_in_si)."""
     return None if unit is None else InputUnit(unit.text, Fraction(si_factor(unit)))
 
 
@@ -200,7 +200,7 @@ def si_text(unit: Unit) -> str:
 def value_in_si(text: str, declared: InputUnit | None, where) -> float:
     """A value written with a unit (`30 deg`, `500g`, `0.785 [rad]`) in SI, where the quantity it
     sets is declared in `declared`; its dimension must be that unit's. The number is read as a
-    double and scaled as a plain number is (settings.scaled_to_si): `30 deg` runs as 30 given for a
+    double and scaled as a plain number is (given_values.scaled_to_si): `30 deg` runs as 30 given for a
     value declared in deg. Raises LagError at `where` (an errors.Setting) for text that is no
     number and unit, an unknown unit, a quantity declared without a unit, or another dimension."""
     match = _VALUE_WITH_UNIT.fullmatch(text)

@@ -29,7 +29,8 @@ from fractions import Fraction
 from typing import Callable
 
 from ..errors import LagError
-from ..settings import InputUnit, IntegratorChoice, Overrides, RunPlan, SceneSettings, TimeGrid, with_initial
+from ..given_values import InputUnit
+from ..settings import IntegratorChoice, Overrides, RunPlan, SceneSettings, TimeGrid, with_initial
 from ..source import SourceFile, Span
 from . import loading, runner
 from .cache import cached_entry, find_entry, package_digest

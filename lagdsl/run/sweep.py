@@ -21,7 +21,8 @@ import numpy as np
 from ..abi import HOPELESS, INTERRUPTED, SummaryLayout, member_summary, plan_summary, settings_vector, status_of
 from ..errors import LagError, SimulationError, SimulationInterrupted
 from ..integrators import registry
-from ..settings import InputUnit, Overrides, RunPlan, input_in_si
+from ..given_values import InputUnit, input_in_si
+from ..settings import Overrides, RunPlan
 from .interrupt import CtrlC, RunInterrupt, interruptible
 from .numpy_backend import run_numpy
 from .output import output_times
@@ -144,7 +145,7 @@ class Members:
 
 
 def _values_in_si(name: str, given: np.ndarray, unit: InputUnit | None) -> np.ndarray | list[float]:
-    """Each member's value of input `name` in SI (settings.input_in_si): numbers in SI already (no
+    """Each member's value of input `name` in SI (given_values.input_in_si): numbers in SI already (no
     unit, or one whose factor is 1) as they are, in one conversion of the array; any other value
     one by one (a text's own unit, a factor rounded once with the value)."""
     if given.dtype.kind in "fiu" and (unit is None or unit.factor == 1):

@@ -23,7 +23,8 @@ import scipy.optimize
 
 from ..errors import LagError, Setting, SimulationError
 from ..scene import input_units
-from ..settings import InSI, Overrides, given_atol_each, given_options, input_in_si
+from ..given_values import InSI, input_in_si
+from ..settings import Overrides, given_atol_each, given_options
 from .data import read_data
 from .run import directions
 

@@ -2518,7 +2518,7 @@ static int lag_input_slot(const char *text, const char *equals)
 
 /* x in a unit whose factor to SI is scale + scale_low, in SI. The error of the product is
  * recovered exactly (fma), so the result is rounded once from within about 2^-106 of the exact
- * product: the value lagc run --set gives (settings.scaled_to_si). */
+ * product: the value lagc run --set gives (given_values.scaled_to_si). */
 static real lag_in_si(real x, const lag_input_unit *unit)
 {
     real product = x * (real)unit->scale;
