@@ -15,7 +15,7 @@ from .c_abi import runtime_contract, runtime_header, status_printer, summary_pac
 from .c_factor import factorisation_text
 from .c_lanes import lane_groups
 from .c_taylor_lanes import lane_series
-from .c_taylor import series_text
+from .c_taylor import series_context, series_text
 from .kernel import Block, Kernel, Loop, Store
 from .printers import CPrinter, TaylorPrinter
 
@@ -50,7 +50,9 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
               for name in FUNCTION_PARAMETERS if getattr(kernel, name) is not None}
     options = dict(kernel.integrator.options)
     method = registry.get(kernel.integrator.name)
-    lanes = _lanes(kernel, method, blocks, printer, fmu is not None or sensitivity is not None)
+    # taylor's statements, worked out once for the series and for its lanes (seconds for a large model)
+    series = series_context(kernel, TaylorPrinter(), _k_positions(kernel)) if method.series else None
+    lanes = _lanes(kernel, method, blocks, series, fmu is not None or sensitivity is not None)
     context = {
         "title": f"{kernel.model_name}, scene {kernel.scene_name}: generated C simulation",
         "version": __version__, "source_name": source_name, "scene": kernel.scene_name,
@@ -75,7 +77,7 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
         "outputs_need_multipliers": kernel.outputs_need_multipliers,
         "stop_needs_multipliers": kernel.stop_needs_multipliers,
         "integrator_source": integrator_source(kernel.integrator.name),
-        "taylor_series": _series(kernel) if method.series else "",
+        "taylor_series": _series(series) if series is not None else "",
         "contract": runtime_contract(), "flags": _driver_flags(kernel, method, lanes), "lanes": lanes,
         "driver": c_file("forecast.c") + "\n" + c_file("driver.c"), "library": c_file("library.c"),
         "standalone": standalone_source(),
@@ -95,9 +97,10 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
     return GeneratedSource("c", text, stem(kernel))
 
 
-def _series(kernel: Kernel) -> str:
-    """Taylor's series of the model part, after its own sin and cos (taylor_functions.c)."""
-    return c_file("taylor_functions.c") + "\n" + series_text(kernel, TaylorPrinter(), _k_positions(kernel))
+def _series(series: dict) -> str:
+    """Taylor's series of the model part (`series`: c_taylor.series_context), after its own sin and
+    cos (taylor_functions.c)."""
+    return c_file("taylor_functions.c") + "\n" + series_text(series)
 
 
 def _k_positions(kernel: Kernel) -> list[str]:
@@ -118,21 +121,22 @@ def layout_kind(kernel: Kernel) -> str:
     return kernel.layout.kind if kernel.layout else "dense"
 
 
-def _lanes(kernel: Kernel, method: registry.Integrator, blocks: dict, printer, elsewhere: bool) -> dict | None:
+def _lanes(kernel: Kernel, method: registry.Integrator, blocks: dict, series: dict | None,
+           elsewhere: bool) -> dict | None:
     """The sweep's path in SIMD lanes (lanes.c with the integrator's lanes file in it; the right-hand
     side in lanes of c_lanes.py, or taylor's series in lanes of c_taylor_lanes.py), or None where the
     scene has none: an integrator without one, a program that is not the shared library's
     (`elsewhere`: an FMU, sensitivities), constraints, a stop condition, a system block with
     stencil loops (a large chain, whose loops over its members already vectorise), or a series
-    that c_taylor_lanes.py does not write in lanes."""
+    that c_taylor_lanes.py does not write in lanes (`series`: taylor's c_taylor.series_context)."""
     system = kernel.system
     if (not method.lanes or elsewhere or kernel.constraints or kernel.stop is not None or system is None
             or system.loops or system.cleared or system.accumulators):
         return None
     source = c_file("lanes.c").replace(LANES_METHOD, c_file(method.lanes))
     if method.series:
-        series = lane_series(kernel, TaylorPrinter(), _k_positions(kernel))
-        return None if series is None else {"kept": (), "groups": (), "source": source, **series}
+        in_lanes = lane_series(series)
+        return None if in_lanes is None else {"kept": (), "groups": (), "source": source, **in_lanes}
     kept, groups = lane_groups(system, blocks["system"])
     return {"kept": kept, "groups": groups, "series": "", "switch": 1, "source": source, "vectors": 1}
 

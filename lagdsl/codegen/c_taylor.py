@@ -222,16 +222,16 @@ class SeriesPrinter:
         return lines
 
 
-def series_text(kernel, printer, positions: list[str]) -> str:
-    """The model part's Taylor series (templates/c/taylor_series.c.j2) for kernel.system.
-    `positions` are the C indices of K's stores in the system block, in order."""
-    context = series_context(kernel, printer, positions)
+def series_text(context: dict) -> str:
+    """The model part's Taylor series (templates/c/taylor_series.c.j2) from its statements
+    (series_context)."""
     return template_environment().get_template("c/taylor_series.c.j2").render(context)
 
 
 def series_context(kernel, printer, positions: list[str]) -> dict:
-    """The statements of the series, as templates/c/taylor_series.c.j2 reads them (and the sweep's
-    lanes, c_taylor_lanes.py)."""
+    """The statements of the series for kernel.system, as templates/c/taylor_series.c.j2 reads them
+    (and the sweep's lanes, c_taylor_lanes.py). `positions` are the C indices of K's stores in the
+    system block, in order."""
     graph = series_graph(kernel)
     series = SeriesPrinter(graph, printer)
     zeroth_lines = zeroth_statements(graph, series)

@@ -19,7 +19,7 @@ from __future__ import annotations
 import re
 
 from . import template_environment
-from .c_taylor import DOUBLE_DIGITS, MAX_ORDER, max_order, series_context
+from .c_taylor import DOUBLE_DIGITS, MAX_ORDER, max_order
 
 # Vector registers per row of the lanes (LAG_LANES = VECTORS x the doubles of one): each order of
 # the series depends on the last, so with one register per statement the statements of an order wait
@@ -56,12 +56,12 @@ def lane_input(source: str) -> str:
     return f"{source}[l]"
 
 
-def lane_series(kernel, printer, positions: list[str]) -> dict | None:
-    """{"series": lag_lane_taylor_series and its pieces for kernel.system, "switch": the C condition
+def lane_series(context: dict) -> dict | None:
+    """{"series": lag_lane_taylor_series and its pieces, from the statements of the scalar series
+    (`context`: c_taylor.series_context), "switch": the C condition
     for LAG_HAS_LANES}, or None where the series is not the simple one (another solver, no inverse,
     orders that keep their loops). The switch holds in a double build, whose every order the lanes
     write out, not in an extended-precision one (whose sweep runs member by member)."""
-    context = series_context(kernel, printer, positions)
     straight = context["taylor_straight"]
     if (context["taylor_solver"] != "compact" or not context["taylor_inverse"]
             or len(straight) < max_order(DOUBLE_DIGITS) - 1):
