@@ -38,11 +38,13 @@ class CRun:
         self.plan, self._description = plan, (units, origin)
         self._entry = library.lag_run
         double_p = ctypes.POINTER(ctypes.c_double)
-        self._entry.argtypes = [double_p, double_p, double_p, double_p, ctypes.c_long, double_p]
+        # the summary's doubles follow the rows in one array: passed by address (ctypes.byref)
+        self._entry.argtypes = [double_p, double_p, double_p, double_p, ctypes.c_long, ctypes.c_void_p]
         self._entry.restype = ctypes.c_int
         self._layout = plan_summary(plan)
         self._shape = (grid_rows(plan.time.start, plan.time.stop, plan.time.interval), len(plan.columns) + 1)
-        self._buffers = (ctypes.c_double * (self._shape[0] * self._shape[1]), ctypes.c_double * self._layout.size)
+        self._memory_type = ctypes.c_double * (self._shape[0] * self._shape[1] + self._layout.size)
+        self._summary_at = ctypes.sizeof(ctypes.c_double) * self._shape[0] * self._shape[1]     # bytes
         self._input_types = (ctypes.c_double * max(len(plan.parameters), 1), ctypes.c_double * len(plan.initial_state))
         self._settings = _doubles(settings_vector(plan))      # keeps the vector alive (from_buffer holds it)
         self._take_inputs(plan.parameters, plan.initial_state)
@@ -73,9 +75,8 @@ class CRun:
         only the values)."""
         plan, entry, (capacity, width) = self.plan, self._entry, self._shape
         memory = np.empty(capacity * width + self._layout.size)
-        rows_type, summary_type = self._buffers
-        arguments = (*self._pointers, rows_type.from_buffer(memory), capacity,
-                     summary_type.from_buffer(memory, ctypes.sizeof(rows_type)))
+        doubles = self._memory_type.from_buffer(memory)     # one from_buffer: a microsecond less than two
+        arguments = (*self._pointers, doubles, capacity, ctypes.byref(doubles, self._summary_at))
         poll = None if progress is None else lambda: progress(self._reached.value, plan.time.start, plan.time.stop)
         status, elapsed = interruptible(self._interrupt, entry, poll, arguments)
         rows = memory[:capacity * width].reshape(capacity, width)
