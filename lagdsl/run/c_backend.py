@@ -38,13 +38,11 @@ class CRun:
         self.plan, self._description = plan, (units, origin)
         self._entry = library.lag_run
         double_p = ctypes.POINTER(ctypes.c_double)
-        # the summary's doubles follow the rows in one array: passed by address (ctypes.byref)
-        self._entry.argtypes = [double_p, double_p, double_p, double_p, ctypes.c_long, ctypes.c_void_p]
+        self._entry.argtypes = [double_p, double_p, double_p, double_p, ctypes.c_long, double_p]
         self._entry.restype = ctypes.c_int
         self._layout = plan_summary(plan)
         self._shape = (grid_rows(plan.time.start, plan.time.stop, plan.time.interval), len(plan.columns) + 1)
-        self._memory_type = ctypes.c_double * (self._shape[0] * self._shape[1] + self._layout.size)
-        self._summary_at = ctypes.sizeof(ctypes.c_double) * self._shape[0] * self._shape[1]     # bytes
+        self._buffers = (ctypes.c_double * (self._shape[0] * self._shape[1]), ctypes.c_double * self._layout.size)
         self._input_types = (ctypes.c_double * max(len(plan.parameters), 1), ctypes.c_double * len(plan.initial_state))
         self._settings = _doubles(settings_vector(plan))      # keeps the vector alive (from_buffer holds it)
         self._take_inputs(plan.parameters, plan.initial_state)
@@ -69,18 +67,22 @@ class CRun:
         self._pointers = (parameter_array(*(parameters or (0.0,))), state_array(*initial_state), self._settings)
 
     def __call__(self, progress: Progress | None = None) -> Result:
-        """The run's Result, whose t and values are views of one array made for this call (the
-        rows, then the summary's doubles), so that no copy follows the run and no later call
-        touches them; its summary is read from those doubles when first asked for (a fit reads
-        only the values)."""
+        """The run's Result, whose t and values are views of the rows' array made for this call,
+        so that no copy follows the run and no later call touches them; its summary is made from
+        the summary's doubles (a ctypes array of this call's) when first asked for (a fit reads only
+        the values).
+
+        NumPy is used as little as a call allows, four operations (the array, its buffer, two
+        views): after a long integration each costs several microseconds more than warm, where
+        the caches have been emptied (benchmarks/simulate_overhead.py), a ctypes array of the
+        summary and its slice to a list less."""
         plan, entry, (capacity, width) = self.plan, self._entry, self._shape
-        memory = np.empty(capacity * width + self._layout.size)
-        doubles = self._memory_type.from_buffer(memory)     # one from_buffer: a microsecond less than two
-        arguments = (*self._pointers, doubles, capacity, ctypes.byref(doubles, self._summary_at))
+        rows_type, summary_type = self._buffers
+        rows, summary = np.empty((capacity, width)), summary_type()
+        arguments = (*self._pointers, rows_type.from_buffer(rows), capacity, summary)
         poll = None if progress is None else lambda: progress(self._reached.value, plan.time.start, plan.time.stop)
         status, elapsed = interruptible(self._interrupt, entry, poll, arguments)
-        rows = memory[:capacity * width].reshape(capacity, width)
-        values = memory[capacity * width:].tolist()     # a list reads faster than a record, field by field
+        values = summary[:]         # a list reads faster than a record, field by field
         at = self._layout.offsets
         used = int(values[at["rows"]])
         result = Result.of_run(rows[:used, 0], plan.columns, rows[:used, 1:],
