@@ -156,10 +156,9 @@ def test_repeated_calls_equal_a_plain_run_and_share_no_memory():
 
 
 def test_a_held_result_and_its_unread_summary_outlive_later_calls():
-    """The rows and the summary's doubles of a repeated C run are one array made for that call
-    (the summary passed to C by its address within it): a result held, its summary not yet read
-    (it is made when first read), is unchanged by later calls with other inputs, which run the
-    same prepared program."""
+    """The rows and the summary's doubles of a repeated C run are arrays made for that call: a
+    result held, its summary not yet read (it is made when first read), is unchanged by later
+    calls with other inputs, which run the same prepared program."""
     path = MODELS / "elastic_pendulum.lag"
     model = lagdsl.load(path)
     model.simulate()
