@@ -109,10 +109,11 @@ def bench_overhead() -> tuple[float, float]:
         api.Model.simulate_plan = simulate_plan
 
 
-def simulate_overhead(name: str, calls: int) -> tuple[float, float, float, float]:
-    """(median overhead s, its lowest tenth, median integration s, CPU s per call) of a repeated
-    simulate(): the lowest tenth is what a call costs when the machine's load does not take its
-    core away in the middle."""
+def simulate_overhead(name: str, calls: int) -> tuple[float, float, float, float, float]:
+    """(median overhead s, its lowest tenth, its highest tenth, median integration s, CPU s per
+    call) of a repeated simulate(): the lowest tenth is what a call costs when the machine's load
+    does not take its core away nor empty its caches during the integration before it (see
+    simulate_overhead.py), the highest what it costs when it does."""
     import lagdsl
     model = lagdsl.load(MODELS / f"{name}.lag")
     model.simulate()
@@ -124,10 +125,11 @@ def simulate_overhead(name: str, calls: int) -> tuple[float, float, float, float
         overheads.append(time.perf_counter() - started - result.summary.wall_time)
         integrations.append(result.summary.wall_time)
     cpu = (time.process_time() - cpu) / calls
-    return statistics.median(overheads), statistics.quantiles(overheads, n=10)[0], statistics.median(integrations), cpu
+    tenths = statistics.quantiles(overheads, n=10)
+    return statistics.median(overheads), tenths[0], tenths[-1], statistics.median(integrations), cpu
 
 
-def simulate_overhead_apart(name: str, calls: int) -> tuple[float, float, float, float]:
+def simulate_overhead_apart(name: str, calls: int) -> tuple[float, float, float, float, float]:
     """simulate_overhead(name, calls) in a process of its own, as simulate_overhead.py measures
     it. Made in this one after bench_overhead(), the same calls (the same 45 Python-level calls
     each, counted with sys.setprofile; no collection by gc in most) took 56 us median on the
@@ -189,8 +191,9 @@ def compare(against: str, calls: int) -> None:
     for name in SIMULATED:
         for case in CASES[name]:
             for label, overheads in compared_overheads(name, case, calls, trees).items():
+                tenths = statistics.quantiles(overheads, n=10)
                 print(f"{name:<18} ({case}) {label:<6} overhead median {statistics.median(overheads) * 1e6:6.0f} us, "
-                      f"lowest tenth {statistics.quantiles(overheads, n=10)[0] * 1e6:6.0f} us", flush=True)
+                      f"tenths {tenths[0] * 1e6:5.0f} .. {tenths[-1] * 1e6:5.0f} us", flush=True)
     print(f"load average at the end {', '.join(f'{x:.2f}' for x in os.getloadavg())}")
 
 
@@ -231,9 +234,9 @@ def main() -> None:
                           repeat)
         report("lagdsl.load(double_pendulum.lag) in a new process: wall", wall, 1.0, note=f"({cpu:.3g} s CPU)")
         for name in SIMULATED:
-            overhead, lowest, integration, per_call = simulate_overhead_apart(name, arguments.calls)
+            overhead, lowest, highest, integration, per_call = simulate_overhead_apart(name, arguments.calls)
             report(f"repeated simulate() {name}: overhead", overhead * 1e6, 50, "us",
-                   f"(lowest tenth {lowest * 1e6:.0f} us; integration {integration * 1e6:.0f} us, "
+                   f"(tenths {lowest * 1e6:.0f} .. {highest * 1e6:.0f} us; integration {integration * 1e6:.0f} us, "
                    f"CPU {per_call * 1e6:.0f} us a call)")
 
 

@@ -31,7 +31,7 @@ from .source import SourceFile
 
 BACKENDS = ("c", "numpy")
 GRID_OVERRIDES = ("start", "stop", "interval", "integrator")
-NO_TIMES = (None, None, None)     # simulate()'s start, stop and interval when none is given
+NOTHING_OVERRIDDEN = Overrides()    # simulate() with no arguments: one instance, found by identity in QuickRuns
 SETTINGS_FIELDS = tuple(f.name for f in fields(Overrides) if f.name != "values")    # the runs alike but for their inputs
 QUICK_RUNS = 16         # prepared repeated runs a Model keeps (a fit varies its inputs: the last ones)
 
@@ -146,9 +146,16 @@ class Model(LyapunovMethod):
         """
         _check_backend(backend)
         values = {**set, **parameters} if set else parameters
-        options = dict(rtol=rtol, atol=atol, step=step, stages=stages, max_step=max_step, max_steps=max_steps,
-                       norm=norm)
-        overrides = _overrides(values, (start, stop, interval), integrator, options)
+        given = tuple((name, single_number(name, value)) for name, value in values.items()) if values else ()
+        if (start is None and stop is None and interval is None and integrator is None and rtol is None
+                and atol is None and step is None and stages is None and max_step is None and max_steps is None
+                and norm is None):      # values only (a fit's call): nothing to parse (a chain: 0.2 us, all() 1 us)
+            overrides = Overrides(given) if given else NOTHING_OVERRIDDEN
+        else:
+            options = dict(rtol=rtol, atol=atol, step=step, stages=stages, max_step=max_step, max_steps=max_steps,
+                           norm=norm)
+            overrides = Overrides(given, *_times(start, stop, interval), integrator, given_options(options),
+                                  given_atol_each(options))
         if sensitivities is not None:
             if draw:
                 raise LagError("a run with sensitivities is not drawn; run simulate(..., draw=True) without them")
@@ -386,16 +393,6 @@ def _described(model: ir.Model, result: Result, scene_name: str) -> Result:
 def _description(model: ir.Model, scene_name: str, columns: tuple[str, ...]) -> dict:
     units = None if model.units is None else model.units.column_units(scene_name, columns)
     return dict(units=units, origin=f"{model.name}, scene {scene_name}")
-
-
-def _overrides(values: dict, times: tuple, integrator: str | None, options: dict) -> Overrides:
-    """The Overrides of simulate()'s arguments: `values` of inputs, the time grid's (start, stop,
-    interval), the `integrator` and its run `options` (None where not given). Where only values
-    are given, nothing else is parsed: a repeated run's overhead is mostly its Python."""
-    given = tuple((name, single_number(name, value)) for name, value in values.items())
-    if integrator is None and times == NO_TIMES and all(value is None for value in options.values()):
-        return Overrides(given)
-    return Overrides(given, *_times(*times), integrator, given_options(options), given_atol_each(options))
 
 
 def _times(start, stop, interval) -> tuple[float | None, ...]:

@@ -67,19 +67,22 @@ class CRun:
         self._pointers = (parameter_array(*(parameters or (0.0,))), state_array(*initial_state), self._settings)
 
     def __call__(self, progress: Progress | None = None) -> Result:
-        """The run's Result, whose t and values are views of one array made for this call (the
-        rows, then the summary's doubles), so that no copy follows the run and no later call
-        touches them; its summary is read from those doubles when first asked for (a fit reads
-        only the values)."""
+        """The run's Result, whose t and values are views of the rows' array made for this call,
+        so that no copy follows the run and no later call touches them; its summary is made from
+        the summary's doubles (a ctypes array of this call's) when first asked for (a fit reads only
+        the values).
+
+        NumPy is used as little as a call allows, four operations (the array, its buffer, two
+        views): after a long integration each costs several microseconds more than warm, where
+        the caches have been emptied (benchmarks/simulate_overhead.py), a ctypes array of the
+        summary and its slice to a list less."""
         plan, entry, (capacity, width) = self.plan, self._entry, self._shape
-        memory = np.empty(capacity * width + self._layout.size)
         rows_type, summary_type = self._buffers
-        arguments = (*self._pointers, rows_type.from_buffer(memory), capacity,
-                     summary_type.from_buffer(memory, ctypes.sizeof(rows_type)))
+        rows, summary = np.empty((capacity, width)), summary_type()
+        arguments = (*self._pointers, rows_type.from_buffer(rows), capacity, summary)
         poll = None if progress is None else lambda: progress(self._reached.value, plan.time.start, plan.time.stop)
         status, elapsed = interruptible(self._interrupt, entry, poll, arguments)
-        rows = memory[:capacity * width].reshape(capacity, width)
-        values = memory[capacity * width:].tolist()     # a list reads faster than a record, field by field
+        values = summary[:]         # a list reads faster than a record, field by field
         at = self._layout.offsets
         used = int(values[at["rows"]])
         result = Result.of_run(rows[:used, 0], plan.columns, rows[:used, 1:],

@@ -153,3 +153,21 @@ def test_repeated_calls_equal_a_plain_run_and_share_no_memory():
     third.values[:] = np.nan
     third.t[:] = np.nan
     assert np.array_equal(second.values, plain.values) and np.array_equal(second.t, plain.t)
+
+
+def test_a_held_result_and_its_unread_summary_outlive_later_calls():
+    """The rows and the summary's doubles of a repeated C run are arrays made for that call: a
+    result held, its summary not yet read (it is made when first read), is unchanged by later
+    calls with other inputs, which run the same prepared program."""
+    path = MODELS / "elastic_pendulum.lag"
+    model = lagdsl.load(path)
+    model.simulate()
+    held = model.simulate(k=80.0)
+    rows, t = held.values.copy(), held.t.copy()
+    for k in (120.0, 90.0, 80.0):
+        model.simulate(k=k).summary
+    fresh = lagdsl.load(path).simulate(k=80.0)
+    assert np.array_equal(held.values, rows) and np.array_equal(held.t, t)
+    assert np.array_equal(held.values, fresh.values)
+    assert replace(held.summary, wall_time=0.0) == replace(fresh.summary, wall_time=0.0)
+
