@@ -29,8 +29,11 @@ from .taylor import J, K, OWN, RECURRENCES, Coefficient, Convolution, zeroth
 from .taylor_graph import Node
 
 # At most so many products over all straight-line orders (the double pendulum's 21 orders take
-# 2,600 and compile in 1.7 s; the Pleiades' first 9 as many).
-STRAIGHT_TERMS = 4000
+# 2,600 and compile in 1.7 s). The Pleiades' graph (21 pairs) takes about 100 k products at order
+# k: 8,000 writes out its orders 1 .. 10, all that tolerances down to 1e-8 use (order 11), where 4,000
+# wrote out 1 .. 7; its steps then cost a fifth less at 1e-8 and 15% less at 1e-12, and gcc takes
+# 8.4 s instead of 5.5 s (AMD EPYC, benchmarks/README.md, issue 34).
+STRAIGHT_TERMS = 8000
 ROW = "s[{}][{}]"
 
 
