@@ -19,7 +19,7 @@ import pytest
 
 from lagdsl.cli import main
 from lagdsl.progress import TimeProgress
-from tests.conftest import MODELS, lagc_in_process, model_file
+from tests.conftest import MODELS, compiled, lagc_in_process, model_file
 from tests.run.test_bounds import OSCILLATOR
 
 
@@ -253,7 +253,7 @@ def _standalone(oscillator, tmp_path) -> Path:
     cc = shutil.which("cc") or pytest.skip("no C compiler")
     source, program = tmp_path / "oscillator.c", tmp_path / "oscillator"
     assert lagc(oscillator, "--emit", "c", "-o", source).returncode == 0
-    subprocess.run([cc, "-std=c99", "-O2", "-o", program, source, "-lm"], check=True)
+    compiled([cc, "-std=c99", "-O2", "-o", program, source, "-lm"], check=True)
     return program
 
 

@@ -14,7 +14,6 @@ import ast
 import dataclasses
 import io
 import re
-import subprocess
 import tokenize
 import unicodedata
 from functools import lru_cache
@@ -33,7 +32,7 @@ from lagdsl.codegen.c import render_c
 from lagdsl.codegen.numpy import render_numpy
 from lagdsl.pipeline import generate
 from lagdsl.source import SourceFile
-from tests.conftest import model_file
+from tests.conftest import compiled, model_file
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 
 MODEL = """model Spring {description}
@@ -177,7 +176,7 @@ def test_hostile_generated_c_compiles_strictly(tmp_path, directory, comment, des
     source = tmp_path / "m.c"
     source.write_text(lagdsl.load(write_model(tmp_path / directory, description, comment)).emit("c").text,
                       encoding="utf-8")
-    done = subprocess.run([cc, *STRICT_FLAGS, "-fsyntax-only", str(source)], capture_output=True, text=True)
+    done = compiled([cc, *STRICT_FLAGS, "-fsyntax-only", str(source)])
     assert done.returncode == 0, done.stderr
 
 
