@@ -61,6 +61,7 @@ MODELS = ROOT / "models"
 _OWN_CACHE: list[str] = []       # the build cache this process made for the session, removed at its end
 _MODEL_FILES: list[Path] = []    # where model_file writes, set when the session is configured
 _COMPILED: list[Path] = []       # where compiled() keeps what the compiler made, set likewise
+_WHOLE_SUITE: list[bool] = []    # whether this session runs the slow tests too, set likewise
 
 
 def without_units(text: str) -> str:
@@ -89,6 +90,12 @@ def library_scenes() -> tuple[tuple[str, str | None], ...]:
     return tuple((path.stem, scene) for path in sorted(MODELS.glob("*.lag"))
                  for scene in (tuple(str(node.children[1]) for node in parse(SourceFile.read(path)).find_data("scene"))
                                or (None,)))
+
+
+def examples(full: int) -> int:
+    """How many examples a property test draws: `full` when the slow tests run too (--slow, -m), a
+    fifth of it (at least 5) in the default run, where the @example cases still all run."""
+    return full if not _WHOLE_SUITE or _WHOLE_SUITE[0] else max(full // 5, 5)
 
 
 def slow_unless_kept(cases, kept) -> list:
@@ -220,6 +227,7 @@ def pytest_configure(config):
     a test that needs a cold cache makes its own. The models that model_file writes live beside it
     (.pytest_cache/d/lagdsl-models), or in a temporary directory without pytest's cache."""
     _handle_ctrl_c_as_python_does()
+    _WHOLE_SUITE[:] = [bool(config.getoption("--slow") or config.getoption("markexpr"))]
     _MODEL_FILES[:] = [_suite_directory(config, "lagdsl-models")]
     _COMPILED[:] = [_suite_directory(config, "lagdsl-compiled")]
     if os.environ.get("LAGDSL_CACHE"):

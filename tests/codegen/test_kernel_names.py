@@ -26,7 +26,7 @@ from lagdsl.pipeline import compile_model
 from lagdsl.run.toolchain import STRICT_FLAGS, find_compiler
 from lagdsl.scene import Overrides, plan_scene
 from lagdsl.source import SourceFile
-from tests.conftest import compiled
+from tests.conftest import compiled, examples
 
 PLANAR_ORBIT = """model P
   coordinate r(start = 1);
@@ -132,7 +132,7 @@ def features(draw) -> Features:
 
 
 @pytest.mark.slow
-@settings(max_examples=40, deadline=None, derandomize=True, database=None,
+@settings(max_examples=examples(40), deadline=None, derandomize=True, database=None,
           suppress_health_check=list(HealthCheck))
 @given(features())
 def test_generated_models_emit_only_target_names_in_every_block(model):
