@@ -87,10 +87,9 @@ def test_model_errors_exit_1_without_traceback(tmp_path):
 
 
 def test_numerical_failure_names_time_state_and_remedy_and_keeps_the_rows(tmp_path):
-    model = tmp_path / "collapse.lag"
     # T = r^2 r'^2 / 2: r^2 = 1 - 2t reaches 0 at t = 1/2, where the mass matrix r^2 is singular.
-    model.write_text("model Collapse\n  coordinate r(start = 1, velocity = -1);\n"
-                     "  T = r^2*der(r)^2/2;\nend Collapse;\n")
+    model = model_file("model Collapse\n  coordinate r(start = 1, velocity = -1);\n"
+                       "  T = r^2*der(r)^2/2;\nend Collapse;\n", "collapse")
     out = tmp_path / "out.csv"
     done = lagc("run", model, "--stop", "1", "-o", out)
     assert done.returncode == 1
