@@ -10,8 +10,8 @@ What the default run keeps of each kind (issue 28), and where; a matrix's other 
 - mass-matrix layout, strict compile: dense Cholesky pendulum_chain.swing, sparse saddle point of
   many constraints cartesian_chain.swing, local form with the banded Jacobian fpu_chain.implicit
   (codegen/test_strict_compile.py's DEFAULT_SCENES); dense small and constant M in the goldens
-  (codegen/test_golden.py compiles every C golden strictly: double_pendulum.chaos, fpu_chain.spread,
-  fem_string.mode2). Closed form: mechanics/test_textbook_systems.py
+  (codegen/test_golden.py compiles and runs eight C goldens strictly, among them double_pendulum.chaos
+  and fem_string.mode2; fpu_chain.spread and fem_string_fine.mode2 are compared as text only). Closed form: mechanics/test_textbook_systems.py
   (test_pendulum_chain_mass_matrix, test_double_pendulum_matches_the_worksheet_not_the_notes).
 - constraint kind, strict compile: holonomic wedge.slide, nonholonomic rolling_penny.roll, a stop on
   a multiplier ladder.slide (goldens), rheonomic car_axis.bumps (test_strict_compile.py) and
@@ -33,7 +33,9 @@ What the default run keeps of each kind (issue 28), and where; a matrix's other 
 `--cpu-report N` lists the N tests that took most CPU, the C compilers they started included: the
 figure to watch when a test joins the default run. A test that runs a model of its own text in C
 writes it with `model_file` rather than to tmp_path: the generated C names the model's path, so a
-new path is a new build in every run.
+new path is a new build in every run. A test that runs the C compiler itself calls `compiled`,
+which replays a compile that succeeded before on the same bytes; a property test draws
+`examples(n)` examples (all n with --slow).
 """
 from __future__ import annotations
 
@@ -46,6 +48,7 @@ import re
 import resource
 import shutil
 import signal
+import subprocess
 import tempfile
 import threading
 import traceback
@@ -59,6 +62,8 @@ ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "models"
 _OWN_CACHE: list[str] = []       # the build cache this process made for the session, removed at its end
 _MODEL_FILES: list[Path] = []    # where model_file writes, set when the session is configured
+_COMPILED: list[Path] = []       # where compiled() keeps what the compiler made, set likewise
+_WHOLE_SUITE: list[bool] = []    # whether this session runs the slow tests too, set likewise
 
 
 def without_units(text: str) -> str:
@@ -89,6 +94,12 @@ def library_scenes() -> tuple[tuple[str, str | None], ...]:
                                or (None,)))
 
 
+def examples(full: int) -> int:
+    """How many examples a property test draws: `full` when the slow tests run too (--slow, -m), a
+    fifth of it (at least 5) in the default run, where the @example cases still all run."""
+    return full if not _WHOLE_SUITE or _WHOLE_SUITE[0] else max(full // 5, 5)
+
+
 def slow_unless_kept(cases, kept) -> list:
     """`cases` for pytest.mark.parametrize, those not in `kept` marked slow: the default run keeps
     the representatives of a matrix, --slow runs all of it."""
@@ -111,6 +122,63 @@ def model_file(text: str, name: str = "model") -> Path:
         partial.write_text(text, encoding="utf-8")
         os.replace(partial, path)
     return path
+
+
+def compiled(command: list, check: bool = False) -> subprocess.CompletedProcess:
+    """The C compiler's `command` run as subprocess.run runs it (output and errors captured as text),
+    or its success replayed: the same compiler given the same flags and the same bytes in its
+    files (and in the directories that -I names) makes the same output and the same warnings, so
+    a compile that succeeded once is looked up by that content, its output (`-o`) copied out, as
+    ccache would. A strict compile still fails on a warning whenever the code changes; a compile
+    that failed is never kept. The store lives beside the build cache (pytest --cache-clear empties it)."""
+    command = [str(argument) for argument in command]
+    output = command[command.index("-o") + 1] if "-o" in command else None
+    key = _compile_key(command, output)
+    kept = _COMPILED[0] / key
+    if kept.exists() and (output is None or (kept / "output").exists()):
+        if output is not None:
+            shutil.copy2(kept / "output", output)
+        return subprocess.CompletedProcess(command, 0, "", (kept / "stderr").read_text(encoding="utf-8"))
+    done = subprocess.run(command, capture_output=True, text=True)
+    if done.returncode == 0:
+        partial = _COMPILED[0] / f".{key}.{os.getpid()}.{threading.get_ident()}"
+        partial.mkdir(parents=True, exist_ok=True)
+        (partial / "stderr").write_text(done.stderr, encoding="utf-8")
+        if output is not None:
+            shutil.copy2(output, partial / "output")
+        with contextlib.suppress(OSError):      # another worker kept the same compile first
+            os.rename(partial, kept)
+        shutil.rmtree(partial, ignore_errors=True)
+    elif check:
+        raise subprocess.CalledProcessError(done.returncode, command, done.stdout, done.stderr)
+    return done
+
+
+def _compile_key(command: list[str], output: str | None) -> str:
+    """The SHA-256 of what a compile depends on: the compiler itself, each argument, a file's bytes
+    in place of its path, and every file of a directory that -I names (the output's path aside)."""
+    digest = hashlib.sha256(_compiler_identity(command[0]).encode())
+    for previous, argument in zip([None, *command], command):
+        path = Path(argument)
+        if previous == "-o":
+            digest.update(b"\0-o")
+        elif previous == "-I" and path.is_dir():
+            for member in sorted(path.iterdir()):
+                if member.is_file():
+                    digest.update(b"\0" + member.name.encode() + b"\0" + member.read_bytes())
+        elif path.is_file():
+            digest.update(b"\0file\0" + path.read_bytes())
+        else:
+            digest.update(b"\0" + argument.encode())
+    return digest.hexdigest()[:32]
+
+
+@functools.cache
+def _compiler_identity(compiler: str) -> str:
+    """The compiler's path, modification time and version: a new compiler is a new key."""
+    path = Path(shutil.which(compiler) or compiler).resolve()
+    version = subprocess.run([compiler, "--version"], capture_output=True, text=True).stdout
+    return f"{path}\0{path.stat().st_mtime_ns}\0{version}"
 
 
 @dataclass(frozen=True)
@@ -161,14 +229,22 @@ def pytest_configure(config):
     a test that needs a cold cache makes its own. The models that model_file writes live beside it
     (.pytest_cache/d/lagdsl-models), or in a temporary directory without pytest's cache."""
     _handle_ctrl_c_as_python_does()
-    _MODEL_FILES[:] = [Path(config.cache.mkdir("lagdsl-models")) if getattr(config, "cache", None) is not None
-                       else Path(_own_temporary_directory("lagdsl-test-models-"))]
+    _WHOLE_SUITE[:] = [bool(config.getoption("--slow") or config.getoption("markexpr"))]
+    _MODEL_FILES[:] = [_suite_directory(config, "lagdsl-models")]
+    _COMPILED[:] = [_suite_directory(config, "lagdsl-compiled")]
     if os.environ.get("LAGDSL_CACHE"):
         return
     if getattr(config, "cache", None) is not None and not hasattr(config, "workerinput"):
         os.environ["LAGDSL_CACHE"] = str(config.cache.mkdir("lagdsl-builds"))
         return
     os.environ["LAGDSL_CACHE"] = _own_temporary_directory("lagdsl-test-cache-")
+
+
+def _suite_directory(config, name: str) -> Path:
+    """A directory of pytest's cache (kept between runs), or a temporary one without pytest's cache."""
+    if getattr(config, "cache", None) is not None:
+        return Path(config.cache.mkdir(name))
+    return Path(_own_temporary_directory(f"{name}-"))
 
 
 def _own_temporary_directory(prefix: str) -> str:
@@ -185,6 +261,7 @@ def pytest_unconfigure(config):
             del os.environ["LAGDSL_CACHE"]
     _OWN_CACHE.clear()
     _MODEL_FILES.clear()
+    _COMPILED.clear()
 
 
 def pytest_collection_modifyitems(config, items):
@@ -239,14 +316,14 @@ def update_golden(request) -> bool:
     return request.config.getoption("--update-golden")
 
 
-def _cpu_seconds() -> float:
-    """CPU time of this process and of its finished children (the C compiler runs as a child)."""
+def _cpu_seconds() -> tuple[float, float]:
+    """CPU time of this process, and of its finished children (the C compiler, a new interpreter)."""
     own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
-    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+    return own.ru_utime + own.ru_stime, children.ru_utime + children.ru_stime
 
 
-_CPU_MARK: list[float] = []     # the CPU time when the phase now running began, with --cpu-report
-_CPU_BY_TEST: dict[str, float] = {}
+_CPU_MARK: list[tuple[float, float]] = []     # the CPU times when the phase now running began, with --cpu-report
+_CPU_BY_TEST: dict[str, tuple[float, float]] = {}     # node id -> (CPU in the test's process, in its children)
 
 
 def pytest_runtest_logstart(nodeid, location):
@@ -261,21 +338,35 @@ def pytest_runtest_makereport(item, call):
     if item.config.getoption("--cpu-report") is None or not _CPU_MARK:
         return
     now = _cpu_seconds()
-    outcome.get_result().user_properties.append(("cpu_seconds", now - _CPU_MARK[0]))
+    outcome.get_result().user_properties.append(("cpu_seconds", tuple(b - a for a, b in zip(_CPU_MARK[0], now))))
     _CPU_MARK[:] = [now]
 
 
 def pytest_runtest_logreport(report):
     for key, value in getattr(report, "user_properties", ()):
         if key == "cpu_seconds":
-            _CPU_BY_TEST[report.nodeid] = _CPU_BY_TEST.get(report.nodeid, 0.0) + value
+            own, children = _CPU_BY_TEST.get(report.nodeid, (0.0, 0.0))
+            _CPU_BY_TEST[report.nodeid] = (own + value[0], children + value[1])
 
 
 def pytest_terminal_summary(terminalreporter, config):
+    """The --cpu-report: the total, the share of child processes (compilers, new interpreters),
+    each test file's sum, then the costliest tests."""
     count = config.getoption("--cpu-report")
     if count is None or not _CPU_BY_TEST:
         return
-    ranked = sorted(_CPU_BY_TEST.items(), key=lambda entry: -entry[1])
-    terminalreporter.section(f"CPU seconds: {sum(_CPU_BY_TEST.values()):.1f} over {len(ranked)} tests (collection aside)")
-    for nodeid, seconds in ranked[:count]:
-        terminalreporter.write_line(f"{seconds:8.2f}  {nodeid}")
+    ranked = sorted(_CPU_BY_TEST.items(), key=lambda entry: -sum(entry[1]))
+    by_file: dict[str, tuple[float, float]] = {}
+    for nodeid, (own, children) in ranked:
+        name = nodeid.split("::")[0]
+        by_file[name] = (by_file.get(name, (0.0, 0.0))[0] + own, by_file.get(name, (0.0, 0.0))[1] + children)
+    total = sum(own + children for own, children in _CPU_BY_TEST.values())
+    in_children = sum(children for _, children in _CPU_BY_TEST.values())
+    terminalreporter.section(f"CPU seconds: {total:.1f} over {len(ranked)} tests (collection aside), "
+                             f"{in_children:.1f} of them in child processes (compilers, interpreters)")
+    terminalreporter.write_line("   total  children  file")
+    for name, (own, children) in sorted(by_file.items(), key=lambda entry: -sum(entry[1]))[:count]:
+        terminalreporter.write_line(f"{own + children:8.2f}  {children:8.2f}  {name}")
+    terminalreporter.write_line("   total  children  test")
+    for nodeid, (own, children) in ranked[:count]:
+        terminalreporter.write_line(f"{own + children:8.2f}  {children:8.2f}  {nodeid}")

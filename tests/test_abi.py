@@ -14,6 +14,7 @@ from lagdsl.abi import SETTINGS, STATUSES, UNKNOWN_STATUS, summary_layout
 from lagdsl.codegen.c_abi import runtime_contract, runtime_header, status_printer
 from lagdsl.integrators import registry
 from tests.run.c_harness import STRICT_FLAGS, SYSTEM_HEADERS, find_cc
+from tests.conftest import compiled
 
 MAIN = r"""
 int main(void)
@@ -43,8 +44,7 @@ def printed(tmp_path_factory) -> list[str]:
     source, program = work / "abi.c", work / "abi"
     source.write_text("\n".join([SYSTEM_HEADERS, runtime_header(), runtime_contract(), status_printer(),
                                  MAIN % {"last": max(STATUSES) + 1}]))
-    subprocess.run([cc, *STRICT_FLAGS, str(source), "-o", str(program), "-lm"], check=True, capture_output=True,
-                   text=True)
+    compiled([cc, *STRICT_FLAGS, str(source), "-o", str(program), "-lm"], check=True)
     return subprocess.run([str(program)], check=True, capture_output=True, text=True).stdout.splitlines()
 
 

@@ -19,7 +19,7 @@ import pytest
 
 from lagdsl.cli import main
 from lagdsl.progress import TimeProgress
-from tests.conftest import MODELS, lagc_in_process, model_file
+from tests.conftest import MODELS, compiled, lagc_in_process, model_file
 from tests.run.test_bounds import OSCILLATOR
 
 
@@ -87,10 +87,9 @@ def test_model_errors_exit_1_without_traceback(tmp_path):
 
 
 def test_numerical_failure_names_time_state_and_remedy_and_keeps_the_rows(tmp_path):
-    model = tmp_path / "collapse.lag"
     # T = r^2 r'^2 / 2: r^2 = 1 - 2t reaches 0 at t = 1/2, where the mass matrix r^2 is singular.
-    model.write_text("model Collapse\n  coordinate r(start = 1, velocity = -1);\n"
-                     "  T = r^2*der(r)^2/2;\nend Collapse;\n")
+    model = model_file("model Collapse\n  coordinate r(start = 1, velocity = -1);\n"
+                       "  T = r^2*der(r)^2/2;\nend Collapse;\n", "collapse")
     out = tmp_path / "out.csv"
     done = lagc("run", model, "--stop", "1", "-o", out)
     assert done.returncode == 1
@@ -253,7 +252,7 @@ def _standalone(oscillator, tmp_path) -> Path:
     cc = shutil.which("cc") or pytest.skip("no C compiler")
     source, program = tmp_path / "oscillator.c", tmp_path / "oscillator"
     assert lagc(oscillator, "--emit", "c", "-o", source).returncode == 0
-    subprocess.run([cc, "-std=c99", "-O2", "-o", program, source, "-lm"], check=True)
+    compiled([cc, "-std=c99", "-O2", "-o", program, source, "-lm"], check=True)
     return program
 
 

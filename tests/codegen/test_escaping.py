@@ -14,7 +14,6 @@ import ast
 import dataclasses
 import io
 import re
-import subprocess
 import tokenize
 import unicodedata
 from functools import lru_cache
@@ -33,7 +32,7 @@ from lagdsl.codegen.c import render_c
 from lagdsl.codegen.numpy import render_numpy
 from lagdsl.pipeline import generate
 from lagdsl.source import SourceFile
-from tests.conftest import model_file
+from tests.conftest import compiled, examples, model_file
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 
 MODEL = """model Spring {description}
@@ -115,7 +114,7 @@ def rendered(backend: str, text: str) -> str:
 
 
 @pytest.mark.parametrize("backend", ["c", pytest.param("numpy", marks=pytest.mark.slow)])
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=examples(60), deadline=None)
 @given(text=hostile_text)
 @example(text='x + /* """+str(__import__(\'os\').system(\'touch PWNED\'))+""" */ 0')
 @example(text='d*/ int system(const char *); __attribute__((constructor)) static void f(void) '
@@ -143,7 +142,7 @@ def directory_name(text: str) -> str:
 
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])
-@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=examples(12), deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(text=hostile_text)
 def test_hostile_paths_descriptions_and_comments_through_the_whole_pipeline(tmp_path, backend, text):
     # The grammar bounds each context: a description holds no '"' or newline, a comment no '*/'.
@@ -177,7 +176,7 @@ def test_hostile_generated_c_compiles_strictly(tmp_path, directory, comment, des
     source = tmp_path / "m.c"
     source.write_text(lagdsl.load(write_model(tmp_path / directory, description, comment)).emit("c").text,
                       encoding="utf-8")
-    done = subprocess.run([cc, *STRICT_FLAGS, "-fsyntax-only", str(source)], capture_output=True, text=True)
+    done = compiled([cc, *STRICT_FLAGS, "-fsyntax-only", str(source)])
     assert done.returncode == 0, done.stderr
 
 

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from tests.conftest import MODELS, ROOT, library_model
+from tests.conftest import MODELS, ROOT, compiled, library_model
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 
 GOLDEN = ROOT / "tests" / "golden"
@@ -71,8 +71,7 @@ def run_golden(tmp_path, model, scene, *arguments):
     if cc is None:
         pytest.skip("no C compiler")
     exe = tmp_path / model
-    subprocess.run([cc, *STRICT_FLAGS, str(GOLDEN / f"{model}.{scene}.c"), "-o", str(exe), "-lm"],
-                   check=True, capture_output=True, text=True)
+    compiled([cc, *STRICT_FLAGS, str(GOLDEN / f"{model}.{scene}.c"), "-o", str(exe), "-lm"], check=True)
     done = subprocess.run([str(exe), *arguments], check=True, capture_output=True, text=True)
     table = np.genfromtxt(io.StringIO(done.stdout), delimiter=",", names=True, deletechars="")
     return table, done.stderr

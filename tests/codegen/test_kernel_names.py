@@ -23,9 +23,10 @@ from lagdsl.codegen.naming import check_target_names, is_target_name
 from lagdsl.codegen.numpy import render_numpy
 from lagdsl.errors import InternalError, LagError
 from lagdsl.pipeline import compile_model
-from lagdsl.run.toolchain import STRICT_FLAGS, compile_c, find_compiler
+from lagdsl.run.toolchain import STRICT_FLAGS, find_compiler
 from lagdsl.scene import Overrides, plan_scene
 from lagdsl.source import SourceFile
+from tests.conftest import compiled, examples
 
 PLANAR_ORBIT = """model P
   coordinate r(start = 1);
@@ -131,7 +132,7 @@ def features(draw) -> Features:
 
 
 @pytest.mark.slow
-@settings(max_examples=40, deadline=None, derandomize=True, database=None,
+@settings(max_examples=examples(40), deadline=None, derandomize=True, database=None,
           suppress_health_check=list(HealthCheck))
 @given(features())
 def test_generated_models_emit_only_target_names_in_every_block(model):
@@ -162,7 +163,10 @@ def test_generated_c_compiles_with_strict_flags(model, integrator, tmp_path):
     except LagError:
         pytest.skip("no C compiler")
     kernel = kernels(model.text(), (integrator,))[integrator]
-    compile_c(render_c(kernel).text, tmp_path / "model", STRICT_FLAGS)
+    source = tmp_path / "model.c"
+    source.write_text(render_c(kernel).text, encoding="utf-8")
+    done = compiled([find_compiler(), *STRICT_FLAGS, source, "-o", tmp_path / "model", "-lm"])
+    assert done.returncode == 0, done.stderr
 
 
 # -- the planar orbit of the bug report and the checks themselves --------------------------------

@@ -2,12 +2,11 @@
 in double and in long double precision, with and without OpenMP (the batch entry point)."""
 from __future__ import annotations
 
-import subprocess
 
 import pytest
 
 from lagdsl.run.toolchain import supports_openmp
-from tests.conftest import library_model, library_scenes
+from tests.conftest import compiled, library_model, library_scenes
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 
 SCENES = library_scenes()
@@ -34,6 +33,5 @@ def test_generated_c_compiles_under_strict_flags(tmp_path, model, scene):
     if (model, scene) not in DEFAULT_SCENES:
         builds += [["-DLAG_LONG_DOUBLE"], *([openmp] if openmp else [])]
     for flags in builds:
-        done = subprocess.run([cc, *STRICT_FLAGS, *flags, "-c", str(source), "-o", str(tmp_path / "m.o")],
-                              capture_output=True, text=True)
+        done = compiled([cc, *STRICT_FLAGS, *flags, "-c", str(source), "-o", str(tmp_path / "m.o")])
         assert done.returncode == 0, done.stderr

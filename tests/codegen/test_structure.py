@@ -9,7 +9,7 @@ import lagdsl
 from lagdsl.codegen.c_factor import factorisation_text
 from lagdsl.codegen.structure import JacobianLayout, MassLayout, jacobian_layout, kkt_layout, mass_layout
 from lagdsl.settings import Overrides
-from tests.conftest import library_model
+from tests.conftest import library_model, model_file
 
 a, b, c = sympy.symbols("a b c", positive=True)
 
@@ -139,14 +139,13 @@ def test_fem_string_mass_matrix_is_banded_and_fpu_chain_is_diagonal():
     assert "K = numpy.zeros((NK,) + shape)" in fpu.emit("numpy").text
 
 
-def test_a_constant_mass_matrix_is_factored_once_per_run_with_the_runs_parameters(tmp_path):
+def test_a_constant_mass_matrix_is_factored_once_per_run_with_the_runs_parameters():
     """M = diag(m, 2 m) depends on a parameter only: lag_system_prepare factors it before the
     first step, so the run must see the m it was given (x = cos(sqrt(k/m) t), y = cos(sqrt(k/2m) t))."""
-    model = tmp_path / "springs.lag"
-    model.write_text("model Springs\n  parameter m = 1.0;\n  parameter k = 1.0;\n  coordinate x(start = 1);\n"
-                     "  coordinate y(start = 1);\n  T = m/2*der(x)^2 + m*der(y)^2;\n  U = k/2*(x^2 + y^2);\n"
-                     "  scene s\n    time(stop = 3, interval = 1);\n    integrator dop853(rtol = 1e-12, atol = 1e-12);\n"
-                     "    output x, y;\n  end s;\nend Springs;\n")
+    model = model_file("model Springs\n  parameter m = 1.0;\n  parameter k = 1.0;\n  coordinate x(start = 1);\n"
+                       "  coordinate y(start = 1);\n  T = m/2*der(x)^2 + m*der(y)^2;\n  U = k/2*(x^2 + y^2);\n"
+                       "  scene s\n    time(stop = 3, interval = 1);\n    integrator dop853(rtol = 1e-12, atol = 1e-12);\n"
+                       "    output x, y;\n  end s;\nend Springs;\n", "springs")
     loaded = lagdsl.load(model)
     text = loaded.emit("c").text
     accelerations = text[text.index("static int lag_accelerations"):text.index("/* dy/dt")]
@@ -162,11 +161,10 @@ def test_a_mass_matrix_that_varies_is_factored_at_every_evaluation():
     assert "lag_assemble_mass" not in text and "lag_solve(LAG_NK, K, b, &rcond)" in text
 
 
-def test_a_diagonal_mass_matrix_that_is_not_positive_is_singular(tmp_path):
-    model = tmp_path / "negative.lag"
-    model.write_text("model Negative\n  parameter m = 1.0;\n  coordinate x(start = 1);\n"
-                     "  coordinate y;\n  T = m/2*der(x)^2 + der(y)^2/2;\n  U = x^2/2 + y^2/2;\n"
-                     "  scene s\n    time(stop = 1, interval = 0.5);\n  end s;\nend Negative;\n")
+def test_a_diagonal_mass_matrix_that_is_not_positive_is_singular():
+    model = model_file("model Negative\n  parameter m = 1.0;\n  coordinate x(start = 1);\n"
+                       "  coordinate y;\n  T = m/2*der(x)^2 + der(y)^2/2;\n  U = x^2/2 + y^2/2;\n"
+                       "  scene s\n    time(stop = 1, interval = 0.5);\n  end s;\nend Negative;\n", "negative")
     for backend in ("c", "numpy"):
         with pytest.raises(lagdsl.SimulationError, match="singular"):
             lagdsl.load(model).simulate(backend=backend, m=-1.0)

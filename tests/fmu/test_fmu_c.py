@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from lagdsl.fmu import build_fmu
-from tests.conftest import slow_unless_kept
+from tests.conftest import compiled, slow_unless_kept
 from tests.fmu.fmu_files import load
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 
@@ -60,8 +60,8 @@ FMU_SOURCES = [("double_pendulum", None, ("me", "cs")), ("rolling_penny", None, 
     {("double_pendulum", None, ("me", "cs"), 2), ("bead_on_hoop", None, ("me", "cs"), 3)}))
 def test_fmu_source_compiles_under_strict_flags(tmp_path, cc, model, scene, kind, version):
     source, _ = unpack(build_fmu(load(model), scene, version, kind), tmp_path)
-    done = subprocess.run([cc, *STRICT_FLAGS, "-fPIC", "-I", str(source.parent), "-c", str(source), "-o",
-                           str(tmp_path / "fmu.o")], capture_output=True, text=True)
+    done = compiled([cc, *STRICT_FLAGS, "-fPIC", "-I", str(source.parent), "-c", str(source), "-o",
+                     str(tmp_path / "fmu.o")])
     assert done.returncode == 0, done.stderr
 
 
@@ -70,8 +70,8 @@ def test_fmu_source_compiles_under_strict_flags(tmp_path, cc, model, scene, kind
 def test_every_function_in_and_out_of_order_under_sanitizers(tmp_path, cc, model, version):
     source, description = unpack(build_fmu(load(model), version=version), tmp_path)
     program = tmp_path / "calls"
-    built = subprocess.run([cc, *STRICT_FLAGS, *SANITIZERS, "-I", str(source.parent), str(CALLS[version]), str(source),
-                            "-o", str(program), "-lm"], capture_output=True, text=True)
+    built = compiled([cc, *STRICT_FLAGS, *SANITIZERS, "-I", str(source.parent), str(CALLS[version]), str(source),
+                      "-o", str(program), "-lm"])
     if built.returncode != 0 and "sanitize" in built.stderr:
         pytest.skip(f"the compiler has no sanitizers here: {built.stderr[:200]}")
     assert built.returncode == 0, built.stderr

@@ -17,6 +17,7 @@ import pytest
 from lagdsl.mechanics.trees import TreeEquations, derive_tree_equations
 from lagdsl.pipeline import model_from_source
 from lagdsl.source import SourceFile
+from tests.conftest import model_file
 from tests.mechanics.test_trees import assert_follows, chain_text, run_dense, run_scene
 from tests.run.c_harness import build_scene_programs
 
@@ -82,8 +83,7 @@ def test_a_velocity_constraint_takes_the_expanded_equations():
 
 
 def test_closed_chain_compiles_strictly(tmp_path):
-    model = tmp_path / "closed.lag"
-    model.write_text(closed_chain_text(8, 0.5))
+    model = model_file(closed_chain_text(8, 0.5), "closed")
     source = tmp_path / "swing.c"
     build_scene_programs(model, ("swing",), tmp_path)
     assert "lag_tree_substitute(K, pivot, response[i], 0);" in source.read_text()

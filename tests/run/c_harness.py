@@ -13,6 +13,7 @@ from pathlib import Path
 
 from lagdsl.codegen.c_abi import runtime_contract, runtime_header
 from lagdsl.integrators import integrator_source
+from tests.conftest import compiled
 
 C_SOURCES = Path(__file__).resolve().parents[2] / "lagdsl" / "integrators" / "c"
 STRICT_FLAGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic"]
@@ -41,7 +42,7 @@ def build_scene_programs(model: Path, scenes: tuple[str, ...], directory: Path) 
         emitted = lagc_in_process("emit", str(model), "--emit", "c", "--scene", scene, "-o", str(source))
         assert emitted.returncode == 0, emitted.stderr
         built[scene] = directory / scene
-        subprocess.run([cc, *STRICT_FLAGS, str(source), "-o", str(built[scene]), "-lm"], check=True)
+        compiled([cc, *STRICT_FLAGS, str(source), "-o", str(built[scene]), "-lm"], check=True)
     return built
 
 
@@ -66,6 +67,5 @@ def build_and_run(tmp_path: Path, model_c: str, integrator: str, main_c: str,
     src = tmp_path / f"{integrator}_test.c"
     exe = tmp_path / f"{integrator}_test"
     src.write_text(assemble(model_c, integrator, main_c))
-    subprocess.run([cc, *STRICT_FLAGS, *extra_flags, str(src), "-o", str(exe), "-lm"],
-                   check=True, capture_output=True, text=True)
+    compiled([cc, *STRICT_FLAGS, *extra_flags, str(src), "-o", str(exe), "-lm"], check=True)
     return subprocess.run([str(exe), *args], check=True, capture_output=True, text=True).stdout

@@ -13,7 +13,7 @@ import pytest
 
 import lagdsl
 from lagdsl.cli import main as lagc
-from tests.conftest import model_file
+from tests.conftest import compiled, model_file
 from tests.run.c_harness import find_cc
 
 # y stays at rest at 0, so -y is -0, 1/y is inf and -1/y is -inf; sqrt(x - 2) is NaN (printf
@@ -45,8 +45,7 @@ def test_lagc_run_to_csv_and_the_standalone_program_write_the_same_bytes(tmp_pat
     assert lagc(["run", str(model_path), "-o", str(tmp_path / "run.csv")]) == 0
     lagdsl.load(model_path).simulate().to_csv(tmp_path / "api.csv")
     assert lagc([str(model_path), "--emit", "c", "-o", str(tmp_path / "formats.c")]) == 0
-    subprocess.run([cc, "-std=c99", "-O2", "-o", str(tmp_path / "formats"), str(tmp_path / "formats.c"), "-lm"],
-                   check=True)
+    compiled([cc, "-std=c99", "-O2", "-o", str(tmp_path / "formats"), str(tmp_path / "formats.c"), "-lm"], check=True)
     program = subprocess.run([str(tmp_path / "formats")], capture_output=True, check=True).stdout
     written = (tmp_path / "run.csv").read_bytes()
     assert written == (tmp_path / "api.csv").read_bytes() == program

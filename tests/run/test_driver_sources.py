@@ -17,6 +17,7 @@ from lagdsl.abi import MAX_STEPS, STATUSES, summary_layout
 from lagdsl.codegen.c_abi import runtime_contract, runtime_header, status_printer, summary_packer, verdict_printer
 from lagdsl.integrators import c_file, standalone_source
 from tests.run.c_harness import STRICT_FLAGS, find_cc
+from tests.conftest import compiled
 
 HEADERS = """#define _POSIX_C_SOURCE 200809L
 #include <ctype.h>
@@ -239,8 +240,7 @@ def build(tmp_path, name: str, combination: tuple) -> str:
         pytest.skip("no C compiler")
     source, executable = tmp_path / f"{name}.c", tmp_path / name
     source.write_text(program(*combination))
-    done = subprocess.run([cc, *STRICT_FLAGS, str(source), "-o", str(executable), "-lm"], capture_output=True,
-                          text=True)
+    done = compiled([cc, *STRICT_FLAGS, str(source), "-o", str(executable), "-lm"])
     assert done.returncode == 0, done.stderr
     return str(executable)
 

@@ -12,7 +12,7 @@ import pytest
 from lagdsl.abi import parse_number
 from lagdsl.run.toolchain import supports_openmp
 from tests.run.c_harness import STRICT_FLAGS
-from tests.conftest import model_file
+from tests.conftest import compiled, model_file
 from tests.run.test_failures import SINGULAR_LATER
 from tests.test_cli import lagc
 
@@ -27,7 +27,7 @@ def programs(tmp_path_factory) -> list[Path]:
     assert lagc(model_file(SINGULAR_LATER, "singular"), "--emit", "c", "-o", source).returncode == 0
     builds = [("serial", [])] + ([("openmp", ["-fopenmp"])] if supports_openmp(cc) else [])
     for name, flags in builds:
-        subprocess.run([cc, *STRICT_FLAGS, *flags, "-o", work / name, source, "-lm"], check=True)
+        compiled([cc, *STRICT_FLAGS, *flags, "-o", work / name, source, "-lm"], check=True)
     return [work / name for name, _ in builds]
 
 

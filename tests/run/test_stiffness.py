@@ -21,7 +21,7 @@ import lagdsl
 from lagdsl.errors import LagError
 from lagdsl.integrators import VERDICT_OSCILLATION, VERDICT_STIFF
 from lagdsl.scene import Overrides
-from tests.conftest import library_model
+from tests.conftest import compiled, library_model
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 
 STIFF_SPRING = Path(__file__).parent / "models" / "stiff_spring.lag"
@@ -88,7 +88,7 @@ def test_the_standalone_program_reports_stiffness_once(spring, tmp_path):
         pytest.skip("no C compiler")
     source, program = tmp_path / "spring.c", tmp_path / "spring"
     source.write_text(spring.emit("c").text)
-    subprocess.run([cc, *STRICT_FLAGS, str(source), "-o", str(program), "-lm"], check=True)
+    compiled([cc, *STRICT_FLAGS, str(source), "-o", str(program), "-lm"], check=True)
     done = subprocess.run([str(program), "t.stop=1"], capture_output=True, text=True, check=True)
     assert done.stderr.count("stiffness detected at t = ") == 1 and "radau5" in done.stderr
 
@@ -172,8 +172,7 @@ def test_the_auto_program_compiles_strictly(spring, tmp_path):
     source = tmp_path / "auto.c"
     source.write_text(spring.emit("c", None, Overrides(integrator="auto")).text)
     for precision in ([], ["-DLAG_LONG_DOUBLE"]):
-        done = subprocess.run([cc, *STRICT_FLAGS, *precision, "-c", str(source), "-o", str(tmp_path / "a.o")],
-                              capture_output=True, text=True)
+        done = compiled([cc, *STRICT_FLAGS, *precision, "-c", str(source), "-o", str(tmp_path / "a.o")])
         assert done.returncode == 0, done.stderr
 
 
@@ -229,7 +228,7 @@ def test_the_standalone_program_words_the_verdict_as_lagc_does(cart, tmp_path):
         pytest.skip("no C compiler")
     source, program = tmp_path / "cart.c", tmp_path / "cart"
     source.write_text(cart.emit("c").text)
-    subprocess.run([cc, *STRICT_FLAGS, str(source), "-o", str(program), "-lm"], check=True)
+    compiled([cc, *STRICT_FLAGS, str(source), "-o", str(program), "-lm"], check=True)
     done = subprocess.run([str(program), "t.stop=0.3"], capture_output=True, text=True, check=True)
     lagc = cart.simulate(stop=0.3).summary.stiffness.render()
     assert lagc in done.stderr and "stiff" not in done.stderr

@@ -11,7 +11,7 @@ from scipy.integrate import quad
 from scipy.special import ellipk
 
 import lagdsl
-from tests.conftest import MODELS, library_model, model_file, slow_unless_kept
+from tests.conftest import MODELS, compiled, library_model, model_file, slow_unless_kept
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 
 PROJECTILE = """model Projectile "a thrown point mass; the flight ends where it comes down"
@@ -143,8 +143,7 @@ def test_the_standalone_program_stops_and_says_where(tmp_path):
             integrator=integrator, options=tuple((k, float(v)) for k, v in INTEGRATORS[integrator].items()))).text)
         for precision in ([], ["-DLAG_LONG_DOUBLE"])[:2 if integrator == "rk4" else 1]:   # the driver's part once
             program = tmp_path / f"{integrator}{len(precision)}"
-            built = subprocess.run([cc, *STRICT_FLAGS, *precision, str(source), "-o", str(program), "-lm"],
-                                   capture_output=True, text=True)
+            built = compiled([cc, *STRICT_FLAGS, *precision, str(source), "-o", str(program), "-lm"])
             assert built.returncode == 0, built.stderr
         run = subprocess.run([str(tmp_path / f"{integrator}0"), "y.velocity=10", "t.stop=3"],
                              capture_output=True, text=True)

@@ -20,7 +20,6 @@
 from __future__ import annotations
 
 import math
-import subprocess
 
 import numpy as np
 import pytest
@@ -33,7 +32,7 @@ from lagdsl.run.c_backend import run_c
 from lagdsl.run.loading import load as load_library
 from lagdsl.run.output import Result
 from lagdsl.scene import Overrides
-from tests.conftest import library_model, model_file
+from tests.conftest import compiled, library_model, model_file
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 from tests.run.test_stop_condition import PENDULUM, QUARTER
 
@@ -220,8 +219,7 @@ def test_the_generated_file_compiles_warning_free(tmp_path, precision):
     source = tmp_path / "double_pendulum.c"
     model = library_model("double_pendulum")
     source.write_text(model.emit("c", "chaos", Overrides(integrator="taylor")).text)
-    built = subprocess.run([cc, *STRICT_FLAGS, *precision, str(source), "-o", str(tmp_path / "program"), "-lm"],
-                           capture_output=True, text=True)
+    built = compiled([cc, *STRICT_FLAGS, *precision, str(source), "-o", str(tmp_path / "program"), "-lm"])
     assert built.returncode == 0, built.stderr
 
 

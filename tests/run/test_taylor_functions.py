@@ -17,7 +17,7 @@ import pytest
 
 from lagdsl.integrators import c_file
 from lagdsl.codegen.c_abi import runtime_header
-from tests.conftest import library_model
+from tests.conftest import compiled, library_model
 from tests.run.c_harness import STRICT_FLAGS, SYSTEM_HEADERS, find_cc
 
 MAIN = r"""
@@ -69,7 +69,7 @@ def measure(tmp_path_factory):
     source.write_text("\n".join([SYSTEM_HEADERS, runtime_header(), c_file("taylor_functions.c"), MAIN]))
     program = directory / "functions"
     # the runtime's helpers that this program does not call are no error here
-    subprocess.run([cc, *STRICT_FLAGS, "-Wno-unused-function", str(source), "-o", str(program), "-lm"], check=True)
+    compiled([cc, *STRICT_FLAGS, "-Wno-unused-function", str(source), "-o", str(program), "-lm"], check=True)
 
     def run(span: float) -> tuple[float, float, float]:
         out = subprocess.run([str(program), repr(span)], capture_output=True, text=True, check=True).stdout

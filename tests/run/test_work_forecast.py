@@ -17,7 +17,7 @@ from lagdsl.errors import SimulationError
 from lagdsl.integrators import c_file
 from lagdsl.integrators.forecast import WorkForecast
 from lagdsl.settings import FORECAST_JUDGED_AFTER
-from tests.conftest import MODELS
+from tests.conftest import MODELS, compiled
 from tests.run.c_harness import STRICT_FLAGS, SYSTEM_HEADERS, find_cc
 
 HERE = Path(__file__).parent / "models"
@@ -107,7 +107,7 @@ def test_the_c_forecast_is_the_python_forecast(tmp_path):
         pytest.skip("no C compiler")
     source, program = tmp_path / "forecast.c", tmp_path / "forecast"
     source.write_text("\n".join([SYSTEM_HEADERS, runtime_header(), runtime_contract(), c_file("forecast.c"), C_MAIN]))
-    subprocess.run([cc, *STRICT_FLAGS, str(source), "-o", str(program), "-lm"], check=True, capture_output=True)
+    compiled([cc, *STRICT_FLAGS, str(source), "-o", str(program), "-lm"], check=True)
     printed = subprocess.run([str(program)], check=True, capture_output=True, text=True).stdout.split("\n")
     runs = {"shrink": (1e-2, 0.999, 1000000, 100000, 100000), "burst": (1e-2, 1.0, 2000, 2400, 100000),
             "stall": (1e-9, 1.0, 1000000, 5000, 100000), "long": (2e-3, 1.0, 1000000, 30000, 100000)}

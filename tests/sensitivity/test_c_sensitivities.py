@@ -2,7 +2,6 @@
 central differences; the generated program compiled under the strict flags; a fit run on C."""
 from __future__ import annotations
 
-import subprocess
 
 import numpy as np
 import pytest
@@ -13,6 +12,7 @@ from lagdsl.sensitivity.c_run import augmented, first_order
 from lagdsl.settings import Overrides
 from tests.linear.support import model
 from tests.run.c_harness import STRICT_FLAGS, find_cc
+from tests.conftest import compiled
 
 # (model, scene, output column, directions): an unconstrained pendulum, a model whose
 # accelerations read no velocity (rkn8) and a constrained one (its KKT system).
@@ -97,8 +97,7 @@ def test_the_sensitivity_program_compiles_under_the_strict_flags(tmp_path, libra
     path = tmp_path / "sensitivity.c"
     path.write_text(source.text)
     for extra in ([], ["-DLAG_LONG_DOUBLE"]):
-        done = subprocess.run([cc, *STRICT_FLAGS, *extra, "-c", str(path), "-o", str(tmp_path / "s.o")],
-                              capture_output=True, text=True)
+        done = compiled([cc, *STRICT_FLAGS, *extra, "-c", str(path), "-o", str(tmp_path / "s.o")])
         assert done.returncode == 0, done.stderr[:3000]
 
 
