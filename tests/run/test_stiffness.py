@@ -112,11 +112,17 @@ def test_auto_returns_to_dop853_when_the_stiffness_fades(spring, backend):
     # K exp(-5 t): radau5's steps fall well inside dop853's stability region near t = 2.5. The
     # NumPy backend switches as often as C only because scipy's Radau is given radau5's working
     # tolerances (0.1 rtol^(2/3)): at the user's rtol it took 20 times the steps, and auto went
-    # back and forth six times.
+    # back and forth six times. When NumPy's return comes depends on the rounding of the LU
+    # factors scipy's Radau gets from OpenBLAS: with its Haswell and Zen kernels (this AMD EPYC's),
+    # a Newton failure on a stale Jacobian at t = 0.488 makes Radau reject its way down to steps
+    # within dop853's stability region (h rho <= AUTO_CALM), and auto returns there, by its rule, at
+    # t = 0.49; with OPENBLAS_CORETYPE=Prescott, Nehalem or Sandybridge it returns at t = 2.38-2.39,
+    # as C does at 2.57. Either way once, and to the same accuracy.
     auto = spring.simulate(backend=backend, integrator="auto", decay=5.0)
     dop853 = spring.simulate(integrator="dop853", decay=5.0, rtol=1e-11, atol=1e-13)
     switches = auto.summary.switches
-    assert switches.count == 2 and switches.times[0] < 0.1 and 1 < switches.times[1] < 5
+    returned_after = 1 if backend == "c" else switches.times[0]
+    assert switches.count == 2 and switches.times[0] < 0.1 and returned_after < switches.times[1] < 5
     assert switches.spans[0] + switches.spans[1] == pytest.approx(10)
     assert "to dop853 at t = " in auto.summary.render()
     assert np.max(np.abs(auto.values[:, :2] - dop853.values[:, :2])) < 1e-6
