@@ -152,26 +152,23 @@ static real taylor_power(real x, int n)
 }
 
 #if !defined(LAG_FLOAT128) && !defined(LAG_LONG_DOUBLE)
-/* taylor_power for n < 32 (the orders of a double build) without its loop: the same products, in
- * five rounds for every n (a product by 1 changes nothing; written out: a loop over the sweep's
- * lanes around it vectorises, where a loop inside it, or a product under a condition, does not). */
-static real taylor_power_unrolled(real x, int n)
-{
-    const real x2 = x * x, x4 = x2 * x2, x8 = x4 * x4, x16 = x8 * x8;
-    return (n & 1 ? x : 1) * (n & 2 ? x2 : 1) * (n & 4 ? x4 : 1) * (n & 8 ? x8 : 1) * (n & 16 ? x16 : 1);
-}
-
-/* taylor_radius with taylor_root_near, both roots taken at once and the second chosen as
- * taylor_radius chooses it, so that the two chains of arithmetic overlap (the radius was a quarter
- * of a double pendulum's step while its roots ran one after the other); the sweep's lanes take it
- * in a loop over the lanes (inline: gcc, left to itself, called it from that loop, which then did
- * not vectorise, a fifth of the sweep's time). inf or NaN where a root is beyond taylor_root_near
- * (a norm of 0, order 2): taylor_radius then takes its own way. */
+/* taylor_radius without libm: in logarithms, log2 rho = min over j of (log2 size - log2 norm_j) / j,
+ * so that one power of 2 follows the three logarithms (taylor_functions.c), which do not wait on one
+ * another (size's is taken while the series is computed), and the reciprocals of the orders wait on
+ * nothing: the radius was a quarter of a double pendulum's step while its two roots ran one after
+ * the other, and the longest chain of this one is a logarithm and the power. The sweep's lanes take
+ * it in a loop over the lanes (inline: gcc, left to itself, called it from that loop, which then did
+ * not vectorise, a fifth of the sweep's time). inf or NaN where it does not hold (a norm of 0 or
+ * beyond the normal numbers, order 2): taylor_radius then takes its own way. */
 static inline real taylor_radius_near(real size, real before, real last, int p)
 {
-    const real first = taylor_root_near(size / before, p - 1), other = taylor_root_near(size / last, p);
-    const real rho = (size / last < taylor_power_unrolled(first, p)) & (other < first) ? other : first;
-    return rho / ((first <= REAL_MAX) & (other <= REAL_MAX));   /* arithmetic, no branch */
+    const real whole = taylor_log2_near(size);
+    const real first = (whole - taylor_log2_near(before)) * (1 / (real)(p - 1));
+    const real other = (whole - taylor_log2_near(last)) * (1 / (real)p);
+    const real least = other < first ? other : first;
+    const real invalid = taylor_normal(size) & taylor_normal(before) & taylor_normal(last) & (p >= 3)
+                         & (r_fabs(least) <= 1000) ? 1 : (real)INFINITY;
+    return taylor_exp2_near(least) * invalid;   /* a product, not a division or a branch */
 }
 #endif
 

@@ -73,32 +73,53 @@ static inline double lag_cos(double x) { return r_fabs(x) <= LAG_TRIG_LARGEST ? 
  * a call that no loop over the sweep's lanes vectorises: 2^(log2(x) / n), with x = 2^e m, m in
  * [sqrt(1/2), sqrt(2)), log2 m = 2 atanh(u) / ln 2 for u = (m - 1) / (m + 1) (|u| < 0.172, its
  * series to u^11), and 2^f for |f| <= 1/2 from its Taylor series to f^10; relative error below
- * 1e-10, ample for a step that is a fraction of the radius. For n >= 2 and a normal x; inf or NaN
- * otherwise (taylor_root takes those). */
-static inline double taylor_root_near(double x, int n)
+ * 1e-10, ample for a step that is a fraction of the radius. The polynomials in Estrin's scheme: their
+ * pairs of terms and powers do not wait on one another, where each of Horner's steps waits on the
+ * last (the step waits on its radius: 0.3 of Horner's latency). taylor_log2_near for a normal x
+ * (any other: what it returns is not used), taylor_exp2_near for |y| <= 1000 (both: arithmetic, no
+ * branch, so that a loop over the lanes vectorises). */
+static inline double taylor_log2_near(double x)
 {
     unsigned long long bits;
-    double m, u, w, y, whole, f, power;
+    double m, u, w, w2;
     int e;
     memcpy(&bits, &x, sizeof bits);
     e = (int)(bits >> 52) - 1023;
     bits = (bits & 0x000fffffffffffffULL) | 0x3ff0000000000000ULL;
     memcpy(&m, &bits, sizeof m);
-    e += m > 0x1.6a09e667f3bcdp0;     /* arithmetic, no branch: a loop over lanes vectorises */
+    e += m > 0x1.6a09e667f3bcdp0;
     m *= 1 - 0.5 * (m > 0x1.6a09e667f3bcdp0);
     u = (m - 1) / (m + 1);
     w = u * u;
-    y = (e + u * (0x1.71547652b82fep+1 + w * (0x1.ec709dc3a03fdp-1 + w * (0x1.2776c50ef9bfep-1
-         + w * (0x1.a61762a7aded9p-2 + w * (0x1.484b13d7c02a9p-2 + w * 0x1.0c9a84994022dp-2)))))) / n;
-    whole = lag_nearest(y);
-    f = y - whole;
-    power = 1 + f * (0x1.62e42fefa39efp-1 + f * (0x1.ebfbdff82c58fp-3 + f * (0x1.c6b08d704a0c0p-5
-            + f * (0x1.3b2ab6fba4e77p-7 + f * (0x1.5d87fe78a6731p-10 + f * (0x1.430912f86c787p-13
-            + f * (0x1.ffcbfc588b0c7p-17 + f * (0x1.62c0223a5c824p-20 + f * (0x1.b5253d395e7c4p-24
-            + f * 0x1.e4cf5158b8ecap-28)))))))));
-    bits = (unsigned long long)((int)whole + 1023) << 52;      /* 2^whole, |whole| < 512 where it counts */
-    memcpy(&m, &bits, sizeof m);
-    return power * m / ((x >= DBL_MIN) & (x <= DBL_MAX) & (n >= 2));
+    w2 = w * w;
+    return e + u * ((0x1.71547652b82fep+1 + w * 0x1.ec709dc3a03fdp-1) + w2 * ((0x1.2776c50ef9bfep-1
+           + w * 0x1.a61762a7aded9p-2) + w2 * (0x1.484b13d7c02a9p-2 + w * 0x1.0c9a84994022dp-2)));
+}
+
+static inline double taylor_exp2_near(double y)
+{
+    unsigned long long bits;
+    double two, whole = lag_nearest(y), f = y - whole;
+    const double f2 = f * f, f4 = f2 * f2, f8 = f4 * f4;
+    const double power = ((1 + f * 0x1.62e42fefa39efp-1) + f2 * (0x1.ebfbdff82c58fp-3 + f * 0x1.c6b08d704a0c0p-5))
+            + f4 * ((0x1.3b2ab6fba4e77p-7 + f * 0x1.5d87fe78a6731p-10) + f2 * (0x1.430912f86c787p-13
+            + f * 0x1.ffcbfc588b0c7p-17)) + f8 * ((0x1.62c0223a5c824p-20 + f * 0x1.b5253d395e7c4p-24)
+            + f2 * 0x1.e4cf5158b8ecap-28);
+    bits = (unsigned long long)(((int)whole + 1023) & 2047) << 52;   /* 2^whole, |whole| <= 1000 */
+    memcpy(&two, &bits, sizeof two);
+    return power * two;
+}
+
+/* Whether x is a normal number (NaN: not). */
+static inline int taylor_normal(double x)
+{
+    return (x >= DBL_MIN) & (x <= DBL_MAX);
+}
+
+/* x^(1/n) for n >= 2 and a normal x; inf or NaN otherwise (taylor_root takes those). */
+static inline double taylor_root_near(double x, int n)
+{
+    return taylor_exp2_near(taylor_log2_near(x) / n) / (taylor_normal(x) & (n >= 2));
 }
 
 /* x^(1/n), n >= 1: taylor_root_near, x itself for n = 1, libm's pow for x outside the normal numbers. */
