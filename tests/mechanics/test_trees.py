@@ -179,7 +179,9 @@ def test_what_is_not_a_tree_of_point_masses_takes_the_expanded_equations(text):
     assert derive_tree_equations(model_from_source(SourceFile("chain.lag", text))) is None
 
 
-@pytest.mark.parametrize("overrides, backend", [({"integrator": "radau5"}, "c"), ({}, "numpy")])
+# radau5's Jacobian of the expanded equations costs sympy 2 s: slow, the NumPy backend's fallback kept.
+@pytest.mark.parametrize("overrides, backend", [pytest.param({"integrator": "radau5"}, "c", marks=pytest.mark.slow),
+                                                ({}, "numpy")])
 def test_scenes_the_tree_form_does_not_serve_fall_back(overrides, backend):
     model = model_from_source(SourceFile("chain.lag", chain_text(8, seconds=0.5)))
     tree = derive_tree_equations(model)

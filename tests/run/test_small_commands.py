@@ -2,7 +2,8 @@
 (run/answers.py) without the pipeline, the command line imports no heavy package before a command
 asks for it, and `lagc cache clear` empties the front end's helper directories too.
 
-Each import check runs in a fresh process, where nothing is imported yet.
+Each import check runs in a fresh process, where nothing is imported yet; the other checks run in
+this one.
 """
 from __future__ import annotations
 
@@ -10,10 +11,12 @@ import json
 import os
 import subprocess
 import sys
+from dataclasses import astuple
 
 import pytest
 
 from lagdsl.run import cache
+from tests.conftest import lagc_in_process
 from tests.run.test_warm_run import SWING
 
 HEAVY = ("sympy", "lark", "pint", "scipy", "matplotlib")
@@ -54,20 +57,22 @@ def test_a_warm_check_prints_the_stored_answer_without_the_pipeline(cache_dir, t
     assert lagc("check", model) == (0, summary, notes, [])
 
 
+# The stored answers' keys and contents, in this process: what is imported is the warm check's subject above.
 def test_an_edited_model_is_checked_again(cache_dir, tmp_path):
     model = tmp_path / "swing.lag"
     model.write_text(SWING)
-    first = lagc("check", model)[1]
+    first = lagc_in_process("check", model).stdout
     model.write_text(SWING.replace("parameter m = 1.0 [kg];", "parameter m = 2.5 [kg];"))
-    status, summary, _, imported = lagc("check", model)
-    assert status == 0 and summary != first and "sympy" in imported
+    again = lagc_in_process("check", model)
+    assert again.returncode == 0 and again.stdout != first
+    assert len(list(cache_dir.glob("check-*.json"))) == 2
 
 
 def test_a_model_with_an_error_stores_no_answer(cache_dir, tmp_path):
     model = tmp_path / "bad.lag"
     model.write_text(SWING.replace("U = m*g*y;", "U = m*g*z;"))
     for _ in range(2):
-        status, summary, message, _ = lagc("check", model)
+        status, summary, message = astuple(lagc_in_process("check", model))
         assert status == 1 and summary == "" and "error:" in message and "Traceback" not in message
     assert not list(cache_dir.glob("check-*.json"))
 
