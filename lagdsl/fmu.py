@@ -8,7 +8,7 @@ modelDescription.xml, the C sources and the binary for this platform.
 The archive is the same bytes for the same export (its entries sorted, with a fixed date): the
 binary is built with fixed flags and stripped, and cached by content hash as the libraries of
 `lagc run` are (run/cache.py). The binary is for this machine's platform; the sources build it
-for others (with the FMI headers they ship: the Modelica Association's, integrators/c/fmi/).
+for others (with the FMI headers they ship: the Modelica Association's, integrators/c/third_party/fmi/).
 """
 from __future__ import annotations
 
@@ -32,6 +32,8 @@ FMI_VERSIONS = (2, 3)
 # Portable (no -march=native: the FMU travels), exported symbols the FMI functions only, no
 # symbol table (it would name the temporary build directory: the bytes would differ per build).
 FMU_FLAGS = ("-std=c99", "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-s")
+# The Modelica Association's headers, vendored unchanged (their licence beside them).
+FMI_HEADERS = resources.files("lagdsl.integrators").joinpath("c", "third_party", "fmi")
 HEADERS = {2: ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"),
            3: ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")}
 # (system, machine) -> the binaries/ directory of FMI 2 and of FMI 3, and the library's suffix.
@@ -95,7 +97,7 @@ def compile_binary(source: str, identifier: str, version: int) -> bytes:
     """The FMU's shared library, built with FMU_FLAGS and the FMI headers, cached by content hash."""
     compiler = find_compiler()
     key = hashlib.sha256("\0".join((source, compiler, *FMU_FLAGS, str(version))).encode()).hexdigest()
-    with resources.as_file(resources.files("lagdsl.integrators").joinpath("c", "fmi")) as headers:
+    with resources.as_file(FMI_HEADERS) as headers:
         flags = (*FMU_FLAGS, "-I", str(headers))
         entry = cached_entry(f"{identifier}-fmi{version}-{key[:20]}.so", key,
                              lambda path: compile_c(source, path, flags, compiler))
@@ -117,4 +119,4 @@ def archive(files: dict[str, bytes]) -> bytes:
 
 
 def _header_file(name: str) -> bytes:
-    return resources.files("lagdsl.integrators").joinpath("c", "fmi", name).read_bytes()
+    return FMI_HEADERS.joinpath(name).read_bytes()

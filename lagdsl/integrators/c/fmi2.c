@@ -1,6 +1,6 @@
 /* The entry points of FMI 2.0 for model exchange and co-simulation, over the instance of fmu.c
  * and fmu_run.c. The FMI headers are the Modelica Association's (vendored in
- * lagdsl/integrators/c/fmi/, shipped in the FMU's sources/). Every function returns fmi2Error for
+ * lagdsl/integrators/c/third_party/fmi/, shipped in the FMU's sources/). Every function returns fmi2Error for
  * a NULL instance, and through lag_fmu_error for a call in the wrong mode or with a bad value
  * reference (the instance then enters the error mode: only getters, reset and free remain).
  */

@@ -1,6 +1,6 @@
 /* The entry points of FMI 3.0 for model exchange and co-simulation, over the instance of fmu.c,
  * fmu_values.c and fmu_run.c. The FMI headers are the Modelica Association's (vendored in
- * lagdsl/integrators/c/fmi/, shipped in the FMU's sources/). Every function returns fmi3Error
+ * lagdsl/integrators/c/third_party/fmi/, shipped in the FMU's sources/). Every function returns fmi3Error
  * for a NULL instance, and through lag_fmu_error for a call in the wrong mode or with a bad
  * value reference (the instance then enters the error mode: only getters, reset and free
  * remain). The variables are Float64 and Int32 scalars; the getters and setters of the other
