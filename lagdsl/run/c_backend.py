@@ -36,10 +36,7 @@ class CRun:
 
     def __init__(self, library: ctypes.CDLL, plan: RunPlan, units: tuple[str, ...] | None = None, origin: str = ""):
         self.plan, self._description = plan, (units, origin)
-        self._entry = library.lag_run
-        double_p = ctypes.POINTER(ctypes.c_double)
-        self._entry.argtypes = [double_p, double_p, double_p, double_p, ctypes.c_long, double_p]
-        self._entry.restype = ctypes.c_int
+        self._entry, self._guarded = _entries(library)
         self._layout = plan_summary(plan)
         self._shape = (grid_rows(plan.time.start, plan.time.stop, plan.time.interval), len(plan.columns) + 1)
         self._buffers = (ctypes.c_double * (self._shape[0] * self._shape[1]), ctypes.c_double * self._layout.size)
@@ -81,7 +78,7 @@ class CRun:
         rows, summary = np.empty((capacity, width)), summary_type()
         arguments = (*self._pointers, rows_type.from_buffer(rows), capacity, summary)
         poll = None if progress is None else lambda: progress(self._reached.value, plan.time.start, plan.time.stop)
-        status, elapsed = interruptible(self._interrupt, entry, poll, arguments)
+        status, elapsed = interruptible(self._interrupt, entry, poll, arguments, self._guarded)
         values = summary[:]         # a list reads faster than a record, field by field
         at = self._layout.offsets
         used = int(values[at["rows"]])
@@ -92,6 +89,18 @@ class CRun:
             raise simulation_error(plan, status, values[at["t_fail"]], y_fail, result, values[at["rcond_fail"]],
                                    values[at["forecast"]])
         return result
+
+
+def _entries(library: ctypes.CDLL) -> tuple:
+    """The library's lag_run, and lag_run_guarded (lag_run within its Ctrl-C guard, interrupt.py)
+    or None where it has none, their argument types set."""
+    double_p = ctypes.POINTER(ctypes.c_double)
+    arguments = [double_p, double_p, double_p, double_p, ctypes.c_long, double_p]
+    entry, guarded = library.lag_run, getattr(library, "lag_run_guarded", None)
+    entry.argtypes, entry.restype = arguments, ctypes.c_int
+    if guarded is not None:
+        guarded.argtypes, guarded.restype = [ctypes.c_int, ctypes.POINTER(ctypes.c_int), *arguments], ctypes.c_int
+    return entry, guarded
 
 
 def _doubles(array: np.ndarray):
