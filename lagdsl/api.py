@@ -50,7 +50,7 @@ class QuickRuns:
     def get(self, model: "Model", scene: str | None, backend: str, overrides: Overrides):
         """A function of `progress` that runs and describes the result; None where that cannot
         serve: the first run of a scene, code not yet generated."""
-        key = (scene, backend, overrides)
+        key = (scene, backend, None if overrides is NOTHING_OVERRIDDEN else overrides)   # no Overrides.__hash__
         quick = self.runs.get(key)
         if quick is not None:
             return quick
@@ -144,7 +144,6 @@ class Model(LyapunovMethod):
         `.sensitivity("x", "k")` is ∂x(t)/∂k on the grid; `sensitivity_error_control` says whether
         they enter the step-size control (default: they do).
         """
-        _check_backend(backend)
         values = {**set, **parameters} if set else parameters
         given = tuple((name, single_number(name, value)) for name, value in values.items()) if values else ()
         if (start is None and stop is None and interval is None and integrator is None and rtol is None

@@ -38,6 +38,7 @@ class CRun:
         self.plan, self._description = plan, (units, origin)
         self._entry, self._guarded = _entries(library)
         self._layout = plan_summary(plan)
+        self._rows_at = self._layout.offsets["rows"]
         self._shape = (grid_rows(plan.time.start, plan.time.stop, plan.time.interval), len(plan.columns) + 1)
         self._buffers = (ctypes.c_double * (self._shape[0] * self._shape[1]), ctypes.c_double * self._layout.size)
         self._input_types = (ctypes.c_double * max(len(plan.parameters), 1), ctypes.c_double * len(plan.initial_state))
@@ -71,20 +72,21 @@ class CRun:
 
         NumPy is used as little as a call allows, four operations (the array, its buffer, two
         views): after a long integration each costs several microseconds more than warm, where
-        the caches have been emptied (benchmarks/simulate_overhead.py), a ctypes array of the
-        summary and its slice to a list less."""
+        the caches have been emptied (benchmarks/simulate_overhead.py); so does all Python, and
+        the summary's doubles are read whole (a slice to a list) only where a summary or an
+        error is made."""
         plan, entry, (capacity, width) = self.plan, self._entry, self._shape
         rows_type, summary_type = self._buffers
         rows, summary = np.empty((capacity, width)), summary_type()
         arguments = (*self._pointers, rows_type.from_buffer(rows), capacity, summary)
         poll = None if progress is None else lambda: progress(self._reached.value, plan.time.start, plan.time.stop)
         status, elapsed = interruptible(self._interrupt, entry, poll, arguments, self._guarded)
-        values = summary[:]         # a list reads faster than a record, field by field
-        at = self._layout.offsets
-        used = int(values[at["rows"]])
+        used = int(summary[self._rows_at])
         result = Result.of_run(rows[:used, 0], plan.columns, rows[:used, 1:],
-                               Deferred(lambda: _run_summary(plan, self._layout, values, elapsed)), *self._description)
+                               Deferred(lambda: _run_summary(plan, self._layout, summary[:], elapsed)),
+                               *self._description)
         if status != 0:
+            values, at = summary[:], self._layout.offsets      # a list reads faster than a record, field by field
             y_fail = values[at["y_fail"]:at["y_fail"] + len(plan.initial_state)]
             raise simulation_error(plan, status, values[at["t_fail"]], y_fail, result, values[at["rcond_fail"]],
                                    values[at["forecast"]])
