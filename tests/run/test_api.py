@@ -154,6 +154,23 @@ def test_repeated_calls_equal_a_plain_run_and_share_no_memory():
     assert np.array_equal(second.values, plain.values) and np.array_equal(second.t, plain.t)
 
 
+def test_rows_still_held_in_part_are_never_written_over():
+    """A repeated C run may take the rows' array of an earlier call that nothing holds any more
+    (c_backend._RowArrays); a part still held (a result's t, a view of its values) keeps its
+    array out of reach of every later call."""
+    model = lagdsl.load(MODELS / "elastic_pendulum.lag")
+    model.simulate()
+    held_t = model.simulate(k=80.0).t
+    held_view = model.simulate(k=90.0).values[:3]
+    view = held_view.copy()
+    for k in (100.0, 110.0, 120.0, 130.0):
+        model.simulate(k=k)                     # dropped at once: their arrays free again
+    later = [model.simulate(k=k) for k in (140.0, 150.0, 160.0)]
+    assert np.array_equal(held_view, view)
+    for result in later:
+        assert not np.shares_memory(result.values, held_t) and not np.shares_memory(result.values, held_view)
+
+
 def test_a_held_result_and_its_unread_summary_outlive_later_calls():
     """The rows and the summary's doubles of a repeated C run are arrays made for that call: a
     result held, its summary not yet read (it is made when first read), is unchanged by later
