@@ -89,7 +89,7 @@ class CRun:
         self._rows.keep(taken)
         used = int(summary[self._rows_at])
         result = Result.of_run(rows[:used, 0], plan.columns, rows[:used, 1:],
-                               Deferred(lambda: _run_summary(plan, self._layout, summary[:], elapsed)),
+                               Deferred(_run_summary, plan, self._layout, summary, elapsed),
                                *self._description)
         if status != 0:
             values, at = summary[:], self._layout.offsets      # a list reads faster than a record, field by field
@@ -169,9 +169,9 @@ def _doubles(array: np.ndarray):
     return (ctypes.c_double * array.size).from_buffer(array)
 
 
-def _run_summary(plan: RunPlan, layout: SummaryLayout, values: list[float], elapsed: float) -> RunSummary:
-    """The RunSummary of a summary's doubles, `values`, laid out as `layout`."""
-    at = layout.offsets
+def _run_summary(plan: RunPlan, layout: SummaryLayout, summary: ctypes.Array, elapsed: float) -> RunSummary:
+    """The RunSummary of a summary's doubles, laid out as `layout`."""
+    values, at = summary[:], layout.offsets      # a list reads faster than a record, field by field
     counts = {name: int(values[at[name]]) for name in layout.counters}
     invariants = tuple((name, values[at["invariant_start"] + i], values[at["invariant_drift"] + i])
                        for i, name in enumerate(plan.invariants))
