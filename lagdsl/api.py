@@ -5,29 +5,30 @@ import functools
 from collections.abc import Callable
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from . import ir, reference
+from . import ir
 from .frontend import units
-from .codegen import GeneratedSource
-from .codegen.kernel import Kernel
 from .animation import DEFAULT_FPS, Animation, check_playback, drawing_of
 from .errors import LagError, Setting, SimulationError
 from .escape import visible
 from .mechanics import Equations
 from .pipeline import compile_model, execute, generate, plan
-from .run import plans
-from .run.output import Result
-from .run import sweep as batch
-from .run.loading import load as load_program
-from .run import runner
-from .run.sweep_job import SweepJob, progress_bar, stream_to_file
 from .scene import (RUN_OPTIONS, Overrides, ScenePlan, given_options, input_values, parameters_in_expressions,
                     scene_defaults)
 from .sensitivity.methods import LyapunovMethod
 from .settings import given_atol_each
 from .source import SourceFile
+
+if TYPE_CHECKING:       # what runs, lowers or sweeps is imported when first used: loading a model needs none of it
+    from .codegen import GeneratedSource
+    from .codegen.kernel import Kernel
+    from .run import plans
+    from .run import sweep as batch
+    from .run.output import Result
+    from .run.sweep_job import SweepJob
 
 BACKENDS = ("c", "numpy")
 GRID_OVERRIDES = ("start", "stop", "interval", "integrator")
@@ -50,7 +51,7 @@ class QuickRuns:
     def get(self, model: "Model", scene: str | None, backend: str, overrides: Overrides):
         """A function of `progress` that runs and describes the result; None where that cannot
         serve: the first run of a scene, code not yet generated."""
-        key = (scene, backend, overrides)
+        key = (scene, backend, None if overrides is NOTHING_OVERRIDDEN else overrides)   # no Overrides.__hash__
         quick = self.runs.get(key)
         if quick is not None:
             return quick
@@ -63,6 +64,7 @@ class QuickRuns:
         if alike is not None:
             quick = alike.with_inputs(*stored.values(overrides, computed))
         else:
+            from .run import runner
             run_plan = stored.resolve(overrides, computed)
             program = model.built_program(run_plan.scene_name, run_plan.integrator.name, backend)
             if program is None:
@@ -144,7 +146,6 @@ class Model(LyapunovMethod):
         `.sensitivity("x", "k")` is ∂x(t)/∂k on the grid; `sensitivity_error_control` says whether
         they enter the step-size control (default: they do).
         """
-        _check_backend(backend)
         values = {**set, **parameters} if set else parameters
         given = tuple((name, single_number(name, value)) for name, value in values.items()) if values else ()
         if (start is None and stop is None and interval is None and integrator is None and rtol is None
@@ -195,6 +196,7 @@ class Model(LyapunovMethod):
             tighter = replace(overrides, integrator=scene_plan.integrator.name, options=options)
             return self.simulate_plan(scene, backend, tighter)
 
+        from . import reference
         plain = self.plan(scene, overrides) if draw else scene_plan     # the reference computes the columns alone
         error = reference.estimate_error(result, self.equations, plain, self.source.name, rerun)
         return replace(result, summary=replace(result.summary, error=error))
@@ -254,6 +256,7 @@ class Model(LyapunovMethod):
         `.failure_time`; the others complete. `progress` shows a progress bar on stderr. A sweep
         whose values would not fit in memory is refused before it runs: see sweep_to_file.
         """
+        from .run.sweep_job import progress_bar
         job = self._sweep_job(scene, backend, set, client, overrides)
         job.check_fits()
         with progress_bar(progress, job.count) as advance:
@@ -266,6 +269,7 @@ class Model(LyapunovMethod):
         by a block whatever the number of members: Parquet if the name ends in .parquet (and
         pyarrow is installed), else CSV. The file appears complete or not at all; after Ctrl-C it
         holds the members run so far and SimulationInterrupted carries their summary."""
+        from .run.sweep_job import stream_to_file
         return stream_to_file(self._sweep_job(scene, backend, set, client, overrides), path, workers, client, progress)
 
     def _sweep_job(self, scene: str | None, backend: str, varied: dict, client, overrides: dict) -> SweepJob:
@@ -274,6 +278,7 @@ class Model(LyapunovMethod):
             raise LagError("sweep: a Dask client runs the C backend only; use backend='c'")
         grid = {k: overrides.pop(k) for k in GRID_OVERRIDES if k in overrides}
         options = {k: overrides.pop(k) for k in RUN_OPTIONS if k in overrides}
+        from .run.sweep_job import SweepJob
         base = Overrides((), grid.get("start"), grid.get("stop"), grid.get("interval"), grid.get("integrator"),
                          given_options(options), given_atol_each(options))
         return SweepJob(lambda o: self.plan(scene, o), lambda p: self._program(scene, p, backend, base), base,
@@ -312,6 +317,7 @@ class Model(LyapunovMethod):
         if key not in self._programs:
             code_plan = self.plan(scene, Overrides(integrator=scene_plan.integrator.name, options=overrides.options),
                                   drawn)
+            from .run.loading import load as load_program
             kernel, source = generate(self.equations, code_plan, backend, self.source.name)
             self._programs[key] = Program(kernel, source, load_program(source))
             self._store_plan(scene, backend, overrides.integrator, code_plan, source)
@@ -321,6 +327,7 @@ class Model(LyapunovMethod):
                     source: GeneratedSource) -> None:
         """Keep the scene's plan in the build cache for a warm `lagc run` in another process
         (run/plans.py), under the scene and integrator as asked for."""
+        from .run import plans
         stored = _stored_plan(self, scene, code_plan, plans.program_entry(source))
         if stored is not None:
             plans.store(self.source, scene, backend, integrator, stored)
@@ -343,6 +350,7 @@ def _stored_plan(model: Model, scene: str | None, scene_plan: ScenePlan, entry) 
     """What a repeated run of the scene plans from without sympy (run/plans.py), its program at
     `entry` (None: kept in the Model); None where the scene's values cannot be fixed beforehand,
     or the plan draws (a repeated run computes the scene's columns alone)."""
+    from .run import plans
     if scene_plan.draws:
         return None
     try:

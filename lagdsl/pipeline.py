@@ -23,19 +23,21 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from . import ir
-from .codegen import GeneratedSource
-from .codegen.kernel import Kernel, lower_to_kernel
 from .mechanics import Equations, derive_equations
 from .mechanics.families import LocalEquations, derive_local_equations
 from .mechanics.trees import TreeEquations, derive_tree_equations
 from .frontend.parser import parse
-from .run.output import Result
-from .run.runner import run
 from .scene import Overrides, ScenePlan, plan_scene
 from .frontend.semantics import build_model
 from .source import SourceFile
+
+if TYPE_CHECKING:       # lowering and running are imported when first used: loading a model needs neither
+    from .codegen import GeneratedSource
+    from .codegen.kernel import Kernel
+    from .run.output import Result
 
 
 def load_model(path: str | Path) -> ir.Model:
@@ -61,6 +63,7 @@ def plan(model: ir.Model, equations: Equations, scene: str | None, overrides: Ov
 
 def generate(equations: Equations, scene_plan: ScenePlan, backend: str, source_name: str) -> tuple[Kernel, GeneratedSource]:
     from .codegen.c import render_c             # the printers and templates, imported when first rendered
+    from .codegen.kernel import lower_to_kernel
     from .codegen.numpy import render_numpy
     if backend != "c" and isinstance(equations, TreeEquations):
         equations = equations.expanded          # the tree's recursion is written in C only
@@ -72,4 +75,5 @@ def generate(equations: Equations, scene_plan: ScenePlan, backend: str, source_n
 def execute(kernel: Kernel, source: GeneratedSource, scene_plan: ScenePlan,
             progress: Callable[[float, float, float], None] | None = None, loaded=None) -> Result:
     """Run the scene; `loaded` is runner.load(source) when the caller kept it from an earlier run."""
+    from .run.runner import run
     return run(scene_plan.run_plan(), source.language, loaded, progress, source)   # -> Result

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import re
 from functools import lru_cache
-from importlib import resources
+from pathlib import Path
 
 import lark
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
@@ -38,9 +38,11 @@ STATEMENT_LEVEL = DECLARATION_STARTS | {"SEMI", "END", "TIME", "INTEGRATOR", "SE
 @lru_cache(maxsize=1)
 def _lark() -> lark.Lark:
     """The parser, its LALR tables kept in the build cache (lark checks the grammar's hash on
-    loading them): building them costs about 0.15 s a process."""
+    loading them): building them costs about 0.15 s a process. The grammar is read beside this
+    file (as known_units.py reads its table): importlib.resources would import zipfile and its
+    readers, a sixtieth of a second."""
     from ..run.cache import helper_directory
-    grammar = resources.files(__package__).joinpath("grammar.lark").read_text(encoding="utf-8")
+    grammar = Path(__file__).with_name("grammar.lark").read_text(encoding="utf-8")
     options = {"parser": "lalr", "lexer": "contextual", "propagate_positions": True, "maybe_placeholders": False}
     directory = helper_directory("lark")
     if directory is not None:

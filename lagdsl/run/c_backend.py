@@ -6,6 +6,7 @@ doubles and fills the output rows and the run summary, whose fields abi.SummaryL
 from __future__ import annotations
 
 import ctypes
+import sys
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -23,6 +24,9 @@ if TYPE_CHECKING:
     from ..codegen import GeneratedSource
     from ..codegen.kernel import Kernel
 
+SPARE_ROWS = 2              # row arrays a repeated run keeps: the one its caller holds during the next call, and one more
+SPARE_ROWS_BYTES = 2 ** 20  # kept only up to this size: a larger array is made in a small part of its run's time
+
 
 def run_c(kernel: Kernel, source: GeneratedSource, plan: RunPlan, progress: Progress | None = None,
           loaded: ctypes.CDLL | None = None) -> Result:
@@ -36,13 +40,12 @@ class CRun:
 
     def __init__(self, library: ctypes.CDLL, plan: RunPlan, units: tuple[str, ...] | None = None, origin: str = ""):
         self.plan, self._description = plan, (units, origin)
-        self._entry = library.lag_run
-        double_p = ctypes.POINTER(ctypes.c_double)
-        self._entry.argtypes = [double_p, double_p, double_p, double_p, ctypes.c_long, double_p]
-        self._entry.restype = ctypes.c_int
+        self._entry, self._guarded = _entries(library)
         self._layout = plan_summary(plan)
+        self._rows_at = self._layout.offsets["rows"]
         self._shape = (grid_rows(plan.time.start, plan.time.stop, plan.time.interval), len(plan.columns) + 1)
-        self._buffers = (ctypes.c_double * (self._shape[0] * self._shape[1]), ctypes.c_double * self._layout.size)
+        self._rows = _RowArrays(self._shape)
+        self._summary_type = ctypes.c_double * self._layout.size
         self._input_types = (ctypes.c_double * max(len(plan.parameters), 1), ctypes.c_double * len(plan.initial_state))
         self._settings = _doubles(settings_vector(plan))      # keeps the vector alive (from_buffer holds it)
         self._take_inputs(plan.parameters, plan.initial_state)
@@ -67,31 +70,97 @@ class CRun:
         self._pointers = (parameter_array(*(parameters or (0.0,))), state_array(*initial_state), self._settings)
 
     def __call__(self, progress: Progress | None = None) -> Result:
-        """The run's Result, whose t and values are views of the rows' array made for this call,
-        so that no copy follows the run and no later call touches them; its summary is made from
-        the summary's doubles (a ctypes array of this call's) when first asked for (a fit reads only
-        the values).
+        """The run's Result, whose t and values are views of a rows' array that no held result
+        shares (_RowArrays), so that no copy follows the run and no later call touches them; its
+        summary is made from the summary's doubles (a ctypes array of this call's) when first
+        asked for (a fit reads only the values).
 
-        NumPy is used as little as a call allows, four operations (the array, its buffer, two
-        views): after a long integration each costs several microseconds more than warm, where
-        the caches have been emptied (benchmarks/simulate_overhead.py), a ctypes array of the
-        summary and its slice to a list less."""
-        plan, entry, (capacity, width) = self.plan, self._entry, self._shape
-        rows_type, summary_type = self._buffers
-        rows, summary = np.empty((capacity, width)), summary_type()
-        arguments = (*self._pointers, rows_type.from_buffer(rows), capacity, summary)
+        NumPy is used as little as a call allows, two views (and an array with its buffer where
+        none is free): after a long integration each costs several microseconds more than warm,
+        where the caches have been emptied (benchmarks/simulate_overhead.py); so does all
+        Python, and the summary's doubles are read whole (a slice to a list) only where a
+        summary or an error is made."""
+        plan, entry, capacity = self.plan, self._entry, self._shape[0]
+        rows, view = taken = self._rows.take()
+        summary = self._summary_type()
+        arguments = (*self._pointers, view, capacity, summary)
         poll = None if progress is None else lambda: progress(self._reached.value, plan.time.start, plan.time.stop)
-        status, elapsed = interruptible(self._interrupt, entry, poll, arguments)
-        values = summary[:]         # a list reads faster than a record, field by field
-        at = self._layout.offsets
-        used = int(values[at["rows"]])
+        status, elapsed = interruptible(self._interrupt, entry, poll, arguments, self._guarded)
+        self._rows.keep(taken)
+        used = int(summary[self._rows_at])
         result = Result.of_run(rows[:used, 0], plan.columns, rows[:used, 1:],
-                               Deferred(lambda: _run_summary(plan, self._layout, values, elapsed)), *self._description)
+                               Deferred(_run_summary, plan, self._layout, summary, elapsed),
+                               *self._description)
         if status != 0:
+            values, at = summary[:], self._layout.offsets      # a list reads faster than a record, field by field
             y_fail = values[at["y_fail"]:at["y_fail"] + len(plan.initial_state)]
             raise simulation_error(plan, status, values[at["t_fail"]], y_fail, result, values[at["rcond_fail"]],
                                    values[at["forecast"]])
         return result
+
+
+class _RowArrays:
+    """The arrays of `shape` a repeated run's rows go to, each with its ctypes view (what lag_run
+    is given): one that an earlier call made and that no result holds any more, else a new one.
+    After a long integration, making the array and its view (np.empty, from_buffer) costs a
+    repeated simulate() a fifth of its overhead, where the caches have been emptied. An array is
+    held while anything outside (a result, its t or values, a view of them) refers to it, which
+    sys.getrefcount tells: then it is left as it is, and a later call takes another."""
+
+    def __init__(self, shape: tuple[int, int]):
+        self._shape, self._view_type = shape, ctypes.c_double * (shape[0] * shape[1])
+        small = shape[0] * shape[1] * 8 <= SPARE_ROWS_BYTES
+        self._spare: list[tuple[np.ndarray, ctypes.Array]] | None = [] if small else None
+
+    def take(self) -> tuple[np.ndarray, ctypes.Array]:
+        """An array no result holds, and its view (list.pop and append are atomic: calls from
+        several threads each take their own)."""
+        spare = self._spare
+        for _ in range(len(spare) if spare else 0):     # oldest first; one held goes to the back
+            try:
+                kept = spare.pop(0)
+            except IndexError:          # another thread took the last
+                break
+            if sys.getrefcount(kept[0]) == _UNHELD:
+                return kept
+            spare.append(kept)
+        rows = np.empty(self._shape)
+        return rows, self._view_type.from_buffer(rows)
+
+    def keep(self, taken: tuple[np.ndarray, ctypes.Array]) -> None:
+        """Keep `taken` for a later call, once its result is no longer held (the last SPARE_ROWS)."""
+        spare = self._spare
+        if spare is not None:
+            spare.append(taken)
+            if len(spare) > SPARE_ROWS:
+                try:
+                    spare.pop(0)
+                except IndexError:
+                    pass
+
+
+def _unheld() -> int:
+    """sys.getrefcount of a kept array that nothing outside holds: the pair that keeps it, the
+    buffer of its ctypes view, the call's argument."""
+    rows = np.empty(1)
+    kept = (rows, (ctypes.c_double * 1).from_buffer(rows))
+    del rows
+    return sys.getrefcount(kept[0])
+
+
+_UNHELD = _unheld()
+
+
+def _entries(library: ctypes.CDLL) -> tuple:
+    """The library's lag_run, and lag_run_guarded (lag_run within its Ctrl-C guard, interrupt.py)
+    or None where it has none, their argument types set."""
+    double_p = ctypes.POINTER(ctypes.c_double)
+    arguments = [double_p, double_p, double_p, double_p, ctypes.c_long, double_p]
+    entry, guarded = library.lag_run, getattr(library, "lag_run_guarded", None)
+    entry.argtypes, entry.restype = arguments, ctypes.c_int
+    if guarded is not None:
+        guarded.argtypes, guarded.restype = [ctypes.c_int, ctypes.POINTER(ctypes.c_int), *arguments], ctypes.c_int
+    return entry, guarded
 
 
 def _doubles(array: np.ndarray):
@@ -100,9 +169,9 @@ def _doubles(array: np.ndarray):
     return (ctypes.c_double * array.size).from_buffer(array)
 
 
-def _run_summary(plan: RunPlan, layout: SummaryLayout, values: list[float], elapsed: float) -> RunSummary:
-    """The RunSummary of a summary's doubles, `values`, laid out as `layout`."""
-    at = layout.offsets
+def _run_summary(plan: RunPlan, layout: SummaryLayout, summary: ctypes.Array, elapsed: float) -> RunSummary:
+    """The RunSummary of a summary's doubles, laid out as `layout`."""
+    values, at = summary[:], layout.offsets      # a list reads faster than a record, field by field
     counts = {name: int(values[at[name]]) for name in layout.counters}
     invariants = tuple((name, values[at["invariant_start"] + i], values[at["invariant_drift"] + i])
                        for i, name in enumerate(plan.invariants))

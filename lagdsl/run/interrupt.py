@@ -21,15 +21,17 @@ from ..abi import INTERRUPTED
 from ..errors import InternalError
 
 POLL_SECONDS = 0.1      # how often the main thread looks at a C run: Ctrl-C and progress
+_SIGINT, _SIGTERM = int(signal.SIGINT), int(signal.SIGTERM)     # plain ints: no enum lookups in a call
 
 
 class RunInterrupt:
     """A library's lag_interrupt (`flag`), which its driver reads after each step, and its Ctrl-C
     guard (`enter(terminate)`, `exit()` giving the signal noted or 0: library.c; both None where
-    the library has none)."""
+    the library has none); `noted`, where lag_run_guarded puts the signal it noted."""
 
     def __init__(self, library: ctypes.CDLL):
         self.flag = ctypes.c_int.in_dll(library, "lag_interrupt")
+        self.noted = ctypes.c_int()
         self.enter = self.exit = None
         if hasattr(library, "lag_guard_enter"):
             self.enter = ctypes.PYFUNCTYPE(None, ctypes.c_int)(("lag_guard_enter", library))
@@ -37,10 +39,13 @@ class RunInterrupt:
 
 
 def interruptible(interrupt: RunInterrupt, call: Callable[..., int],
-                  poll: Callable[[], None] | None, arguments: tuple = ()) -> tuple[int, float]:
+                  poll: Callable[[], None] | None, arguments: tuple = (),
+                  guarded: Callable[..., int] | None = None) -> tuple[int, float]:
     """Make the C call `call(*arguments)` (its status INTERRUPTED where lag_interrupt stopped it)
     in a worker thread, so that the main thread stays free for Ctrl-C and `poll` (called every
-    POLL_SECONDS: progress reports).
+    POLL_SECONDS: progress reports). `guarded`, where given, is `call` within the library's guard
+    in one foreign call (lag_run_guarded: the guard's terminate flag and a pointer to the signal
+    noted come before `arguments`), for a call made in the calling thread (_Guarded).
     Returns its status and its duration, timed in the worker: the main thread notices the end
     only at its next poll, up to POLL_SECONDS later.
 
@@ -49,11 +54,11 @@ def interruptible(interrupt: RunInterrupt, call: Callable[..., int],
     which the driver reads after each step (status LAG_ERR_INTERRUPTED, the rows so far kept);
     further Ctrl-Cs while it winds down change nothing.
     """
-    interrupt.flag.value = 0
     if poll is None:
-        done = _Guarded.call(interrupt, call, arguments)
+        done = _Guarded.call(interrupt, call, arguments, guarded)
         if done is not None:
             return done
+    interrupt.flag.value = 0
     outcome: list[tuple[int, float]] = []
     ended: list[bool] = []          # set before `finished` is released
     finished = _thread.allocate_lock()
@@ -105,6 +110,11 @@ class _Guarded:
     came before the guard was in place reaches Python's handler, which raises it before the call.
     The guard's two functions hold the GIL (a thread that took it meanwhile would delay the call
     by up to the switch interval) and cost two system calls in all, four with SIGTERM.
+    A run of lag_run that the library can guard itself (`guarded`, lag_run_guarded) is one
+    foreign call, the guard's in it: the three foreign calls cost a repeated simulate() several
+    microseconds each after a long run has emptied the caches. A press that comes in the
+    microsecond before its guard is in place, with the GIL already released, is raised after the
+    run instead of before it.
 
     Used where nothing else needs the signals: another thread (no signal reaches it; the main
     thread's Ctrl-C does not stop it, as with a worker), or the main thread with Python's own
@@ -116,31 +126,53 @@ class _Guarded:
     _active: list[RunInterrupt] = []            # the guard in place now, in the main thread (at most one)
 
     @classmethod
-    def call(cls, interrupt: RunInterrupt, call: Callable[..., int], arguments: tuple) -> tuple[int, float] | None:
-        if _thread.get_ident() != threading.main_thread().ident:
+    def call(cls, interrupt: RunInterrupt, call: Callable[..., int], arguments: tuple,
+             guarded: Callable[..., int] | None) -> tuple[int, float] | None:
+        if _thread.get_ident() != _main_thread:
+            interrupt.flag.value = 0
             started = clock.perf_counter()
             status = call(*arguments)
             return status, clock.perf_counter() - started
-        if interrupt.enter is None or _signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+        if interrupt.enter is None or _signal.getsignal(_SIGINT) is not signal.default_int_handler:
             return None
         replaced = _signal.set_wakeup_fd(-1)
         if replaced != -1:                      # someone else's (asyncio's): given back, the call made by a worker
             _signal.set_wakeup_fd(replaced)
             return None
+        terminate = _signal.getsignal(_SIGTERM) is _terminated
+        cls._active.append(interrupt)
+        if guarded is None:
+            status, elapsed, noted = cls._enclosed(interrupt, terminate, call, arguments)
+        else:
+            try:
+                started = clock.perf_counter()
+                status = guarded(terminate, interrupt.noted, *arguments)
+                elapsed = clock.perf_counter() - started
+            finally:
+                cls._active.clear()
+            noted = interrupt.noted.value
+            if noted == _SIGTERM:
+                _terminated_note()
+        if noted and status != INTERRUPTED:     # the run ended before its next look at the flag
+            raise KeyboardInterrupt
+        return status, elapsed
+
+    @classmethod
+    def _enclosed(cls, interrupt: RunInterrupt, terminate: bool, call: Callable[..., int],
+                  arguments: tuple) -> tuple[int, float, int]:
+        """`call` between the guard's two functions: its status, duration and the signal noted."""
+        interrupt.flag.value = 0
         try:
-            cls._active.append(interrupt)
-            interrupt.enter(_signal.getsignal(signal.SIGTERM) is _terminated)
+            interrupt.enter(terminate)
             started = clock.perf_counter()
             status = call(*arguments)
             elapsed = clock.perf_counter() - started
         finally:
             noted = interrupt.exit()
             cls._active.clear()
-            if noted == signal.SIGTERM:
+            if noted == _SIGTERM:
                 _terminated_note()
-        if noted and status != INTERRUPTED:     # the run ended before its next look at the flag
-            raise KeyboardInterrupt
-        return status, elapsed
+        return status, elapsed, noted
 
     @classmethod
     def forked(cls) -> None:
@@ -175,8 +207,19 @@ class _Worker:
 
 
 _idle_workers: list[_Worker] = []       # list.pop and append are atomic: callers in several threads each take one
-os.register_at_fork(after_in_child=_idle_workers.clear)     # a child has none of the parent's threads
-os.register_at_fork(after_in_child=_Guarded.forked)         # nor the call its main thread was making
+_main_thread = threading.main_thread().ident        # threading.main_thread().ident: two Python-level calls
+
+
+def _forked() -> None:
+    """In a forked child: none of the parent's threads, nor the call its main thread was making;
+    the thread that forked is the child's main thread."""
+    global _main_thread
+    _idle_workers.clear()
+    _Guarded.forked()
+    _main_thread = _thread.get_ident()
+
+
+os.register_at_fork(after_in_child=_forked)
 
 
 def terminate_as_interrupt() -> None:

@@ -166,14 +166,12 @@ class RunSummary:
                          + [f"atol({name}) = {value:g}" for name, value in self.atol_each])
 
 
-class Deferred:
+class Deferred(functools.partial):
     """A field's value made when the field is first read (a repeated C run's summary, which a fit
-    never reads): `make()` gives it."""
+    never reads): a function and its arguments, called then. A functools.partial, made without
+    a Python-level __init__ or a closure: a repeated run makes one each call."""
 
-    __slots__ = ("make",)
-
-    def __init__(self, make):
-        self.make = make
+    __slots__ = ()
 
 
 class _DeferredField:
@@ -187,7 +185,7 @@ class _DeferredField:
             raise AttributeError(self.name)
         value = instance.__dict__[self.name]
         if type(value) is Deferred:
-            value = instance.__dict__[self.name] = value.make()
+            value = instance.__dict__[self.name] = value()
         return value
 
     def __set__(self, instance, value) -> None:

@@ -2058,7 +2058,8 @@ static void lag_pack_summary(const lag_report *report, double *summary)
  * (its entries LAG_SET_T_START ... LAG_SET_MAX_STEPS, lagdsl.abi.SETTINGS; max_steps 0 for the
  * default limit; then the atol of each of the LAG_NY components of y), already checked as `lagc run` checks them, and writes its summary as
  * lagdsl.abi.SummaryLayout lays it out (LAG_SUMMARY_SIZE doubles). The caller resets
- * lag_interrupt before a call, and may put it between lag_guard_enter and lag_guard_exit.
+ * lag_interrupt before a call, and may put it between lag_guard_enter and lag_guard_exit, or call
+ * lag_run_guarded, which does both.
  */
 
 int lag_run(const double *parameters, const double *initial, const double *settings,
@@ -2260,6 +2261,23 @@ int lag_guard_exit(void)
         sigaction(SIGINT, &lag_saved_interrupt, NULL);
     lag_guarded = 0;
     return lag_noted_terminate ? SIGTERM : lag_noted_interrupt ? SIGINT : 0;
+}
+
+/* lag_run within the guard, lag_interrupt reset first: a repeated call from Python's main thread
+ * makes one foreign call instead of three (each several microseconds after a long run, which has
+ * emptied the caches). The signal lag_guard_exit noted goes to `noted`. */
+int lag_run_guarded(int terminate, int *noted, const double *parameters, const double *initial,
+                    const double *settings, double *rows, long capacity, double *summary);
+
+int lag_run_guarded(int terminate, int *noted, const double *parameters, const double *initial,
+                    const double *settings, double *rows, long capacity, double *summary)
+{
+    int status;
+    lag_interrupt = 0;
+    lag_guard_enter(terminate);
+    status = lag_run(parameters, initial, settings, rows, capacity, summary);
+    *noted = lag_guard_exit();
+    return status;
 }
 #endif
 
