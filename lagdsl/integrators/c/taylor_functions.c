@@ -50,16 +50,18 @@ static inline double lag_cos_reduced(double z)
     return w + (((1 - w) - half) + z * z * c);   /* (1 - w) - half: the rounding error of w */
 }
 
-/* sin x (cosine: 1) for |x| <= LAG_TRIG_LARGEST, NaN beyond: n mod 4 = q in {-2, ..., 2} picks
- * sin r or cos r and the sign (sin: -, for q = 2, -1, -2; cos: for q = 1, 2, -2). */
+/* sin x (cosine: 1) for |x| <= LAG_TRIG_LARGEST, NaN beyond: n mod 4 (+1 for the cosine) as an
+ * integer 0 .. 3 picks sin r, cos r, -sin r, -cos r. Its two bits, not comparisons of q with each
+ * value (seven compares and their combining, a third of the two pairs' instructions at order 0);
+ * q is converted only where it is n mod 4 (beyond the range, 0: no conversion out of int's range). */
 static inline double lag_trig_near(double x, int cosine)
 {
     const double n = lag_nearest(x * 0x1.45f306dc9c883p-1);
     const double r = ((x - n * 0x1.921fb544p0) - n * 0x1.0b4611a6p-34) - n * 0x1.3198a2e037073p-69;
-    const double z = r * r, q = n - 4 * lag_nearest(0.25 * n) + cosine;
-    const double odd = q == 1 || q == -1 || q == 3, negative = q == 2 || q == -2 || q == -1 || q == 3;
-    const double value = odd ? lag_cos_reduced(z) : lag_sin_reduced(r, z);
-    return r_fabs(x) <= LAG_TRIG_LARGEST ? (negative ? -value : value) : NAN;
+    const double z = r * r, q = n - 4 * lag_nearest(0.25 * n);
+    const int within = r_fabs(x) <= LAG_TRIG_LARGEST, quadrant = ((int)(within ? q : 0) + cosine) & 3;
+    const double value = quadrant & 1 ? lag_cos_reduced(z) : lag_sin_reduced(r, z);
+    return within ? (quadrant & 2 ? -value : value) : NAN;
 }
 
 /* What the lanes compute (NaN for a large |x|: the lane then takes the scalar series, lag_sin). */
