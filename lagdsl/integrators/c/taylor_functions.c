@@ -79,18 +79,21 @@ static inline double lag_cos(double x) { return r_fabs(x) <= LAG_TRIG_LARGEST ? 
  * pairs of terms and powers do not wait on one another, where each of Horner's steps waits on the
  * last (the step waits on its radius: 0.3 of Horner's latency). taylor_log2_near for a normal x
  * (any other: what it returns is not used), taylor_exp2_near for |y| <= 1000 (both: arithmetic, no
- * branch, so that a loop over the lanes vectorises). */
+ * branch, so that a loop over the lanes vectorises). log2's reduction to [sqrt(1/2), sqrt(2)) compares
+ * and selects the bits as integers: a select on a comparison of doubles is not if-converted by gcc
+ * (ISO C's -ftrapping-math: a comparison with NaN may trap), "control flow in loop", and the lanes'
+ * radius loop did not vectorise. */
 static inline double taylor_log2_near(double x)
 {
-    unsigned long long bits;
+    unsigned long long bits, mantissa;
     double m, u, w, w2;
-    int e;
+    int e, above;
     memcpy(&bits, &x, sizeof bits);
-    e = (int)(bits >> 52) - 1023;
-    bits = (bits & 0x000fffffffffffffULL) | 0x3ff0000000000000ULL;
+    mantissa = bits & 0x000fffffffffffffULL;
+    above = mantissa > 0x6a09e667f3bcdULL;    /* 1.mantissa > sqrt(2): m = 1.mantissa / 2, e + 1 */
+    e = (int)(bits >> 52) - 1023 + above;
+    bits = mantissa | (above ? 0x3fe0000000000000ULL : 0x3ff0000000000000ULL);
     memcpy(&m, &bits, sizeof m);
-    e += m > 0x1.6a09e667f3bcdp0;
-    m *= 1 - 0.5 * (m > 0x1.6a09e667f3bcdp0);
     u = (m - 1) / (m + 1);
     w = u * u;
     w2 = w * w;
