@@ -50,16 +50,18 @@ static inline double lag_cos_reduced(double z)
     return w + (((1 - w) - half) + z * z * c);   /* (1 - w) - half: the rounding error of w */
 }
 
-/* sin x (cosine: 1) for |x| <= LAG_TRIG_LARGEST, NaN beyond: n mod 4 = q in {-2, ..., 2} picks
- * sin r or cos r and the sign (sin: -, for q = 2, -1, -2; cos: for q = 1, 2, -2). */
+/* sin x (cosine: 1) for |x| <= LAG_TRIG_LARGEST, NaN beyond: n mod 4 (+1 for the cosine) as an
+ * integer 0 .. 3 picks sin r, cos r, -sin r, -cos r. Its two bits, not comparisons of q with each
+ * value (seven compares and their combining, a third of the two pairs' instructions at order 0);
+ * q is converted only where it is n mod 4 (beyond the range, 0: no conversion out of int's range). */
 static inline double lag_trig_near(double x, int cosine)
 {
     const double n = lag_nearest(x * 0x1.45f306dc9c883p-1);
     const double r = ((x - n * 0x1.921fb544p0) - n * 0x1.0b4611a6p-34) - n * 0x1.3198a2e037073p-69;
-    const double z = r * r, q = n - 4 * lag_nearest(0.25 * n) + cosine;
-    const double odd = q == 1 || q == -1 || q == 3, negative = q == 2 || q == -2 || q == -1 || q == 3;
-    const double value = odd ? lag_cos_reduced(z) : lag_sin_reduced(r, z);
-    return r_fabs(x) <= LAG_TRIG_LARGEST ? (negative ? -value : value) : NAN;
+    const double z = r * r, q = n - 4 * lag_nearest(0.25 * n);
+    const int within = r_fabs(x) <= LAG_TRIG_LARGEST, quadrant = ((int)(within ? q : 0) + cosine) & 3;
+    const double value = quadrant & 1 ? lag_cos_reduced(z) : lag_sin_reduced(r, z);
+    return within ? (quadrant & 2 ? -value : value) : NAN;
 }
 
 /* What the lanes compute (NaN for a large |x|: the lane then takes the scalar series, lag_sin). */
@@ -77,18 +79,21 @@ static inline double lag_cos(double x) { return r_fabs(x) <= LAG_TRIG_LARGEST ? 
  * pairs of terms and powers do not wait on one another, where each of Horner's steps waits on the
  * last (the step waits on its radius: 0.3 of Horner's latency). taylor_log2_near for a normal x
  * (any other: what it returns is not used), taylor_exp2_near for |y| <= 1000 (both: arithmetic, no
- * branch, so that a loop over the lanes vectorises). */
+ * branch, so that a loop over the lanes vectorises). log2's reduction to [sqrt(1/2), sqrt(2)) compares
+ * and selects the bits as integers: a select on a comparison of doubles is not if-converted by gcc
+ * (ISO C's -ftrapping-math: a comparison with NaN may trap), "control flow in loop", and the lanes'
+ * radius loop did not vectorise. */
 static inline double taylor_log2_near(double x)
 {
-    unsigned long long bits;
+    unsigned long long bits, mantissa;
     double m, u, w, w2;
-    int e;
+    int e, above;
     memcpy(&bits, &x, sizeof bits);
-    e = (int)(bits >> 52) - 1023;
-    bits = (bits & 0x000fffffffffffffULL) | 0x3ff0000000000000ULL;
+    mantissa = bits & 0x000fffffffffffffULL;
+    above = mantissa > 0x6a09e667f3bcdULL;    /* 1.mantissa > sqrt(2): m = 1.mantissa / 2, e + 1 */
+    e = (int)(bits >> 52) - 1023 + above;
+    bits = mantissa | (above ? 0x3fe0000000000000ULL : 0x3ff0000000000000ULL);
     memcpy(&m, &bits, sizeof m);
-    e += m > 0x1.6a09e667f3bcdp0;
-    m *= 1 - 0.5 * (m > 0x1.6a09e667f3bcdp0);
     u = (m - 1) / (m + 1);
     w = u * u;
     w2 = w * w;
