@@ -227,13 +227,8 @@ def pytest_configure(config):
     (`-p no:cacheprovider`) it is a temporary directory removed at the session's end. xdist's
     workers inherit it from the controller, so they share it (the cache takes concurrent builds);
     a test that needs a cold cache makes its own. The models that model_file writes live beside it
-    (.pytest_cache/d/lagdsl-models), or in a temporary directory without pytest's cache.
-
-    The models' libraries are built at -O1 (LAGDSL_OPTIMIZE, unless set already): gcc takes half
-    its -O3 time, most tests run a library for milliseconds, and the level changes no result.
-    The strict compiles give their flags themselves; run/test_toolchain.py builds with the shipped ones."""
+    (.pytest_cache/d/lagdsl-models), or in a temporary directory without pytest's cache."""
     _handle_ctrl_c_as_python_does()
-    os.environ.setdefault("LAGDSL_OPTIMIZE", "1")
     _WHOLE_SUITE[:] = [bool(config.getoption("--slow") or config.getoption("markexpr"))]
     _MODEL_FILES[:] = [_suite_directory(config, "lagdsl-models")]
     _COMPILED[:] = [_suite_directory(config, "lagdsl-compiled")]

@@ -32,9 +32,9 @@ LIBRARY_FLAGS = ("-std=c99", "-O3", "-march=native", "-fno-tree-slp-vectorize", 
                  "-fPIC", "-shared")
 # For a compiler that refuses one of the above (-march=native is not universal).
 PORTABLE_LIBRARY_FLAGS = ("-std=c99", "-O2", "-fPIC", "-shared")
-# $LAGDSL_OPTIMIZE, where set, is the -O level of every library build instead of the above: the
-# test suite builds hundreds of model libraries once each and runs most for milliseconds, so it
-# builds them at -O1 (half gcc's time at -O3). The level changes no result (see LIBRARY_FLAGS).
+# $LAGDSL_OPTIMIZE, where set, is the -O level of every library build instead of the above: a
+# test run builds hundreds of model libraries once each and runs most for milliseconds, and at -O1
+# gcc takes half its -O3 time. The level changes no result (see LIBRARY_FLAGS).
 OPTIMIZE_VARIABLE = "LAGDSL_OPTIMIZE"
 OPTIMIZATION_LEVELS = ("0", "1", "2", "3", "s", "g")
 OPENMP_FLAG = "-fopenmp"

@@ -32,7 +32,7 @@ BEHAVIOUR = {
 
 @pytest.fixture(autouse=True)
 def shipped_flags(monkeypatch):
-    """The flags lagdsl ships, not the test suite's -O1 (conftest.py sets LAGDSL_OPTIMIZE)."""
+    """The flags lagdsl ships, whatever LAGDSL_OPTIMIZE the suite runs with."""
     monkeypatch.delenv(toolchain.OPTIMIZE_VARIABLE, raising=False)
 
 
