@@ -7,12 +7,12 @@ import pytest
 import sympy
 
 from lagdsl import present
-from lagdsl.api import Model, load
+from lagdsl.api import Model
 from lagdsl.present import describe_model, format_equations
 from lagdsl.source import SourceFile
 from lagdsl.tidying import tidy
 from lagdsl.typeset import latex_name
-from tests.conftest import MODELS, without_units
+from tests.conftest import MODELS, library_model, without_units
 from tests.mechanics.eom import symbols_of
 from tests.models.support import gimbal_rows
 
@@ -30,11 +30,11 @@ def chain12() -> Model:
 
 
 def test_small_models_are_tidied_without_intermediates():
-    shown = format_equations(load(MODELS / "double_pendulum.lag").equations)
+    shown = format_equations(library_model("double_pendulum").equations)
     assert "l1*l2*m2*theta2''*cos(theta1 - theta2)" in shown
     assert "l1^2*theta1''*(m1 + m2)" in shown           # sin² + cos² = 1
     assert "where" not in shown and "der(" not in shown
-    assert "a^2*m*theta''/4 = 0" in format_equations(load(MODELS / "rolling_penny.lag").equations)
+    assert "a^2*m*theta''/4 = 0" in format_equations(library_model("rolling_penny").equations)
 
 
 def test_the_12_link_chain_reads_as_the_textbook(chain12):
@@ -101,7 +101,7 @@ def test_latex_writes_each_name_one_way_everywhere():
 def test_the_gimbal_gyroscope_is_three_short_rows():
     """Its rings' and rotor's angular velocities come from omega_body of rotation matrices; shown,
     the rows are the header's closed form: sin⁴ + 2 sin² cos² + cos⁴ reduced, zeros dropped."""
-    equations = load(MODELS / "gimbal_gyroscope.lag").equations
+    equations = library_model("gimbal_gyroscope").equations
     lines = format_equations(equations).splitlines()
     assert len(lines) == 4 and all(len(line) < 180 for line in lines), lines     # 600 and more before
     display = present.Display(equations.calculus())

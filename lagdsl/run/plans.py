@@ -35,7 +35,7 @@ from ..source import SourceFile, Span
 from . import loading, runner
 from .cache import cached_entry, find_entry, package_digest
 from .output import Result
-from .toolchain import find_compiler, library_entry
+from .toolchain import LIBRARY_FLAGS, find_compiler, library_entry, optimized
 
 PLAN_FORMAT = 3
 # the parameters and initial state of the values set and the initial values set (scene.input_values)
@@ -142,7 +142,8 @@ def _plan_key(source: SourceFile, scene: str | None, backend: str, integrator: s
         compiler = find_compiler() if backend == "c" else ""
     except LagError:
         return None
-    fields = json.dumps([PLAN_FORMAT, package_digest(), scene, backend, integrator, compiler])
+    flags = optimized(LIBRARY_FLAGS) if backend == "c" else ()     # a plan names the library these build
+    fields = json.dumps([PLAN_FORMAT, package_digest(), scene, backend, integrator, compiler, flags])
     return hashlib.sha256(f"{fields}\0{source.text}".encode()).hexdigest()
 
 

@@ -32,6 +32,11 @@ LIBRARY_FLAGS = ("-std=c99", "-O3", "-march=native", "-fno-tree-slp-vectorize", 
                  "-fPIC", "-shared")
 # For a compiler that refuses one of the above (-march=native is not universal).
 PORTABLE_LIBRARY_FLAGS = ("-std=c99", "-O2", "-fPIC", "-shared")
+# $LAGDSL_OPTIMIZE, where set, is the -O level of every library build instead of the above: a
+# test run builds hundreds of model libraries once each and runs most for milliseconds, and at -O1
+# gcc takes half its -O3 time. The level changes no result (see LIBRARY_FLAGS).
+OPTIMIZE_VARIABLE = "LAGDSL_OPTIMIZE"
+OPTIMIZATION_LEVELS = ("0", "1", "2", "3", "s", "g")
 OPENMP_FLAG = "-fopenmp"
 # A parallel loop that needs the OpenMP runtime: a compiler that accepts -fopenmp but cannot link
 # libgomp (or libomp) must not count as supporting it.
@@ -126,9 +131,20 @@ def library_flags(compiler: str, openmp: bool | None = None, flags: tuple[str, .
                   precision: str = "double") -> tuple[str, ...]:
     """`flags` (the tuned LIBRARY_FLAGS by default) with the precision's macro, and OpenMP where
     asked for or supported."""
-    flags = (*(LIBRARY_FLAGS if flags is None else flags), *PRECISIONS[precision][0])
+    flags = (*optimized(LIBRARY_FLAGS if flags is None else flags), *PRECISIONS[precision][0])
     use_openmp = supports_openmp(compiler) if openmp is None else openmp
     return (*flags, OPENMP_FLAG) if use_openmp else flags
+
+
+def optimized(flags: tuple[str, ...]) -> tuple[str, ...]:
+    """`flags` with the optimisation level that $LAGDSL_OPTIMIZE names, if it names one."""
+    level = os.environ.get(OPTIMIZE_VARIABLE, "")
+    if not level:
+        return flags
+    if level not in OPTIMIZATION_LEVELS:
+        raise LagError(f"{OPTIMIZE_VARIABLE}={level!r} is not an optimisation level: set it to one of "
+                       f"{', '.join(OPTIMIZATION_LEVELS)} (gcc's -O0 ... -Og), or unset it for the tuned -O3")
+    return tuple(f"-O{level}" if flag.startswith("-O") else flag for flag in flags)
 
 
 def _compile_library(source: str, output: Path, compiler: str, openmp: bool | None, precision: str) -> None:

@@ -7,13 +7,12 @@ import re
 
 import numpy as np
 
-import lagdsl
 from lagdsl.animation import Animation, Drawing, Shape
 from lagdsl.api import Model
 from lagdsl.frontend.draws import KINDS
 from lagdsl.source import SourceFile
 
-from ..conftest import MODELS
+from ..conftest import MODELS, library_model
 
 DATA = re.compile(r'<script type="application/json" id="lagdsl-data">(.*?)</script>', re.S)
 DRAWS = re.compile(r"\n  draw [^\n]*")
@@ -44,7 +43,7 @@ def double_pendulum(bob_radius: float | None = None) -> Model:
 def heavy_top() -> Model:
     """The library's heavy top: the path of the centre of mass, the symmetry axis, the body's
     axes at the centre of mass, the centre of mass."""
-    return lagdsl.load(MODELS / "heavy_top.lag")
+    return library_model("heavy_top")
 
 
 def every_kind(dimension: int) -> Animation:

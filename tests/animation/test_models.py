@@ -4,17 +4,16 @@ from __future__ import annotations
 
 import numpy as np
 
-import lagdsl
 from lagdsl.api import Model
 from lagdsl.source import SourceFile
 
-from ..conftest import MODELS
+from ..conftest import library_model
 
 
 def test_the_penny_is_a_segment_of_its_diameter_centred_on_its_path():
     """Seen from above, the upright penny is its diameter: of length 2a, centred at (x, y), along
     its heading (sin theta, -cos theta), the direction the rolling constraints let it move."""
-    result = lagdsl.load(MODELS / "rolling_penny.lag").simulate("roll", stop=2, draw=True)
+    result = library_model("rolling_penny").simulate("roll", stop=2, draw=True)
     trail, diameter = result.drawing.shapes
     position = np.stack([result["x"], result["y"]], axis=1)
     np.testing.assert_allclose(trail.points[:, 0], position, rtol=0, atol=1e-12)
@@ -28,7 +27,7 @@ def test_the_penny_is_a_segment_of_its_diameter_centred_on_its_path():
 def test_the_rolling_disk_touches_the_ground_where_it_rolls():
     """The rim's point k = 9 (angle 3 pi / 2 in the disk's plane) is the contact point (x, y, 0);
     every rim point is at the radius a = 0.05 from the centre, where the spoke starts."""
-    result = lagdsl.load(MODELS / "rolling_disk.lag").simulate("curve", stop=1, draw=True)
+    result = library_model("rolling_disk").simulate("curve", stop=1, draw=True)
     assert result.drawing.dimension == 3
     trail, rim, spoke = result.drawing.shapes
     contact = np.stack([result["x"], result["y"], np.zeros_like(result.t)], axis=1)

@@ -12,7 +12,7 @@ import lagdsl
 from lagdsl.animation import Animation, Drawing, Shape
 from lagdsl.animation.page import data_json
 
-from ..conftest import MODELS
+from ..conftest import library_model
 from .support import double_pendulum, page_data
 
 MAX_PAGE_BYTES = 20 * 2**20
@@ -51,7 +51,7 @@ def test_in_a_notebook_the_player_is_an_iframe_of_the_same_page():
 def test_the_200_mass_chain_animates_in_a_page_under_20_megabytes(tmp_path):
     """Ten seconds at 30 frames per second of the library's chain: a line from wall to wall
     through each mass's displacement."""
-    model = lagdsl.load(MODELS / "fpu_chain.lag")
+    model = library_model("fpu_chain")
     animation = model.animate("spread", fps=30, stop=10)
     path = tmp_path / "chain.html"
     animation.save(path)

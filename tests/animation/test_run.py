@@ -5,10 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import lagdsl
 from lagdsl import LagError, SimulationError
 
-from ..conftest import MODELS
+from ..conftest import library_model
 from .support import double_pendulum, page_data
 
 
@@ -73,7 +72,7 @@ def test_a_result_run_without_drawing_says_how_to_get_one():
 
 
 def test_a_model_without_draw_statements_is_refused_where_it_is_declared():
-    model = lagdsl.load(MODELS / "kepler.lag")
+    model = library_model("kepler")
     with pytest.raises(LagError) as refused:
         model.animate()
     assert "draws nothing" in str(refused.value) and "kepler.lag:" in str(refused.value)

@@ -19,6 +19,7 @@ import pytest
 
 import lagdsl
 from lagdsl.run import cache
+from tests.conftest import lagc_in_process
 from tests.run.test_output_files import OSCILLATOR
 
 ANHARMONIC = OSCILLATOR.replace("U = x^2/2;", "U = x^4/4;").replace("Oscillator", "Anharmonic")
@@ -105,8 +106,17 @@ def test_a_truncated_numpy_module_is_rebuilt(cache_dir, tmp_path):
 
 
 def lagc_run(model, cache_dir):
+    """`lagc run MODEL`'s CSV from a fresh process, which has no library loaded yet."""
     done = subprocess.run([sys.executable, "-m", "lagdsl", "run", str(model)], capture_output=True, text=True,
                           env={**os.environ, "LAGDSL_CACHE": str(cache_dir)})
+    assert done.returncode == 0, done.stderr
+    return done.stdout
+
+
+def built_here(model) -> str:
+    """`lagc run MODEL`'s CSV from this process, which builds into $LAGDSL_CACHE without a new
+    interpreter to start; the library stays mapped here, so a test replaces it by a new file."""
+    done = lagc_in_process("run", model)
     assert done.returncode == 0, done.stderr
     return done.stdout
 
@@ -169,7 +179,7 @@ def test_code_planted_in_an_untrusted_cache_is_never_loaded(cache_dir, tmp_path,
         pytest.skip("only root can give the cache to another user")
     model = tmp_path / "oscillator.lag"
     model.write_text(OSCILLATOR)
-    expected = lagc_run(model, cache_dir)
+    expected = built_here(model)
     assert stat.S_IMODE(cache_dir.stat().st_mode) == 0o700          # created private
     (library,) = cache_dir.glob("Oscillator_*.so")
     plant(library, tmp_path)
@@ -213,7 +223,7 @@ def test_a_model_with_a_name_of_250_characters_runs(cache_dir, tmp_path):
     name = "Oscillator" + "x" * 240
     model = tmp_path / "long.lag"
     model.write_text(OSCILLATOR.replace("Oscillator", name))
-    first = lagc_run(model, cache_dir)
+    first = built_here(model)
     assert first.startswith("t,x\n") and lagc_run(model, cache_dir) == first
     assert all(len(path.name) < 255 for path in cache_dir.iterdir())
 

@@ -10,9 +10,8 @@ import sys
 import numpy as np
 import pytest
 
-import lagdsl
 from lagdsl.run import sweep_job
-from tests.conftest import MODELS, slow_unless_kept
+from tests.conftest import MODELS, library_model, slow_unless_kept
 
 WIDE = """model Wide
   parameter n = 200;
@@ -59,7 +58,7 @@ def test_a_sweep_of_10_million_members_is_refused_before_it_runs(tmp_path):
 
 @pytest.mark.parametrize("suffix", ["csv", "parquet"])
 def test_a_sweep_to_a_file_runs_block_by_block_and_equals_the_sweep(tmp_path, monkeypatch, suffix):
-    model = lagdsl.load(MODELS / "double_pendulum.lag")
+    model = library_model("double_pendulum")
     values = {"theta1.start": np.linspace(-1, 1, 23), "m2": 2.0}
     monkeypatch.setattr(sweep_job, "BLOCK_CEILING", 64 * 11 * (3 + 1 + 3) * 5)     # 5 members a block
     path = tmp_path / f"table.{suffix}"

@@ -1,5 +1,6 @@
 """Building a library: the portable flags are tried again only when the compiler refuses the tuned
-ones; a compiler killed by a signal (the out-of-memory killer) is reported as that, once.
+ones; a compiler killed by a signal (the out-of-memory killer) is reported as that, once;
+$LAGDSL_OPTIMIZE sets the optimisation level of both sets.
 
 Each fake compiler is a shell script named by $CC that logs its command line, then behaves as a
 compiler would in that case (or hands over to the real one).
@@ -27,6 +28,12 @@ BEHAVIOUR = {
                              'exec "$REAL_CC" "$@"'),
     "broken-code": "echo 'model.c:1:1: error: expected expression' >&2; exit 1",
 }
+
+
+@pytest.fixture(autouse=True)
+def shipped_flags(monkeypatch):
+    """The flags lagdsl ships, whatever LAGDSL_OPTIMIZE the suite runs with."""
+    monkeypatch.delenv(toolchain.OPTIMIZE_VARIABLE, raising=False)
 
 
 @pytest.fixture
@@ -80,3 +87,25 @@ def test_an_error_in_the_generated_code_is_not_retried(fake_compiler):
     with pytest.raises(toolchain.CompilerFailed, match="expected expression"):
         toolchain.shared_library(SOURCE, "answer")
     assert len(calls(log)) == 1
+
+
+def test_lagdsl_optimize_sets_the_level_of_the_tuned_and_the_portable_flags(fake_compiler, monkeypatch):
+    log = fake_compiler("refuses-march-native")
+    monkeypatch.setenv(toolchain.OPTIMIZE_VARIABLE, "0")
+    assert toolchain.shared_library(SOURCE, "answer").exists()
+    tuned, portable = calls(log)
+    assert " -O0 " in f" {tuned} " and " -O0 " in f" {portable} " and "-O3" not in tuned and "-O2" not in portable
+    assert "-march=native" in tuned
+
+
+def test_a_library_built_at_another_level_is_another_cache_entry(tmp_path, monkeypatch):
+    monkeypatch.setenv("LAGDSL_CACHE", str(tmp_path / "cache"))
+    shipped = toolchain.shared_library(SOURCE, "answer", openmp=False)
+    monkeypatch.setenv(toolchain.OPTIMIZE_VARIABLE, "1")
+    assert toolchain.shared_library(SOURCE, "answer", openmp=False) != shipped
+
+
+def test_an_unknown_optimisation_level_is_refused_by_name(monkeypatch):
+    monkeypatch.setenv(toolchain.OPTIMIZE_VARIABLE, "-O3")
+    with pytest.raises(LagError, match=r"LAGDSL_OPTIMIZE='-O3' is not an optimisation level: set it to one of 0, 1"):
+        toolchain.library_flags("cc", openmp=False)
