@@ -16,7 +16,7 @@ from .c_factor import factorisation_text
 from .c_lanes import lane_groups
 from .c_taylor_lanes import lane_series
 from .c_taylor import series_context, series_text
-from .kernel import Block, Kernel, Loop, Store
+from .kernel import JACOBIAN_ARRAYS, Block, Kernel, Loop, Store
 from .printers import CPrinter, TaylorPrinter
 
 # The parameters of each generated C function whose body is a kernel block.
@@ -277,7 +277,7 @@ def _print_block(block: Block, signature: tuple[str, ...], kernel: Kernel, print
 # no statement: the mostly empty Dq and Dv of a large model (a derivative of each residual by
 # each state entry) would otherwise be one store per entry. A block may ask for more
 # (Block.cleared): the loops of the local form add into K and b.
-CLEARED = ("Dq", "Dv", "Dz")
+CLEARED = JACOBIAN_ARRAYS
 ARRAY_SIZES = {"y0": "sizeof(real) * LAG_NY", "K": "sizeof(real) * LAG_NM", "b": "sizeof(real) * LAG_NK",
                **{array: "sizeof(real) * LAG_JAC_SIZE" for array in CLEARED}}
 

@@ -38,7 +38,7 @@ naming.py) that cannot collide with C or Python keywords, libm or POSIX names.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import sympy
 
@@ -84,6 +84,11 @@ class PathSums:
     array: str
     width: int
     after: int
+
+
+# The residual Jacobian's arrays (Dq, Dv, Dz): its block clears all three, whatever it stores (a
+# model whose R does not depend on q has no store in Dq, and its readers sum over the layout).
+JACOBIAN_ARRAYS = ("Dq", "Dv", "Dz")
 
 
 @dataclass(frozen=True)
@@ -366,7 +371,7 @@ class _Lowering:
         stores = [store for store in self.residual_derivatives() if store[2] != 0]
         layout = jacobian_layout(self.n + len(self.active), bool(self.active),
                                  {index for _, index, _ in stores} | {(r, r) for r in range(self.n)})
-        return self.block(stores), layout
+        return replace(self.block(stores), cleared=JACOBIAN_ARRAYS), layout
 
     def residuals(self) -> list[sympy.Expr]:
         """R = [f - M q'' + Aᵀλ; γ - A q''] in the symbols of q'' and λ."""

@@ -17,7 +17,7 @@ import sympy
 from .. import ir
 from ..mechanics.families import ENERGY, PARAMETER, POSITION, VELOCITY, LocalEquations, Stencil
 from .cse import eliminate_common_subexpressions
-from .kernel import Block, Loop, _Lowering
+from .kernel import JACOBIAN_ARRAYS, Block, Loop, _Lowering
 from .structure import JacobianLayout, MassLayout, jacobian_layout, local_layout
 
 LOOPS = "loops"         # the source of a value the block's loops compute
@@ -52,7 +52,7 @@ class LocalLowering(_Lowering):
         loops = [loop for stencil in self.eq.stencils for loop in [self.jacobian_loop(stencil)] if loop]
         reach = max([self.eq.bandwidth, *(max(s.offsets) - min(s.offsets) for s in self.eq.stencils)])
         layout = jacobian_layout(self.n, False, {(reach, 0), (0, reach)})
-        return self.looped_block([], loops, cleared=("Dq", "Dv", "Dz")), layout
+        return self.looped_block([], loops, cleared=JACOBIAN_ARRAYS), layout
 
     def jacobian_loop(self, stencil: Stencil) -> Loop | None:
         targets, values = [], []

@@ -543,10 +543,10 @@ static void lag_residual_jacobian(const real *par, real t, const real *y, const 
     (void)t;
     (void)y;
     (void)acc;
-    (void)Dq;
     const real p_m = par[0];
     const real p_e = par[1];
     const real p_B = par[2];
+    memset(Dq, 0, sizeof(real) * LAG_JAC_SIZE);
     memset(Dv, 0, sizeof(real) * LAG_JAC_SIZE);
     memset(Dz, 0, sizeof(real) * LAG_JAC_SIZE);
     const real c0 = p_B*p_e;
