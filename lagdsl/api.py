@@ -115,7 +115,12 @@ class Model(LyapunovMethod):
     def emit(self, backend: str = "c", scene: str | None = None, overrides: Overrides = Overrides()) -> GeneratedSource:
         """The standalone generated source of a scene (C99 or a NumPy module)."""
         _check_backend(backend)
-        return generate(self.equations, self.plan(scene, overrides), backend, self.source.name)[1]
+        from .codegen.kept import kept_source, settles_code_only
+
+        def generated() -> GeneratedSource:
+            return generate(self.equations, self.plan(scene, overrides), backend, self.source.name)[1]
+        return kept_source(self.source, scene, overrides, False, backend, generated) if settles_code_only(overrides) \
+            else generated()
 
     def simulate(self, scene: str | None = None, backend: str = "c", *, set: dict | None = None,
                  start: float | None = None, stop: float | None = None, interval: float | None = None,
@@ -315,35 +320,43 @@ class Model(LyapunovMethod):
         drawn = bool(scene_plan.draws)
         key = (scene_plan.scene_name, scene_plan.integrator.name, backend, drawn)
         if key not in self._programs:
-            code_plan = self.plan(scene, Overrides(integrator=scene_plan.integrator.name, options=overrides.options),
-                                  drawn)
+            code_overrides = Overrides(integrator=scene_plan.integrator.name, options=overrides.options)
+            code_plan = self.plan(scene, code_overrides, drawn)
+            from .codegen.kept import kept_source
             from .run.loading import load as load_program
-            kernel, source = generate(self.equations, code_plan, backend, self.source.name)
-            self._programs[key] = Program(kernel, source, load_program(source))
-            self._store_plan(scene, backend, overrides.integrator, code_plan, source)
+            lowered = functools.cache(lambda: generate(self.equations, code_plan, backend, self.source.name))
+            source = kept_source(self.source, scene, code_overrides, drawn, backend, lambda: lowered()[1])
+            self._programs[key] = Program(lambda: lowered()[0], source, load_program(source))
+            _store_plan(self, scene, backend, overrides.integrator, code_plan, source)
         return self._programs[key]
-
-    def _store_plan(self, scene: str | None, backend: str, integrator: str | None, code_plan: ScenePlan,
-                    source: GeneratedSource) -> None:
-        """Keep the scene's plan in the build cache for a warm `lagc run` in another process
-        (run/plans.py), under the scene and integrator as asked for."""
-        from .run import plans
-        stored = _stored_plan(self, scene, code_plan, plans.program_entry(source))
-        if stored is not None:
-            plans.store(self.source, scene, backend, integrator, stored)
 
 
 @dataclass(frozen=True)
 class Program:
-    """What a Model keeps per scene, integrator and backend: the kernel, its source, and the
-    loaded shared library (C) or imported module (NumPy) that runs it."""
-    kernel: Kernel
+    """What a Model keeps per scene, integrator and backend: its source, the loaded shared library
+    (C) or imported module (NumPy) that runs it, and how to lower its kernel: a source kept from
+    another process (codegen/kept.py) is run without one, and only a NumPy sweep needs it."""
+    lower: Callable[[], Kernel]
     source: GeneratedSource
     loaded: object
+
+    @functools.cached_property
+    def kernel(self) -> Kernel:
+        return self.lower()
 
     def library_bytes(self) -> bytes:
         """The compiled shared library (C), to ship to other processes: a ctypes handle cannot be."""
         return Path(self.loaded._name).read_bytes()
+
+
+def _store_plan(model: Model, scene: str | None, backend: str, integrator: str | None, code_plan: ScenePlan,
+                source: GeneratedSource) -> None:
+    """Keep the scene's plan in the build cache for a warm `lagc run` in another process
+    (run/plans.py), under the scene and integrator as asked for."""
+    from .run import plans
+    stored = _stored_plan(model, scene, code_plan, plans.program_entry(source))
+    if stored is not None:
+        plans.store(model.source, scene, backend, integrator, stored)
 
 
 def _stored_plan(model: Model, scene: str | None, scene_plan: ScenePlan, entry) -> plans.StoredPlan | None:
@@ -373,7 +386,7 @@ def _execute(model: ir.Model, program: Program, scene_plan: ScenePlan, progress)
                        drawing=drawing_of(f"{model.name}, scene {scene_plan.scene_name}", scene_plan.draws,
                                           result.values[:, shown:]))
     try:
-        result = execute(program.kernel, program.source, scene_plan, progress, program.loaded)
+        result = execute(program.source, scene_plan, progress, program.loaded)
     except SimulationError as error:
         if error.partial is not None:
             error.partial = split(error.partial)

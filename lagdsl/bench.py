@@ -349,8 +349,8 @@ def _lagdsl_drift(model, scene, base: Overrides, rows: list[BenchRow], plan: Sce
     if row is None or not plan.invariants:
         return []
     tight = invariant_plan(model.plan(scene, _setting_overrides(base, row.setting)), model.equations)
-    kernel, source = generate(model.equations, tight, row.setting.backend, model.source.name)
-    result = execute(kernel, source, tight)
+    _, source = generate(model.equations, tight, row.setting.backend, model.source.name)
+    result = execute(source, tight)
     return [Drift(row.setting, result.t, tuple((name, result[name] - result[name][0]) for name in result.columns))]
 
 

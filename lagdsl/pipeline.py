@@ -72,7 +72,7 @@ def generate(equations: Equations, scene_plan: ScenePlan, backend: str, source_n
     return kernel, render(kernel, source_name)                      # -> C or NumPy source
 
 
-def execute(kernel: Kernel, source: GeneratedSource, scene_plan: ScenePlan,
+def execute(source: GeneratedSource, scene_plan: ScenePlan,
             progress: Callable[[float, float, float], None] | None = None, loaded=None) -> Result:
     """Run the scene; `loaded` is runner.load(source) when the caller kept it from an earlier run."""
     from .run.runner import run

@@ -107,7 +107,7 @@ def run_scene(model, equations, scene: str):
     """The kernel generated for `equations` and the scene's outputs it gives (C backend)."""
     scene_plan = plan(model, equations, scene, Overrides())
     kernel, source = generate(equations, scene_plan, "c", "tree.lag")
-    return kernel, execute(kernel, source, scene_plan).values
+    return kernel, execute(source, scene_plan).values
 
 
 def tree_kernel(text: str):

@@ -7,8 +7,8 @@ matrix keeps every combination alive. Each run is checked against the same model
 by dop853 in C at tight tolerances, so a wrong Jacobian, canonical form or projection shows
 up as disagreement, not only as a crash.
 
-Cost: each (model, integrator) is lowered once and rendered for both backends when its first
-test runs, and the build cache shares its C library with every later test of the session. Most
+Cost: each (model, integrator, backend) is generated when its first test runs; the build cache
+keeps its source (codegen/kept.py) and C library for every later test and run of the suite. Most
 cases are marked slow (`pytest --slow`); the default run keeps DEFAULT_CASES and GAUSS_DEFAULT.
 Nothing is loaded or derived at collection: whether rkn8 applies (accelerations free of the
 velocities) is known only after the derivation, so a case that it refuses checks the refusal.
@@ -16,16 +16,12 @@ velocities) is known only after the derivation, so a case that it refuses checks
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
 
 import numpy as np
 import pytest
 
 import lagdsl
-from lagdsl.codegen import GeneratedSource
-from lagdsl.codegen.kernel import Kernel
 from lagdsl.integrators import registry
-from lagdsl.pipeline import execute, generate
 from lagdsl.run.output import Result
 from lagdsl.scene import Overrides
 from tests.conftest import MODELS, library_model
@@ -115,27 +111,12 @@ def options(integrator: str, model: str) -> tuple[tuple[str, float], ...]:
     return (("step", FIXED_STEP * span(model) / STOP),) if integrator in ("rk4", "gauss") else TIGHT
 
 
-@dataclass(frozen=True)
-class Build:
-    kernel: Kernel
-    sources: dict[str, GeneratedSource]    # by backend
-
-
-@functools.cache
-def build(model: str, integrator: str) -> Build:
-    """A case lowered once and rendered for both backends."""
-    code_plan = load(model).plan(None, Overrides(integrator=integrator, options=options(integrator, model)))
-    kernel, c_source = generate(load(model).equations, code_plan, "c", f"{model}.lag")
-    _, numpy_source = generate(load(model).equations, code_plan, "numpy", f"{model}.lag")
-    return Build(kernel, {"c": c_source, "numpy": numpy_source})
-
-
 @functools.cache
 def run(model: str, integrator: str, backend: str) -> Result:
-    built = build(model, integrator)
-    scene_plan = load(model).plan(None, Overrides(start=0.0, stop=span(model), interval=span(model) / ROWS,
-                                                  integrator=integrator, options=options(integrator, model)))
-    return execute(built.kernel, built.sources[backend], scene_plan)
+    """A case run through the API: its program generated once, and its generated source kept
+    across runs of the suite (codegen/kept.py)."""
+    return load(model).simulate(None, backend, start=0.0, stop=span(model), interval=span(model) / ROWS,
+                                integrator=integrator, **dict(options(integrator, model)))
 
 
 @pytest.mark.parametrize("backend", ["c", "numpy"])

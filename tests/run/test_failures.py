@@ -142,11 +142,11 @@ def test_non_finite_initial_state(backend):
     model = load(BLOW_UP)
     plan = model.plan(None)
     state = (float("nan"),) + plan.initial_state[1:]
-    kernel, source = generate(model.equations, plan, backend, "blow_up.lag")
+    _, source = generate(model.equations, plan, backend, "blow_up.lag")
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         with pytest.raises(SimulationError) as caught:
-            execute(kernel, source, replace(plan, initial_state=state))
+            execute(source, replace(plan, initial_state=state))
     error = caught.value
     assert error.message == "the state or its derivative became infinite or NaN"
     assert error.time == 0 and np.isnan(error.state["x"])
