@@ -53,8 +53,9 @@ class QuickRuns:
         serve: the first run of a scene, code not yet generated."""
         key = (scene, backend, None if overrides is NOTHING_OVERRIDDEN else overrides)   # no Overrides.__hash__
         quick = self.runs.get(key)
-        if quick is not None:
+        if quick is not None:       # kept only for a backend checked
             return quick
+        _check_backend(backend)
         stored = self.plans.get(scene)
         if stored is None:
             return None
@@ -166,7 +167,8 @@ class Model(LyapunovMethod):
             if draw:
                 raise LagError("a run with sensitivities is not drawn; run simulate(..., draw=True) without them")
             return self.sensitivities(scene, backend, overrides, sensitivities, error_control=sensitivity_error_control)
-        return self.simulate_plan(scene, backend, overrides, estimate_error=estimate_error, draw=draw)
+        quick = None if estimate_error or draw else self._quick.get(self, scene, backend, overrides)  # as simulate_plan
+        return quick() if quick is not None else self.simulate_plan(scene, backend, overrides, None, estimate_error, draw)
 
     def sensitivities(self, scene: str | None, backend: str, overrides: Overrides, names, times=None,
                       error_control: bool = True):
@@ -186,10 +188,10 @@ class Model(LyapunovMethod):
                       estimate_error: bool = False, draw: bool = False) -> Result:
         """`simulate` with the overrides already gathered (what `lagc run` calls); `progress` is
         called as progress(t reached, start, stop) every so often."""
-        _check_backend(backend)
         quick = None if estimate_error or draw else self._quick.get(self, scene, backend, overrides)
         if quick is not None:
             return quick(progress)
+        _check_backend(backend)
         scene_plan = self.plan(scene, overrides, draw)
         program = self._program(scene, scene_plan, backend, overrides)
         result = _execute(self.ir, program, scene_plan, progress)

@@ -14,7 +14,7 @@ import numpy as np
 from ..abi import SummaryLayout, plan_summary, settings_vector
 from ..integrators import SWITCH_TIMES
 from ..settings import RunPlan, grid_rows
-from .interrupt import RunInterrupt, interruptible
+from .interrupt import RunInterrupt, called_here, interruptible
 from .loading import load
 from .output import Deferred, Result, RunSummary, Stiffness, Stop, Switches
 from .scipy_steps import Progress
@@ -24,6 +24,7 @@ if TYPE_CHECKING:
     from ..codegen import GeneratedSource
     from ..codegen.kernel import Kernel
 
+_new = object.__new__
 SPARE_ROWS = 2              # row arrays a repeated run keeps: the one its caller holds during the next call, and one more
 SPARE_ROWS_BYTES = 2 ** 20  # kept only up to this size: a larger array is made in a small part of its run's time
 
@@ -39,13 +40,14 @@ class CRun:
     columns carry `units` and `origin` (api._description)."""
 
     def __init__(self, library: ctypes.CDLL, plan: RunPlan, units: tuple[str, ...] | None = None, origin: str = ""):
-        self.plan, self._description = plan, (units, origin)
+        self.plan = plan
+        self._fields = Result.run_fields(plan.columns, units, origin)
         self._entry, self._guarded = _entries(library)
         self._layout = plan_summary(plan)
         self._rows_at = self._layout.offsets["rows"]
-        self._shape = (grid_rows(plan.time.start, plan.time.stop, plan.time.interval), len(plan.columns) + 1)
-        self._rows = _RowArrays(self._shape)
-        self._summary_type = ctypes.c_double * self._layout.size
+        shape = (grid_rows(plan.time.start, plan.time.stop, plan.time.interval), len(plan.columns) + 1)
+        self._capacity, self._capacity_long = shape[0], ctypes.c_long(shape[0])     # lag_run_guarded's type
+        self._rows = _RowArrays(shape, ctypes.c_double * self._layout.size)
         self._input_types = (ctypes.c_double * max(len(plan.parameters), 1), ctypes.c_double * len(plan.initial_state))
         self._settings = _doubles(settings_vector(plan))      # keeps the vector alive (from_buffer holds it)
         self._take_inputs(plan.parameters, plan.initial_state)
@@ -72,94 +74,112 @@ class CRun:
     def __call__(self, progress: Progress | None = None) -> Result:
         """The run's Result, whose t and values are views of a rows' array that no held result
         shares (_RowArrays), so that no copy follows the run and no later call touches them; its
-        summary is made from the summary's doubles (a ctypes array of this call's) when first
+        summary is made from the summary's doubles (a ctypes array kept with the rows) when first
         asked for (a fit reads only the values).
 
-        NumPy is used as little as a call allows, two views (and an array with its buffer where
-        none is free): after a long integration each costs several microseconds more than warm,
-        where the caches have been emptied (benchmarks/simulate_overhead.py); so does all
-        Python, and the summary's doubles are read whole (a slice to a list) only where a
-        summary or an error is made."""
-        plan, entry, capacity = self.plan, self._entry, self._shape[0]
-        rows, view = taken = self._rows.take()
-        summary = self._summary_type()
-        arguments = (*self._pointers, view, capacity, summary)
-        poll = None if progress is None else lambda: progress(self._reached.value, plan.time.start, plan.time.stop)
-        status, elapsed = interruptible(self._interrupt, entry, poll, arguments, self._guarded)
-        self._rows.keep(taken)
+        After a long integration every Python operation costs several times what it costs warm,
+        where the caches have been emptied (benchmarks/simulate_overhead.py): a call that fills
+        its grid makes no NumPy array and no ctypes object (the views and the summary's array
+        come with the rows), and the summary's doubles are read whole (a slice to a list) only
+        where a summary or an error is made."""
+        plan = self.plan
+        taken = self._rows.take()
+        rows, t, values, view, summary = taken
+        arguments = (*self._pointers, view, self._capacity_long, summary)
+        done = called_here(self._interrupt, self._entry, arguments, self._guarded) if progress is None else None
+        if done is None:
+            poll = None if progress is None else lambda: progress(self._reached.value, plan.time.start, plan.time.stop)
+            done = interruptible(self._interrupt, self._entry, poll, arguments, self._guarded)
+        status, elapsed = done
         used = int(summary[self._rows_at])
-        result = Result.of_run(rows[:used, 0], plan.columns, rows[:used, 1:],
-                               Deferred(_run_summary, plan, self._layout, summary, elapsed),
-                               *self._description)
+        if used != self._capacity:          # a stop condition, a failure: the rows made
+            t, values = rows[:used, 0], rows[:used, 1:]
+        result = _new(Result)           # as Result.run_fields says: no dataclass __init__, which sets
+        fields = result.__dict__        # each field through object.__setattr__
+        fields.update(self._fields)
+        fields["t"], fields["values"] = t, values
+        fields["summary"] = Deferred(_run_summary, plan, self._layout, summary, elapsed)
         if status != 0:
-            values, at = summary[:], self._layout.offsets      # a list reads faster than a record, field by field
-            y_fail = values[at["y_fail"]:at["y_fail"] + len(plan.initial_state)]
-            raise simulation_error(plan, status, values[at["t_fail"]], y_fail, result, values[at["rcond_fail"]],
-                                   values[at["forecast"]])
+            numbers, at = summary[:], self._layout.offsets      # a list reads faster than a record, field by field
+            y_fail = numbers[at["y_fail"]:at["y_fail"] + len(plan.initial_state)]
+            raise simulation_error(plan, status, numbers[at["t_fail"]], y_fail, result, numbers[at["rcond_fail"]],
+                                   numbers[at["forecast"]])
         return result
 
 
 class _RowArrays:
-    """The arrays of `shape` a repeated run's rows go to, each with its ctypes view (what lag_run
-    is given): one that an earlier call made and that no result holds any more, else a new one.
-    After a long integration, making the array and its view (np.empty, from_buffer) costs a
-    repeated simulate() a fifth of its overhead, where the caches have been emptied. An array is
-    held while anything outside (a result, its t or values, a view of them) refers to it, which
-    sys.getrefcount tells: then it is left as it is, and a later call takes another."""
+    """The arrays of `shape` a repeated run's rows go to, each with its views (t, the values: a
+    run that fills its grid returns them as they are), its ctypes view (what lag_run is given) and
+    its summary's doubles (of `summary_type`): those of an earlier call that no result holds any
+    more, else new ones. After a long integration, making an array or a view costs a repeated
+    simulate() microseconds each, where the caches have been emptied. An array is held while
+    anything outside (a result, its t or values, a view of them) refers to it or to its views,
+    which sys.getrefcount tells: then it is left as it is, and a later call takes another. The
+    summary goes with them: only the result of its rows reads it."""
 
-    def __init__(self, shape: tuple[int, int]):
-        self._shape, self._view_type = shape, ctypes.c_double * (shape[0] * shape[1])
+    def __init__(self, shape: tuple[int, int], summary_type: type):
+        self._shape, self._view_type, self._summary_type = shape, ctypes.c_double * (shape[0] * shape[1]), summary_type
         small = shape[0] * shape[1] * 8 <= SPARE_ROWS_BYTES
-        self._spare: list[tuple[np.ndarray, ctypes.Array]] | None = [] if small else None
+        self._spare: list[tuple] | None = [] if small else None
 
-    def take(self) -> tuple[np.ndarray, ctypes.Array]:
-        """An array no result holds, and its view (list.pop and append are atomic: calls from
-        several threads each take their own)."""
+    def take(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, ctypes.Array, ctypes.Array]:
+        """Rows no result holds, their views of t and the values, their ctypes view and summary,
+        kept at once for a later call (the last SPARE_ROWS), which will take them once their result
+        is no longer held. Rows are looked at while out of the list and the tuple is counted too
+        (its caller holds it during the call): list.pop and append are atomic, so that calls from
+        several threads each take their own."""
         spare = self._spare
-        for _ in range(len(spare) if spare else 0):     # oldest first; one held goes to the back
+        if spare is None:
+            return _rows(self._shape, self._view_type, self._summary_type)
+        for _ in range(len(spare)):     # oldest first; one held goes to the back
             try:
                 kept = spare.pop(0)
             except IndexError:          # another thread took the last
                 break
-            if sys.getrefcount(kept[0]) == _UNHELD:
-                return kept
+            free = (sys.getrefcount(kept) == _UNHELD_TUPLE and sys.getrefcount(kept[0]) == _UNHELD_ROWS
+                    and sys.getrefcount(kept[1]) == _UNHELD_VIEW and sys.getrefcount(kept[2]) == _UNHELD_VIEW)
             spare.append(kept)
-        rows = np.empty(self._shape)
-        return rows, self._view_type.from_buffer(rows)
-
-    def keep(self, taken: tuple[np.ndarray, ctypes.Array]) -> None:
-        """Keep `taken` for a later call, once its result is no longer held (the last SPARE_ROWS)."""
-        spare = self._spare
-        if spare is not None:
-            spare.append(taken)
-            if len(spare) > SPARE_ROWS:
-                try:
-                    spare.pop(0)
-                except IndexError:
-                    pass
+            if free:
+                return kept
+        taken = _rows(self._shape, self._view_type, self._summary_type)
+        spare.append(taken)
+        if len(spare) > SPARE_ROWS:
+            try:
+                spare.pop(0)
+            except IndexError:
+                pass
+        return taken
 
 
-def _unheld() -> int:
-    """sys.getrefcount of a kept array that nothing outside holds: the pair that keeps it, the
-    buffer of its ctypes view, the call's argument."""
-    rows = np.empty(1)
-    kept = (rows, (ctypes.c_double * 1).from_buffer(rows))
-    del rows
-    return sys.getrefcount(kept[0])
+def _rows(shape: tuple[int, int], view_type: type, summary_type: type) -> tuple:
+    """New rows of `shape`, as _RowArrays.take gives them."""
+    rows = np.empty(shape)
+    return rows, rows[:, 0], rows[:, 1:], view_type.from_buffer(rows), summary_type()
 
 
-_UNHELD = _unheld()
+def _unheld() -> tuple[int, int, int]:
+    """sys.getrefcount of kept rows (the tuple, the rows, their views) that nothing outside holds,
+    out of the list: the loop's variable and the call's argument; the tuple, the ctypes view's
+    buffer, the views' base."""
+    kept = _rows((1, 2), ctypes.c_double * 2, ctypes.c_double * 1)
+    return sys.getrefcount(kept), sys.getrefcount(kept[0]), sys.getrefcount(kept[1])
+
+
+_UNHELD_TUPLE, _UNHELD_ROWS, _UNHELD_VIEW = _unheld()
 
 
 def _entries(library: ctypes.CDLL) -> tuple:
-    """The library's lag_run, and lag_run_guarded (lag_run within its Ctrl-C guard, interrupt.py)
-    or None where it has none, their argument types set."""
+    """The library's lag_run, its argument types set, and lag_run_guarded (lag_run within its
+    Ctrl-C guard, interrupt.py) or None where it has none. lag_run_guarded, called once a
+    repeated run, is given exactly its C types (ints, ctypes arrays, a c_long, a pointer, as
+    CRun.__call__ and interrupt._Guarded pass them), without argtypes: converting its eight
+    arguments by argtypes took 3.3 us of a call, 1 us without (warm, timeit)."""
     double_p = ctypes.POINTER(ctypes.c_double)
-    arguments = [double_p, double_p, double_p, double_p, ctypes.c_long, double_p]
-    entry, guarded = library.lag_run, getattr(library, "lag_run_guarded", None)
-    entry.argtypes, entry.restype = arguments, ctypes.c_int
+    entry = library.lag_run
+    entry.argtypes, entry.restype = [double_p, double_p, double_p, double_p, ctypes.c_long, double_p], ctypes.c_int
+    guarded = library["lag_run_guarded"] if hasattr(library, "lag_run_guarded") else None   # its own function object
     if guarded is not None:
-        guarded.argtypes, guarded.restype = [ctypes.c_int, ctypes.POINTER(ctypes.c_int), *arguments], ctypes.c_int
+        guarded.restype = ctypes.c_int
     return entry, guarded
 
 

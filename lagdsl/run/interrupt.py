@@ -22,16 +22,19 @@ from ..errors import InternalError
 
 POLL_SECONDS = 0.1      # how often the main thread looks at a C run: Ctrl-C and progress
 _SIGINT, _SIGTERM = int(signal.SIGINT), int(signal.SIGTERM)     # plain ints: no enum lookups in a call
+_default_int_handler = signal.default_int_handler
 
 
 class RunInterrupt:
     """A library's lag_interrupt (`flag`), which its driver reads after each step, and its Ctrl-C
     guard (`enter(terminate)`, `exit()` giving the signal noted or 0: library.c; both None where
-    the library has none); `noted`, where lag_run_guarded puts the signal it noted."""
+    the library has none); `noted`, where lag_run_guarded puts the signal it noted (through
+    `noted_at`, its pointer, made once)."""
 
     def __init__(self, library: ctypes.CDLL):
         self.flag = ctypes.c_int.in_dll(library, "lag_interrupt")
         self.noted = ctypes.c_int()
+        self.noted_at = ctypes.pointer(self.noted)
         self.enter = self.exit = None
         if hasattr(library, "lag_guard_enter"):
             self.enter = ctypes.PYFUNCTYPE(None, ctypes.c_int)(("lag_guard_enter", library))
@@ -55,7 +58,7 @@ def interruptible(interrupt: RunInterrupt, call: Callable[..., int],
     further Ctrl-Cs while it winds down change nothing.
     """
     if poll is None:
-        done = _Guarded.call(interrupt, call, arguments, guarded)
+        done = called_here(interrupt, call, arguments, guarded)
         if done is not None:
             return done
     interrupt.flag.value = 0
@@ -133,7 +136,7 @@ class _Guarded:
             started = clock.perf_counter()
             status = call(*arguments)
             return status, clock.perf_counter() - started
-        if interrupt.enter is None or _signal.getsignal(_SIGINT) is not signal.default_int_handler:
+        if interrupt.enter is None or _signal.getsignal(_SIGINT) is not _default_int_handler:
             return None
         replaced = _signal.set_wakeup_fd(-1)
         if replaced != -1:                      # someone else's (asyncio's): given back, the call made by a worker
@@ -146,7 +149,7 @@ class _Guarded:
         else:
             try:
                 started = clock.perf_counter()
-                status = guarded(terminate, interrupt.noted, *arguments)
+                status = guarded(terminate, interrupt.noted_at, *arguments)
                 elapsed = clock.perf_counter() - started
             finally:
                 cls._active.clear()
@@ -206,6 +209,7 @@ class _Worker:
                 pass
 
 
+called_here = _Guarded.call     # the call made in the calling thread, or None: for a caller with nothing to poll
 _idle_workers: list[_Worker] = []       # list.pop and append are atomic: callers in several threads each take one
 _main_thread = threading.main_thread().ident        # threading.main_thread().ident: two Python-level calls
 

@@ -206,15 +206,12 @@ class Result:
     origin: str = ""                        # what ran, for titles: "Kepler, scene ellipse"
     drawing: object | None = field(default=None, kw_only=True)     # keyword-only: subclasses add fields
 
-    @classmethod
-    def of_run(cls, t: np.ndarray, columns: tuple[str, ...], values: np.ndarray, summary, units: tuple[str, ...] | None,
-               origin: str) -> Result:
-        """The Result of a repeated C run, its fields put in its __dict__ at once: a frozen
-        dataclass's __init__ sets each through object.__setattr__, a few microseconds of a short run."""
-        result = object.__new__(cls)
-        result.__dict__.update(_field_defaults(cls), t=t, columns=columns, values=values, summary=summary,
-                               units=units, origin=origin)
-        return result
+    @staticmethod
+    def run_fields(columns: tuple[str, ...], units: tuple[str, ...] | None, origin: str) -> dict:
+        """The fields a repeated C run's results share, all but t, values and summary: such a
+        result is made by object.__new__, these put in its __dict__ with the other three
+        (c_backend.CRun)."""
+        return {**_field_defaults(Result), "columns": columns, "units": units, "origin": origin}
 
     def __getstate__(self) -> dict:
         """The fields to pickle (a Result goes back from a sweep's worker), the summary made."""
@@ -266,5 +263,5 @@ class Result:
 
 @functools.cache
 def _field_defaults(cls: type) -> dict:
-    """The fields of a dataclass that have a default, with it (those Result.of_run is not given)."""
+    """The fields of a dataclass that have a default, with it (Result.run_fields)."""
     return {f.name: f.default for f in fields(cls) if f.default is not MISSING}

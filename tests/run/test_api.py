@@ -171,6 +171,23 @@ def test_rows_still_held_in_part_are_never_written_over():
         assert not np.shares_memory(result.values, held_t) and not np.shares_memory(result.values, held_view)
 
 
+def test_threads_running_a_prepared_run_at_once_each_get_rows_of_their_own():
+    """Calls of one prepared run from several threads (a parallel fit: the C call releases the
+    GIL) each take rows that no other call is writing or holds (c_backend._RowArrays), whether
+    their results are kept or dropped at once; each equals the same call made alone."""
+    from concurrent.futures import ThreadPoolExecutor
+    model = lagdsl.load(MODELS / "elastic_pendulum.lag")
+    model.simulate()
+    ks = (80.0, 90.0, 100.0, 110.0)
+    alone = {k: model.simulate(k=k).values.copy() for k in ks}
+    model.simulate()
+    with ThreadPoolExecutor(4) as pool:
+        kept = list(pool.map(lambda i: (ks[i % 4], model.simulate(k=ks[i % 4])), range(40)))
+        list(pool.map(lambda i: model.simulate().t[0], range(40)))
+    for k, result in kept:
+        assert np.array_equal(result.values, alone[k]), k
+
+
 def test_a_held_result_and_its_unread_summary_outlive_later_calls():
     """The rows and the summary's doubles of a repeated C run are arrays made for that call: a
     result held, its summary not yet read (it is made when first read), is unchanged by later
