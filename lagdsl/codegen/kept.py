@@ -12,6 +12,7 @@ through cache.package_digest, so that an edited code generator never finds an ol
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 from collections.abc import Callable
@@ -39,7 +40,8 @@ def kept_source(model: SourceFile, scene: str | None, overrides: Overrides, draw
         return GeneratedSource(record["language"], record["text"], record["suggested_name"])
     source = generate()
     record = {"language": source.language, "text": source.text, "suggested_name": source.suggested_name}
-    cached_entry(name, key, lambda path: path.write_text(json.dumps(record), encoding="utf-8"))
+    with contextlib.suppress(OSError):     # not kept (a full disk, `ulimit -f`): only slower next time
+        cached_entry(name, key, lambda path: path.write_text(json.dumps(record), encoding="utf-8"))
     return source
 
 
