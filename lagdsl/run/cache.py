@@ -95,14 +95,27 @@ def helper_directory(name: str) -> Path | None:
     processes (the parser's tables, pint's definitions, the templates' compiled code), created if needed; None, silently, where the cache cannot be
     used or trusted: those are only slower to rebuild, and a command that builds nothing should
     not warn about the build cache."""
-    root = _fallbacks.get(PRIVATE) or _fallbacks.get(cache_root()) or Path(cache_root())
+    root = quiet_root()
+    if root is None:
+        return None
     try:
-        root.mkdir(mode=0o700, parents=True, exist_ok=True)
-        _check_trusted(root)
         path = root / name
         path.mkdir(mode=0o700, exist_ok=True)
         _check_trusted(path)
         return path
+    except OSError:
+        return None
+
+
+def quiet_root() -> Path | None:
+    """The cache directory (or the stand-in chosen before), created if needed; None, silently,
+    where it cannot be used or trusted: for what only saves time (helpers, kept sources,
+    codegen/kept.py) in a command that may build nothing, and so must not warn about the cache."""
+    root = _fallbacks.get(PRIVATE) or _fallbacks.get(cache_root()) or Path(cache_root())
+    try:
+        root.mkdir(mode=0o700, parents=True, exist_ok=True)
+        _check_trusted(root)
+        return root
     except OSError:
         return None
 

@@ -64,3 +64,13 @@ def test_a_damaged_entry_is_generated_again(cache, lowerings):
     kept.write_text(kept.read_text().replace("lag_", "lug_"))
     again = loaded().simulate(stop=0.5)
     assert lowerings == ["dop853", "dop853"] and np.array_equal(again.values, first.values)
+
+
+def test_an_untrusted_cache_is_neither_read_nor_written_nor_warned_of_by_emit(tmp_path, monkeypatch, capsys):
+    """`lagc emit` builds nothing: a cache it cannot trust costs it only the time a kept source saves."""
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    shared.chmod(0o777)
+    monkeypatch.setenv("LAGDSL_CACHE", str(shared))
+    assert loaded().emit("c").text == loaded().emit("c").text
+    assert capsys.readouterr().err == "" and list(shared.iterdir()) == []
