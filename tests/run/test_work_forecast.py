@@ -1,9 +1,11 @@
 """The work forecast (lagdsl/integrators/forecast.py): an adaptive run stops when its pace
 forecasts more steps than its step limit, by one rule on both backends; long legitimate runs
-(tests/run/models/long_runs, the excited scene of stiff_spring.lag) finish with their defaults,
+(tests/run/models/long_runs, the excited scene of stiff_spring.lag) finish with their defaults
+(in C to the end; on NumPy, whose runs take minutes, forecast to finish over their first steps),
 and a runaway stops after about a thousand steps with the forecast it reached."""
 from __future__ import annotations
 
+import math
 import subprocess
 import warnings
 from pathlib import Path
@@ -16,7 +18,7 @@ from lagdsl.codegen.c_abi import runtime_contract, runtime_header
 from lagdsl.errors import SimulationError
 from lagdsl.integrators import c_file
 from lagdsl.integrators.forecast import WorkForecast
-from lagdsl.settings import FORECAST_JUDGED_AFTER
+from lagdsl.settings import FORECAST_JUDGED_AFTER, FORECAST_WINDOW
 from tests.conftest import compiled, library_model
 from tests.run.c_harness import STRICT_FLAGS, SYSTEM_HEADERS, find_cc
 
@@ -140,13 +142,47 @@ def test_long_runs_finish_with_their_defaults_on_the_c_backend(path, scene):
     assert result.summary.count("accepted") > 100000 or path.stem == "driven_cart"
 
 
+class _Judged(Exception):
+    """Ends a NumPy run once its forecast has been judged often enough (the test's own stop)."""
+
+
+def judged_forecasts(monkeypatch, judgments: int) -> list[float]:
+    """The forecasts the NumPy backend's step loop judges, each appended as it is judged; the run
+    is ended by _Judged after `judgments` of them, whatever their verdict."""
+    from lagdsl.run import scipy_steps
+    forecasts: list[float] = []
+
+    class Recorded(WorkForecast):
+        def hopeless(self, step: float, t: float) -> bool:
+            verdict = super().hopeless(step, t)
+            if self.taken >= FORECAST_JUDGED_AFTER and self.taken % FORECAST_WINDOW == 0:
+                forecasts.append(math.inf if verdict else self.steps)
+                if len(forecasts) == judgments:
+                    raise _Judged
+            return verdict
+
+    monkeypatch.setattr(scipy_steps, "WorkForecast", Recorded)
+    return forecasts
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("path, scene", [
-    (LONG_RUNS / "chaotic_pendulum.lag", None),       # scipy's DOP853: about a minute
-    (LONG_RUNS / "driven_cart.lag", None),            # auto: stays with scipy's DOP853, as the C auto stays with dop853
+@pytest.mark.parametrize("path, judgments, steps", [
+    # scipy's DOP853, 2900 steps of some 9e4 (3.5 ms each): forecasts 5e4 to 9e4
+    (LONG_RUNS / "chaotic_pendulum.lag", 20, 2e4),
+    # auto stays with scipy's DOP853, as the C auto stays with dop853: 1900 steps, forecasts 2.2e4 to 2.5e4
+    (LONG_RUNS / "driven_cart.lag", 10, 1e4),
 ])
-def test_long_runs_finish_with_their_defaults_on_the_numpy_backend(path, scene):
-    finished(path, scene, "numpy")
+def test_long_runs_are_forecast_to_finish_with_their_defaults_on_the_numpy_backend(monkeypatch, path, judgments,
+                                                                                    steps):
+    """The whole runs take minutes of scipy steps (the C backend's run them to the end above): the
+    NumPy backend's forecast, judged `judgments` times with the scenes' default step limit, forecasts
+    a run of its own length (more than `steps`), far below the limit, and never stops it."""
+    forecasts = judged_forecasts(monkeypatch, judgments)
+    model = lagdsl.load(path)
+    with pytest.raises(_Judged):
+        model.simulate(None, "numpy")
+    assert len(forecasts) == judgments
+    assert steps < min(forecasts) and max(forecasts) < model.plan().max_steps / 10
 
 
 def forecast_failure(model, scene, backend, **settings) -> SimulationError:
