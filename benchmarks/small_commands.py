@@ -257,6 +257,9 @@ def main() -> None:
         wall, cpu = timed([sys.executable, "-c", f"import lagdsl; lagdsl.load({str(MODELS / 'double_pendulum.lag')!r})"],
                           repeat)
         report("lagdsl.load(double_pendulum.lag) in a new process: wall", wall, 1.0, note=f"({cpu:.3g} s CPU)")
+        wall, cpu = timed([sys.executable, "-c", f"import lagdsl; lagdsl.load({str(MODELS / 'double_pendulum.lag')!r})"
+                           ".simulate()"], repeat)
+        report("the same and its first simulate(): wall", wall, 1.0, note=f"({cpu:.3g} s CPU)")
         for label, (name, given) in HELD.items():
             overhead, lowest, highest, integration, per_call = simulate_overhead_apart(name, arguments.calls, given)
             report(f"repeated simulate() {label}: overhead", overhead * 1e6, 50, "us",

@@ -3,97 +3,63 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable
-from dataclasses import dataclass, fields, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from . import ir
-from .frontend import units
 from .animation import DEFAULT_FPS, Animation, check_playback, drawing_of
 from .errors import LagError, Setting, SimulationError
 from .escape import visible
-from .mechanics import Equations
-from .pipeline import compile_model, execute, generate, plan
-from .scene import (RUN_OPTIONS, Overrides, ScenePlan, given_options, input_values, parameters_in_expressions,
-                    scene_defaults)
+from .model_runs import (NOTHING_OVERRIDDEN, Program, QuickRuns, build_program, check_backend, description,
+                         sweep_job)
 from .sensitivity.methods import LyapunovMethod
-from .settings import given_atol_each
+from .settings import RUN_OPTIONS, Overrides, given_atol_each, given_options
 from .source import SourceFile
 
-if TYPE_CHECKING:       # what runs, lowers or sweeps is imported when first used: loading a model needs none of it
+if TYPE_CHECKING:       # what runs, lowers, sweeps or derives is imported when first used: a model
+    from . import ir    # loaded from its stored plan (load) runs without sympy or lark
     from .codegen import GeneratedSource
-    from .codegen.kernel import Kernel
-    from .run import plans
+    from .mechanics import Equations
     from .run import sweep as batch
     from .run.output import Result
-    from .run.sweep_job import SweepJob
+    from .scene import ScenePlan
 
-BACKENDS = ("c", "numpy")
-GRID_OVERRIDES = ("start", "stop", "interval", "integrator")
-NOTHING_OVERRIDDEN = Overrides()    # simulate() with no arguments: one instance, found by identity in QuickRuns
-SETTINGS_FIELDS = tuple(f.name for f in fields(Overrides) if f.name != "values")    # the runs alike but for their inputs
-QUICK_RUNS = 16         # prepared repeated runs a Model keeps (a fit varies its inputs: the last ones)
-
-
-class QuickRuns:
-    """A model's repeated runs, planned without sympy from the scene's settings and values (as a
-    warm `lagc run` plans, run/plans.py) and prepared once for their overrides (the last
-    QUICK_RUNS kept). A C run with new values only (a fit's next call) is the last one prepared
-    with the same grid and integrator given new inputs (c_backend.CRun.with_inputs)."""
-
-    def __init__(self):
-        self.plans: dict[str | None, plans.StoredPlan] = {}     # by the scene asked for
-        self.runs: dict[tuple, Callable] = {}                   # by scene, backend and overrides
-        self.alike: dict[tuple, Callable] = {}                  # C runs by scene, backend and overrides but values
-
-    def get(self, model: "Model", scene: str | None, backend: str, overrides: Overrides):
-        """A function of `progress` that runs and describes the result; None where that cannot
-        serve: the first run of a scene, code not yet generated."""
-        key = (scene, backend, None if overrides is NOTHING_OVERRIDDEN else overrides)   # no Overrides.__hash__
-        quick = self.runs.get(key)
-        if quick is not None:       # kept only for a backend checked
-            return quick
-        _check_backend(backend)
-        stored = self.plans.get(scene)
-        if stored is None:
-            return None
-        computed = functools.partial(input_values, model.ir)
-        settings_key = (scene, backend, *map(overrides.__getattribute__, SETTINGS_FIELDS))    # faster than replace()
-        alike = self.alike.get(settings_key)
-        if alike is not None:
-            quick = alike.with_inputs(*stored.values(overrides, computed))
-        else:
-            from .run import runner
-            run_plan = stored.resolve(overrides, computed)
-            program = model.built_program(run_plan.scene_name, run_plan.integrator.name, backend)
-            if program is None:
-                return None
-            quick = runner.prepared(run_plan, backend, program.loaded,
-                                    **_description(model.ir, run_plan.scene_name, run_plan.columns))
-            if backend == "c":
-                _keep(self.alike, settings_key, quick)
-        _keep(self.runs, key, quick)
-        return quick
-
-    def keep_plan(self, model: "Model", scene: str | None, scene_plan: ScenePlan) -> None:
-        stored = self.plans.get(scene) or _stored_plan(model, scene, scene_plan, None)
-        if stored is not None:
-            self.plans[scene] = stored
 
 
 class Model(LyapunovMethod):
-    """A parsed, checked model with its derived equations of motion."""
+    """A parsed, checked model with its derived equations of motion.
 
-    def __init__(self, source: SourceFile):
+    `derive=False` defers parsing and deriving to the first use that needs the model (`ir`,
+    `equations`): load() passes it for a text whose stored plan the build cache holds, which
+    proves that the text compiles, so that its repeated runs start without sympy or lark."""
+
+    def __init__(self, source: SourceFile, derive: bool = True):
         self.source = source
-        self.ir: ir.Model
-        self.equations: Equations
-        self.ir, self.equations = compile_model(source)
         self._programs: dict[tuple[str, str, str, bool], Program] = {}   # scene, integrator, backend, drawn
         self._quick = QuickRuns()
         self._sensitivity_programs: dict[str, object] = {}             # sensitivity.run.Program by scene
+        if derive:      # now: a model's errors are raised here
+            self.ir  # noqa: B018
+
+    @functools.cached_property
+    def _compiled(self) -> tuple[ir.Model, Equations]:
+        from .pipeline import compile_model
+        return compile_model(self.source)
+
+    @property
+    def ir(self) -> ir.Model:
+        return self._compiled[0]
+
+    @property
+    def equations(self) -> Equations:
+        return self._compiled[1]
+
+    @property
+    def derived(self) -> bool:
+        """Whether the model has been parsed and derived (see `derive`)."""
+        return "_compiled" in self.__dict__
 
     @property
     def name(self) -> str:
@@ -104,6 +70,7 @@ class Model(LyapunovMethod):
         return tuple(s.name for s in self.ir.scenes)
 
     def plan(self, scene: str | None = None, overrides: Overrides = Overrides(), draw: bool = False) -> ScenePlan:
+        from .pipeline import plan
         return plan(self.ir, self.equations, scene, overrides, draw)
 
     def column_units(self, scene: str | None = None) -> tuple[str, ...]:
@@ -115,8 +82,9 @@ class Model(LyapunovMethod):
 
     def emit(self, backend: str = "c", scene: str | None = None, overrides: Overrides = Overrides()) -> GeneratedSource:
         """The standalone generated source of a scene (C99 or a NumPy module)."""
-        _check_backend(backend)
+        check_backend(backend)
         from .codegen.kept import kept_source, settles_code_only
+        from .pipeline import generate
 
         def generated() -> GeneratedSource:
             return generate(self.equations, self.plan(scene, overrides), backend, self.source.name)[1]
@@ -174,7 +142,7 @@ class Model(LyapunovMethod):
                       error_control: bool = True):
         """A run with its sensitivities by `names` (see simulate), on `times` (default: the grid)."""
         from .sensitivity import c_run, run as sensitivity
-        _check_backend(backend)
+        check_backend(backend)
         scene_plan = self.plan(scene, overrides)
         chosen = sensitivity.directions(self.ir, list(names))
         if scene_plan.scene_name not in self._sensitivity_programs:
@@ -191,11 +159,11 @@ class Model(LyapunovMethod):
         quick = None if estimate_error or draw else self._quick.get(self, scene, backend, overrides)
         if quick is not None:
             return quick(progress)
-        _check_backend(backend)
+        check_backend(backend)
         scene_plan = self.plan(scene, overrides, draw)
         program = self._program(scene, scene_plan, backend, overrides)
         result = _execute(self.ir, program, scene_plan, progress)
-        self._quick.keep_plan(self, scene, scene_plan)
+        self._quick.keep_plan(self, scene, backend, overrides.integrator, scene_plan)
         if not estimate_error:
             return result
 
@@ -264,7 +232,7 @@ class Model(LyapunovMethod):
         whose values would not fit in memory is refused before it runs: see sweep_to_file.
         """
         from .run.sweep_job import progress_bar
-        job = self._sweep_job(scene, backend, set, client, overrides)
+        job = sweep_job(self, scene, backend, set, client, overrides)
         job.check_fits()
         with progress_bar(progress, job.count) as advance:
             return job.run(0, job.count, workers, client, advance)
@@ -277,19 +245,7 @@ class Model(LyapunovMethod):
         pyarrow is installed), else CSV. The file appears complete or not at all; after Ctrl-C it
         holds the members run so far and SimulationInterrupted carries their summary."""
         from .run.sweep_job import stream_to_file
-        return stream_to_file(self._sweep_job(scene, backend, set, client, overrides), path, workers, client, progress)
-
-    def _sweep_job(self, scene: str | None, backend: str, varied: dict, client, overrides: dict) -> SweepJob:
-        _check_backend(backend)
-        if client is not None and backend != "c":
-            raise LagError("sweep: a Dask client runs the C backend only; use backend='c'")
-        grid = {k: overrides.pop(k) for k in GRID_OVERRIDES if k in overrides}
-        options = {k: overrides.pop(k) for k in RUN_OPTIONS if k in overrides}
-        from .run.sweep_job import SweepJob
-        base = Overrides((), grid.get("start"), grid.get("stop"), grid.get("interval"), grid.get("integrator"),
-                         given_options(options), given_atol_each(options))
-        return SweepJob(lambda o: self.plan(scene, o), lambda p: self._program(scene, p, backend, base), base,
-                        {**overrides, **dict(varied)}, backend)
+        return stream_to_file(sweep_job(self, scene, backend, set, client, overrides), path, workers, client, progress)
 
     def equilibrium(self, scene: str | None = None, *, guess: dict | None = None, set: dict | None = None):
         """An equilibrium near `guess` ({"q": value, "q.velocity": value}; what is not given is the
@@ -313,68 +269,14 @@ class Model(LyapunovMethod):
         return self._programs.get((scene, integrator, backend, False))
 
     def _program(self, scene: str | None, scene_plan: ScenePlan, backend: str, overrides: Overrides) -> Program:
-        """The generated, loaded code for a scene, integrator and backend: built on first use, then kept.
-
-        Parameters, initial values, the time grid, tolerances, steps and step limits are run-time
-        inputs of the generated code; only the scene and the integrator change the code. So a
-        repeated simulate() with other inputs only fills the input arrays and calls the code.
-        """
-        drawn = bool(scene_plan.draws)
-        key = (scene_plan.scene_name, scene_plan.integrator.name, backend, drawn)
+        """The generated, loaded code for a scene, integrator and backend: built on first use
+        (model_runs.build_program), then kept. Parameters, initial values, the time grid,
+        tolerances and step limits are run-time inputs of the generated code; only the scene and
+        the integrator change it, so a repeated simulate() with other inputs only calls it."""
+        key = (scene_plan.scene_name, scene_plan.integrator.name, backend, bool(scene_plan.draws))
         if key not in self._programs:
-            code_overrides = Overrides(integrator=scene_plan.integrator.name, options=overrides.options)
-            code_plan = self.plan(scene, code_overrides, drawn)
-            from .codegen.kept import kept_source
-            from .run.loading import load as load_program
-            lowered = functools.cache(lambda: generate(self.equations, code_plan, backend, self.source.name))
-            source = kept_source(self.source, scene, code_overrides, drawn, backend, lambda: lowered()[1])
-            self._programs[key] = Program(lambda: lowered()[0], source, load_program(source))
-            _store_plan(self, scene, backend, overrides.integrator, code_plan, source)
+            self._programs[key] = build_program(self, scene, scene_plan, backend, overrides)
         return self._programs[key]
-
-
-@dataclass(frozen=True)
-class Program:
-    """What a Model keeps per scene, integrator and backend: its source, the loaded shared library
-    (C) or imported module (NumPy) that runs it, and how to lower its kernel: a source kept from
-    another process (codegen/kept.py) is run without one, and only a NumPy sweep needs it."""
-    lower: Callable[[], Kernel]
-    source: GeneratedSource
-    loaded: object
-
-    @functools.cached_property
-    def kernel(self) -> Kernel:
-        return self.lower()
-
-    def library_bytes(self) -> bytes:
-        """The compiled shared library (C), to ship to other processes: a ctypes handle cannot be."""
-        return Path(self.loaded._name).read_bytes()
-
-
-def _store_plan(model: Model, scene: str | None, backend: str, integrator: str | None, code_plan: ScenePlan,
-                source: GeneratedSource) -> None:
-    """Keep the scene's plan in the build cache for a warm `lagc run` in another process
-    (run/plans.py), under the scene and integrator as asked for."""
-    from .run import plans
-    stored = _stored_plan(model, scene, code_plan, plans.program_entry(source))
-    if stored is not None:
-        plans.store(model.source, scene, backend, integrator, stored)
-
-
-def _stored_plan(model: Model, scene: str | None, scene_plan: ScenePlan, entry) -> plans.StoredPlan | None:
-    """What a repeated run of the scene plans from without sympy (run/plans.py), its program at
-    `entry` (None: kept in the Model); None where the scene's values cannot be fixed beforehand,
-    or the plan draws (a repeated run computes the scene's columns alone)."""
-    from .run import plans
-    if scene_plan.draws:
-        return None
-    try:
-        settings, parameters, initial_state = scene_defaults(model.ir, model.equations, scene)
-    except LagError:        # a value computed from the others is not finite unless overridden
-        return None
-    return plans.StoredPlan(settings, parameters, initial_state, parameters_in_expressions(model.ir),
-                            scene_plan.columns, scene_plan.invariants,
-                            scene_plan.stop.text if scene_plan.stop else None, entry)
 
 
 def _execute(model: ir.Model, program: Program, scene_plan: ScenePlan, progress) -> Result:
@@ -387,6 +289,7 @@ def _execute(model: ir.Model, program: Program, scene_plan: ScenePlan, progress)
         return replace(result, columns=result.columns[:shown], values=result.values[:, :shown],
                        drawing=drawing_of(f"{model.name}, scene {scene_plan.scene_name}", scene_plan.draws,
                                           result.values[:, shown:]))
+    from .pipeline import execute
     try:
         result = execute(program.source, scene_plan, progress, program.loaded)
     except SimulationError as error:
@@ -396,30 +299,25 @@ def _execute(model: ir.Model, program: Program, scene_plan: ScenePlan, progress)
     return _described(model, split(result), scene_plan.scene_name)
 
 
-def _keep(runs: dict, key: tuple, run: Callable) -> None:
-    """Keep `run` under `key` among the last QUICK_RUNS."""
-    if len(runs) >= QUICK_RUNS:
-        del runs[next(iter(runs))]
-    runs[key] = run
-
-
 def load(path: str | Path) -> Model:
-    """Read, check and derive a model file; raises LagError with located diagnostics."""
-    return Model(SourceFile.read(path))
+    """Read, check and derive a model file; raises LagError with located diagnostics. A text
+    whose default scene's plan the build cache holds (run/plans.py: it compiled before, with this
+    lagdsl) is parsed and derived when first needed instead (Model's `derive`)."""
+    from .run import plans
+    source = SourceFile.read(path)
+    return Model(source, derive=plans.find(source, None, "c", None) is None)
 
 
 def _described(model: ir.Model, result: Result, scene_name: str) -> Result:
     """`result` with its columns' units and what ran (the model and scene), for its plots."""
-    return replace(result, **_description(model, scene_name, result.columns))
-
-
-def _description(model: ir.Model, scene_name: str, columns: tuple[str, ...]) -> dict:
-    units = None if model.units is None else model.units.column_units(scene_name, columns)
-    return dict(units=units, origin=f"{model.name}, scene {scene_name}")
+    return replace(result, **description(model, scene_name, result.columns))
 
 
 def _times(start, stop, interval) -> tuple[float | None, ...]:
     """The time grid's overrides in seconds: numbers, or texts with a unit of time ("0.8 ns")."""
+    if not any(isinstance(value, str) for value in (start, stop, interval)):
+        return start, stop, interval        # in seconds already: no units module (it imports sympy)
+    from .frontend import units
     return tuple(units.time_in_seconds(value, name) for name, value in
                  (("start", start), ("stop", stop), ("interval", interval)))
 
@@ -438,8 +336,3 @@ def single_number(name: str, value) -> float | str:
         return float(value)
     except (TypeError, ValueError):
         raise LagError(f"expected a number, got {visible(repr(value))}", Setting(name)) from None
-
-
-def _check_backend(backend: str) -> None:
-    if backend not in BACKENDS:
-        raise LagError(f"unknown backend '{backend}' (available: {', '.join(BACKENDS)})")

@@ -169,7 +169,7 @@ def _find_scene(model: ir.Model, name: str | None) -> ir.Scene | None:
 
 def input_values(model: ir.Model, set_values: dict[str, float], initial: dict) -> tuple[tuple[float, ...], tuple[float, ...]]:
     """The parameters and the initial state of the values set (as SceneSettings.resolve gives
-    them), the others computed as the model defines them: what a repeated run (api.QuickRuns)
+    them), the others computed as the model defines them: what a repeated run (model_runs.QuickRuns)
     computes again when it sets a parameter that other values are computed from."""
     parameters = _parameter_values(model, set_values)
     return parameters, _initial_state(model, parameters, initial)

@@ -37,7 +37,7 @@ def run_c(kernel: Kernel, source: GeneratedSource, plan: RunPlan, progress: Prog
 class CRun:
     """A run of `plan` with the loaded library, its arrays and pointers made once: a repeated
     simulate() with the same inputs (api.Model keeps it) pays only the call and its result, whose
-    columns carry `units` and `origin` (api._description)."""
+    columns carry `units` and `origin` (model_runs.description)."""
 
     def __init__(self, library: ctypes.CDLL, plan: RunPlan, units: tuple[str, ...] | None = None, origin: str = ""):
         self.plan = plan

@@ -3,8 +3,11 @@
 Once the code of a scene has been built, a plan entry goes into the build cache (`cache.py`)
 beside it: a JSON file holding the scene's settings before any override (time grid, integrator,
 its `set` statements, the names overrides may refer to, `settings.SceneSettings`), the
-parameter values and initial state they give, the columns, the invariants, the active
-constraints, and the name and key of the cache entry of the compiled library or NumPy module.
+parameter values and initial state they give, the columns and their units, the invariants, the
+active constraints, and the name and key of the cache entry of the compiled library or NumPy
+module. `lagdsl.load` of a text whose plan is stored defers parsing and deriving it to the first
+use that needs the equations (api.Model), so that a new process's repeated simulate() runs from
+the plan as a warm `lagc run` does.
 Its key is the SHA-256 of the model's text, the scene and integrator asked for (None: the
 model's own), the backend, the C compiler, the plan format and a digest of lagdsl itself (its
 version, its files' sizes and times), so that an edited model, another compiler or another
@@ -37,7 +40,7 @@ from .cache import cached_entry, find_entry, package_digest
 from .output import Result
 from .toolchain import LIBRARY_FLAGS, find_compiler, library_entry, optimized
 
-PLAN_FORMAT = 3
+PLAN_FORMAT = 4
 # the parameters and initial state of the values set and the initial values set (scene.input_values)
 Computed = Callable[[dict, dict], tuple[tuple[float, ...], tuple[float, ...]]]
 
@@ -78,7 +81,9 @@ class StoredPlan:
     columns: tuple[str, ...]
     invariants: tuple[str, ...]
     stop: str | None                        # the text of the scene's stop condition
-    program: ProgramEntry
+    program: ProgramEntry | None            # None: the program a Model keeps (model_runs.QuickRuns)
+    units: tuple[str, ...] | None           # the columns' units, as api.Model's results carry them
+    origin: str                             # the model and scene, as its results carry them
 
     def resolve(self, overrides: Overrides, computed: Computed | None = None) -> RunPlan | None:
         """The run plan with `overrides` applied, as scene.plan_scene makes it (the same errors, in
@@ -163,6 +168,7 @@ def _to_json(plan: StoredPlan) -> dict:
         "computed_from": sorted(plan.computed_from), "columns": list(plan.columns),
         "invariants": list(plan.invariants), "stop": plan.stop,
         "program": [plan.program.language, plan.program.name, plan.program.key],
+        "column_units": None if plan.units is None else list(plan.units), "origin": plan.origin,
     }
 
 
@@ -179,7 +185,8 @@ def _from_json(data: dict, source: SourceFile) -> StoredPlan:
         tuple((name, InputUnit(text, Fraction(factor))) for name, text, factor in data["units"]))
     return StoredPlan(settings, tuple(data["parameters"]), tuple(data["initial_state"]),
                       frozenset(data["computed_from"]), tuple(data["columns"]), tuple(data["invariants"]),
-                      data["stop"], ProgramEntry(*data["program"]))
+                      data["stop"], ProgramEntry(*data["program"]),
+                      None if data["column_units"] is None else tuple(data["column_units"]), data["origin"])
 
 
 def _span_json(span: Span | None) -> list[int] | None:

@@ -39,7 +39,7 @@ def prepared(plan: RunPlan, language: str, loaded, units: tuple[str, ...] | None
              origin: str) -> Callable[[Progress | None], Result]:
     """`plan` checked and made ready to run with `loaded`: a function of `progress` that runs it,
     as often as called (C: its arrays made once, c_backend.CRun), its result's columns in `units`
-    and its `origin` the model and scene (api._description)."""
+    and its `origin` the model and scene (model_runs.description)."""
     _check(plan, language)
     if language == "c":
         return CRun(loaded, plan, units, origin)

@@ -34,7 +34,7 @@ Advance = Callable[[int], None] | None
 class SweepJob:
     """The members of a sweep: `varied` (names simulate(set=...) takes, numbers or 1-D arrays of
     one length) over the `base` overrides. `plan(overrides)` plans one run and `program(plan)`
-    gives its generated, loaded code (api.Program, or a StoredProgram); `placement` is
+    gives its generated, loaded code (model_runs.Program, or a StoredProgram); `placement` is
     member_inputs'."""
 
     def __init__(self, plan: Callable[[Overrides], RunPlan], program: Callable[[RunPlan], Any],

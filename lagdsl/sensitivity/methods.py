@@ -19,12 +19,13 @@ class LyapunovMethod:
         re-orthonormalisation (a lagdsl.progress.TimeProgress draws a bar). Returns a
         sensitivity.lyapunov.Spectrum (.exponents in 1/s, .running against .times, .growth: the
         fit that separates exponential from algebraic growth, .hamiltonian, .render(), .to_csv())."""
-        from ..api import _check_backend, single_number
+        from ..api import single_number
+        from ..model_runs import check_backend
         from ..errors import LagError
         from ..frontend.units import time_in_seconds
         from ..settings import RUN_OPTIONS, Overrides, given_options
         from . import lyapunov, run as sensitivity
-        _check_backend(backend)
+        check_backend(backend)
         unknown = [name for name in options if name not in RUN_OPTIONS]
         if unknown:
             raise LagError(f"lyapunov: unknown option '{unknown[0]}' (options: {', '.join(RUN_OPTIONS)})")
