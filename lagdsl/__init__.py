@@ -12,8 +12,8 @@ __all__ = ["load", "Model", "LagError", "SimulationError", "__version__"]
 
 
 def __getattr__(name: str):
-    """`load` and `Model` on first use: the pipeline imports sympy and lark, which a warm
-    `lagc run` (run/plans.py) does without."""
+    """`load` and `Model` on first use, with numpy: a warm `lagc run` (run/plans.py) does
+    without the Python API; sympy and lark come with the first model parsed and derived."""
     if name in ("load", "Model"):
         from . import api
         return getattr(api, name)
