@@ -49,6 +49,7 @@ import resource
 import shutil
 import signal
 import subprocess
+import sys
 import tempfile
 import threading
 import traceback
@@ -229,6 +230,7 @@ def pytest_configure(config):
     a test that needs a cold cache makes its own. The models that model_file writes live beside it
     (.pytest_cache/d/lagdsl-models), or in a temporary directory without pytest's cache."""
     _handle_ctrl_c_as_python_does()
+    _write_bytecode()
     _WHOLE_SUITE[:] = [bool(config.getoption("--slow") or config.getoption("markexpr"))]
     _MODEL_FILES[:] = [_suite_directory(config, "lagdsl-models")]
     _COMPILED[:] = [_suite_directory(config, "lagdsl-compiled")]
@@ -238,6 +240,16 @@ def pytest_configure(config):
         os.environ["LAGDSL_CACHE"] = str(config.cache.mkdir("lagdsl-builds"))
         return
     os.environ["LAGDSL_CACHE"] = _own_temporary_directory("lagdsl-test-cache-")
+
+
+def _write_bytecode() -> None:
+    """Python's bytecode written beside the sources (gitignored __pycache__), for this process and the
+    ones it starts, even where PYTHONDONTWRITEBYTECODE asks otherwise: without it each xdist worker
+    rewrites the tests' asserts again (about 4 s of CPU) and each `lagc` subprocess compiles lagdsl
+    again (0.3 s), a cost no installed lagdsl pays (benchmarks/small_commands.py lets its commands
+    keep bytecode likewise). The installed packages have theirs already."""
+    sys.dont_write_bytecode = False
+    os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
 
 
 def _suite_directory(config, name: str) -> Path:
