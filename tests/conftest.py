@@ -109,6 +109,16 @@ def slow_unless_kept(cases, kept) -> list:
             for case in cases]
 
 
+def own_cache(monkeypatch, path: Path) -> Path:
+    """`path` as the build cache from now on (this process and those it starts), for a test that
+    needs a cache of its own (cold, counted or damaged), its libraries built at -O0: such a test
+    builds each one anew and runs it for milliseconds, gcc takes a third of its -O3 time, and the
+    level changes no result (run/toolchain.py); the suite's own cache keeps the shipped flags."""
+    monkeypatch.setenv("LAGDSL_CACHE", str(path))
+    monkeypatch.setenv("LAGDSL_OPTIMIZE", "0")
+    return path
+
+
 def model_file(text: str, name: str = "model") -> Path:
     """`text` written to `NAME.lag` in a directory of the suite's own named by the text's hash: the
     same path in every test, worker and run. The generated C names the path of its model, so a model

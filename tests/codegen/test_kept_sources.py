@@ -9,15 +9,14 @@ import pytest
 import lagdsl
 from lagdsl.codegen import kernel
 from lagdsl.source import SourceFile
-from tests.conftest import MODELS
+from tests.conftest import MODELS, own_cache
 
 PENDULUM = (MODELS / "double_pendulum.lag").read_text(encoding="utf-8")
 
 
 @pytest.fixture
 def cache(tmp_path, monkeypatch):
-    monkeypatch.setenv("LAGDSL_CACHE", str(tmp_path / "cache"))
-    return tmp_path / "cache"
+    return own_cache(monkeypatch, tmp_path / "cache")
 
 
 @pytest.fixture

@@ -16,6 +16,7 @@ import pytest
 
 from lagdsl.cli import common as cli
 from lagdsl.cli import main
+from tests.conftest import lagc_in_process, own_cache
 
 SWING = """model Swing "a pendulum"
   parameter m = 1.0 [kg];
@@ -47,7 +48,7 @@ sys.exit(status)
 
 @pytest.fixture
 def model(tmp_path, monkeypatch):
-    monkeypatch.setenv("LAGDSL_CACHE", str(tmp_path / "cache"))
+    own_cache(monkeypatch, tmp_path / "cache")
     path = tmp_path / "swing.lag"
     path.write_text(SWING)
     return path
@@ -121,13 +122,14 @@ def test_a_warm_run_stops_where_the_scenes_condition_says(model, capsys):
 
 @pytest.fixture(scope="module")
 def primed(tmp_path_factory):
-    """A model whose scene has been run once, so its plan is stored (shared: warm runs write nothing)."""
+    """A model whose scene has been run once, so its plan is stored (shared: warm runs write nothing).
+    Run in this process: the tests above show that a new process finds what it stores."""
     directory = tmp_path_factory.mktemp("primed")
     model = directory / "swing.lag"
     model.write_text(SWING)
-    environment = {**os.environ, "LAGDSL_CACHE": str(directory / "cache")}
-    subprocess.run([sys.executable, "-m", "lagdsl", "run", str(model)], env=environment, check=True,
-                   capture_output=True)
+    with pytest.MonkeyPatch.context() as patch:
+        own_cache(patch, directory / "cache")
+        assert lagc_in_process("run", model).returncode == 0
     return model
 
 
@@ -151,7 +153,7 @@ def primed(tmp_path_factory):
     ]),
 ])
 def test_warm_runs_give_the_cold_runs_output_and_errors(primed, arguments, capsys, pipeline_calls, monkeypatch):
-    monkeypatch.setenv("LAGDSL_CACHE", str(primed.parent / "cache"))
+    own_cache(monkeypatch, primed.parent / "cache")
     warm = lagc_here(capsys, "run", primed, *arguments)
     assert pipeline_calls == []
     assert lagc_here(capsys, "run", primed, "--no-cache", *arguments) == warm
