@@ -118,6 +118,10 @@ def fit_double_pendulum(seed: int, backend: str = "numpy"):
                                         atol=1e-11, backend=backend)
 
 
+# Slow: the fit on both backends is test_a_fit_recovers_the_parameters_within_three_standard_errors's
+# and test_lagc_fit_on_the_c_backend_finds_the_numpy_fit's (the swing), the double pendulum's
+# sensitivities on C test_sensitivities.py's [double_pendulum-...-c].
+@pytest.mark.slow
 def test_the_double_pendulum_fit_recovers_m2_and_l2_on_both_backends():
     fit, in_c = fit_double_pendulum(11), fit_double_pendulum(11, backend="c")
     for name in ("m2", "l2"):
