@@ -43,6 +43,7 @@ import contextlib
 import functools
 import hashlib
 import io
+import json
 import os
 import re
 import resource
@@ -87,12 +88,25 @@ def library_model(name: str):
 def library_scenes() -> tuple[tuple[str, str | None], ...]:
     """(model, scene) for every scene of every library model (None for a model without scenes),
     read from the parse trees alone (a scene is `scene NAME ... end NAME;`): collection neither
-    derives nor checks a model, which costs a few seconds in every xdist worker."""
+    derives nor checks a model, which costs a few seconds in every xdist worker. The list is kept
+    beside model_file's models under the hash of the models, the grammar and the parser: parsing
+    the library costs each worker about a second of its collection."""
+    paths = sorted(MODELS.glob("*.lag"))
+    digest = hashlib.sha256()
+    for path in [ROOT / "lagdsl" / "frontend" / "grammar.lark", ROOT / "lagdsl" / "frontend" / "parser.py", *paths]:
+        digest.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
+    kept = _MODEL_FILES[0] / f"library-scenes-{digest.hexdigest()[:24]}.json"
+    if kept.exists():
+        return tuple((model, scene) for model, scene in json.loads(kept.read_text(encoding="utf-8")))
     from lagdsl.frontend.parser import parse
     from lagdsl.source import SourceFile
-    return tuple((path.stem, scene) for path in sorted(MODELS.glob("*.lag"))
-                 for scene in (tuple(str(node.children[1]) for node in parse(SourceFile.read(path)).find_data("scene"))
-                               or (None,)))
+    scenes = tuple((path.stem, scene) for path in paths
+                   for scene in (tuple(str(node.children[1]) for node in parse(SourceFile.read(path)).find_data("scene"))
+                                 or (None,)))
+    partial = kept.with_name(f"{kept.name}.{os.getpid()}.part")     # workers may write it at once
+    partial.write_text(json.dumps(scenes), encoding="utf-8")
+    os.replace(partial, kept)
+    return scenes
 
 
 def examples(full: int) -> int:
