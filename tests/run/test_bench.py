@@ -13,7 +13,7 @@ from lagdsl import bench, reference
 from lagdsl.cli import main
 from lagdsl.run import toolchain
 from lagdsl.scene import Overrides
-from tests.conftest import library_model, model_file
+from tests.conftest import library_model, model_file, own_cache
 
 # The Kepler ellipse of models/kepler.lag (r0 = 1, r0' = 0, theta0' = 1.2, GM = 1): energy
 # E = 1.44/2 - 1 = -0.28, semi-major axis a = -1/(2E), period T = 2 pi a^(3/2). At t = kT the
@@ -73,7 +73,7 @@ def test_step_ladder_halves_from_four_intervals_within_the_run_and_the_step_limi
 
 
 def test_the_reference_is_cached_and_not_rebuilt(kepler, tmp_path, monkeypatch):
-    monkeypatch.setenv("LAGDSL_CACHE", str(tmp_path / "cache"))      # cold: the first reference is built
+    own_cache(monkeypatch, tmp_path / "cache")      # cold: the first reference is built
     model = lagdsl.load(kepler)
     plan = model.plan()
     first = reference.reference_solution(model.equations, plan, model.source.name)

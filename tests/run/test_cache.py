@@ -19,7 +19,7 @@ import pytest
 
 import lagdsl
 from lagdsl.run import cache
-from tests.conftest import lagc_in_process
+from tests.conftest import lagc_in_process, own_cache
 from tests.run.test_output_files import OSCILLATOR
 
 ANHARMONIC = OSCILLATOR.replace("U = x^2/2;", "U = x^4/4;").replace("Oscillator", "Anharmonic")
@@ -36,8 +36,7 @@ def counting_builder(built: list, text: str = "entry\n", together: threading.Bar
 
 @pytest.fixture
 def cache_dir(tmp_path, monkeypatch):
-    monkeypatch.setenv("LAGDSL_CACHE", str(tmp_path / "cache"))
-    return tmp_path / "cache"
+    return own_cache(monkeypatch, tmp_path / "cache")
 
 
 def test_an_entry_is_built_once_and_reused(cache_dir):
