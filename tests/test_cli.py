@@ -288,9 +288,8 @@ def test_the_standalone_program_checks_its_arguments(oscillator, tmp_path):
 def test_a_parameter_named_like_an_option_does_not_shadow_it(tmp_path):
     """Options have a syntax of their own (--rtol=...): `rtol=` sets the parameter rtol, in the
     program as in `lagc run --set`, and the summary says the tolerance the run used."""
-    model = tmp_path / "shadow.lag"
-    model.write_text(OSCILLATOR.replace("parameter k = 1.0;", "parameter k = 1.0;\n  parameter rtol = 1.0;")
-                     .replace("U = k/2*x^2;", "U = rtol*k/2*x^2;"))
+    model = model_file(OSCILLATOR.replace("parameter k = 1.0;", "parameter k = 1.0;\n  parameter rtol = 1.0;")
+                       .replace("U = k/2*x^2;", "U = rtol*k/2*x^2;"), "shadow")
     program = _standalone(model, tmp_path)
     done = subprocess.run([program, "rtol=4", "--rtol=1e-12"], capture_output=True, text=True, timeout=30)
     assert done.returncode == 0, done.stderr
