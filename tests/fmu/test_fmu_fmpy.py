@@ -15,7 +15,7 @@ import pytest
 import lagdsl
 from lagdsl.errors import LagWarning
 from lagdsl.fmu import build_fmu
-from tests.conftest import MODELS
+from tests.conftest import MODELS, model_file
 from tests.fmu.fmu_files import fmu_file, load
 
 fmpy = pytest.importorskip("fmpy")
@@ -137,9 +137,7 @@ def test_rolling_penny_keeps_its_constraints_in_co_simulation(tmp_path, version)
 
 @VERSIONS
 def test_stop_condition_ends_the_co_simulation_where_lagc_run_ends(tmp_path, version):
-    path = tmp_path / "projectile.lag"
-    path.write_text(PROJECTILE)
-    model = lagdsl.load(path)
+    model = lagdsl.load(model_file(PROJECTILE, "projectile"))      # its library found again in the next run
     run = model.simulate()
     fmu = tmp_path / "projectile.fmu"
     fmu.write_bytes(build_fmu(model, version=version))
