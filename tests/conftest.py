@@ -33,9 +33,11 @@ What the default run keeps of each kind (issue 28), and where; a matrix's other 
 `--cpu-report N` lists the N tests that took most CPU, the C compilers they started included: the
 figure to watch when a test joins the default run. A test that runs a model of its own text in C
 writes it with `model_file` rather than to tmp_path: the generated C names the model's path, so a
-new path is a new build in every run. A test that runs the C compiler itself calls `compiled`,
-which replays a compile that succeeded before on the same bytes; a property test draws
-`examples(n)` examples (all n with --slow).
+new path is a new build in every run; a test that needs a build cache of its own (cold, counted or
+damaged) takes it from `own_cache`, which builds at -O0. A test that runs the C compiler itself
+calls `compiled`, which replays a compile that succeeded before on the same bytes; a property
+test draws `examples(n)` examples (all n with --slow). The suite writes Python's bytecode even
+under PYTHONDONTWRITEBYTECODE (_write_bytecode).
 """
 from __future__ import annotations
 
