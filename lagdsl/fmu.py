@@ -3,7 +3,10 @@ modelDescription.xml, the C sources and the binary for this platform.
 
     ScenePlan ──fmu_plan──▶ ScenePlan (+ energy, momenta, multipliers) ──lower──▶ Kernel
               ──fmu_variables──▶ variables ──model_description──▶ modelDescription.xml
-    Kernel + variables ──render_c(fmu=fmu_c_part)──▶ sources/ID.c ──compile──▶ binaries/PLATFORM/ID.so
+    Kernel + variables ──render_context(fmu=fmu_c_part)──▶ sources/ID.c ──compile──▶ binaries/PLATFORM/ID.so
+
+The lowered and printed scene serves both FMI versions (fmu_source), and the C file is kept in
+the build cache as a run's is (codegen/kept.py): a second export of the scene lowers nothing.
 
 The archive is the same bytes for the same export (its entries sorted, with a fixed date): the
 binary is built with fixed flags and stripped, and cached by content hash as the libraries of
@@ -20,13 +23,17 @@ import zipfile
 from importlib import resources
 
 from . import __version__
-from .codegen.c import render_c, stem
-from .codegen.fmu import KINDS, exported_kinds, fmu_c_part, fmu_plan, fmu_variables
+from .codegen import GeneratedSource
+from .codegen.c import c_context, render_context
+from .codegen.fmu import KINDS, FmuVariable, exported_kinds, fmu_c_part, fmu_plan, fmu_variables
 from .codegen.fmu_xml import build_description, model_description
+from .codegen.kept import kept_source
 from .codegen.kernel import lower_to_kernel
 from .errors import LagError, Setting
 from .run.cache import cached_entry
 from .run.toolchain import compile_c, find_compiler
+from .scene import ScenePlan
+from .settings import Overrides
 
 FMI_VERSIONS = (2, 3)
 # Portable (no -march=native: the FMU travels), exported symbols the FMI functions only, no
@@ -52,10 +59,11 @@ def build_fmu(model, scene: str | None = None, version: int = 2, kinds: tuple[st
     kinds = exported_kinds(scene_plan, kinds)
     check_export(version, kinds)
     plan = fmu_plan(scene_plan, kinds)
-    kernel = lower_to_kernel(model.equations, plan)                      # -> Kernel (+ the FMU's outputs)
     variables = fmu_variables(plan, kinds, version)
-    identifier, token = stem(kernel), export_token(model.source.text, plan.scene_name, version, kinds)
-    source = render_c(kernel, model.source.name, fmu_c_part(kernel, plan, variables, kinds, version, token)).text
+    token = export_token(model.source.text, plan.scene_name, version, kinds)
+    generated = kept_source(model.source, scene, Overrides(), False, f"fmi{version}-{'-'.join(kinds)}",
+                            lambda: fmu_source(model, plan, variables, kinds, version, token))
+    identifier, source = generated.suggested_name, generated.text
     folder, suffix = binary_platform(version)
     files = {"modelDescription.xml": model_description(plan, variables, kinds, version, identifier, token),
              f"sources/{identifier}.c": source.encode(),
@@ -65,6 +73,18 @@ def build_fmu(model, scene: str | None = None, version: int = 2, kinds: tuple[st
     if version == 3:
         files["sources/buildDescription.xml"] = build_description(identifier)
     return archive(files)
+
+
+def fmu_source(model, plan: ScenePlan, variables: tuple[FmuVariable, ...], kinds: tuple[str, ...], version: int,
+               token: str) -> GeneratedSource:
+    """The FMU's C file. The scene is lowered and printed once for its kinds, and kept by the model
+    (Model.fmu_code): the FMI versions differ only in the FMU's part (codegen/fmu.py)."""
+    key = (plan.scene_name, kinds)
+    if key not in model.fmu_code:
+        kernel = lower_to_kernel(model.equations, plan)                  # -> Kernel (+ the FMU's outputs)
+        model.fmu_code[key] = kernel, c_context(kernel, model.source.name, elsewhere=True)
+    kernel, context = model.fmu_code[key]
+    return render_context(context, fmu=fmu_c_part(kernel, plan, variables, kinds, version, token))
 
 
 def check_export(version: int, kinds: tuple[str, ...]) -> None:

@@ -45,6 +45,20 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
     of the shared library's entry points and the standalone program; with `sensitivity` (the
     context of templates/c/sensitivity.c.j2, codegen/c_sensitivity.py) followed by the forward
     sensitivities' right-hand side, integrator and entry point."""
+    return render_context(c_context(kernel, source_name, fmu is not None or sensitivity is not None), fmu, sensitivity)
+
+
+def render_context(context: dict, fmu: str | None = None, sensitivity: dict | None = None) -> GeneratedSource:
+    """The C file of a scene's `context` (c_context) with the part that takes the place of the
+    shared library's entry points, if any (render_c)."""
+    text = template_environment().get_template("c/model.c.j2").render({**context, "fmu": fmu, "sensitivity": sensitivity})
+    return GeneratedSource("c", text, context["stem"])
+
+
+def c_context(kernel: Kernel, source_name: str, elsewhere: bool) -> dict:
+    """What the scene's C file says (its blocks printed), but for the part of an FMU or of the
+    sensitivities (`elsewhere`: there is one): the printing is most of the cost, and an FMU's is
+    the same in both FMI versions (lagdsl/fmu.py)."""
     printer = CPrinter()
     blocks = {name: _print_block(getattr(kernel, name), signature(kernel, name), kernel, printer)
               for name in FUNCTION_PARAMETERS if getattr(kernel, name) is not None}
@@ -52,8 +66,8 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
     method = registry.get(kernel.integrator.name)
     # taylor's statements, worked out once for the series and for its lanes (seconds for a large model)
     series = series_context(kernel, TaylorPrinter(), _k_positions(kernel)) if method.series else None
-    lanes = _lanes(kernel, method, blocks, series, fmu is not None or sensitivity is not None)
-    context = {
+    lanes = _lanes(kernel, method, blocks, series, elsewhere)
+    return {
         "title": f"{kernel.model_name}, scene {kernel.scene_name}: generated C simulation",
         "version": __version__, "source_name": source_name, "scene": kernel.scene_name,
         "stem": stem(kernel), "model": kernel.model_name, "integrator": kernel.integrator.name,
@@ -89,12 +103,10 @@ def render_c(kernel: Kernel, source_name: str = "model.lag", fmu: str | None = N
         "t_interval": _literal(kernel.time.interval),
         "options_init": _options_initializer(options), "atol": _atol_tables(kernel) if "atol" in method.options else None,
         "option_fields": _option_fields(method.options),
-        "fmu": fmu, "sensitivity": sensitivity, "stop_text": kernel.stop_text, "stop": None, "constant_mass": None,      # blocks a scene may not have (below)
+        "stop_text": kernel.stop_text, "stop": None, "constant_mass": None,      # blocks a scene may not have (below)
         **_gram_tables(kernel),
         **blocks,
     }
-    text = template_environment().get_template("c/model.c.j2").render(context)
-    return GeneratedSource("c", text, stem(kernel))
 
 
 def _series(series: dict) -> str:

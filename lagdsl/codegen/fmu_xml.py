@@ -39,10 +39,10 @@ def model_description(plan: ScenePlan, variables: tuple[FmuVariable, ...], kinds
     ET.SubElement(root, "DefaultExperiment", _attributes(
         startTime=_number(plan.time.start), stopTime=_number(plan.time.stop),
         tolerance=_number(options["rtol"]) if "rtol" in options else None, stepSize=_number(plan.time.interval)))
-    listed = ET.SubElement(root, "ModelVariables")
+    listed, positions = ET.SubElement(root, "ModelVariables"), {v.name: i for i, v in enumerate(variables)}
     for variable in variables:
-        _variable(listed, variable, variables, version)
-    _model_structure(root, variables, version)
+        _variable(listed, variable, variables, positions, version)
+    _model_structure(root, variables, positions, version)
     return _text(root)
 
 
@@ -83,17 +83,19 @@ def _unit_definitions(root: ET.Element, variables: tuple[FmuVariable, ...]) -> N
             ET.SubElement(unit, "BaseUnit", {**exponents, **factor})
 
 
-def _variable(parent: ET.Element, variable: FmuVariable, variables: tuple[FmuVariable, ...], version: int) -> None:
+def _variable(parent: ET.Element, variable: FmuVariable, variables: tuple[FmuVariable, ...],
+              positions: dict[str, int], version: int) -> None:
     """A ScalarVariable (FMI 2) or a Float64 or Int32 (FMI 3). A derivative names its state by
-    its index from 1 (FMI 2) or its value reference (FMI 3)."""
-    state = next((v for v in variables if v.name == variable.derivative_of), None)
+    its index from 1 (FMI 2) or its value reference (FMI 3); `positions`: each variable's index
+    in `variables` by its name."""
+    state = variables[positions[variable.derivative_of]] if variable.derivative_of in positions else None
     common = _attributes(name=variable.name, valueReference=str(variable.reference), description=variable.description,
                          causality=variable.causality, variability=variable.variability, initial=variable.initial)
     typed = _attributes(start=None if variable.start is None else
                         str(int(variable.start)) if variable.integer else _number(variable.start),
                         unit=None if variable.unit == UNKNOWN else variable.unit,
                         derivative=None if state is None else
-                        str(variables.index(state) + 1) if version == 2 else str(state.reference))
+                        str(positions[state.name] + 1) if version == 2 else str(state.reference))
     if version == 2:
         scalar = ET.SubElement(parent, "ScalarVariable", common)
         ET.SubElement(scalar, "Integer" if variable.integer else "Real", typed)
@@ -101,13 +103,12 @@ def _variable(parent: ET.Element, variable: FmuVariable, variables: tuple[FmuVar
         ET.SubElement(parent, "Int32" if variable.integer else "Float64", {**common, **typed})
 
 
-def _model_structure(root: ET.Element, variables: tuple[FmuVariable, ...], version: int) -> None:
+def _model_structure(root: ET.Element, variables: tuple[FmuVariable, ...], positions: dict[str, int],
+                     version: int) -> None:
     """Outputs; derivatives in the order of the states (y = q, q'); the initial unknowns (what is
     calculated among the outputs, states and derivatives); FMI 3's event indicator."""
     structure = ET.SubElement(root, "ModelStructure")
-    by_name = {variable.name: variable for variable in variables}
-    derivatives = sorted((v for v in variables if v.derivative_of is not None),
-                         key=lambda v: variables.index(by_name[v.derivative_of]))
+    derivatives = sorted((v for v in variables if v.derivative_of is not None), key=lambda v: positions[v.derivative_of])
     derived = {v.name for v in derivatives} | {v.derivative_of for v in derivatives}
     groups = (("Outputs", "Output", [v for v in variables if v.causality == "output"]),
               ("Derivatives", "ContinuousStateDerivative", derivatives),
@@ -118,7 +119,7 @@ def _model_structure(root: ET.Element, variables: tuple[FmuVariable, ...], versi
         if version == 2 and group is not None and members:
             parent = ET.SubElement(structure, group)
             for member in members:
-                ET.SubElement(parent, "Unknown", index=str(variables.index(member) + 1))
+                ET.SubElement(parent, "Unknown", index=str(positions[member.name] + 1))
         elif version == 3:
             for member in members:
                 ET.SubElement(structure, element, valueReference=str(member.reference))

@@ -28,9 +28,10 @@ KEPT_FORMAT = 1
 def kept_source(model: SourceFile, scene: str | None, overrides: Overrides, drawn: bool, backend: str,
                 generate: Callable[[], GeneratedSource]) -> GeneratedSource:
     """The source `generate()` gives for the code plan of `scene` with `overrides` (`drawn`: with
-    the draw statements' columns) on `backend`: from the cache when a process made it before,
-    else generated and kept. Only the integrator and its options may be overridden: values and
-    the time grid are not inputs of the key."""
+    the draw statements' columns) on `backend` (for an FMU, its FMI version and kinds: "fmi2-me-cs",
+    lagdsl/fmu.py): from the cache when a process made it before, else generated and kept. Only
+    the integrator and its options may be overridden: values and the time grid are not inputs of
+    the key."""
     assert settles_code_only(overrides), "the key leaves out values and the time grid"
     if quiet_root() is None:       # an unusable cache: `lagc emit` builds nothing and says nothing of it
         return generate()

@@ -3,6 +3,7 @@ in co-simulation (the scene's integrator inside the FMU) and in model exchange (
 integrating the FMU's derivatives), against `lagc run` of the same scene."""
 from __future__ import annotations
 
+import hashlib
 import io
 import itertools
 import warnings
@@ -56,39 +57,45 @@ def test_fmpy_finds_no_problem(tmp_path, name, scene, version):
         assert validate_fmu(str(fmu_file(tmp_path, name, scene, version=version))) == []
 
 
-_NAME_VERDICTS: dict[tuple[str, str], object] = {}
+NAME_VERDICTS = "lagdsl/fmpy-name-verdicts"      # the key of the verdicts kept in pytest's cache
 
 
 @pytest.fixture
-def names_parsed_once(monkeypatch):
+def names_parsed_once(monkeypatch, request):
     """FMPy checks each variable's structured name with a lark Earley parser, built and run afresh
     for every FMU (8 ms a name: 6 s for each of the FPU chain's three scenes, 34 s over the library
-    in one FMI version). The names recur in every scene of a model and in both versions: here each
-    distinct name is parsed once a process by the same grammar, and its verdict (the tree, or the
-    exception FMPy reports) given again."""
+    in one FMI version), and asks only whether the parse raises. The names recur in every scene of
+    a model, in both versions and in every run: here each distinct name is parsed by the same
+    grammar once, and its verdict (passed, or the error's text, which FMPy reports) kept in pytest's
+    cache, as conftest's `compiled` keeps a compile: the same lark, grammar and text give the same
+    verdict, in this run and the next (a new name, grammar or lark is parsed)."""
     import lark
+    store = getattr(request.config, "cache", None)          # none with -p no:cacheprovider
+    verdicts = store.get(NAME_VERDICTS, {}) if store is not None else {}
 
     class ParsedOnce(lark.Lark):
         def parse(self, text, *args, **kwargs):
             if self.options.start != ["name"] or args or kwargs:    # FMPy's name grammar alone
                 return super().parse(text, *args, **kwargs)
-            key = (self.source_grammar, text)
-            if key not in _NAME_VERDICTS:
+            key = hashlib.sha256(f"{lark.__version__}\0{self.source_grammar}\0{text}".encode()).hexdigest()[:32]
+            if key not in verdicts:
                 try:
-                    _NAME_VERDICTS[key] = super().parse(text)
+                    super().parse(text)
+                    verdicts[key] = None
                 except lark.exceptions.LarkError as error:
-                    _NAME_VERDICTS[key] = error
-            if isinstance(_NAME_VERDICTS[key], Exception):
-                raise _NAME_VERDICTS[key]
-            return _NAME_VERDICTS[key]
+                    verdicts[key] = str(error)
+            if verdicts[key] is not None:
+                raise lark.exceptions.LarkError(verdicts[key])
 
     monkeypatch.setattr(lark, "Lark", ParsedOnce)
+    yield
+    if store is not None:
+        store.set(NAME_VERDICTS, verdicts)
 
 
 @pytest.mark.slow
 def test_fmpy_finds_no_problem_in_any_library_model(tmp_path, names_parsed_once):
-    """Both FMI versions in one test, so that the second reads the names' verdicts of the first
-    whichever worker runs it."""
+    """Both FMI versions in one test, so that the second reads the names' verdicts of the first."""
     problems = {}
     for path in sorted(MODELS.glob("*.lag")):
         for scene, version in itertools.product(load(path.stem).ir.scenes, (2, 3)):
