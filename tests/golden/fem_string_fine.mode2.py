@@ -122,19 +122,31 @@ def equilibrated(K):
     """S K S as a stack (..., NK, NK): unit diagonal for the mass matrix, and for a row whose
     diagonal is zero (a constraint's) a largest scaled entry of 1, so that its condition
     measures how nearly dependent the coordinates are, not their units."""
-    stack = numpy.moveaxis(K, (0, 1), (-2, -1))
+    stack = K if K.ndim == 2 else numpy.moveaxis(K, (0, 1), (-2, -1))
     diagonal = numpy.diagonal(stack, axis1=-2, axis2=-1)
     with numpy.errstate(all="ignore"):
-        scale = numpy.where((diagonal > 0) & numpy.isfinite(diagonal), 1 / numpy.sqrt(numpy.abs(diagonal)), 0.0)
-        rows = numpy.max(numpy.abs(stack * scale[..., None, :]), axis=-1)
-        scale = numpy.where(scale > 0, scale, numpy.where((rows > 0) & numpy.isfinite(rows), 1 / rows, 1.0))
+        scale = 1 / numpy.sqrt(diagonal)
+        if not (numpy.isfinite(scale).all() and scale.all()):     # a constraint's row, or K not finite
+            scale = numpy.where((diagonal > 0) & numpy.isfinite(diagonal), scale, 0.0)
+            rows = numpy.max(numpy.abs(stack * scale[..., None, :]), axis=-1)
+            scale = numpy.where(scale > 0, scale, numpy.where((rows > 0) & numpy.isfinite(rows), 1 / rows, 1.0))
     return stack * scale[..., :, None] * scale[..., None, :]
 
 
 def reciprocal_condition_of(K):
     """1 / cond_1 of the equilibrated K (the smallest over a batch); nan when K is not finite."""
+    E = equilibrated(K)
     with numpy.errstate(all="ignore"):
-        return numpy.min(1 / numpy.linalg.cond(equilibrated(K), 1))
+        if E.ndim > 2:
+            return numpy.min(1 / numpy.linalg.cond(E, 1))
+        # One system: numpy.linalg.cond(E, 1) without its handling of stacks (the check took as long
+        # as the rest of a right-hand side): ||E||_1 ||E^-1||_1, the same numbers, infinite for a
+        # singular E, nan for an E with a nan entry.
+        try:
+            r = numpy.abs(E).sum(axis=0).max() * numpy.abs(numpy.linalg.inv(E)).sum(axis=0).max()
+        except numpy.linalg.LinAlgError:
+            r = numpy.nan
+        return (numpy.nan if numpy.isnan(E).any() else 0.0) if numpy.isnan(r) else 1 / r
 
 
 def solve(K, b):
