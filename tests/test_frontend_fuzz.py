@@ -12,6 +12,7 @@ a minute; the campaigns over whole models are marked slow (`pytest --slow`).
 """
 from __future__ import annotations
 
+import functools
 import re
 
 import pytest
@@ -122,8 +123,11 @@ def test_token_sequences_raise_only_lag_errors(text):
 
 
 # -- (c) random models from the grammar -----------------------------------------------------------
-def expressions(names: list[str]):
-    leaves = st.one_of(st.sampled_from(names + ["t", "pi", "i", "undefined", "der(x)", "der(y)", "q[1]"]),
+# The expression strategies are built once: hypothesis validates a strategy on its first draw,
+# and a recursive one built anew for each example was a third of the campaigns' time.
+@functools.cache
+def expressions(names: tuple[str, ...]):
+    leaves = st.one_of(st.sampled_from([*names, "t", "pi", "i", "undefined", "der(x)", "der(y)", "q[1]"]),
                        st.sampled_from(NUMBERS))
 
     def extend(inner):
@@ -143,9 +147,9 @@ def expressions(names: list[str]):
 
 @st.composite
 def grammar_models(draw) -> str:
-    names = ["m", "x", "y", "q"]
+    names = ("m", "x", "y", "q")
     expression = expressions(names)
-    header = expressions(["m", "n"])          # half of the time a valid value, so that more gets built
+    header = expressions(("m", "n"))          # half of the time a valid value, so that more gets built
     lines = ["model M", "  parameter m = " + draw(st.one_of(st.just("1.5"), header)) + ";", "  parameter n = 2;",
              "  coordinate x(start = " + draw(st.one_of(st.just("0.3"), header)) + ");", "  coordinate y;",
              "  coordinate q[" + draw(st.sampled_from(["2", "2", "2", "n", "m", "0", "2.5"])) + "];"]
@@ -184,6 +188,7 @@ def test_grammar_models_raise_only_lag_errors(text):
 MECHANICS_LEAVES = st.sampled_from(["x", "y", "der(x)", "der(y)", "t", "m", "1", "2", "0", "0.5"])
 
 
+@functools.cache
 def mechanics_expressions():
     def extend(inner):
         return st.one_of(
