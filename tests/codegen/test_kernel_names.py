@@ -9,6 +9,7 @@ checks every block; a few of them are compiled with the strict flags.
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import pytest
@@ -41,9 +42,12 @@ NAMES = ["x", "theta", "double", "int", "lambda", "None", "while", "w0", "c0", "
 
 
 def kernels(text: str, integrators=registry.names()) -> dict[str, Kernel]:
-    """The model lowered for each integrator it admits (fixed-step ones with a step of 0.01)."""
+    """The model lowered for each integrator it admits (fixed-step ones with a step of 0.01). The
+    blocks depend on the integrator's kind alone (with a Jacobian or not, canonical or not: the
+    plan's `implicit` and `canonical`), so each kind is lowered once and the kernels of its other
+    integrators differ from that one in their `integrator` field only (as lowering each does)."""
     model, equations = compile_model(SourceFile("model.lag", text))
-    lowered = {}
+    lowered, of_kind = {}, {}
     for integrator in integrators:
         if integrator == "gauss" and equations.active_constraints:
             continue
@@ -51,7 +55,10 @@ def kernels(text: str, integrators=registry.names()) -> dict[str, Kernel]:
             continue
         options = (("step", 0.01),) if integrator in ("rk4", "gauss") else ()
         plan = plan_scene(model, equations, None, Overrides(integrator=integrator, options=options))
-        lowered[integrator] = lower_to_kernel(equations, plan)
+        kind = (plan.implicit, plan.canonical)
+        if kind not in of_kind:
+            of_kind[kind] = lower_to_kernel(equations, plan)
+        lowered[integrator] = dataclasses.replace(of_kind[kind], integrator=plan.integrator)
     return lowered
 
 
