@@ -77,3 +77,40 @@ def test_a_collapsing_step_keeps_the_rows_and_exits_1(tmp_path, capsys, backend)
     assert rows[0] == ["t", "r"] and len(rows) == 1 + 12     # t = 0, 0.1, ..., 1.1
     assert float(rows[-1][0]) == pytest.approx(1.1)
     assert "the run is incomplete: it stopped at t = 1.1" in err
+
+
+def test_the_numpy_condition_of_one_system_is_numpys_cond_of_the_equilibrated_k():
+    """The generated module computes 1/cond_1 of one equilibrated K itself (numpy.linalg.cond spends
+    as long on its handling of stacks): the same number, bit for bit, as numpy's for positive
+    definite, nearly and exactly singular, saddle-point (a constraint's zero diagonal), indefinite
+    and non-finite K; a stack of them gives the smallest."""
+    namespace = {}
+    exec(library_model("cartesian_pendulum").emit("numpy").text, namespace)
+    equilibrated, condition = namespace["equilibrated"], namespace["reciprocal_condition_of"]
+    rng = np.random.default_rng(20261128)
+
+    def numpys(K):
+        with np.errstate(all="ignore"):
+            return np.min(1 / np.linalg.cond(equilibrated(K), 1))
+
+    def drawn(kind: int, n: int) -> np.ndarray:
+        A = rng.normal(size=(n, n))
+        K = A @ A.T
+        if kind == 1:
+            K = np.block([[K, A[:1].T], [A[:1], np.zeros((1, 1))]])         # a constraint's row
+        elif kind == 2:
+            K = np.outer(A[0], A[0])                                          # singular
+        elif kind == 3:
+            K[:, 0] *= 1e-17
+            K[0, :] *= 1e-17                                                  # nearly singular
+        elif kind == 4:
+            K = A                                                             # indefinite, a negative diagonal
+        elif kind == 5:
+            K[0, -1] = (np.inf, np.nan)[n % 2]
+        return K
+
+    for trial in range(1200):
+        K = drawn(trial % 6, int(rng.integers(1, 7)))
+        np.testing.assert_equal(condition(K), numpys(K), err_msg=repr(K))
+    stack = np.stack([drawn(0, 4), drawn(1, 3), drawn(0, 4)], axis=-1)       # (4, 4, 3), a sweep's
+    np.testing.assert_equal(condition(stack), numpys(stack))
