@@ -40,7 +40,6 @@ class Model(LyapunovMethod):
         self._programs: dict[tuple[str, str, str, bool], Program] = {}   # scene, integrator, backend, drawn
         self._quick = QuickRuns()
         self._sensitivity_programs: dict[str, object] = {}             # sensitivity.run.Program by scene
-        self.fmu_code: dict[tuple, tuple] = {}      # lagdsl.fmu: a scene's FMU Kernel and C context, by scene and kinds
         if derive:      # now: a model's errors are raised here
             self.ir  # noqa: B018
 

@@ -19,6 +19,7 @@ import hashlib
 import io
 import platform
 import uuid
+import weakref
 import zipfile
 from importlib import resources
 
@@ -50,6 +51,8 @@ PLATFORMS = {("Linux", "x86_64"): ("linux64", "x86_64-linux", ".so"),
              ("Darwin", "arm64"): (None, "aarch64-darwin", ".dylib")}
 # The archive's entries are dated the earliest a zip can say, whenever it is made.
 ZIP_DATE = (1980, 1, 1, 0, 0, 0)
+# A scene's FMU Kernel and C context by (scene, kinds), kept while its api.Model lives.
+_LOWERED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def build_fmu(model, scene: str | None = None, version: int = 2, kinds: tuple[str, ...] | None = None) -> bytes:
@@ -77,13 +80,14 @@ def build_fmu(model, scene: str | None = None, version: int = 2, kinds: tuple[st
 
 def fmu_source(model, plan: ScenePlan, variables: tuple[FmuVariable, ...], kinds: tuple[str, ...], version: int,
                token: str) -> GeneratedSource:
-    """The FMU's C file. The scene is lowered and printed once for its kinds, and kept by the model
-    (Model.fmu_code): the FMI versions differ only in the FMU's part (codegen/fmu.py)."""
+    """The FMU's C file. The scene is lowered and printed once for its kinds, and kept while the
+    model lives (_LOWERED): the FMI versions differ only in the FMU's part (codegen/fmu.py)."""
+    lowered = _LOWERED.setdefault(model, {})
     key = (plan.scene_name, kinds)
-    if key not in model.fmu_code:
+    if key not in lowered:
         kernel = lower_to_kernel(model.equations, plan)                  # -> Kernel (+ the FMU's outputs)
-        model.fmu_code[key] = kernel, c_context(kernel, model.source.name, elsewhere=True)
-    kernel, context = model.fmu_code[key]
+        lowered[key] = kernel, c_context(kernel, model.source.name, elsewhere=True)
+    kernel, context = lowered[key]
     return render_context(context, fmu=fmu_c_part(kernel, plan, variables, kinds, version, token))
 
 

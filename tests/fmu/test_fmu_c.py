@@ -3,16 +3,21 @@ good and bad arguments (fmi2_calls.c, fmi3_calls.c) under the address and undefi
 sanitizers."""
 from __future__ import annotations
 
+import gc
 import io
 import subprocess
+import weakref
 import xml.etree.ElementTree as ET
 import zipfile
 from pathlib import Path
 
 import pytest
 
+import lagdsl
+from lagdsl.codegen.kernel import lower_to_kernel
 from lagdsl.fmu import build_fmu
-from tests.conftest import compiled, slow_unless_kept
+from lagdsl.source import SourceFile
+from tests.conftest import MODELS, compiled, slow_unless_kept
 from tests.fmu.fmu_files import load
 from tests.run.c_harness import STRICT_FLAGS, find_cc
 
@@ -85,3 +90,23 @@ def test_every_function_in_and_out_of_order_under_sanitizers(tmp_path, cc, model
     assert ran.returncode == 0 and ran.stdout.endswith("ok\n"), ran.stdout[-2000:] + ran.stderr[-3000:]
     assert "runtime error" not in ran.stderr and "Sanitizer" not in ran.stderr, ran.stderr
     assert "logStatusError" in ran.stdout        # the refusals went through the logger
+
+
+def test_both_fmi_versions_print_a_scene_lowered_once_while_its_model_lives(monkeypatch):
+    """The two FMI versions of a scene share its lowering and printing (fmu._LOWERED), which
+    goes with the model."""
+    from lagdsl import fmu
+    from lagdsl.codegen.fmu import exported_kinds, fmu_plan, fmu_variables
+    lowerings = []
+    monkeypatch.setattr(fmu, "lower_to_kernel", lambda *arguments: lowerings.append(1) or lower_to_kernel(*arguments))
+    model = lagdsl.Model(SourceFile.read(MODELS / "double_pendulum.lag"))
+    scene = model.plan(None)
+    kinds = exported_kinds(scene, None)
+    plan = fmu_plan(scene, kinds)
+    texts = [fmu.fmu_source(model, plan, fmu_variables(plan, kinds, version), kinds, version, "{token}").text
+             for version in (2, 3)]
+    assert len(lowerings) == 1 and "fmi2Instantiate" in texts[0] and "fmi3InstantiateModelExchange" in texts[1]
+    released = weakref.ref(model)
+    del model
+    gc.collect()
+    assert released() is None                  # _LOWERED does not keep it
