@@ -305,7 +305,11 @@ def load(path: str | Path) -> Model:
     lagdsl) is parsed and derived when first needed instead (Model's `derive`)."""
     from .run import plans
     source = SourceFile.read(path)
-    return Model(source, derive=plans.find(source, None, "c", None) is None)
+    stored = plans.find(source, None, "c", None)
+    model = Model(source, derive=stored is None)
+    if stored is not None:
+        model._quick.plans[(None, "c", None)] = stored        # the first simulate() reads it again else
+    return model
 
 
 def _described(model: ir.Model, result: Result, scene_name: str) -> Result:

@@ -68,6 +68,16 @@ def test_a_stored_model_runs_without_deriving_and_as_a_derived_one(stored, backe
     assert model.derived
 
 
+def test_load_reads_the_default_scenes_plan_once_for_its_first_run(stored, monkeypatch):
+    from lagdsl.run import plans
+    path, derived = stored
+    found = []
+    monkeypatch.setattr(plans, "find", lambda *asked, find=plans.find: found.append(asked[1:]) or find(*asked))
+    model = lagdsl.load(path)
+    assert same_run(model.simulate(), derived.simulate())
+    assert found == [(None, "c", None)] and not model.derived
+
+
 def test_a_stored_model_is_derived_when_its_equations_are_asked_for(stored):
     path, derived = stored
     model = lagdsl.load(path)
