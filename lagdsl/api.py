@@ -45,8 +45,8 @@ class Model(LyapunovMethod):
 
     @functools.cached_property
     def _compiled(self) -> tuple[ir.Model, Equations]:
-        from .pipeline import compile_model
-        return compile_model(self.source)
+        from .kept_models import compiled_model
+        return compiled_model(self.source)
 
     @property
     def ir(self) -> ir.Model:

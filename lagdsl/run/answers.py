@@ -75,9 +75,13 @@ def _answer_name(command: str, key: str) -> str:
 
 
 def _answer_key(command: str, source: SourceFile, options: list) -> str:
-    versions = [_installed(package) for package in COMPUTED_WITH]
-    fields = json.dumps([ANSWER_FORMAT, package_digest(), command, options, source.name, versions])
+    fields = json.dumps([ANSWER_FORMAT, package_digest(), command, options, source.name, package_stamps()])
     return hashlib.sha256(f"{fields}\0{source.text}".encode()).hexdigest()
+
+
+def package_stamps() -> list:
+    """Where each package of COMPUTED_WITH is installed, with its `__init__.py`'s size and time."""
+    return [_installed(package) for package in COMPUTED_WITH]
 
 
 def _installed(package: str) -> list:

@@ -42,9 +42,9 @@ from .. import __version__
 from ..escape import visible
 
 MANIFEST_SUFFIX = ".manifest"
-# What the cache holds: entries named `<stem>-<20 hex digits of the key>.so|.py|.json` (or `_`
-# before the key) and their manifests; private build directories `.build-*`.
-ENTRY_NAME = re.compile(r"[-_][0-9a-f]{20}\.(so|py|json)(\.manifest)?$")
+# What the cache holds: entries named `<stem>-<20 hex digits of the key>.so|.py|.json|.pickle` (or
+# `_` before the key) and their manifests; private build directories `.build-*`.
+ENTRY_NAME = re.compile(r"[-_][0-9a-f]{20}\.(so|py|json|pickle)(\.manifest)?$")
 BUILD_PREFIX = ".build-"
 STALE_BUILD_SECONDS = 3600      # a build directory this old was left by a process that died
 MAX_NAME = 200                  # bytes of an entry's name: room for the manifest's suffix and the build's
